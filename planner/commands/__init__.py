@@ -1,0 +1,1 @@
+"""Sub-commands of the ``endurance`` CLI, one module per area."""
