@@ -1,0 +1,116 @@
+"""``endurance check``: will this mission land with the reserve?"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from planner.check import MissionChain, MissionResult
+from planner.commands.common import (fmt, output_path, parse_float, parse_fraction,
+                                     parse_wind, write_json)
+from planner.definitions import load_aircraft_and_battery
+from planner.errors import InputError
+from planner.mission import load_mission
+
+
+def register(sub) -> None:
+    p = sub.add_parser("check", help="pre-flight endurance check: GO / NO-GO with margins",
+                       description="Predict power and charge leg by leg and check the landing "
+                                   "and return-home reserves. Exit 0 = GO, 1 = NO-GO, "
+                                   "2 = bad input.")
+    p.add_argument("mission", help="mission file: .yaml, QGroundControl .plan or "
+                                   "Mission Planner .waypoints")
+    p.add_argument("--aircraft", required=True, help="aircraft YAML")
+    p.add_argument("--battery", help="battery-pack YAML (default: the aircraft's)")
+    p.add_argument("--wind", help="SPEED@FROM_DEG, e.g. 6@270: 6 m/s from the west "
+                                  "(overrides the mission's)")
+    p.add_argument("--temperature", help="outside air temperature [°C] (overrides the "
+                                         "mission's; default ISA)")
+    p.add_argument("--reserve", default="0.2", help="landing reserve as a fraction of "
+                                                    "nominal capacity (default 0.2 = 20%%)")
+    p.add_argument("--payload", help="payload mass [kg] (overrides the mission's)")
+    p.add_argument("--json", help="write the result as JSON to this file")
+    p.add_argument("--plot", help="write a PNG of power and remaining charge")
+    p.add_argument("--quiet", action="store_true", help="print only the verdict line")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    json_out = output_path(args.json, "--json")
+    plot_out = output_path(args.plot, "--plot")
+    reserve = parse_fraction(args.reserve, "--reserve")
+    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
+                   if args.temperature is not None else None)
+    aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
+    mission = load_mission(args.mission, vehicle_type=aircraft.type)
+    env = mission.environment
+    if args.wind is not None:
+        speed, direction = parse_wind(args.wind)
+        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
+    if args.payload is not None:
+        mission.payload_kg = parse_float(args.payload, "--payload", 0.0, 1000.0)
+    if not mission.legs:
+        raise InputError(f"{args.mission}: the mission has no legs")
+    chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature)
+    result = chain.run(mission, env)
+    if not args.quiet:
+        print(render(result, mission.name, env))
+    else:
+        print(verdict_line(result))
+    if json_out:
+        data = result.to_dict()
+        data["mission"] = mission.name
+        data["environment"] = dataclasses.asdict(env)
+        write_json(data, json_out)
+    if plot_out:
+        from planner import plots
+        plots.save_mission_plot(result, plot_out, title=f"{mission.name}: {result.verdict}")
+    return 0 if result.go else 1
+
+
+def verdict_line(r: MissionResult) -> str:
+    what = "hover" if r.aircraft_type == "multirotor" else "loiter"
+    extra = (f" = {r.margin_time_s / 60:+.1f} min of {what} at {r.hold_power_w:.0f} W"
+             if math.isfinite(r.margin_time_s) else "")
+    return (f"{r.verdict}: lands with {100 * r.remaining_fraction:.1f} % "
+            f"(reserve {100 * r.reserve_fraction:.0f} %), margin {r.margin_mah:+.0f} mAh{extra}")
+
+
+def render(r: MissionResult, name: str, env) -> str:
+    """The per-leg table and summary a pilot reads in the terminal."""
+    lines = [f"Mission   {name}",
+             f"Aircraft  {r.aircraft}, take-off mass {r.takeoff_mass_kg:.3f} kg",
+             f"Battery   {r.battery}: {r.capacity_mah:.0f} mAh nominal, "
+             f"{r.usable_mah:.0f} mAh usable ({r.battery_model} integral model)",
+             f"Weather   wind {env.wind_speed_ms:.1f} m/s from {env.wind_from_deg:.0f}°"
+             + (f", {env.temperature_c:.0f} °C" if env.temperature_c is not None else ", ISA")
+             + f", site {env.site_altitude_m:.0f} m AMSL", ""]
+    head = (f"{'#':>3} {'leg':<8} {'time s':>7} {'dist m':>7} {'TAS m/s':>7} {'GS m/s':>6} "
+            f"{'vz m/s':>6} {'power W':>8} {'curr A':>7} {'volt V':>7} {'mAh':>7} "
+            f"{'left %':>6} {'RTL mAh':>8}")
+    lines += [head, "-" * len(head)]
+    for i, row in enumerate(r.legs.itertuples(index=False), 1):
+        lines.append(
+            f"{i:>3} {row.kind:<8} {fmt(row.duration_s, 0, 7)} {fmt(row.distance_m, 0, 7)} "
+            f"{fmt(row.airspeed_ms, 1, 7)} {fmt(row.groundspeed_ms, 1, 6)} "
+            f"{fmt(row.climb_rate_ms, 1, 6)} {fmt(row.power_w, 1, 8)} "
+            f"{fmt(row.current_a, 1, 7)} {fmt(row.voltage_v, 2, 7)} "
+            f"{fmt(row.charge_mah, 0, 7)} {fmt(100 * row.remaining_fraction, 1, 6)} "
+            f"{fmt(row.rtl_margin_mah, 0, 8)}")
+    lines.append("-" * len(head))
+    lines.append(f"Total     {r.duration_s / 60:.1f} min, {r.energy_wh:.1f} Wh, "
+                 f"{r.charge_used_mah:.0f} mAh drawn; peak {r.peak_current_a:.1f} A, "
+                 f"lowest loaded voltage {r.min_voltage_v:.2f} V")
+    lines.append(f"Reserve   {r.reserve_mah:.0f} mAh ({100 * r.reserve_fraction:.0f} % of "
+                 f"nominal); smallest return-home margin {r.rtl_min_margin_mah:+.0f} mAh")
+    if r.point_of_no_return:
+        p = r.point_of_no_return
+        lines.append(f"PNR       point of no return at t = {p['time_s']:.0f} s, "
+                     f"{p['distance_home_m']:.0f} m from home ({p['leg_origin']})")
+    for w in r.warnings:
+        lines.append(f"Warning   {w}")
+    for why in r.reasons:
+        lines.append(f"NO-GO     {why}")
+    lines.append("")
+    lines.append(verdict_line(r))
+    return "\n".join(lines)

@@ -1,0 +1,94 @@
+"""Argument parsing and output helpers shared by the sub-commands."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+
+
+def parse_wind(text: str) -> tuple[float, float]:
+    """``SPEED@FROM_DEG`` (m/s, degrees the wind blows from) → (speed, direction)."""
+    try:
+        speed_s, direction_s = text.split("@")
+        speed, direction = float(speed_s), float(direction_s)
+    except ValueError:
+        raise InputError(f"--wind: expected SPEED@FROM_DEG, e.g. 6@270 (m/s from the west), "
+                         f"got {text!r}") from None
+    if not (math.isfinite(speed) and math.isfinite(direction)) or speed < 0:
+        raise InputError(f"--wind: speed must be >= 0 m/s and finite, got {text!r}")
+    return speed, direction % 360.0
+
+
+def parse_fraction(text: str, option: str) -> float:
+    """``0.2`` or ``20%`` → 0.2."""
+    t = text.strip()
+    try:
+        value = float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
+    except ValueError:
+        raise InputError(f"{option}: expected a fraction such as 0.2 or 20%, got {text!r}") \
+            from None
+    if not 0.0 <= value < 1.0:
+        raise InputError(f"{option}: must be in [0, 1) (or 0–99 %), got {text!r}")
+    return value
+
+
+def parse_float(text: str, option: str, low: float | None = None,
+                high: float | None = None) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{option}: expected a number, got {text!r}") from None
+    if not math.isfinite(value) or (low is not None and value < low) or (
+            high is not None and value > high):
+        raise InputError(f"{option}: expected a number in [{low}, {high}], got {text!r}")
+    return value
+
+
+def _default(obj: Any):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def _clean(obj: Any):
+    """Replace NaN/inf by None so that the JSON is standard."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def write_json(data: dict, path: str | Path) -> None:
+    try:
+        Path(path).write_text(json.dumps(_clean(data), indent=2, default=_default) + "\n")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write ({exc.strerror})") from None
+
+
+def output_path(path: str | None, option: str) -> str | None:
+    """Check that an output file's folder exists before any work is done."""
+    if path is None:
+        return None
+    parent = Path(path).resolve().parent
+    if not parent.is_dir():
+        raise InputError(f"{option} {path}: folder {parent} does not exist")
+    return path
+
+
+def fmt(value: float, digits: int = 1, width: int = 0) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-".rjust(width)
+    return f"{value:{width}.{digits}f}"
