@@ -80,7 +80,7 @@ class Leg:
         dn = self.end_en_m[1] - self.start_en_m[1]
         return float(np.degrees(np.arctan2(de, dn)) % 360.0)
 
-    def with_(self, **changes) -> "Leg":
+    def with_(self, **changes) -> Leg:
         return replace(self, **changes)
 
 
