@@ -261,7 +261,11 @@ class MissionChain:
 
         # landing reserve
         margin = limit - used
-        if margin < 0:
+        if used > pack.usable_as:
+            reasons.append(f"needs {used / MAH:.0f} mAh, more than the "
+                           f"{pack.usable_as / MAH:.0f} mAh the pack can give: it runs out "
+                           f"before landing")
+        elif margin < 0:
             reasons.append(f"lands with {100 * (1 - used / cap):.1f} % of nominal charge, "
                            f"below the {100 * self.reserve:.0f} % reserve "
                            f"(short by {-margin / MAH:.0f} mAh)")
@@ -340,7 +344,8 @@ class MissionChain:
         home = dist < 1.0
         with np.errstate(divide="ignore", invalid="ignore"):
             t_back = np.where(home, 0.0, dist / gs)
-        p_back = ac.battery_power(np.where(home, 0.0, va), 0.0, rho, mass)
+        va = np.where(home | ~np.isfinite(va), ac.cruise_speed_ms, va)
+        p_back = ac.battery_power(va, 0.0, rho, mass)
         t_down = alt_pos / ac.descent_rate_ms
         if ac.is_multirotor:
             p_down = ac.battery_power(env.wind_speed_ms, -ac.descent_rate_ms, rho, mass)
