@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "planner.commands.check",
     "planner.commands.select",
     "planner.commands.logs",
+    "planner.commands.replay",
     "planner.commands.battery",
     "planner.commands.aircraft",
     "planner.commands.diagnose",

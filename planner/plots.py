@@ -80,3 +80,58 @@ def save(fig, path):
         raise InputError(f"{path}: cannot write the plot ({exc.strerror})") from None
     finally:
         plt.close(fig)
+
+
+_PHASE_COLOURS = {"ground": "#eeeeee", "takeoff": "#fde0c5", "climb": "#fbe3d6",
+                  "cruise": "#e5f0fa", "hover": "#e8f5e0", "descent": "#f2e6f7"}
+
+
+def _shade_phases(ax, t, phase):
+    if phase is None or len(phase) == 0:
+        return
+    change = np.flatnonzero(phase[1:] != phase[:-1]) + 1
+    starts = np.concatenate(([0], change))
+    ends = np.concatenate((change, [len(phase)]))
+    seen = set()
+    for a, b in zip(starts, ends):
+        name = phase[a]
+        label = f"{name}" if name not in seen else None
+        seen.add(name)
+        ax.axvspan(t[a], t[min(b, len(t) - 1)], color=_PHASE_COLOURS.get(name, "#eeeeee"),
+                   alpha=0.7, lw=0, label=label, zorder=0)
+
+
+def plot_replay_experiment(exp, axes):
+    """Measured vs predicted power (top) and charge drawn (bottom) of one experiment."""
+    s = exp.series
+    t = s["time_s"]
+    ax1, ax2 = axes
+    ax1.plot(t, s["measured_w"], color="k", lw=0.8, label="measured power")
+    if "predicted_w" in s:
+        ax1.plot(t, s["predicted_w"], color="C3", lw=1.0, label="power model")
+    _shade_phases(ax1, t, s.get("phase"))
+    ax1.set_ylabel("power [W]")
+    ax1.set_title(f"{exp.experiment}: power")
+    ax1.legend(loc="upper right", fontsize=7, ncol=2)
+    if "predicted_mah" in s:
+        ax2.plot(t, s["measured_mah"], color="k", lw=1.2, label="logged consumed charge")
+        ax2.plot(t, s["integrated_mah"], color="0.5", ls=":", lw=1.2,
+                 label="∫ measured current")
+        ax2.plot(t, s["predicted_mah"], color="C0", lw=1.2, label="integral model")
+        ax2.legend(loc="upper left", fontsize=7)
+    _shade_phases(ax2, t, s.get("phase"))
+    ax2.set_ylabel("charge drawn [mAh]")
+    ax2.set_xlabel("time [s]")
+    ax2.set_title(f"{exp.experiment}: charge")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+
+
+def save_replay_plot(result, path):
+    n = len(result.experiments)
+    fig, axes = plt.subplots(2, n, figsize=(6 * n, 7), squeeze=False)
+    for j, exp in enumerate(result.experiments):
+        plot_replay_experiment(exp, axes[:, j])
+    fig.suptitle("Replay: measured vs predicted")
+    fig.tight_layout()
+    save(fig, path)

@@ -1,0 +1,85 @@
+"""Measured data in, flight record out: one loader for every command that reads data.
+
+A path is a flight-record CSV (a table with ``time_s``, DESIGN §4) or any log
+the readers take (:func:`planner.logs.read_log`); several paths are stacked
+into one record with one ``experiment`` per file (or per the file's own
+``experiment`` column).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+import pandas as pd
+
+from planner import record as rec
+from planner.errors import InputError
+
+
+def _is_record_csv(path: Path) -> bool:
+    name = path.name.lower()
+    if not (name.endswith(".csv") or name.endswith(".csv.gz")):
+        return False
+    try:
+        head = pd.read_csv(path, nrows=0)
+    except Exception:  # unreadable: let the reader name the problem
+        return False
+    return "time_s" in head.columns
+
+
+def load_flight_data(paths, *, column_map=None, require_battery: bool = True
+                     ) -> tuple[pd.DataFrame, list[dict]]:
+    """Read one or more data files into one flight record.
+
+    Parameters
+    ----------
+    paths : path or list of paths
+        Flight-record CSV files or logs (.bin, .px4log, .tlog, .ulg, mapped CSV).
+    column_map : path or dict, optional
+        Column map for CSV files that are not flight records
+        (:mod:`planner.logs.csvmap`).
+    require_battery : bool
+        Logs without battery voltage and current are an error.
+
+    Returns
+    -------
+    (DataFrame, list of dict)
+        The record, with ``power_w`` and ``consumed_mah`` filled in, and one
+        metadata dict per file.
+    """
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    frames, metas = [], []
+    for p in map(Path, paths):
+        if not p.exists():
+            raise InputError(f"{p}: file not found")
+        if column_map is None and _is_record_csv(p):
+            df = rec.read_record(p)
+            meta = {"source": str(p), "format": "flight-record CSV", "warnings": []}
+        else:
+            from planner.logs import read_log
+            with warnings.catch_warnings():
+                warnings.simplefilter("default")
+                opts = {"require_battery": require_battery}
+                if column_map is not None:
+                    opts["map"] = column_map
+                df, meta = read_log(p, **opts)
+        stem = p.name.split(".")[0]
+        if "experiment" not in df.columns:
+            df = df.assign(experiment=stem)
+        df = df.assign(experiment=df["experiment"].astype(str))
+        frames.append(rec.complete_record(df))
+        metas.append(meta)
+    if not frames:
+        raise InputError("no data files given")
+    seen: set[str] = set()
+    for i, (frame, path) in enumerate(zip(frames, paths)):
+        ids = set(frame["experiment"].unique())
+        if ids & seen:  # the same id in two files: prefix with the file name
+            frames[i] = frame.assign(
+                experiment=Path(path).name.split(".")[0] + ":" + frame["experiment"])
+            ids = set(frames[i]["experiment"].unique())
+        seen |= ids
+    return pd.concat(frames, ignore_index=True), metas
