@@ -1,0 +1,399 @@
+"""Battery identification commands: ``fit-battery``, ``design``, ``pulse-resistance``.
+
+Argparse and printing only; the work is done by :mod:`planner.battery.fit`,
+:mod:`planner.battery.design` and :mod:`planner.battery.vda`.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from planner import schema
+from planner.battery import design, fit, integral, vda
+from planner.commands.common import fmt, output_path, parse_float, write_json
+from planner.definitions import IntegralModel, battery_from_mapping, load_battery
+from planner.errors import InputError
+
+#: Full-charge cell voltage used to detect the cell count from the data. [V]
+CELL_FULL_V = 4.2
+
+
+def register(sub) -> None:
+    _register_fit(sub)
+    _register_design(sub)
+    _register_pulse(sub)
+
+
+# --------------------------------------------------------------------------- fit-battery
+
+def _register_fit(sub) -> None:
+    p = sub.add_parser(
+        "fit-battery", help="identify the integral model δ, ε, β from discharge data",
+        description="Fit the integral capacity model t = δ P^ε C^β to measured discharges "
+                    "(flight-record CSV: time_s, power_w or voltage_v+current_a, and "
+                    "current_a or consumed_mah; several experiments told apart by "
+                    "'experiment'). Default split (seed paper): the experiments with the "
+                    "lowest and the highest mean power train, the rest validate.")
+    p.add_argument("data", nargs="+", help="flight-record CSV file(s)")
+    p.add_argument("--out", required=True, help="battery-pack YAML to write")
+    p.add_argument("--battery", help="pack YAML whose other keys are kept (name, mass, ...)")
+    p.add_argument("--name", help="pack name (required without --battery)")
+    p.add_argument("--cells", help="cells in series (without --battery; default: detected "
+                                   "as max voltage / 4.2 V)")
+    p.add_argument("--mass-kg", help="pack mass [kg] (required without --battery)")
+    p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
+    p.add_argument("--train", help="comma-separated experiment ids to fit on")
+    p.add_argument("--validate", help="comma-separated experiment ids to score only")
+    p.add_argument("--plot", help="PNG of measured vs predicted C^β and residuals")
+    p.add_argument("--json", help="write the fit and the metrics as JSON to this file")
+    p.set_defaults(func=run_fit)
+
+
+def _ids(text: str | None, option: str) -> list[str] | None:
+    if text is None:
+        return None
+    ids = [s.strip() for s in text.split(",") if s.strip()]
+    if not ids:
+        raise InputError(f"{option}: expected comma-separated experiment ids, got {text!r}")
+    return ids
+
+
+def _cells_from_voltage(experiments) -> int:
+    vmax = max((float(np.nanmax(e.voltage_v)) for e in experiments if e.voltage_v is not None),
+               default=None)
+    if vmax is None:
+        raise InputError("--cells is required: no voltage_v in the data to detect the cell "
+                         "count from (max voltage / 4.2 V)")
+    cells = round(vmax / CELL_FULL_V)
+    if cells < 1:
+        raise InputError(f"cannot detect the cell count from a maximum voltage of {vmax:g} V; "
+                         "give --cells")
+    return cells
+
+
+def run_fit(args) -> int:
+    out = output_path(args.out, "--out")
+    plot_out = output_path(args.plot, "--plot")
+    json_out = output_path(args.json, "--json")
+    beta = parse_float(args.fix_beta, "--fix-beta", 0.5, 1.5) if args.fix_beta else None
+    train, validate = _ids(args.train, "--train"), _ids(args.validate, "--validate")
+    base_raw = None
+    if args.battery:
+        load_battery(args.battery)  # validate first: bad base file -> one-line error
+        base_raw = dict(schema.load_yaml(args.battery))
+    else:
+        missing = [o for o, v in (("--name", args.name), ("--mass-kg", args.mass_kg)) if v is None]
+        if missing:
+            raise InputError(f"{' and '.join(missing)} required without --battery "
+                             "(the pack YAML needs name and mass_kg)")
+    experiments = fit.prepare_experiments(fit.load_records(args.data))
+    result = fit.fit_integral(experiments, beta=beta, train=train, validate=validate)
+
+    files = ", ".join(str(d) for d in args.data)
+    source = (f"fit-battery on {files}; train: {', '.join(result['train'])}; validate: "
+              f"{', '.join(result['validate']) or 'none'}"
+              + (f"; beta held at {beta:g}" if beta is not None else ""))
+    model = IntegralModel(result["delta"], result["epsilon"], result["beta"])
+    dropped = []
+    if base_raw is not None:
+        mapping = base_raw
+        old = mapping.get("model") or {}
+        dropped = [k for k in old if k not in ("delta", "epsilon", "beta", "source")]
+        mapping["model"] = model.to_mapping()
+    else:
+        cells = (int(parse_float(args.cells, "--cells", 1, 40)) if args.cells
+                 else _cells_from_voltage(experiments))
+        capacity = max(m.final_charge_mah for m in result["metrics"])
+        mapping = {"name": args.name, "cells_series": cells,
+                   "capacity_mah": float(round(capacity)),
+                   "mass_kg": parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0),
+                   "model": model.to_mapping()}
+    mapping["source"] = source
+    battery_from_mapping(mapping, str(out))  # what we write must load back
+    header = (f"# written by endurance fit-battery: integral model fitted to {files}\n"
+              f"# stderr: delta ±{result['stderr']['delta']:.4g}, epsilon "
+              f"±{result['stderr']['epsilon']:.3g}, beta ±{result['stderr']['beta']:.3g}\n")
+    try:
+        Path(out).write_text(header + yaml.safe_dump(mapping, sort_keys=False,
+                                                     allow_unicode=True))
+    except OSError as exc:
+        raise InputError(f"{out}: cannot write ({exc.strerror})") from None
+
+    print(render_fit(result))
+    if dropped:
+        print(f"note: model keys {', '.join(dropped)} of {args.battery} were dropped: they "
+              "belong to the old δ, ε, β")
+    print(f"wrote {out}")
+    if json_out:
+        data = {k: v for k, v in result.items() if k != "metrics"}
+        data["metrics"] = [m.to_dict() for m in result["metrics"]]
+        data["data"] = [str(d) for d in args.data]
+        data["pack"] = mapping
+        write_json(data, json_out)
+    if plot_out:
+        save_fit_plot(experiments, result, plot_out)
+    return 0
+
+
+def render_fit(result: dict) -> str:
+    """Per-experiment table and the parameters with their standard errors."""
+    lines = [(f"{'experiment':<20} {'split':<9} {'mean P [W]':>10} {'duration [s]':>12} "
+             f"{'RMSE [mAh]':>10} {'final error [%]':>15} {'time error [s]':>14}")]
+    for m in result["metrics"]:
+        lines.append(f"{m.experiment[:20]:<20} {m.split:<9} {fmt(m.mean_power_w, 1, 10)} "
+                     f"{fmt(m.duration_s, 0, 12)} {fmt(m.rmse_mah, 2, 10)} "
+                     f"{fmt(m.final_error_pct, 3, 15)} {fmt(m.time_error_s, 1, 14)}")
+    lines.append("")
+    se = result["stderr"]
+    for key, digits in (("delta", 4), ("epsilon", 5), ("beta", 5)):
+        if key in result["fixed"]:
+            lines.append(f"{key:<8}= {result[key]:.{digits}f} (held)")
+        else:
+            lines.append(f"{key:<8}= {result[key]:.{digits}f} ± {se[key]:.2g}")
+    iid = result["stderr_iid"]
+    ratio = max((se[k] / iid[k] for k in ("delta", "epsilon", "beta")
+                 if k not in result["fixed"] and iid[k] > 0 and math.isfinite(se[k])),
+                default=float("nan"))
+    lines.append(f"standard errors: {result['stderr_method']} for the autocorrelated samples "
+                 f"(lag-1 ρ = {result['autocorrelation']:.4f}; up to ×{ratio:.3g} the i.i.d. "
+                 f"value; {result['samples']} training samples)")
+    if result["poorly_determined"]:
+        lines.append(f"POORLY DETERMINED: {', '.join(result['poorly_determined'])}")
+    return "\n".join(lines)
+
+
+def save_fit_plot(experiments, result: dict, path) -> None:
+    """Measured vs predicted C^β and residual C − Ĉ per experiment (seed Fig. 8–11 kind)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    by_name = {m.experiment: m for m in result["metrics"]}
+    n = len(experiments)
+    fig, axes = plt.subplots(n, 2, figsize=(11, 2.8 * n), squeeze=False)
+    params = {k: result[k] for k in ("delta", "epsilon", "beta")}
+    for row, e in zip(axes, experiments):
+        m = by_name[e.name]
+        c_hat = integral.charge(e.time_s, e.power_w, **params)
+        t_min = e.time_s / 60.0
+        b = params["beta"]
+        row[0].plot(t_min, integral.stress_from_charge(e.charge_as, b), color="k", lw=1.6,
+                    label="measured $C^\\beta$")
+        row[0].plot(t_min, integral.stress_from_charge(c_hat, b), color="C3", lw=1.2, ls="--",
+                    label="model $\\hat C^\\beta$")
+        row[0].set_title(f"{e.name} ({m.split}, mean {m.mean_power_w:.0f} W)")
+        row[0].set_xlabel("time [min]")
+        row[0].set_ylabel("$C^\\beta$ [(A·s)$^\\beta$]")
+        row[0].legend(loc="upper left", fontsize=8)
+        row[0].grid(alpha=0.3)
+        row[1].plot(t_min, (e.charge_as - c_hat) / integral.AS_PER_MAH, color="C0", lw=1.2,
+                    label=f"$r = C - \\hat C$ (RMSE {m.rmse_mah:.1f} mAh, "
+                          f"final {m.final_error_pct:+.2f} %)")
+        row[1].axhline(0.0, color="0.5", lw=0.8)
+        row[1].set_title(f"{e.name}: residual")
+        row[1].set_xlabel("time [min]")
+        row[1].set_ylabel("residual [mAh]")
+        row[1].legend(loc="upper left", fontsize=8)
+        row[1].grid(alpha=0.3)
+    fig.suptitle(f"integral model δ = {params['delta']:.4g}, ε = {params['epsilon']:.4g}, "
+                 f"β = {params['beta']:.4g}")
+    fig.tight_layout()
+    try:
+        fig.savefig(path, dpi=110)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    finally:
+        plt.close(fig)
+
+
+# --------------------------------------------------------------------------- design
+
+def _register_design(sub) -> None:
+    p = sub.add_parser("design", help="design discharge tests: two-step or APRBS",
+                       description="Design discharge tests for identifying the integral "
+                                   "model (seed eq. 25–28 two-step tests; APRBS signals).")
+    kinds = p.add_subparsers(dest="design_kind", metavar="KIND", parser_class=type(p),
+                             required=True)
+    t = kinds.add_parser("two-step", help="durations of a two-step constant-power test",
+                         description="t1 = δ P2^ε C0^β / (k + (P2/P1)^ε), t2 = k t1: the test "
+                                     "that draws C0 under the integral model.")
+    t.add_argument("--p1", required=True, help="power of the first step [W]")
+    t.add_argument("--p2", required=True, help="power of the second step [W]")
+    t.add_argument("--k", required=True, help="ratio t2/t1")
+    t.add_argument("--capacity-mah", required=True, help="charge C0 the test draws [mAh]")
+    t.add_argument("--battery", help="pack YAML whose model to use")
+    t.add_argument("--cells", help="cells in series for the literature model "
+                                   "(without --battery)")
+    t.add_argument("--out", help="write the power schedule CSV (time_s,power_w)")
+    t.set_defaults(func=run_two_step)
+
+    a = kinds.add_parser("aprbs", help="APRBS power schedule for a programmable load",
+                         description="Random power levels, each held U[min, max] s, until the "
+                                     "minimum duration; written as time_s,power_w CSV.")
+    a.add_argument("--levels", default="50,75,100,125", help="power levels [W] "
+                                                             "(default 50,75,100,125)")
+    a.add_argument("--hold", default="30,300", help="MIN,MAX hold time [s] (default 30,300)")
+    a.add_argument("--min-duration", default="3500", help="minimum total duration [s] "
+                                                          "(default 3500)")
+    a.add_argument("--seed", help="random seed (integer) for a reproducible schedule")
+    a.add_argument("--resolution", default="1", help="hold times in multiples of this [s]")
+    a.add_argument("--out", required=True, help="schedule CSV to write")
+    a.add_argument("--battery", help="pack YAML: also report the charge the model draws")
+    a.set_defaults(func=run_aprbs)
+
+
+def _floats(text: str, option: str, count: int | None = None, low: float = 0.0) -> list[float]:
+    parts = [s for s in text.split(",") if s.strip()]
+    values = [parse_float(s.strip(), option, low, 1e9) for s in parts]
+    if not values or (count is not None and len(values) != count):
+        want = f"{count} " if count else ""
+        raise InputError(f"{option}: expected {want}comma-separated numbers, got {text!r}")
+    return values
+
+
+def _duration(seconds: float) -> str:
+    h, rest = divmod(seconds, 3600.0)
+    return f"{int(h)} h {rest / 60:.1f} min" if h else f"{seconds / 60:.1f} min"
+
+
+def _model_for(args) -> tuple[IntegralModel, str]:
+    if args.battery:
+        pack = load_battery(args.battery)
+        what = "literature δ₀(N), ε₀(N)" if pack.model.literature else "fitted"
+        return pack.model, f"{args.battery} ({what})"
+    if args.cells:
+        cells = int(parse_float(args.cells, "--cells", 1, 40))
+        return IntegralModel.from_literature(cells), f"literature values for {cells} cells"
+    raise InputError("give --battery B.yaml (its model) or --cells N (literature model)")
+
+
+def run_two_step(args) -> int:
+    out = output_path(args.out, "--out")
+    p1 = parse_float(args.p1, "--p1", 1e-3, 1e6)
+    p2 = parse_float(args.p2, "--p2", 1e-3, 1e6)
+    k = parse_float(args.k, "--k", 1e-6, 1e6)
+    cap = parse_float(args.capacity_mah, "--capacity-mah", 1e-3, 1e8)
+    model, what = _model_for(args)
+    test = design.two_step(p1, p2, k, cap * integral.AS_PER_MAH, model.delta, model.epsilon,
+                           model.beta)
+    print(f"two-step test drawing C0 = {cap:g} mAh (model: {what}; δ = {model.delta:.4g}, "
+          f"ε = {model.epsilon:.4g}, β = {model.beta:.4g})")
+    print(f"  step 1: {p1:g} W for t1 = {test.t1_s:.0f} s ({_duration(test.t1_s)})")
+    print(f"  step 2: {p2:g} W for t2 = {test.t2_s:.0f} s ({_duration(test.t2_s)})")
+    print(f"  total:  {test.total_s:.0f} s ({_duration(test.total_s)})")
+    if out:
+        design.write_schedule(test.schedule(), out,
+                              comment=f"two-step test P1={p1:g} W, P2={p2:g} W, k={k:g}, "
+                                      f"C0={cap:g} mAh; model {what}")
+        print(f"wrote {out}")
+    return 0
+
+
+def run_aprbs(args) -> int:
+    out = output_path(args.out, "--out")
+    levels = _floats(args.levels, "--levels")
+    if len(set(levels)) < 2 or min(levels) <= 0:
+        raise InputError(f"--levels: expected at least two different powers > 0 W, "
+                         f"got {args.levels!r}")
+    lo, hi = _floats(args.hold, "--hold", 2)
+    if not 0 < lo <= hi:
+        raise InputError(f"--hold: expected MIN,MAX with 0 < MIN <= MAX seconds, "
+                         f"got {args.hold!r}")
+    min_duration = parse_float(args.min_duration, "--min-duration", 1e-3, 1e7)
+    resolution = parse_float(args.resolution, "--resolution", 1e-3, 1e4)
+    if math.floor(hi / resolution + 1e-9) < math.ceil(lo / resolution - 1e-9):
+        raise InputError(f"--resolution {args.resolution}: no multiple of it lies in "
+                         f"--hold {args.hold}")
+    if args.seed is not None:
+        try:
+            seed = int(args.seed)
+        except ValueError:
+            raise InputError(f"--seed: expected an integer, got {args.seed!r}") from None
+    else:
+        seed = int(np.random.SeedSequence().entropy % 2**31)
+    schedule = design.aprbs(levels, (lo, hi), min_duration, seed, resolution_s=resolution)
+    total = float(schedule["duration_s"].sum())
+    mean_p = float((schedule["duration_s"] * schedule["power_w"]).sum() / total)
+    design.write_schedule(schedule, out, comment=(
+        f"APRBS levels_w={','.join(f'{v:g}' for v in levels)} hold_s={lo:g}..{hi:g} "
+        f"min_duration_s={min_duration:g} seed={seed}"))
+    print(f"APRBS schedule: {len(schedule)} steps, {total:.0f} s ({_duration(total)}), "
+          f"mean power {mean_p:.1f} W, seed {seed}")
+    for level in sorted(set(levels)):
+        share = schedule.loc[schedule["power_w"] == level, "duration_s"].sum() / total
+        print(f"  {level:g} W: {100 * share:.0f} % of the time")
+    if args.battery:
+        model, what = _model_for(args)
+        t = np.arange(0.0, total + 0.5, 1.0)
+        c = integral.charge(t, design.sample_schedule(schedule, t), model.delta,
+                            model.epsilon, model.beta)
+        print(f"  the model ({what}) draws {c[-1] / integral.AS_PER_MAH:.0f} mAh over it")
+    print(f"wrote {out}")
+    return 0
+
+
+# --------------------------------------------------------------------------- pulse-resistance
+
+def _register_pulse(sub) -> None:
+    p = sub.add_parser("pulse-resistance", help="internal resistance from a pulse test "
+                                                "(amended VDA)",
+                       description="R = ΔV/ΔI at each current switch-off of a pulse test "
+                                   "(seed §3.1): per pulse, per pulse current, and their mean "
+                                   "with a Student-t confidence interval.")
+    p.add_argument("data", help="CSV with time_s, voltage_v, current_a")
+    p.add_argument("--threshold", default=str(vda.ON_THRESHOLD_A),
+                   help=f"|current| that counts as on [A] (default {vda.ON_THRESHOLD_A})")
+    p.add_argument("--by", choices=("level", "pulse"), default="level",
+                   help="statistics over pulse currents (default) or every pulse")
+    p.add_argument("--battery", help="pack YAML to update with internal_resistance_ohm")
+    p.add_argument("--out", help="write the updated pack YAML here (needs --battery)")
+    p.add_argument("--json", help="write the result as JSON to this file")
+    p.set_defaults(func=run_pulse)
+
+
+def run_pulse(args) -> int:
+    from planner import record as rec
+
+    out = output_path(args.out, "--out")
+    json_out = output_path(args.json, "--json")
+    if out and not args.battery:
+        raise InputError("--out needs --battery (the pack whose resistance to update)")
+    threshold = parse_float(args.threshold, "--threshold", 1e-6, 1e4)
+    df = rec.read_record(args.data, derive=False)
+    missing = [c for c in ("voltage_v", "current_a") if c not in df.columns]
+    if missing:
+        raise InputError(f"{args.data}: missing column '{missing[0]}' (a pulse test needs "
+                         "time_s, voltage_v and current_a)")
+    res = vda.pulse_resistance(df["time_s"], df["voltage_v"], df["current_a"],
+                               threshold_a=threshold, by=args.by, source=str(args.data))
+    print(f"{'time [s]':>10} {'kind':<9} {'I [A]':>8} {'ΔV [mV]':>9} {'R [mΩ]':>8}")
+    for pulse in res.pulses:
+        print(f"{pulse.time_s:10.1f} {pulse.kind:<9} {pulse.current_a:8.3f} "
+              f"{1e3 * pulse.delta_v:9.2f} {1e3 * pulse.resistance_ohm:8.3f}")
+    print()
+    for amps, ohms in zip(res.levels_a, res.level_resistance_ohm):
+        print(f"  {amps:6.2f} A: R = {1e3 * ohms:.2f} mΩ")
+    unit = "pulse currents" if res.by == "level" else "pulses"
+    ci = (f"{100 * res.confidence:.0f} % CI {1e3 * res.ci_low_ohm:.2f}–"
+          f"{1e3 * res.ci_high_ohm:.2f} mΩ" if res.n > 1 else "no CI from one value")
+    print(f"R = {1e3 * res.mean_ohm:.2f} mΩ ({ci}, n = {res.n} {unit}), "
+          f"RMSE {1e3 * res.rmse_ohm:.2f} mΩ")
+    if json_out:
+        write_json(res.to_dict() | {"data": str(args.data)}, json_out)
+    if out:
+        load_battery(args.battery)
+        mapping = dict(schema.load_yaml(args.battery))
+        mapping["internal_resistance_ohm"] = round(float(res.mean_ohm), 6)
+        battery_from_mapping(mapping, str(out))
+        try:
+            Path(out).write_text(f"# internal_resistance_ohm from endurance pulse-resistance "
+                                 f"on {args.data}\n"
+                                 + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True))
+        except OSError as exc:
+            raise InputError(f"{out}: cannot write ({exc.strerror})") from None
+        print(f"wrote {out}")
+    return 0

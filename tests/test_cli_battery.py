@@ -1,0 +1,246 @@
+"""``endurance fit-battery``, ``design`` and ``pulse-resistance`` end to end (DESIGN §7)."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from test_fit import TRUE, constant, scheduled
+
+from planner.battery import design, fit, integral, vda
+from planner.cli import main
+from planner.definitions import load_battery
+
+REPO = Path(__file__).resolve().parents[1]
+MULTISTAR = REPO / "aircraft" / "batteries" / "multistar_10ah_4s.yaml"
+
+
+@pytest.fixture
+def bench(tmp_path):
+    """Two constant-power discharges (one file) and an APRBS one held out (another file)."""
+    rng = np.random.default_rng(11)
+    const = pd.concat([constant("p050", 50.0, 8000, rng=rng),
+                       constant("p125", 125.0, 3200, rng=rng)])
+    const_path = tmp_path / "constant.csv"
+    const.to_csv(const_path, index=False)
+    var_path = tmp_path / "aprbs.csv"
+    var = scheduled("aprbs", design.aprbs([50, 75, 100, 125], (30, 300), 4000, 5), rng=rng)
+    var.to_csv(var_path, index=False)
+    return const_path, var_path, var
+
+
+def run(capsys, *argv):
+    rc = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+# --------------------------------------------------------------------------- fit-battery
+
+def test_fit_battery_end_to_end(tmp_path, capsys, bench):
+    """The YAML loads and its model predicts the held-out experiment's final charge within 1 %."""
+    const_path, var_path, var = bench
+    out = tmp_path / "fitted.yaml"
+    rc, stdout, err = run(capsys, "fit-battery", const_path, var_path, "--out", out,
+                          "--name", "bench pack", "--cells", "4", "--mass-kg", "0.8",
+                          "--json", tmp_path / "fit.json", "--plot", tmp_path / "fit.png")
+    assert rc == 0, err
+    assert err == ""
+    pack = load_battery(out)
+    assert not pack.model.literature
+    assert pack.name == "bench pack" and pack.cells_series == 4 and pack.mass_kg == 0.8
+    # default split: lowest and highest mean power train, the APRBS run is held out
+    assert "train: p050, p125; validate: aprbs" in pack.source
+    assert str(const_path) in pack.source and str(var_path) in pack.source
+    held_out = fit.prepare_experiments(var)[0]
+    c = integral.charge(held_out.time_s, held_out.power_w, pack.model.delta,
+                        pack.model.epsilon, pack.model.beta)
+    assert c[-1] == pytest.approx(held_out.final_charge_as, rel=0.01)
+    # capacity from the largest measured charge
+    finals = [e.final_charge_as / 3.6 for e in fit.prepare_experiments(
+        fit.load_records([const_path, var_path]))]
+    assert pack.capacity_mah == pytest.approx(max(finals), abs=0.5)
+    # the table and the parameters are printed
+    assert "aprbs" in stdout and "validate" in stdout and "RMSE [mAh]" in stdout
+    assert "delta" in stdout and "±" in stdout
+    data = json.loads((tmp_path / "fit.json").read_text())
+    assert data["train"] == ["p050", "p125"] and data["validate"] == ["aprbs"]
+    assert {m["experiment"] for m in data["metrics"]} == {"p050", "p125", "aprbs"}
+    assert data["delta"] == pytest.approx(TRUE["delta"], rel=0.01)
+    assert (tmp_path / "fit.png").stat().st_size > 10_000
+
+
+def test_fit_battery_keeps_the_base_pack_and_holds_beta(tmp_path, capsys, bench):
+    const_path, var_path, _ = bench
+    out = tmp_path / "multistar_fitted.yaml"
+    rc, stdout, err = run(capsys, "fit-battery", const_path, var_path, "--out", out,
+                          "--battery", MULTISTAR, "--fix-beta", "0.9648",
+                          "--train", "p050,aprbs", "--validate", "p125")
+    assert rc == 0, err
+    base, pack = load_battery(MULTISTAR), load_battery(out)
+    for key in ("name", "cells_series", "capacity_mah", "mass_kg", "internal_resistance_ohm",
+                "max_discharge_c"):
+        assert getattr(pack, key) == getattr(base, key)
+    assert pack.model.beta == 0.9648
+    assert "train: p050, aprbs; validate: p125; beta held at 0.9648" in pack.source
+    assert "(held)" in stdout
+
+
+def test_fit_battery_detects_the_cell_count_from_the_voltage(tmp_path, capsys):
+    rng = np.random.default_rng(2)
+    frames = []
+    for name, power, duration in (("a", 60.0, 6000), ("b", 120.0, 3000)):
+        df = constant(name, power, duration, rng=rng)
+        df["voltage_v"] = np.linspace(16.7, 13.6, len(df))  # a 4S pack, as logged
+        frames.append(df)
+    path = tmp_path / "runs.csv"
+    pd.concat(frames).to_csv(path, index=False)
+    rc, _, err = run(capsys, "fit-battery", path, "--out", tmp_path / "p.yaml", "--name", "x",
+                     "--mass-kg", "1")
+    assert rc == 0, err
+    assert load_battery(tmp_path / "p.yaml").cells_series == 4
+
+
+def test_fit_battery_warns_when_poorly_determined(tmp_path, bench):
+    """One training power cannot separate δ from ε: a one-line warning, the YAML still written."""
+    const_path, _, _ = bench
+    proc = subprocess.run([sys.executable, "-m", "planner", "fit-battery", str(const_path),
+                           "--out", str(tmp_path / "p.yaml"), "--name", "x", "--cells", "4",
+                           "--mass-kg", "1", "--train", "p050"],
+                          check=False, capture_output=True, text=True, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith("warning: fit_integral: poorly determined parameter(s) "
+                               "delta, epsilon")
+    assert "POORLY DETERMINED" in proc.stdout
+    assert (tmp_path / "p.yaml").exists()
+
+
+def _bad_csv(tmp_path, kind):
+    df = constant("e1", 80.0, 600, noise_a=0.0)
+    if kind == "no current or power":
+        df = df[["time_s", "voltage_v"]]
+    elif kind == "negative power":
+        df.loc[300, "power_w"] = -40.0
+    elif kind == "too short":
+        df = df.iloc[:8]
+    elif kind == "nan current":
+        df.loc[17, "current_a"] = np.nan
+    path = tmp_path / "bad.csv"
+    df.to_csv(path, index=False)
+    return path
+
+
+@pytest.mark.parametrize("kind,message", [
+    ("no current or power", "missing required column 'current_a'"),
+    ("negative power", ("experiment 'e1': column 'power_w' row 301 (line 302): "
+                       "negative power -40 W")),
+    ("too short", "experiment 'e1': too short to fit: 8 samples"),
+    ("nan current", ("experiment 'e1': column 'current_a' row 18 (line 19): expected "
+                    "a finite number, got nan")),
+])
+def test_fit_battery_bad_data_exits_2_with_one_line(tmp_path, capsys, kind, message):
+    path = _bad_csv(tmp_path, kind)
+    rc, _, err = run(capsys, "fit-battery", path, "--out", tmp_path / "p.yaml", "--name", "x",
+                     "--cells", "4", "--mass-kg", "1")
+    assert rc == 2
+    assert len(err.strip().splitlines()) == 1
+    assert err.startswith(f"error: {path}: {message}")
+    assert not (tmp_path / "p.yaml").exists()
+
+
+@pytest.mark.parametrize("extra,message", [
+    (["--train", "p050,nope"], "train: no experiment named 'nope'"),
+    (["--fix-beta", "2"], "--fix-beta: expected a number in [0.5, 1.5]"),
+    ([], "--name and --mass-kg required without --battery"),
+])
+def test_fit_battery_bad_options_exit_2(tmp_path, capsys, bench, extra, message):
+    const_path, _, _ = bench
+    args = ["fit-battery", const_path, "--out", tmp_path / "p.yaml", *extra]
+    if extra:
+        args += ["--name", "x", "--mass-kg", "1", "--cells", "4"]
+    rc, _, err = run(capsys, *args)
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert message in err
+
+
+def test_fit_battery_missing_file_via_python_m(tmp_path):
+    """As a user runs it: ``python -m planner``, a missing file, exit 2, one line, no traceback."""
+    proc = subprocess.run([sys.executable, "-m", "planner", "fit-battery",
+                           str(tmp_path / "missing.csv"), "--out", str(tmp_path / "p.yaml"),
+                           "--name", "x", "--mass-kg", "1"],
+                          check=False, capture_output=True, text=True, cwd=REPO)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == f"error: {tmp_path / 'missing.csv'}: file not found"
+
+
+# --------------------------------------------------------------------------- design
+
+def test_design_two_step(tmp_path, capsys):
+    out = tmp_path / "two_step.csv"
+    rc, stdout, err = run(capsys, "design", "two-step", "--p1", "50", "--p2", "125", "--k", "1",
+                          "--capacity-mah", "10000", "--battery", MULTISTAR, "--out", out)
+    assert rc == 0, err
+    pack = load_battery(MULTISTAR)
+    test = design.two_step(50, 125, 1, 36000.0, pack.model.delta, pack.model.epsilon,
+                           pack.model.beta)
+    assert f"t1 = {test.t1_s:.0f} s" in stdout and f"total:  {test.total_s:.0f} s" in stdout
+    back = design.read_schedule(out)
+    assert back["power_w"].tolist() == [50.0, 125.0]
+    assert back["duration_s"].to_numpy() == pytest.approx([test.t1_s, test.t2_s], rel=1e-5)
+
+
+def test_design_two_step_needs_a_model(capsys):
+    rc, _, err = run(capsys, "design", "two-step", "--p1", "50", "--p2", "125", "--k", "1",
+                     "--capacity-mah", "10000")
+    assert rc == 2 and "give --battery B.yaml" in err
+
+
+def test_design_aprbs(tmp_path, capsys):
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    for path in (a, b):
+        rc, stdout, err = run(capsys, "design", "aprbs", "--levels", "50,75,100,125",
+                              "--hold", "30,300", "--min-duration", "3500", "--seed", "1",
+                              "--out", path)
+        assert rc == 0, err
+    assert a.read_text() == b.read_text()
+    s = design.read_schedule(a)
+    pd.testing.assert_frame_equal(s, design.aprbs([50, 75, 100, 125], (30, 300), 3500, 1),
+                                  check_exact=False)
+    assert "seed 1" in stdout
+
+
+@pytest.mark.parametrize("option,value", [("--hold", "300,30"), ("--levels", "50"),
+                                          ("--seed", "x")])
+def test_design_aprbs_bad_options_exit_2(tmp_path, capsys, option, value):
+    rc, _, err = run(capsys, "design", "aprbs", option, value, "--out", tmp_path / "s.csv")
+    assert rc == 2 and err.startswith(f"error: {option}")
+
+
+# --------------------------------------------------------------------------- pulse-resistance
+
+def test_pulse_resistance(tmp_path, capsys):
+    path = tmp_path / "pulse.csv"
+    vda.pulse_profile((2, 4, 6, 8), np.array([20.48, 21.24, 20.46, 20.51]) / 1e3).to_csv(
+        path, index=False)
+    out = tmp_path / "pack.yaml"
+    rc, stdout, err = run(capsys, "pulse-resistance", path, "--json", tmp_path / "r.json",
+                          "--battery", MULTISTAR, "--out", out)
+    assert rc == 0, err
+    assert "R = 20.67 mΩ (95 % CI 20.07–21.28 mΩ, n = 4 pulse currents)" in stdout
+    assert json.loads((tmp_path / "r.json").read_text())["n"] == 4
+    assert load_battery(out).internal_resistance_ohm == pytest.approx(0.0206725, abs=1e-6)
+    assert yaml.safe_load(out.read_text())["mass_kg"] == 0.8
+
+
+def test_pulse_resistance_without_current_exits_2(tmp_path, capsys):
+    path = tmp_path / "v.csv"
+    pd.DataFrame({"time_s": [0, 1, 2], "voltage_v": [16, 16, 16], "power_w": [0, 0, 0]}).to_csv(
+        path, index=False)
+    rc, _, err = run(capsys, "pulse-resistance", path)
+    assert rc == 2 and "missing column 'current_a'" in err
