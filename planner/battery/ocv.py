@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
+
+from planner.errors import InputError
 
 
 def lipo_ocv(soc):
@@ -35,3 +41,209 @@ def lipo_ocv(soc):
     """
     s = np.clip(soc, 0.0, 1.0)
     return -1.031 * np.exp(-35.0 * s) + 3.685 + 0.2156 * s - 0.1178 * s**2 + 0.3201 * s**3
+
+
+# --------------------------------------------------------------------------- tables
+
+#: Units accepted in the header of an OCV CSV file, and their factor to SI.
+_SOC_UNITS = {"1": 1.0, "-": 1.0, "": 1.0, "%": 0.01}
+_OCV_UNITS = {"v": 1.0, "mv": 1e-3}
+
+
+class OcvTable:
+    """An open-circuit-voltage curve given as a table, linearly interpolated.
+
+    Call it like :func:`lipo_ocv`: ``table(soc) -> ocv``. Build it with
+    :func:`ocv_table` (validates) or :func:`read_ocv_csv`.
+
+    Attributes
+    ----------
+    soc : ndarray
+        State of charge of the knots, strictly increasing in [0, 1]. [unitless]
+    ocv_v : ndarray
+        Open-circuit voltage at the knots, strictly increasing. [V]
+    source : str
+        Where the table came from (a file name), for messages.
+    """
+
+    def __init__(self, soc, ocv_v, source: str = ""):
+        self.soc = np.asarray(soc, dtype=float)
+        self.ocv_v = np.asarray(ocv_v, dtype=float)
+        self.source = source
+
+    def __call__(self, soc):
+        return interpolate_ocv(soc, self.soc, self.ocv_v)
+
+    def soc_from_ocv(self, ocv_v):
+        """State of charge at which the curve reaches ``ocv_v`` (clipped to the table). [unitless]"""
+        return _same_kind(ocv_v, np.interp(np.asarray(ocv_v, dtype=float), self.ocv_v, self.soc))
+
+    def __repr__(self) -> str:
+        return (f"OcvTable({len(self.soc)} points, {self.ocv_v[0]:.3f}–{self.ocv_v[-1]:.3f} V"
+                f"{', ' + self.source if self.source else ''})")
+
+
+def _same_kind(template, values):
+    """Return ``values`` as the kind of ``template``: float, ndarray or Series."""
+    if isinstance(template, pd.Series):
+        return pd.Series(values, index=template.index)
+    if np.ndim(template) == 0:
+        return float(values)
+    return np.asarray(values)
+
+
+def interpolate_ocv(soc, soc_table, ocv_table):
+    r"""
+    Open-circuit voltage by linear interpolation in a table.
+
+    Parameters
+    ----------
+    soc : numeric
+        State of charge. Values outside the table are held at the end values
+        (no extrapolation). NaN propagates. [unitless]
+    soc_table : array_like
+        Knots, increasing. [unitless]
+    ocv_table : array_like
+        Open-circuit voltage at the knots. [V]
+
+    Returns
+    -------
+    ocv : numeric
+        Same kind as ``soc`` (float, ndarray or Series). [V]
+    """
+    values = np.interp(np.asarray(soc, dtype=float), np.asarray(soc_table, dtype=float),
+                       np.asarray(ocv_table, dtype=float))
+    return _same_kind(soc, values)
+
+
+def ocv_table(soc, ocv_v, where: str = "OCV table") -> OcvTable:
+    """
+    Validate an OCV table and build an :class:`OcvTable`.
+
+    The rows may come in any order (they are sorted by state of charge); the
+    state of charge must lie in [0, 1] without repeats and the voltage must
+    rise strictly with the state of charge.
+
+    Parameters
+    ----------
+    soc : array_like
+        State of charge. [unitless]
+    ocv_v : array_like
+        Open-circuit voltage. [V]
+    where : str
+        Name of the source (file), for messages.
+
+    Raises
+    ------
+    planner.errors.InputError
+        Naming ``where`` and the first offending row.
+    """
+    s = np.asarray(soc, dtype=float).ravel()
+    v = np.asarray(ocv_v, dtype=float).ravel()
+    if s.size != v.size:
+        raise InputError(f"{where}: soc and ocv have different lengths ({s.size} and {v.size})")
+    if s.size < 2:
+        raise InputError(f"{where}: an OCV table needs at least 2 rows, got {s.size}")
+    if not (np.all(np.isfinite(s)) and np.all(np.isfinite(v))):
+        bad = int(np.flatnonzero(~(np.isfinite(s) & np.isfinite(v)))[0])
+        raise InputError(f"{where}: row {bad + 1} is not a finite number")
+    if s.min() < 0.0 or s.max() > 1.0:
+        bad = int(np.flatnonzero((s < 0.0) | (s > 1.0))[0])
+        raise InputError(f"{where}: soc must lie in [0, 1], got {s[bad]:g} in row {bad + 1}")
+    if np.any(v <= 0.0):
+        bad = int(np.flatnonzero(v <= 0.0)[0])
+        raise InputError(f"{where}: ocv must be > 0 V, got {v[bad]:g} in row {bad + 1}")
+    order = np.argsort(s, kind="stable")
+    s, v = s[order], v[order]
+    ds, dv = np.diff(s), np.diff(v)
+    if np.any(ds == 0.0):
+        j = int(np.flatnonzero(ds == 0.0)[0])
+        raise InputError(f"{where}: soc {s[j]:g} appears twice; each state of charge once")
+    if np.any(dv <= 0.0):
+        j = int(np.flatnonzero(dv <= 0.0)[0])
+        raise InputError(f"{where}: ocv must rise with soc (monotonic table), but it goes "
+                         f"from {v[j]:.4f} V at soc {s[j]:g} to {v[j + 1]:.4f} V at soc "
+                         f"{s[j + 1]:g}")
+    return OcvTable(s, v, source=where)
+
+
+def _parse_header_field(field: str) -> tuple[str, str | None]:
+    m = re.fullmatch(r"\s*([A-Za-z_ ]+?)\s*(?:\[\s*([^\]]*?)\s*\])?\s*", field)
+    if m is None:
+        return field.strip().lower(), None
+    return m.group(1).strip().lower(), (None if m.group(2) is None else m.group(2))
+
+
+def read_ocv_csv(path) -> OcvTable:
+    """
+    Read an OCV curve from a CSV file with units in the header.
+
+    The first non-empty line is the header (a leading ``#`` is allowed, as in
+    PyBaMM's ``ecm_example_ocv.csv``): a ``soc`` column in ``[1]`` (also
+    ``[-]``, ``[%]`` or no unit) and an ``ocv`` column in ``[V]`` or ``[mV]``,
+    e.g. ``soc [1], ocv [V]``. Extra columns are ignored; lines starting with
+    ``#`` after the header are comments.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    OcvTable
+
+    Raises
+    ------
+    planner.errors.InputError
+        Unreadable file, missing column or unit, non-numeric value (naming
+        the row), or a table that is not monotonic.
+    """
+    path = Path(path)
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except FileNotFoundError:
+        raise InputError(f"{path}: OCV file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read the OCV file ({exc})") from None
+    rows = [(n + 1, line) for n, line in enumerate(lines) if line.strip()]
+    if not rows:
+        raise InputError(f"{path}: the OCV file is empty, expected a header 'soc [1], ocv [V]'")
+    header_line = rows[0][1].lstrip().lstrip("#")
+    fields = [_parse_header_field(f) for f in header_line.split(",")]
+    names = [f[0] for f in fields]
+    if "soc" not in names or "ocv" not in names:
+        raise InputError(f"{path}: header must name the columns 'soc [1]' and 'ocv [V]', "
+                         f"got '{rows[0][1].strip()}'")
+    i_soc, i_ocv = names.index("soc"), names.index("ocv")
+    soc_unit = (fields[i_soc][1] or "").lower()
+    ocv_unit = fields[i_ocv][1]
+    if soc_unit not in _SOC_UNITS:
+        raise InputError(f"{path}: column 'soc' must be in [1] or [%], got [{fields[i_soc][1]}]")
+    if ocv_unit is None or ocv_unit.lower() not in _OCV_UNITS:
+        got = "no unit" if ocv_unit is None else f"[{ocv_unit}]"
+        raise InputError(f"{path}: column 'ocv' needs its unit in the header, [V] or [mV], "
+                         f"got {got}")
+    k_soc, k_ocv = _SOC_UNITS[soc_unit], _OCV_UNITS[ocv_unit.lower()]
+    soc, ocv = [], []
+    for lineno, line in rows[1:]:
+        if line.lstrip().startswith("#"):
+            continue
+        cells = line.split(",")
+        if len(cells) <= max(i_soc, i_ocv):
+            raise InputError(f"{path}, line {lineno}: expected {len(fields)} columns, "
+                             f"got {len(cells)}")
+        for col, store, k in ((i_soc, soc, k_soc), (i_ocv, ocv, k_ocv)):
+            text = cells[col].strip()
+            try:
+                store.append(float(text) * k)
+            except ValueError:
+                raise InputError(f"{path}, line {lineno}: column '{names[col]}' must be a "
+                                 f"number, got '{text}'") from None
+    return ocv_table(soc, ocv, where=str(path))
+
+
+def write_ocv_csv(path, table: OcvTable) -> None:
+    """Write an :class:`OcvTable` as CSV with the header ``soc [1],ocv [V]``."""
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write("soc [1],ocv [V]\n")
+        fh.writelines(f"{s:.6g},{v:.6f}\n" for s, v in zip(table.soc, table.ocv_v))

@@ -1,0 +1,863 @@
+r"""First-order equivalent-circuit (Thevenin/Randles) model of a LiPo cell and pack.
+
+The cell is an open-circuit voltage source OCV(SoC) with a one-state dynamic
+hysteresis voltage ``h``, an ohmic resistance R0(SoC, T) and one RC branch
+(R1 ∥ C1), as in the seed paper on the hybridized energy storage system
+(its first-order Randles circuit with a dynamic hysteresis state, eq. 4) and
+in Plett's "enhanced self-correcting" cell model [1]_ (ch. 2). Discharge
+current is positive.
+
+.. math::
+
+    \dot z &= -\eta\, i / Q(T) \\
+    \dot v_1 &= -v_1/(R_1 C_1) + i / C_1 \\
+    \dot h &= -\frac{\gamma\,|\eta\, i|}{Q(T)}\,\bigl(h + M\,\mathrm{sgn}(i)\bigr) \\
+    v &= \mathrm{OCV}(z) + h - v_1 - R_0(z, T)\, i
+
+``z`` is the state of charge, ``v1`` the RC-branch voltage, ``h`` the
+hysteresis voltage (bounded by ±M), ``η`` the coulombic efficiency (1 on
+discharge). The hysteresis equation is Plett's one-state model ([1]_, ch. 2)
+written for the hysteresis *voltage* ``h = M·h_Plett`` (``M`` constant here,
+where the seed allows ``M(SoC, sgn i)``): under a steady
+discharge ``h → −M`` (the loaded curve lies below the OCV), under charge
+``h → +M``, and the approach is exponential in the *charge* passed, with the
+charge constant ``Q/γ``. For a current held over a step the exact solution is
+
+.. math:: h_{k+1} = e^{-\gamma |\Delta q| / Q} h_k
+          - \bigl(1 - e^{-\gamma |\Delta q| / Q}\bigr) M\,\mathrm{sgn}(i_k),
+          \quad \Delta q = \eta\, i_k \Delta t_k
+
+and the RC branch is discretised exactly for a zero-order-hold current:
+``v1[k+1] = a v1[k] + R1 (1 − a) i[k]`` with ``a = exp(−Δt/(R1 C1))``.
+These are the two exact updates the simulation uses; the state of charge is
+integrated exactly (coulomb counting) for the held current. The nonlinear
+coupling (OCV and R0 depend on z and T) is resolved step by step: the
+parameters are evaluated at the start of each step.
+
+Temperature
+-----------
+* R0 follows Arrhenius, ``R0(T) = R0_ref·exp(E_a/R·(1/T − 1/T_ref))``. The
+  default ``E_a = 25 kJ/mol`` lies between the activation energy of the
+  electrolyte conductivity, 17 kJ/mol (the Nyman et al. electrolyte of
+  PyBaMM's ``Chen2020`` parameter set [2]_), and those of the electrode
+  reactions, 30 kJ/mol for the graphite exchange current of Kim et al. [4]_
+  (27–53 kJ/mol in PyBaMM's BPX example set): the pulse resistance R0 mixes
+  ohmic and charge-transfer parts. It gives R0(−20 °C) ≈ 6·R0(25 °C). R1 and
+  C1 are held at their reference values.
+* The available capacity falls linearly below the reference temperature:
+  ``Q(T) = Q_ref·(1 − k·max(0, T_ref − T))`` with ``k = 0.006 /°C`` by
+  default, i.e. 73 % at −20 °C, which is consistent with the roughly 65 % of
+  room-temperature *energy* Zhang, Xu and Jow [3]_ report for commercial
+  Li-ion cells at −20 °C (energy falls faster than charge because the voltage
+  sags too). The state of charge counts against the capacity available at the
+  present temperature. Above ``T_ref`` the capacity is ``Q_ref``.
+* The model is valid for cell temperatures in [−20 °C, 60 °C]
+  (:data:`planner.battery.thermal.T_RANGE_C`); outside it raises
+  :class:`planner.errors.ModelError`.
+
+YAML ``circuit:`` block (per cell; the pack supplies what is absent)
+---------------------------------------------------------------------
+
+==============================  =========  ==============  ==================================
+key                             unit       default         meaning
+==============================  =========  ==============  ==================================
+``capacity_ah``                 A h        pack capacity   cell capacity at T_ref
+                                           / parallel
+``r0_ohm``                      Ω          pack R ·        ohmic resistance at T_ref: a number
+                                           parallel/series or ``{soc: [...], ohm: [...]}``
+``r1_ohm``                      Ω          0 (no RC)       RC-branch resistance
+``c1_f``                        F          required if     RC-branch capacitance
+                                           r1_ohm > 0
+``hysteresis_v``                V          0               maximum hysteresis voltage M
+``hysteresis_gamma``            1          required if     hysteresis rate γ (charge
+                                           hysteresis_v>0  constant Q/γ)
+``ocv_csv``                     path       LiPo curve      CSV ``soc [1], ocv [V]``, relative
+                                           (Chen 2006)     to the YAML file
+``r0_activation_energy_j_mol``  J/mol      25000           Arrhenius activation energy of R0
+``capacity_temp_coeff_per_c``   1/°C       0.006           capacity loss per °C below T_ref
+``reference_temperature_c``     °C         25              T_ref
+``coulombic_efficiency``        1          1.0             charge efficiency η on charge
+``cells_series``                —          pack            cells in series
+``cells_parallel``              —          pack            cells in parallel
+``source``                      text       —               where the numbers come from
+==============================  =========  ==============  ==================================
+
+References
+----------
+.. [1] G. L. Plett, Battery Management Systems, Volume I: Battery Modeling.
+   Norwood, MA, USA: Artech House, 2015.
+.. [2] C.-H. Chen et al., "Development of experimental techniques for
+   parameterization of multi-scale lithium-ion battery models," J.
+   Electrochem. Soc., vol. 167, 080534, 2020, doi:10.1149/1945-7111/ab9050;
+   electrolyte after A. Nyman et al., Electrochim. Acta, vol. 53,
+   pp. 6356–6365, 2008, doi:10.1016/j.electacta.2008.04.023.
+.. [3] S. S. Zhang, K. Xu and T. R. Jow, "The low temperature performance of
+   Li-ion batteries," J. Power Sources, vol. 115, pp. 137–140, 2003,
+   doi:10.1016/S0378-7753(02)00618-3.
+.. [4] G.-H. Kim, K. Smith, K.-J. Lee, S. Santhanagopalan and A. Pesaran,
+   "Multi-domain modeling of lithium-ion batteries encompassing multi-physics
+   in varied length scales," J. Electrochem. Soc., vol. 158, no. 8,
+   pp. A955–A969, 2011, doi:10.1149/1.3597614.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from planner import schema as S
+from planner.battery.ocv import lipo_ocv, read_ocv_csv
+from planner.battery.thermal import T_RANGE_C, ThermalParameters, check_temperature
+from planner.errors import InputError, ModelError
+
+#: Universal gas constant. [J/(mol K)]
+R_GAS = 8.314462618
+#: Default Arrhenius activation energy of R0 (see module notes). [J/mol]
+DEFAULT_R0_ACTIVATION_J_MOL = 25_000.0
+#: Default capacity loss per °C below the reference temperature (see module notes). [1/°C]
+DEFAULT_CAPACITY_TEMP_COEFF = 0.006
+#: Points of the uniform SoC grid on which OCV and R0(SoC) are tabulated for the time loop.
+_GRID_N = 4001
+
+CIRCUIT_KEYS = {
+    "capacity_ah": S.positive(high=2000.0),
+    "r0_ohm": S.Key(S.ANY),
+    "r1_ohm": S.non_negative(default=0.0, high=10.0),
+    "c1_f": S.positive(),
+    "hysteresis_v": S.non_negative(default=0.0, high=0.5),
+    "hysteresis_gamma": S.non_negative(high=1e5),
+    "ocv_csv": S.Key(S.TEXT),
+    "r0_activation_energy_j_mol": S.Key(S.NUMBER, default=DEFAULT_R0_ACTIVATION_J_MOL,
+                                        low=0.0, high=200_000.0),
+    "capacity_temp_coeff_per_c": S.Key(S.NUMBER, default=DEFAULT_CAPACITY_TEMP_COEFF,
+                                       low=0.0, high=0.02),
+    "reference_temperature_c": S.Key(S.NUMBER, default=25.0, low=T_RANGE_C[0],
+                                     high=T_RANGE_C[1]),
+    "coulombic_efficiency": S.Key(S.NUMBER, default=1.0, low=0.0, low_open=True, high=1.0),
+    "cells_series": S.Key(S.INTEGER, low=1, high=40),
+    "cells_parallel": S.Key(S.INTEGER, low=1, high=100),
+    "source": S.Key(S.TEXT),
+}
+
+
+# --------------------------------------------------------------------------- parameters
+
+def _r0_table(value: Any, key: str, problems: list[str]):
+    """Parse ``r0_ohm``: a number or ``{soc: [...], ohm: [...]}``; append problems."""
+    if isinstance(value, bool):
+        problems.append(f"{key} must be a number or a mapping {{soc: [...], ohm: [...]}}, "
+                        f"got {value!r}")
+        return None
+    if isinstance(value, (int, float, np.floating, np.integer)):
+        if not math.isfinite(value) or value < 0:
+            problems.append(f"{key} must be >= 0 (a resistance), got {value!r}")
+            return None
+        return float(value)
+    if isinstance(value, dict):
+        extra = set(value) - {"soc", "ohm"}
+        if extra or not {"soc", "ohm"} <= set(value):
+            problems.append(f"{key} as a table needs exactly the keys 'soc' and 'ohm', "
+                            f"got {sorted(map(str, value))}")
+            return None
+        value = (value["soc"], value["ohm"])
+    if isinstance(value, (tuple, list)) and len(value) == 2:
+        try:
+            soc = np.asarray(value[0], dtype=float).ravel()
+            ohm = np.asarray(value[1], dtype=float).ravel()
+        except (TypeError, ValueError):
+            problems.append(f"{key}.soc and {key}.ohm must be lists of numbers")
+            return None
+        if soc.size != ohm.size or soc.size < 2:
+            problems.append(f"{key}.soc and {key}.ohm must be lists of equal length >= 2, "
+                            f"got {soc.size} and {ohm.size}")
+            return None
+        if not (np.all(np.isfinite(soc)) and np.all(np.isfinite(ohm))):
+            problems.append(f"{key} has a value that is not a finite number")
+            return None
+        if soc.min() < 0 or soc.max() > 1:
+            problems.append(f"{key}.soc must lie in [0, 1], got {soc.min():g}..{soc.max():g}")
+            return None
+        if np.any(ohm < 0):
+            problems.append(f"{key}.ohm must be >= 0 (a resistance), got {ohm.min():g}")
+            return None
+        order = np.argsort(soc)
+        soc, ohm = soc[order], ohm[order]
+        if np.any(np.diff(soc) == 0):
+            problems.append(f"{key}.soc has a repeated value")
+            return None
+        return (soc, ohm)
+    problems.append(f"{key} must be a number or a mapping {{soc: [...], ohm: [...]}}, "
+                    f"got {value!r}")
+    return None
+
+
+@dataclass(frozen=True, eq=False)
+class CircuitParameters:
+    """Per-cell parameters of the equivalent circuit, and the pack layout.
+
+    Attributes
+    ----------
+    capacity_ah : float
+        Cell capacity at the reference temperature. [A h]
+    r0_ohm : float or (ndarray, ndarray)
+        Ohmic resistance at the reference temperature: a number, or a table
+        ``(soc, ohm)`` interpolated linearly (held at the ends). [Ω]
+    r1_ohm : float
+        Resistance of the RC branch; 0 = no RC branch. [Ω]
+    c1_f : float or None
+        Capacitance of the RC branch (required when ``r1_ohm > 0``). [F]
+    hysteresis_v : float
+        Maximum hysteresis voltage M. [V]
+    hysteresis_gamma : float
+        Hysteresis rate γ; the hysteresis settles within about ``3 Q/γ`` of charge. [unitless]
+    ocv : callable
+        ``ocv(soc) -> V`` per cell; default :func:`planner.battery.ocv.lipo_ocv`.
+    ocv_csv : str or None
+        The CSV file ``ocv`` was read from (kept for :meth:`to_mapping`).
+    r0_activation_energy_j_mol : float
+        Arrhenius activation energy of R0. [J/mol]
+    capacity_temp_coeff_per_c : float
+        Relative capacity loss per °C below the reference temperature. [1/°C]
+    reference_temperature_c : float
+        Temperature of ``capacity_ah`` and ``r0_ohm``. [°C]
+    coulombic_efficiency : float
+        Share of the charging charge that is stored, (0, 1]. [unitless]
+    cells_series, cells_parallel : int
+        Pack layout.
+    source : str or None
+        Where the numbers come from.
+    """
+
+    capacity_ah: float
+    r0_ohm: Any
+    r1_ohm: float = 0.0
+    c1_f: float | None = None
+    hysteresis_v: float = 0.0
+    hysteresis_gamma: float = 0.0
+    ocv: Callable = field(default=lipo_ocv)
+    ocv_csv: str | None = None
+    r0_activation_energy_j_mol: float = DEFAULT_R0_ACTIVATION_J_MOL
+    capacity_temp_coeff_per_c: float = DEFAULT_CAPACITY_TEMP_COEFF
+    reference_temperature_c: float = 25.0
+    coulombic_efficiency: float = 1.0
+    cells_series: int = 1
+    cells_parallel: int = 1
+    source: str | None = None
+
+    def __post_init__(self):
+        problems: list[str] = []
+        r0 = _r0_table(self.r0_ohm, "r0_ohm", problems)
+        if r0 is not None:
+            object.__setattr__(self, "r0_ohm", r0)
+
+        def num(key, low=0.0, strict=False, high=None, none_ok=False):
+            value = getattr(self, key)
+            if value is None and none_ok:
+                return
+            ok = (isinstance(value, (int, float, np.floating, np.integer))
+                  and not isinstance(value, bool) and math.isfinite(value)
+                  and (value > low if strict else value >= low)
+                  and (high is None or value <= high))
+            if not ok:
+                rel = ">" if strict else ">="
+                rng = f" and <= {high:g}" if high is not None else ""
+                problems.append(f"{key} must be {rel} {low:g}{rng}, got {value!r}")
+
+        num("capacity_ah", strict=True)
+        num("r1_ohm")
+        num("c1_f", strict=True, none_ok=True)
+        num("hysteresis_v")
+        num("hysteresis_gamma")
+        num("r0_activation_energy_j_mol")
+        num("capacity_temp_coeff_per_c", high=0.02)
+        num("coulombic_efficiency", strict=True, high=1.0)
+        num("reference_temperature_c", low=T_RANGE_C[0], high=T_RANGE_C[1])
+        for key in ("cells_series", "cells_parallel"):
+            value = getattr(self, key)
+            if not (isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+                    and value >= 1):
+                problems.append(f"{key} must be a whole number >= 1, got {value!r}")
+        if not callable(self.ocv):
+            problems.append(f"ocv must be a callable soc -> V, got {self.ocv!r}")
+        if not problems:
+            if self.r1_ohm > 0 and self.c1_f is None:
+                problems.append("c1_f is required when r1_ohm > 0")
+            if self.hysteresis_v > 0 and self.hysteresis_gamma is None:
+                problems.append("hysteresis_gamma is required when hysteresis_v > 0")
+        if problems:
+            raise InputError("circuit: " + "; ".join(problems))
+
+    # ---------------------------------------------------------------- evaluation
+    @property
+    def r0_is_table(self) -> bool:
+        return isinstance(self.r0_ohm, tuple)
+
+    @property
+    def tau1_s(self) -> float:
+        """Time constant R1·C1 of the RC branch (0 without one). [s]"""
+        return self.r1_ohm * self.c1_f if self.r1_ohm > 0 else 0.0
+
+    @property
+    def pack_capacity_ah(self) -> float:
+        """Pack capacity at the reference temperature. [A h]"""
+        return self.capacity_ah * self.cells_parallel
+
+    def arrhenius_factor(self, temperature_c):
+        """R0(T)/R0(T_ref) from the Arrhenius law. [unitless]"""
+        t_k = np.asarray(temperature_c, dtype=float) + 273.15
+        t_ref = self.reference_temperature_c + 273.15
+        f = np.exp(self.r0_activation_energy_j_mol / R_GAS * (1.0 / t_k - 1.0 / t_ref))
+        return float(f) if np.ndim(f) == 0 else f
+
+    def capacity_factor(self, temperature_c):
+        """Q(T)/Q_ref, linear below the reference temperature, 1 above. [unitless]"""
+        t = np.asarray(temperature_c, dtype=float)
+        f = 1.0 - self.capacity_temp_coeff_per_c * np.maximum(
+            0.0, self.reference_temperature_c - t)
+        return float(f) if np.ndim(f) == 0 else f
+
+    def r0_cell_ohm(self, soc, temperature_c=None):
+        """Cell ohmic resistance at ``soc`` and ``temperature_c`` (default T_ref). [Ω]"""
+        if self.r0_is_table:
+            r = np.interp(np.asarray(soc, dtype=float), self.r0_ohm[0], self.r0_ohm[1])
+        else:
+            r = np.full(np.shape(soc), self.r0_ohm, dtype=float)
+        if temperature_c is not None:
+            r = r * self.arrhenius_factor(temperature_c)
+        return float(r) if np.ndim(r) == 0 else r
+
+    def r0_pack_ohm(self, soc, temperature_c=None):
+        """Pack ohmic resistance. [Ω]"""
+        return self.r0_cell_ohm(soc, temperature_c) * self.cells_series / self.cells_parallel
+
+    def ocv_pack_v(self, soc):
+        """Pack open-circuit voltage (without hysteresis). [V]"""
+        return self.ocv(soc) * self.cells_series
+
+    def max_power_w(self, soc, temperature_c=None):
+        """Largest power the rested pack can deliver, ``OCV²/(4 R0)``. [W]
+
+        Infinite when R0 is 0.
+        """
+        v = np.asarray(self.ocv_pack_v(soc), dtype=float)
+        r = np.asarray(self.r0_pack_ohm(soc, temperature_c), dtype=float)
+        with np.errstate(divide="ignore"):
+            p = np.where(r > 0, v * v / (4.0 * np.where(r > 0, r, 1.0)), np.inf)
+        return float(p) if np.ndim(p) == 0 else p
+
+    # ---------------------------------------------------------------- YAML
+    @classmethod
+    def from_mapping(cls, data: Any, where: str, *, base_dir: str | Path | None = None,
+                     capacity_ah: float | None = None, r0_ohm: Any = None,
+                     cells_series: int | None = None,
+                     cells_parallel: int | None = None) -> CircuitParameters:
+        """Validate a YAML ``circuit:`` block and build the parameters.
+
+        Parameters
+        ----------
+        data : mapping
+            The block (keys in the module docstring, per cell).
+        where : str
+            The file, for messages; ``ocv_csv`` is read relative to its folder
+            unless ``base_dir`` is given.
+        capacity_ah, r0_ohm, cells_series, cells_parallel : optional
+            Values from the pack, used where the block leaves them out
+            (``capacity_ah`` and ``r0_ohm`` per cell).
+
+        Raises
+        ------
+        InputError
+            Every problem at once, naming ``where`` and the key (unknown key
+            with the likely intended one, wrong type, impossible value, bad
+            OCV file).
+        """
+        problems: list[str] = []
+        d = _check_block(data, where, base_dir, problems)
+        if d is not None:
+            if d["capacity_ah"] is None:
+                d["capacity_ah"] = capacity_ah
+            if d["r0_ohm"] is None and r0_ohm is not None:
+                d["r0_ohm"] = _r0_table(r0_ohm, "r0_ohm", problems)
+            if d["cells_series"] is None:
+                d["cells_series"] = cells_series or 1
+            if d["cells_parallel"] is None:
+                d["cells_parallel"] = cells_parallel or 1
+            if d["capacity_ah"] is None:
+                problems.append("missing required key 'circuit.capacity_ah' (a number; or "
+                                "give the pack's capacity_mah)")
+            if d["r0_ohm"] is None:
+                problems.append("missing required key 'circuit.r0_ohm' (a number or a table; "
+                                "or give the pack's internal_resistance_ohm)")
+        if problems:
+            raise InputError(f"{where}: " + "; ".join(problems))
+        ocv = d.pop("ocv")
+        try:
+            return cls(ocv=ocv, **d)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}".replace(": circuit: ", ": circuit.")) from None
+
+    @classmethod
+    def from_pack(cls, pack) -> CircuitParameters:
+        """Parameters of a :class:`planner.definitions.BatteryPack` and its ``circuit:`` block.
+
+        Capacity and R0 default to the pack's ``capacity_mah`` and
+        ``internal_resistance_ohm`` (converted per cell); ``count`` packs in
+        parallel add to ``cells_parallel``.
+        """
+        n_s = int(pack.cells_series)
+        n_p = int(pack.cells_parallel)
+        count = int(getattr(pack, "count", 1) or 1)
+        r_pack = getattr(pack, "internal_resistance_ohm", None)
+        where = str(getattr(pack, "path", None) or getattr(pack, "name", "battery"))
+        params = cls.from_mapping(
+            dict(pack.circuit or {}), where, capacity_ah=pack.capacity_mah / 1000.0 / n_p,
+            r0_ohm=None if r_pack is None else r_pack * n_p / n_s,
+            cells_series=n_s, cells_parallel=n_p)
+        if count > 1:
+            params = replace(params, cells_parallel=params.cells_parallel * count)
+        return params
+
+    def to_mapping(self) -> dict[str, Any]:
+        """The YAML ``circuit:`` block (an OCV given only as a callable is not written)."""
+        out: dict[str, Any] = {"capacity_ah": float(self.capacity_ah)}
+        if self.r0_is_table:
+            out["r0_ohm"] = {"soc": [float(x) for x in self.r0_ohm[0]],
+                             "ohm": [float(x) for x in self.r0_ohm[1]]}
+        else:
+            out["r0_ohm"] = float(self.r0_ohm)
+        out["r1_ohm"] = float(self.r1_ohm)
+        if self.c1_f is not None:
+            out["c1_f"] = float(self.c1_f)
+        out["hysteresis_v"] = float(self.hysteresis_v)
+        out["hysteresis_gamma"] = float(self.hysteresis_gamma)
+        if self.ocv_csv:
+            out["ocv_csv"] = str(self.ocv_csv)
+        out["r0_activation_energy_j_mol"] = float(self.r0_activation_energy_j_mol)
+        out["capacity_temp_coeff_per_c"] = float(self.capacity_temp_coeff_per_c)
+        out["reference_temperature_c"] = float(self.reference_temperature_c)
+        out["coulombic_efficiency"] = float(self.coulombic_efficiency)
+        out["cells_series"] = int(self.cells_series)
+        out["cells_parallel"] = int(self.cells_parallel)
+        if self.source:
+            out["source"] = self.source
+        return out
+
+
+def _check_block(data: Any, where: str, base_dir, problems: list[str]) -> dict | None:
+    """Check a ``circuit:`` block's keys; return parsed values (``ocv`` loaded)."""
+    n_before = len(problems)
+    d = S.check_mapping(data, CIRCUIT_KEYS, where, prefix="circuit.", problems=problems)
+    if d["r0_ohm"] is not None:
+        d["r0_ohm"] = _r0_table(d["r0_ohm"], "circuit.r0_ohm", problems)
+    if (d["r1_ohm"] or 0.0) > 0 and d["c1_f"] is None:
+        problems.append("circuit.c1_f is required when circuit.r1_ohm > 0")
+    if (d["hysteresis_v"] or 0.0) > 0 and d["hysteresis_gamma"] is None:
+        problems.append("circuit.hysteresis_gamma is required when circuit.hysteresis_v > 0")
+    if d["hysteresis_gamma"] is None:
+        d["hysteresis_gamma"] = 0.0
+    d["ocv"] = lipo_ocv
+    if d["ocv_csv"] is not None:
+        csv = Path(d["ocv_csv"])
+        if not csv.is_absolute():
+            csv = Path(base_dir if base_dir is not None else Path(where).parent) / csv
+        try:
+            d["ocv"] = read_ocv_csv(csv)
+        except InputError as exc:
+            problems.append(f"circuit.ocv_csv: {exc}")
+    return d if len(problems) == n_before else None
+
+
+def validate_circuit_block(data: Any, where: str) -> None:
+    """Check a battery file's ``circuit:`` block (capacity and R0 may come from the pack).
+
+    Raises
+    ------
+    InputError
+        Every problem at once, naming ``where`` and the key.
+    """
+    problems: list[str] = []
+    _check_block(data, where, None, problems)
+    if problems:
+        raise InputError(f"{where}: " + "; ".join(problems))
+
+
+def validate_thermal_block(data: Any, where: str) -> None:
+    """Check a battery file's ``thermal:`` block (see :mod:`planner.battery.thermal`)."""
+    ThermalParameters.from_mapping(data, where)
+
+
+# --------------------------------------------------------------------------- simulation
+
+@dataclass
+class CircuitResult:
+    """Time series and events of :func:`simulate` (pack quantities unless stated).
+
+    Sample ``k`` describes the instant ``time_s[k]`` with the load of step
+    ``k`` applied (held until ``time_s[k+1]``): ``voltage_v[k]`` is the loaded
+    terminal voltage, ``charge_as[k]`` the charge drawn before ``time_s[k]``.
+
+    Attributes
+    ----------
+    time_s : ndarray
+        [s]
+    current_a : ndarray
+        Pack current, discharge positive. [A]
+    power_w : ndarray
+        Power delivered at the terminals, ``V·I`` (less than asked where the
+        power cannot be delivered). [W]
+    voltage_v : ndarray
+        Loaded terminal voltage. [V]
+    ocv_v : ndarray
+        Open-circuit voltage OCV(SoC) (without hysteresis). [V]
+    soc : ndarray
+        State of charge against the capacity available at the present
+        temperature; may go below 0 when the run continues past empty. [unitless]
+    rc_voltage_v : ndarray
+        Voltage across the RC branches. [V]
+    hysteresis_v : ndarray
+        Hysteresis voltage. [V]
+    temperature_c : ndarray
+        Cell temperature. [°C]
+    heat_w : ndarray
+        Heat generated, ``I² R0 + v_RC²/R1`` over the pack. [W]
+    charge_as : ndarray
+        Charge drawn since the start. [A s]
+    energy_j : ndarray
+        Energy drawn at the terminals since the start. [J]
+    cells_series : int
+    v_cutoff_cell : float or None
+        Cut-off used for the event. [V]
+    cutoff_time_s, cutoff_charge_as : float or None
+        When the loaded cell voltage first reached the cut-off (interpolated
+        between samples) and the charge drawn by then. [s], [A s]
+    undeliverable_time_s : float or None
+        First sample time at which the asked power exceeded ``E²/(4 R0)``; the
+        pack then delivers that maximum power instead. [s]
+    empty_time_s : float or None
+        When the state of charge first reached 0 (interpolated). [s]
+    """
+
+    time_s: np.ndarray
+    current_a: np.ndarray
+    power_w: np.ndarray
+    voltage_v: np.ndarray
+    ocv_v: np.ndarray
+    soc: np.ndarray
+    rc_voltage_v: np.ndarray
+    hysteresis_v: np.ndarray
+    temperature_c: np.ndarray
+    heat_w: np.ndarray
+    charge_as: np.ndarray
+    energy_j: np.ndarray
+    cells_series: int = 1
+    v_cutoff_cell: float | None = None
+    cutoff_time_s: float | None = None
+    cutoff_charge_as: float | None = None
+    undeliverable_time_s: float | None = None
+    empty_time_s: float | None = None
+
+    @property
+    def cell_voltage_v(self) -> np.ndarray:
+        """Loaded voltage per series cell. [V]"""
+        return self.voltage_v / self.cells_series
+
+    @property
+    def deliverable(self) -> bool:
+        """``True`` when every asked power could be delivered."""
+        return self.undeliverable_time_s is None
+
+    def to_frame(self) -> pd.DataFrame:
+        """The time series as a DataFrame with unit-suffixed columns."""
+        return pd.DataFrame({
+            "time_s": self.time_s, "current_a": self.current_a, "power_w": self.power_w,
+            "voltage_v": self.voltage_v, "ocv_v": self.ocv_v, "soc": self.soc,
+            "rc_voltage_v": self.rc_voltage_v, "hysteresis_v": self.hysteresis_v,
+            "temperature_c": self.temperature_c, "heat_w": self.heat_w,
+            "charge_as": self.charge_as, "energy_j": self.energy_j})
+
+
+def _as_series_input(value, n: int, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    arr = arr.ravel()
+    if arr.size != n:
+        raise InputError(f"{name} has {arr.size} values, time_s has {n}")
+    if not np.all(np.isfinite(arr)):
+        k = int(np.flatnonzero(~np.isfinite(arr))[0])
+        raise InputError(f"{name} has a non-finite value at sample {k}")
+    return arr
+
+
+def _grid(func, n: int = _GRID_N) -> list[float]:
+    z = np.linspace(0.0, 1.0, n)
+    values = np.asarray(func(z), dtype=float)
+    if values.shape != z.shape or not np.all(np.isfinite(values)):
+        raise InputError("the OCV function must return finite voltages for soc in [0, 1]")
+    return values.tolist()
+
+
+def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
+             soc0: float = 1.0, temperature_c: float | Any | ThermalParameters = 25.0,
+             v_cutoff_cell: float | None = None, stop_at_cutoff: bool = False,
+             hysteresis0_v: float = 0.0, rc0_v: float = 0.0) -> CircuitResult:
+    r"""
+    Run the equivalent-circuit pack model through a load profile.
+
+    Parameters
+    ----------
+    params : CircuitParameters
+    time_s : array_like
+        Sample times, non-decreasing. [s]
+    power_w : numeric, optional
+        Electric power drawn from the pack, held from each sample to the next
+        (charging negative). Give this or ``current_a``. [W]
+    current_a : numeric, optional
+        Pack current, held from each sample to the next (discharge positive). [A]
+    soc0 : float, default 1
+        Initial state of charge. [unitless]
+    temperature_c : float, array_like or ThermalParameters, default 25
+        Cell temperature: a constant, one value per sample (prescribed), or a
+        :class:`~planner.battery.thermal.ThermalParameters` to couple the
+        lumped thermal model (air temperature and initial temperature from
+        it; the circuit's heat warms the pack). [°C]
+    v_cutoff_cell : float, optional
+        Cut-off per cell for the cut-off event. [V]
+    stop_at_cutoff : bool, default False
+        Disconnect the load (current 0) from the first sample at or below the
+        cut-off on, as a low-voltage cut-off would (that sample then shows the
+        rested voltage); otherwise the load goes on.
+    hysteresis0_v, rc0_v : float, default 0
+        Initial hysteresis and RC-branch voltage, per cell. [V]
+
+    Returns
+    -------
+    CircuitResult
+
+    Raises
+    ------
+    InputError
+        Bad arguments (both or neither load given, lengths, non-finite values).
+    ModelError
+        A temperature outside [−20 °C, 60 °C] (prescribed, or reached by the
+        coupled thermal model — the message gives the time).
+
+    Notes
+    -----
+    With a power load the current of each step is solved in closed form from
+    :math:`P = (E - R I) I`, the smaller root
+    :math:`I = 2P / (E + \sqrt{E^2 - 4RP})`, where ``E = n_s(OCV + h − v1)``
+    and ``R = n_s R0 / n_p`` at the start of the step. When
+    :math:`P > E^2/(4R)` the pack cannot deliver it: the event
+    ``undeliverable_time_s`` records the first such time and the pack
+    delivers its maximum power (``I = E/(2R)``) — no NaN. The energy drawn is
+    then the delivered power, ``energy_j[-1] = Σ V_k I_k Δt_k``; otherwise it
+    equals ``Σ P_k Δt_k``.
+    """
+    if (power_w is None) == (current_a is None):
+        raise InputError("give exactly one of power_w and current_a")
+    t = np.asarray(time_s, dtype=float).ravel()
+    n = t.size
+    if n == 0:
+        raise InputError("time_s is empty")
+    if not np.all(np.isfinite(t)):
+        raise InputError("time_s has a non-finite value")
+    dt = np.diff(t)
+    if np.any(dt < 0):
+        k = int(np.flatnonzero(dt < 0)[0]) + 1
+        raise InputError(f"time_s must not decrease (sample {k})")
+    by_power = power_w is not None
+    load = _as_series_input(power_w if by_power else current_a, n,
+                            "power_w" if by_power else "current_a")
+    if not (0.0 <= float(soc0) <= 1.0):
+        raise InputError(f"soc0 must lie in [0, 1], got {soc0!r}")
+    if v_cutoff_cell is not None and not (0.0 < float(v_cutoff_cell) < 10.0):
+        raise InputError(f"v_cutoff_cell must be a cell voltage in volts, got {v_cutoff_cell!r}")
+
+    p = params
+    ns, npar = p.cells_series, p.cells_parallel
+    ncell = ns * npar
+    cap_as = p.capacity_ah * 3600.0
+    eta_c = p.coulombic_efficiency
+    m_h = p.hysteresis_v
+    gamma = p.hysteresis_gamma if m_h > 0 else 0.0
+    r1 = p.r1_ohm
+    has_rc = r1 > 0
+    ea_r = p.r0_activation_energy_j_mol / R_GAS
+    inv_tref = 1.0 / (p.reference_temperature_c + 273.15)
+    t_ref = p.reference_temperature_c
+    kq = p.capacity_temp_coeff_per_c
+
+    # temperature mode
+    thermal = temperature_c if isinstance(temperature_c, ThermalParameters) else None
+    if thermal is not None:
+        check_temperature(thermal.t_air_c, "air temperature")
+        check_temperature(thermal.initial_c, "initial pack temperature")
+        t_air = thermal.t_air_c
+        r_th = thermal.r_th_k_per_w
+        a_th = np.exp(-np.r_[dt, 0.0] / thermal.tau_s).tolist()
+        temps = None
+    else:
+        temps_arr = _as_series_input(temperature_c, n, "temperature_c")
+        check_temperature(temps_arr, "cell temperature")
+        temps = temps_arr.tolist()
+        f_arr = np.exp(ea_r * (1.0 / (temps_arr + 273.15) - inv_tref)).tolist()
+        fq_arr = (1.0 - kq * np.maximum(0.0, t_ref - temps_arr)).tolist()
+
+    # tabulated nonlinearities
+    ocv_g = _grid(p.ocv)
+    gn = _GRID_N - 1
+    if p.r0_is_table:
+        r0_g = np.interp(np.linspace(0.0, 1.0, _GRID_N), p.r0_ohm[0], p.r0_ohm[1]).tolist()
+        r0_const = 0.0
+    else:
+        r0_g = None
+        r0_const = float(p.r0_ohm)
+    if has_rc:
+        a_rc = np.exp(-np.r_[dt, 0.0] / p.tau1_s).tolist()
+    dts = np.r_[dt, 0.0].tolist()
+    loads = load.tolist()
+    times = t.tolist()
+
+    # state
+    z = float(soc0)
+    h = float(hysteresis0_v)
+    v1 = float(rc0_v) if has_rc else 0.0
+    temp = thermal.initial_c if thermal is not None else temps[0]
+    q_cum = 0.0
+    e_cum = 0.0
+    cut = None if v_cutoff_cell is None else float(v_cutoff_cell)
+    cutoff_time = cutoff_charge = undeliverable = empty_time = None
+    disconnected = False
+    prev_vcell = prev_q = prev_t = None
+
+    out_i, out_p, out_v, out_ocv, out_z, out_v1, out_h, out_t, out_q, out_cq, out_e = (
+        [], [], [], [], [], [], [], [], [], [], [])
+    exp = math.exp
+    sqrt = math.sqrt
+
+    for k in range(n):
+        if thermal is not None:
+            if not (T_RANGE_C[0] <= temp <= T_RANGE_C[1]):
+                raise ModelError(
+                    f"cell temperature reached {temp:.1f} °C at t = {times[k]:.0f} s (coupled "
+                    f"thermal model), outside the battery model's range "
+                    f"[{T_RANGE_C[0]:g} °C, {T_RANGE_C[1]:g} °C]")
+            fa = exp(ea_r * (1.0 / (temp + 273.15) - inv_tref))
+            fq = 1.0 - kq * (t_ref - temp) if temp < t_ref else 1.0
+        else:
+            temp = temps[k]
+            fa = f_arr[k]
+            fq = fq_arr[k]
+        # tabulated OCV and R0 at z (held at the ends)
+        x = z * gn
+        if x <= 0.0:
+            ocv = ocv_g[0]
+            r0b = r0_g[0] if r0_g is not None else r0_const
+        elif x >= gn:
+            ocv = ocv_g[gn]
+            r0b = r0_g[gn] if r0_g is not None else r0_const
+        else:
+            j = int(x)
+            fr = x - j
+            ocv = ocv_g[j] + fr * (ocv_g[j + 1] - ocv_g[j])
+            r0b = (r0_g[j] + fr * (r0_g[j + 1] - r0_g[j])) if r0_g is not None else r0_const
+        r0c = r0b * fa
+        e_p = ns * (ocv + h - v1)
+        r_p = ns * r0c / npar
+        # current of this step
+        if disconnected:
+            cur = 0.0
+        elif not by_power:
+            cur = loads[k]
+        else:
+            pw = loads[k]
+            if pw == 0.0:
+                cur = 0.0
+            elif r_p <= 0.0:
+                if e_p > 0.0:
+                    cur = pw / e_p
+                else:
+                    cur = 0.0
+                    if undeliverable is None and pw > 0:
+                        undeliverable = times[k]
+            else:
+                disc = e_p * e_p - 4.0 * r_p * pw
+                if disc >= 0.0 and e_p + sqrt(disc) > 0.0:
+                    cur = 2.0 * pw / (e_p + sqrt(disc))
+                else:
+                    cur = e_p / (2.0 * r_p) if e_p > 0.0 else 0.0
+                    if undeliverable is None:
+                        undeliverable = times[k]
+        volt = e_p - r_p * cur
+        # events (the cut-off compares the loaded cell voltage)
+        if cut is not None and cutoff_time is None:
+            vcell = volt / ns
+            if vcell <= cut:
+                if prev_vcell is None or prev_vcell == vcell:
+                    cutoff_time, cutoff_charge = times[k], q_cum
+                else:
+                    w = (prev_vcell - cut) / (prev_vcell - vcell)
+                    cutoff_time = prev_t + w * (times[k] - prev_t)
+                    cutoff_charge = prev_q + w * (q_cum - prev_q)
+                if stop_at_cutoff:
+                    # the low-voltage cut-off opens at this instant: no load from here on
+                    disconnected = True
+                    cur = 0.0
+                    volt = e_p
+            prev_vcell, prev_q, prev_t = vcell, q_cum, times[k]
+        heat = cur * cur * r_p + (ncell * v1 * v1 / r1 if has_rc else 0.0)
+        out_i.append(cur)
+        out_p.append(volt * cur)
+        out_v.append(volt)
+        out_ocv.append(ns * ocv)
+        out_z.append(z)
+        out_v1.append(ns * v1)
+        out_h.append(ns * h)
+        out_t.append(temp)
+        out_q.append(heat)
+        out_cq.append(q_cum)
+        out_e.append(e_cum)
+        if k == n - 1:
+            break
+        d = dts[k]
+        if d == 0.0:
+            continue
+        # state update over the step (exact for the held current)
+        icell = cur / npar
+        dq = icell * d if icell >= 0.0 else eta_c * icell * d
+        z_new = z - dq / (cap_as * fq)
+        if empty_time is None and z > 0.0 >= z_new:
+            empty_time = times[k] + d * z / (z - z_new)
+        z = z_new
+        if gamma > 0.0 and dq != 0.0:
+            eh = exp(-gamma * abs(dq) / (cap_as * fq))
+            h = eh * h + (1.0 - eh) * (-m_h if dq > 0.0 else m_h)
+        if has_rc:
+            a = a_rc[k]
+            v1 = a * v1 + r1 * (1.0 - a) * icell
+        if thermal is not None:
+            target = t_air + r_th * heat
+            temp = target + (temp - target) * a_th[k]
+        q_cum += cur * d
+        e_cum += volt * cur * d
+
+    return CircuitResult(
+        time_s=t, current_a=np.array(out_i), power_w=np.array(out_p),
+        voltage_v=np.array(out_v), ocv_v=np.array(out_ocv), soc=np.array(out_z),
+        rc_voltage_v=np.array(out_v1), hysteresis_v=np.array(out_h),
+        temperature_c=np.array(out_t), heat_w=np.array(out_q), charge_as=np.array(out_cq),
+        energy_j=np.array(out_e), cells_series=ns, v_cutoff_cell=cut,
+        cutoff_time_s=cutoff_time, cutoff_charge_as=cutoff_charge,
+        undeliverable_time_s=undeliverable, empty_time_s=empty_time)
+
+
+def with_changes(params: CircuitParameters, **changes) -> CircuitParameters:
+    """A copy of ``params`` with some fields changed (validated again)."""
+    return replace(params, **changes)
