@@ -82,10 +82,31 @@ class IntegralModel:
     source: str | None = None
 
     @classmethod
-    def from_literature(cls, cells_series: int) -> "IntegralModel":
-        return cls(integral.literature_delta(cells_series),
-                   integral.literature_epsilon(cells_series),
-                   integral.LITERATURE_BETA, literature=True)
+    def from_literature(cls, cells_series: int,
+                        capacity_as: float | None = None) -> "IntegralModel":
+        r"""The literature start values δ₀(N), ε₀(N) for a pack of N cells.
+
+        The start-value polynomials describe the model in its Peukert form,
+        β = 1: :math:`\delta_0(N)` then behaves as an effective pack voltage
+        (δ₀(3) = 13.3, δ₀(4) = 18.1, δ₀(6) = 24.8 give 11.2 V, 15.6 V and
+        23.8 V at 100 W over one hour). Paired as they stand with β = 0.9648
+        they would draw 35–40 % more charge than the energy allows. So, with
+        the pack's nominal charge :math:`C_n` known, β = 0.9648 is kept and δ
+        is rescaled to :math:`\delta_0 C_n^{1-\beta}`: the two forms then agree
+        on a full discharge at constant power. Without a capacity, β = 1.
+
+        Parameters
+        ----------
+        cells_series : int
+        capacity_as : float, optional
+            Nominal charge of the pack. [A s]
+        """
+        delta = integral.literature_delta(cells_series)
+        eps = integral.literature_epsilon(cells_series)
+        if capacity_as is None:
+            return cls(delta, eps, 1.0, literature=True)
+        beta = integral.LITERATURE_BETA
+        return cls(delta * capacity_as ** (1.0 - beta), eps, beta, literature=True)
 
     def charge_scale(self, temperature_c: float | None = None) -> float:
         """Factor on the charge drawn from the extensions (1 = none). [unitless]"""
@@ -156,7 +177,8 @@ class BatteryPack:
 
     def __post_init__(self):
         if self.model is None:
-            object.__setattr__(self, "model", IntegralModel.from_literature(self.cells_series))
+            object.__setattr__(self, "model", IntegralModel.from_literature(
+                self.cells_series, self.capacity_mah * integral.AS_PER_MAH))
 
     # totals over `count` packs in parallel
     @property

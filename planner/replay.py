@@ -148,8 +148,13 @@ class ReplayResult:
 
 
 # ---------------------------------------------------------------------- pieces
-def flight_phases(power_w, climb_rate_ms=None, groundspeed_ms=None, time_s=None):
-    """Label every sample with a flight phase (see the module docstring)."""
+def flight_phases(power_w, climb_rate_ms=None, groundspeed_ms=None, time_s=None,
+                  altitude_m=None):
+    """Label every sample with a flight phase (see the module docstring).
+
+    A record whose altitude never changes by 1 m (or is not known) and whose
+    ground speed never exceeds 1 m/s is a ground test: every sample is ``ground``.
+    """
     p = np.asarray(power_w, float)
     n = p.size
     if n == 0:
@@ -157,6 +162,12 @@ def flight_phases(power_w, climb_rate_ms=None, groundspeed_ms=None, time_s=None)
     finite = p[np.isfinite(p)]
     p90 = np.percentile(finite, 90) if finite.size else np.nan
     airborne = p > 0.3 * p90
+    if altitude_m is not None and groundspeed_ms is not None:
+        alt = np.asarray(altitude_m, float)
+        gsp = np.asarray(groundspeed_ms, float)
+        still_alt = not np.isfinite(alt).any() or np.nanmax(alt) - np.nanmin(alt) < 1.0
+        if still_alt and np.isfinite(gsp).any() and np.nanmax(gsp) < 1.0:
+            return np.full(n, "ground", dtype=object)
     vz = np.zeros(n) if climb_rate_ms is None else np.nan_to_num(np.asarray(climb_rate_ms,
                                                                             float))
     gs = np.zeros(n) if groundspeed_ms is None else np.nan_to_num(np.asarray(groundspeed_ms,
@@ -182,15 +193,18 @@ def _rolling_mean(t, y, window_s):
 
 
 def _pack_model(pack: BatteryPack | None, meta: dict, voltage) -> tuple[IntegralModel, str]:
-    if pack is not None and not pack.model.literature:
-        return pack.model, f"fitted ({pack.name})"
-    cells = (pack.cells_series if pack is not None else None) or meta.get("battery_cells")
-    how = "pack file" if pack is not None else "log parameter"
+    if pack is not None:
+        what = "literature" if pack.model.literature else "fitted"
+        return pack.model, f"{what} ({pack.name})"
+    cells, how = meta.get("battery_cells"), "log parameter"
     if not cells:
         cells, how = detect_cells(voltage), "detected from voltage"
     if not cells:
         return None, "no voltage to find the cell count"
-    return IntegralModel.from_literature(cells), f"literature {cells}S ({how})"
+    cap = meta.get("battery_capacity_mah")
+    model = IntegralModel.from_literature(cells, cap * MAH if cap else None)
+    size = f", {cap:.0f} mAh from the log" if cap else ", capacity unknown: β = 1"
+    return model, f"literature {cells}S ({how}{size})"
 
 
 def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
@@ -300,7 +314,8 @@ def power_replay(exp: pd.DataFrame, aircraft: Aircraft, mass_kg: float,
         fw = aircraft.fixed_wing
         v = np.maximum(v, fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms)
     predicted = np.asarray(aircraft.battery_power(v, climb, rho, mass_kg), float)
-    phase = flight_phases(measured, exp.get("climb_rate_ms"), exp.get("groundspeed_ms"), t)
+    phase = flight_phases(measured, exp.get("climb_rate_ms"), exp.get("groundspeed_ms"), t,
+                          exp.get("altitude_m"))
     # on the ground the motors are idle or off: only the system load remains
     predicted = np.where(phase == "ground", aircraft.system_power_w, predicted)
     air = (phase != "ground") & np.isfinite(measured) & np.isfinite(predicted)

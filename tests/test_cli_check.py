@@ -40,8 +40,8 @@ def test_go_mission_exits_0_and_writes_json_and_plot(tmp_path):
 
 def test_nogo_mission_exits_1_with_reason(tmp_path):
     out = tmp_path / "r.json"
-    code = main(["check", str(REPO / "missions/mapping_plane.yaml"), "--aircraft",
-                 str(REPO / "aircraft/phoenix_s.yaml"), "--json", str(out), "--quiet"])
+    code = main(["check", str(REPO / "missions/survey_quad.yaml"), "--aircraft",
+                 str(REPO / "aircraft/quad_7in.yaml"), "--json", str(out), "--quiet"])
     assert code == 1
     data = json.loads(out.read_text())
     assert data["verdict"] == "NO-GO" and data["reasons"]

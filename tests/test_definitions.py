@@ -37,10 +37,20 @@ def test_seed_pack_keeps_table5_model_and_table2_resistance():
     assert pack.internal_resistance_ohm == pytest.approx(0.02068)
 
 
-def test_pack_without_model_uses_literature_values():
+def test_pack_without_model_uses_literature_values_scaled_to_the_pack():
+    """δ₀(4) = 18.089 in the Peukert form (β = 1); with β = 0.9648, δ = δ₀ C_n^(1−β), so
+    that a full constant-power discharge takes the same time in both forms."""
     pack = load_battery(REPO / "aircraft/batteries/lipo_4s_1500.yaml")
-    assert pack.model.literature
-    assert pack.model.delta == pytest.approx(18.089, abs=1e-3)
+    m = pack.model
+    assert m.literature and m.beta == 0.9648
+    c_n = 1500 * 3.6
+    assert m.delta == pytest.approx(18.0891 * c_n ** (1 - 0.9648))
+    from planner.battery import integral
+    t_beta = integral.discharge_time(100.0, c_n, m.delta, m.epsilon, m.beta)
+    t_peukert = integral.discharge_time(100.0, c_n, 18.0891, m.epsilon, 1.0)
+    assert t_beta == pytest.approx(t_peukert)
+    # physically: a 4S pack's effective voltage, energy / charge, is about 15 V
+    assert 14.0 < 100.0 * t_beta / c_n < 17.0
 
 
 def test_seed_quad_takeoff_mass_is_0_6_kg():

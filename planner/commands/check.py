@@ -72,6 +72,10 @@ def verdict_line(r: MissionResult) -> str:
     what = "hover" if r.aircraft_type == "multirotor" else "loiter"
     extra = (f" = {r.margin_time_s / 60:+.1f} min of {what} at {r.hold_power_w:.0f} W"
              if math.isfinite(r.margin_time_s) else "")
+    if r.charge_used_mah > r.usable_mah:
+        return (f"{r.verdict}: needs {r.charge_used_mah:.0f} mAh but the pack gives "
+                f"{r.usable_mah:.0f} mAh (reserve {100 * r.reserve_fraction:.0f} %), margin "
+                f"{r.margin_mah:+.0f} mAh{extra}")
     return (f"{r.verdict}: lands with {100 * r.remaining_fraction:.1f} % "
             f"(reserve {100 * r.reserve_fraction:.0f} %), margin {r.margin_mah:+.0f} mAh{extra}")
 
