@@ -30,7 +30,7 @@ from planner import profile as prof
 from planner.battery import integral
 from planner.battery.ocv import lipo_ocv
 from planner.definitions import Aircraft, BatteryPack, load_aircraft_and_battery
-from planner.errors import InputError
+from planner.errors import InputError, ModelError
 from planner.mission.legs import Environment, Mission
 
 MAH = integral.AS_PER_MAH  # A·s per mAh
@@ -110,6 +110,7 @@ class MissionResult:
     battery_model: str
     series: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
     aircraft_type: str = "multirotor"
+    circuit: dict | None = None
 
     @property
     def go(self) -> bool:
@@ -133,6 +134,7 @@ class MissionResult:
             "peak_current_a": _py(self.peak_current_a), "min_voltage_v": _py(self.min_voltage_v),
             "rtl_min_margin_mah": _py(self.rtl_min_margin_mah),
             "point_of_no_return": self.point_of_no_return,
+            "circuit": self.circuit,
             "legs": legs,
         }
 
@@ -259,11 +261,29 @@ class MissionChain:
             warnings.append(f"battery model: literature δ₀({cells}), ε₀({cells}), β = "
                             f"{model.beta} (the pack file has no fitted model)")
 
+        circuit = None
+        if pack.circuit is not None or pack.thermal is not None:
+            circuit = self._circuit(table, power, temp, p_hold_fn=lambda: float(
+                prof.hold_power(ac, mass, float(table.air_density[-1]), env.wind_speed_ms)))
+            usable_v = circuit.pop("_usable_as")
+            if usable_v < pack.usable_as:
+                limit = usable_v - self.reserve * cap
+            v_end = circuit.pop("_leg_voltage_v")
+            reasons += circuit["reasons"]
+            warnings = [w for w in warnings if not w.startswith("loaded voltage")]
+
         # landing reserve
         margin = limit - used
-        if used > pack.usable_as:
+        usable_now = limit + self.reserve * cap
+        if circuit is not None and usable_now < pack.usable_as and margin < 0:
+            reasons.append(f"the loaded cell voltage reaches the {pack.cell_voltage_empty_v:g} V "
+                           f"cut-off after {usable_now / MAH:.0f} mAh with the pack at "
+                           f"{circuit['pack_temperature_c']:.0f} °C (of "
+                           f"{pack.usable_as / MAH:.0f} mAh usable when warm): the mission "
+                           f"ends {-margin / MAH:.0f} mAh short of the reserve")
+        elif used > usable_now:
             reasons.append(f"needs {used / MAH:.0f} mAh, more than the "
-                           f"{pack.usable_as / MAH:.0f} mAh the pack can give: it runs out "
+                           f"{usable_now / MAH:.0f} mAh the pack can give: it runs out "
                            f"before landing")
         elif margin < 0:
             reasons.append(f"lands with {100 * (1 - used / cap):.1f} % of nominal charge, "
@@ -301,14 +321,88 @@ class MissionChain:
             aircraft=ac.name, battery=pack.name + (f" ×{pack.count}" if pack.count > 1 else ""),
             takeoff_mass_kg=mass, duration_s=float(np.sum(dur)), energy_wh=energy,
             charge_used_mah=used / MAH, capacity_mah=cap / MAH,
-            usable_mah=pack.usable_as / MAH, reserve_mah=self.reserve * cap / MAH,
+            usable_mah=(limit + self.reserve * cap) / MAH,
+            reserve_mah=self.reserve * cap / MAH,
             remaining_fraction=1.0 - used / cap, reserve_fraction=self.reserve,
             margin_mah=margin / MAH, margin_time_s=margin_time, hold_power_w=p_hold,
             legs=legs, point_of_no_return=pnr, rtl_min_margin_mah=rtl_min / MAH,
             peak_current_a=peak,
             min_voltage_v=float(np.nanmin(v_end)) if np.any(np.isfinite(v_end)) else float("nan"),
             battery_model=("literature" if model.literature else "fitted"), series=series,
-            aircraft_type=ac.type)
+            aircraft_type=ac.type, circuit=circuit)
+
+    def _circuit(self, table, power, temp, p_hold_fn, step_s: float = 1.0,
+                 extend_s: float = 7200.0) -> dict:
+        """Equivalent-circuit (and thermal) pack model along the mission.
+
+        The mission's power profile is run at ``step_s`` through the coupled
+        circuit and thermal model from a full pack at the air temperature
+        (25 °C where none is given), then continued at the hold power until
+        the loaded cell voltage reaches ``cell_voltage_empty_v``: the charge
+        drawn by then is the charge the pack can really give at this load and
+        temperature.
+        """
+        from planner.battery.circuit import CircuitParameters, simulate
+        from planner.battery.thermal import ThermalParameters
+
+        pack = self.pack
+        params = CircuitParameters.from_pack(pack)
+        t_pack = 25.0 if temp is None else float(temp)
+        where = pack.path or pack.name
+        thermal = (ThermalParameters.from_mapping(pack.thermal, where).with_air(t_pack)
+                   if pack.thermal is not None else t_pack)
+        total = float(table.end_time_s[-1]) if len(table) else 0.0
+        t_m = np.union1d(np.arange(0.0, total, step_s), table.start_time_s)
+        t_x = total + np.arange(0.0, extend_s, 5.0 * step_s)
+        t = np.concatenate((t_m, t_x))
+        leg = np.clip(np.searchsorted(table.end_time_s, t, side="right"), 0, len(table) - 1)
+        p = np.where(t < total, power[leg], p_hold_fn())
+        reasons = []
+        try:
+            res = simulate(params, t, power_w=p, temperature_c=thermal,
+                           v_cutoff_cell=pack.cell_voltage_empty_v)
+        except ModelError as exc:  # the coupled thermal model left its range
+            reasons.append(f"pack temperature out of range: {exc}")
+            res = simulate(params, t, power_w=p, temperature_c=np.clip(t_pack, -20.0, 60.0),
+                           v_cutoff_cell=pack.cell_voltage_empty_v)
+        cells = pack.cells_series
+        in_mission = t < total
+        if not in_mission.any():
+            in_mission[0] = True
+        v_cut = cells * pack.cell_voltage_empty_v
+        sag = res.voltage_v[in_mission] - v_cut
+        k = int(np.argmin(sag))
+        worst_leg = int(leg[in_mission][k])
+        origin = table.origin
+        if res.cutoff_time_s is not None and res.cutoff_time_s <= total:
+            i = int(np.clip(np.searchsorted(table.end_time_s, res.cutoff_time_s), 0,
+                            len(table) - 1))
+            reasons.append(f"{origin[i] or f'leg {i + 1}'}: loaded voltage reaches the cut-off "
+                           f"{pack.cell_voltage_empty_v:g} V/cell ({v_cut:.1f} V) at "
+                           f"t = {res.cutoff_time_s:.0f} s (pack at {t_pack:.0f} °C)")
+        if res.undeliverable_time_s is not None and res.undeliverable_time_s <= total:
+            i = int(np.clip(np.searchsorted(table.end_time_s, res.undeliverable_time_s), 0,
+                            len(table) - 1))
+            reasons.append(f"{origin[i] or f'leg {i + 1}'}: the pack cannot deliver "
+                           f"{power[i]:.0f} W at {t_pack:.0f} °C (voltage collapses)")
+        usable = (res.cutoff_charge_as if res.cutoff_charge_as is not None
+                  else float(res.charge_as[-1]))
+        # loaded voltage at the end of every leg
+        idx = np.clip(np.searchsorted(t, table.end_time_s, side="left") - 1, 0, len(t) - 1)
+        leg_v = res.voltage_v[idx]
+        return {
+            "model": "equivalent circuit" + (" + thermal" if pack.thermal else ""),
+            "pack_temperature_c": t_pack,
+            "min_voltage_v": float(res.voltage_v[in_mission].min()),
+            "voltage_margin_v": float(sag[k]),
+            "worst_leg": worst_leg + 1,
+            "worst_leg_origin": origin[worst_leg] or f"leg {worst_leg + 1}",
+            "cutoff_time_s": res.cutoff_time_s,
+            "charge_to_cutoff_mah": usable / MAH,
+            "charge_used_mah": float(res.charge_as[in_mission][-1]) / MAH,
+            "max_temperature_c": float(res.temperature_c[in_mission].max()),
+            "reasons": reasons, "_usable_as": usable, "_leg_voltage_v": leg_v,
+        }
 
     def _return_home(self, table, power, s_start, s_end, mass, env, temp, limit, scale):
         """Return-home margin at points along every leg; the point of no return."""

@@ -183,3 +183,39 @@ def test_payload_and_mtow():
     r = c.run(m)
     assert r.takeoff_mass_kg == pytest.approx(1.6)
     assert any("maximum" in why and "take-off mass" in why for why in r.reasons)
+
+
+def long_hover(minutes):
+    return Mission("hover", [Leg("climb", end_alt_m=20, origin="climb"),
+                             Leg("hover", duration_s=60 * minutes, origin="hold"),
+                             Leg("descend", start_alt_m=20, end_alt_m=0, origin="land")])
+
+
+def test_cold_pack_nogoes_a_mission_a_warm_pack_completes():
+    """Issue 'Equivalent-circuit and thermal pack model': at 0 °C R0 rises (Arrhenius)
+    and the available capacity falls, so the loaded voltage reaches the cut-off sooner."""
+    mission = long_hover(18)
+    warm = chain("solo_survey.yaml", temperature_c=25.0).run(mission)
+    cold = chain("solo_survey.yaml", temperature_c=0.0).run(mission)
+    assert warm.verdict == "GO", warm.reasons
+    assert cold.verdict == "NO-GO"
+    assert any("cut-off" in why and "0 °C" in why for why in cold.reasons)
+    assert cold.circuit["voltage_margin_v"] < warm.circuit["voltage_margin_v"]
+    assert cold.circuit["charge_to_cutoff_mah"] < warm.circuit["charge_to_cutoff_mah"]
+    assert cold.circuit["max_temperature_c"] > 0.0      # I²R warms the pack in flight
+
+
+def test_voltage_cutoff_inside_the_mission_is_a_voltage_reason():
+    c = chain("solo_survey.yaml", temperature_c=-10.0, reserve=0.0)
+    r = c.run(long_hover(30))
+    assert r.verdict == "NO-GO"
+    assert any("loaded voltage reaches the cut-off" in why for why in r.reasons)
+    assert r.circuit["cutoff_time_s"] < r.duration_s
+
+
+def test_without_circuit_block_the_simple_voltage_estimate_is_used():
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    from dataclasses import replace
+    plain = replace(pack, circuit=None, thermal=None)
+    r = MissionChain(aircraft, plain).run(long_hover(5))
+    assert r.circuit is None and np.isfinite(r.min_voltage_v)

@@ -107,6 +107,13 @@ def render(r: MissionResult, name: str, env) -> str:
                  f"lowest loaded voltage {r.min_voltage_v:.2f} V")
     lines.append(f"Reserve   {r.reserve_mah:.0f} mAh ({100 * r.reserve_fraction:.0f} % of "
                  f"nominal); smallest return-home margin {r.rtl_min_margin_mah:+.0f} mAh")
+    if r.circuit:
+        c = r.circuit
+        lines.append(f"Voltage   {c['model']}: pack {c['pack_temperature_c']:.0f} → "
+                     f"{c['max_temperature_c']:.0f} °C, lowest loaded {c['min_voltage_v']:.2f} V, "
+                     f"sag margin {c['voltage_margin_v']:+.2f} V above the cut-off "
+                     f"(worst: {c['worst_leg_origin']}); cut-off reached after "
+                     f"{c['charge_to_cutoff_mah']:.0f} mAh")
     if r.point_of_no_return:
         p = r.point_of_no_return
         lines.append(f"PNR       point of no return at t = {p['time_s']:.0f} s, "
