@@ -258,8 +258,9 @@ class MissionChain:
             reasons.append(f"take-off mass {mass:.2f} kg exceeds the aircraft's maximum "
                            f"{ac.max_takeoff_mass_kg:.2f} kg")
         if model.literature:
-            warnings.append(f"battery model: literature δ₀({cells}), ε₀({cells}), β = "
-                            f"{model.beta} (the pack file has no fitted model)")
+            warnings.append(f"battery model: literature δ₀({cells}), ε₀({cells}) scaled to "
+                            f"the pack's {pack.capacity_mah:.0f} mAh, β = {model.beta} "
+                            "(the pack file has no fitted model)")
 
         circuit = None
         if pack.circuit is not None or pack.thermal is not None:
