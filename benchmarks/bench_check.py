@@ -21,9 +21,9 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from planner.check import MissionChain  # noqa: E402
-from planner.definitions import load_aircraft_and_battery  # noqa: E402
-from planner.mission import load_mission  # noqa: E402
+from planner.check import MissionChain
+from planner.definitions import load_aircraft_and_battery
+from planner.mission import load_mission
 
 
 def write_waypoints(path: Path, n: int = 500) -> None:

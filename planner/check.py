@@ -197,7 +197,7 @@ class MissionChain:
         self.temperature_c = temperature_c
 
     @classmethod
-    def from_yaml(cls, aircraft_path, battery_path=None, **kwargs) -> "MissionChain":
+    def from_yaml(cls, aircraft_path, battery_path=None, **kwargs) -> MissionChain:
         aircraft, pack = load_aircraft_and_battery(aircraft_path, battery_path)
         return cls(aircraft, pack, **kwargs)
 

@@ -83,7 +83,7 @@ class IntegralModel:
 
     @classmethod
     def from_literature(cls, cells_series: int,
-                        capacity_as: float | None = None) -> "IntegralModel":
+                        capacity_as: float | None = None) -> IntegralModel:
         r"""The literature start values δ₀(N), ε₀(N) for a pack of N cells.
 
         The start-value polynomials describe the model in its Peukert form,
@@ -211,7 +211,7 @@ class BatteryPack:
         """Installed pack resistance (``count`` packs in parallel); 0 when unknown. [Ω]"""
         return (self.internal_resistance_ohm or 0.0) / self.count
 
-    def with_model(self, model: IntegralModel) -> "BatteryPack":
+    def with_model(self, model: IntegralModel) -> BatteryPack:
         return replace(self, model=model)
 
     def to_mapping(self) -> dict[str, Any]:
@@ -602,6 +602,15 @@ def load_aircraft_and_battery(aircraft_path, battery_path=None) -> tuple[Aircraf
     return aircraft, load_battery(path)
 
 
-__all__ = ["Aircraft", "BatteryPack", "FixedWing", "IntegralModel", "Multirotor",
-           "load_aircraft", "load_battery", "load_aircraft_and_battery",
-           "aircraft_from_mapping", "battery_from_mapping"]
+__all__ = [
+    "Aircraft",
+    "BatteryPack",
+    "FixedWing",
+    "IntegralModel",
+    "Multirotor",
+    "aircraft_from_mapping",
+    "battery_from_mapping",
+    "load_aircraft",
+    "load_aircraft_and_battery",
+    "load_battery",
+]

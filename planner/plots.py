@@ -7,10 +7,10 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from planner.errors import InputError  # noqa: E402
+from planner.errors import InputError
 
 _LEG_COLOURS = {"climb": "#fde0c5", "cruise": "#e5f0fa", "hover": "#e8f5e0",
                 "loiter": "#e8f5e0", "descend": "#f2e6f7"}

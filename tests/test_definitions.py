@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.definitions import (load_aircraft, load_aircraft_and_battery, load_battery)
+from planner.definitions import load_aircraft, load_aircraft_and_battery, load_battery
 from planner.errors import InputError
 
 REPO = Path(__file__).resolve().parents[1]

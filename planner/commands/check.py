@@ -6,8 +6,14 @@ import dataclasses
 import math
 
 from planner.check import MissionChain, MissionResult
-from planner.commands.common import (fmt, output_path, parse_float, parse_fraction,
-                                     parse_wind, write_json)
+from planner.commands.common import (
+    fmt,
+    output_path,
+    parse_float,
+    parse_fraction,
+    parse_wind,
+    write_json,
+)
 from planner.definitions import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission import load_mission
