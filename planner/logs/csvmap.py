@@ -284,7 +284,7 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     def need(col: str, role: str) -> pd.Series:
         if col not in raw.columns:
             close = difflib.get_close_matches(col, list(raw.columns), n=2)
-            hint = f" (did you mean {', '.join(map_repr(c) for c in close)}?)" if close else ""
+            hint = f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
             raise InputError(f"{path}: column '{col}' named in {where} ({role}) is not in "
                              f"the file{hint}")
         return raw[col]
@@ -374,6 +374,3 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
         meta["rates_hz"][c] = float(1.0 / np.median(dt)) if len(dt) else None
     return df, meta.values
 
-
-def map_repr(c: str) -> str:
-    return repr(c)
