@@ -51,6 +51,10 @@ MODEL_KEYS = {
 }
 
 
+#: Largest cell count for which the literature start-value polynomials are used as such.
+LITERATURE_MAX_CELLS = 6
+
+
 @dataclass(frozen=True)
 class IntegralModel:
     """Parameters of the integral capacity model (DESIGN §5).
@@ -95,6 +99,10 @@ class IntegralModel:
         is rescaled to :math:`\delta_0 C_n^{1-\beta}`: the two forms then agree
         on a full discharge at constant power. Without a capacity, β = 1.
 
+        Above :data:`LITERATURE_MAX_CELLS` cells the polynomials stop growing
+        (they turn negative above 10): δ is extrapolated from 6 cells as
+        δ₀(6)·(N/6)^(−ε₀(6)), so that it keeps scaling with the pack voltage.
+
         Parameters
         ----------
         cells_series : int
@@ -103,6 +111,12 @@ class IntegralModel:
         """
         delta = integral.literature_delta(cells_series)
         eps = integral.literature_epsilon(cells_series)
+        if cells_series > LITERATURE_MAX_CELLS:
+            # the polynomials peak near 6 cells and turn negative above 10: extrapolate
+            # from 6 cells with δ ∝ N^(−ε), i.e. δ scaling as the pack voltage
+            n0 = LITERATURE_MAX_CELLS
+            eps = integral.literature_epsilon(n0)
+            delta = integral.literature_delta(n0) * (cells_series / n0) ** (-eps)
         if capacity_as is None:
             return cls(delta, eps, 1.0, literature=True)
         beta = integral.LITERATURE_BETA

@@ -142,3 +142,12 @@ def test_round_trip_to_mapping(tmp_path):
     p = write(tmp_path, yaml.safe_dump(pack.to_mapping(), allow_unicode=True))
     again = load_battery(p)
     assert again.model == pack.model and again.capacity_mah == pack.capacity_mah
+
+
+def test_literature_model_for_large_packs_scales_with_voltage():
+    """The start-value polynomials turn over above 6 cells; δ keeps growing as N^(−ε)."""
+    from planner.definitions import IntegralModel
+    deltas = [IntegralModel.from_literature(n).delta for n in range(3, 15)]
+    assert all(b > a for a, b in zip(deltas, deltas[1:]))
+    assert IntegralModel.from_literature(12).delta == pytest.approx(
+        2 * IntegralModel.from_literature(6).delta, rel=0.02)
