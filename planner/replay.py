@@ -279,6 +279,8 @@ def flight_state(exp: pd.DataFrame, site_altitude_m: float = 0.0):
     course = col("course_deg")
     wn, we = col("wind_n_ms"), col("wind_e_ms")
     have_wind = np.isfinite(wn) & np.isfinite(we) & ((np.abs(wn) + np.abs(we)) > 0)
+    # hovering, the track is undefined (and often not logged): any course will do
+    course = np.where(np.isfinite(course) | ~(np.nan_to_num(gs, nan=1.0) < 0.2), course, 0.0)
     a = np.radians(course)
     from_wind = np.hypot(gs * np.sin(a) - we, gs * np.cos(a) - wn)
     if np.isfinite(airspeed).mean() > 0.5:
