@@ -111,6 +111,7 @@ class MissionResult:
     series: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
     aircraft_type: str = "multirotor"
     circuit: dict | None = None
+    best_speeds: dict | None = None
 
     @property
     def go(self) -> bool:
@@ -135,6 +136,7 @@ class MissionResult:
             "rtl_min_margin_mah": _py(self.rtl_min_margin_mah),
             "point_of_no_return": self.point_of_no_return,
             "circuit": self.circuit,
+            "best_speeds": self.best_speeds,
             "legs": legs,
         }
 
@@ -298,6 +300,8 @@ class MissionChain:
         if limit <= 0:
             margin_time = float("-inf")
 
+        speeds = self._best_speeds(mass, rho0)
+
         # return-to-home reserve
         rtl_margin_leg, pnr, rtl_min = self._return_home(table, power, s_start, s_end, mass,
                                                          env, temp, limit, scale)
@@ -330,7 +334,29 @@ class MissionChain:
             peak_current_a=peak,
             min_voltage_v=float(np.nanmin(v_end)) if np.any(np.isfinite(v_end)) else float("nan"),
             battery_model=("literature" if model.literature else "fitted"), series=series,
-            aircraft_type=ac.type, circuit=circuit)
+            aircraft_type=ac.type, circuit=circuit, best_speeds=speeds)
+
+    def _best_speeds(self, mass: float, air_density: float) -> dict:
+        """Airspeeds of maximum endurance (least power) and maximum range (least
+        energy per distance) in level flight, still air, at take-off mass. [m/s]"""
+        from planner.power.speeds import best_speeds
+
+        ac = self.aircraft
+        if ac.is_multirotor:
+            v_min = 0.5
+        else:
+            fw = ac.fixed_wing
+            v_min = fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
+        v_max = ac.max_airspeed_ms
+
+        def power(v):
+            return ac.battery_power(v, 0.0, air_density, mass)
+
+        b = best_speeds(power, v_min, v_max)
+        return {"max_endurance_airspeed_ms": float(b.max_endurance),
+                "max_endurance_power_w": float(power(b.max_endurance)),
+                "max_range_airspeed_ms": float(b.max_range),
+                "max_range_power_w": float(power(b.max_range))}
 
     def _circuit(self, table, power, temp, p_hold_fn, step_s: float = 1.0,
                  extend_s: float = 7200.0) -> dict:

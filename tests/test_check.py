@@ -219,3 +219,22 @@ def test_without_circuit_block_the_simple_voltage_estimate_is_used():
     plain = replace(pack, circuit=None, thermal=None)
     r = MissionChain(aircraft, plain).run(long_hover(5))
     assert r.circuit is None and np.isfinite(r.min_voltage_v)
+
+
+def test_best_speeds_fixed_wing_match_the_polar():
+    """Without a stall limit in the way, the chain's max-endurance speed is (B/3A)^¼ and
+    the max-range speed (B/A)^¼ of the drag polar at take-off mass (seed eq. 2–6)."""
+    from dataclasses import replace
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/x8_mapper.yaml")
+    ac = replace(aircraft, fixed_wing=replace(aircraft.fixed_wing, stall_speed_ms=5.0),
+                 system_power_w=0.0)   # a constant load moves the range optimum faster
+    r = MissionChain(ac, pack).run(Mission("m", [Leg("hover", duration_s=60)],
+                                           SEA_LEVEL_20C))
+    rho = 1.2041
+    fw = ac.fixed_wing
+    w = r.takeoff_mass_kg * 9.80665
+    a = 0.5 * rho * fw.wing_area_m2 * fw.cd0
+    b = 2 * fw.k * w**2 / (rho * fw.wing_area_m2)
+    assert r.best_speeds["max_endurance_airspeed_ms"] == pytest.approx((b / (3 * a)) ** 0.25,
+                                                                     rel=0.005)
+    assert r.best_speeds["max_range_airspeed_ms"] == pytest.approx((b / a) ** 0.25, rel=0.005)

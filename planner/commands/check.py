@@ -113,6 +113,12 @@ def render(r: MissionResult, name: str, env) -> str:
                  f"lowest loaded voltage {r.min_voltage_v:.2f} V")
     lines.append(f"Reserve   {r.reserve_mah:.0f} mAh ({100 * r.reserve_fraction:.0f} % of "
                  f"nominal); smallest return-home margin {r.rtl_min_margin_mah:+.0f} mAh")
+    if r.best_speeds:
+        b = r.best_speeds
+        lines.append(f"Speeds    level flight, still air: max endurance "
+                     f"{b['max_endurance_airspeed_ms']:.1f} m/s ({b['max_endurance_power_w']:.0f} W), "
+                     f"max range {b['max_range_airspeed_ms']:.1f} m/s "
+                     f"({b['max_range_power_w']:.0f} W)")
     if r.circuit:
         c = r.circuit
         lines.append(f"Voltage   {c['model']}: pack {c['pack_temperature_c']:.0f} → "
