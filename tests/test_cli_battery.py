@@ -244,3 +244,43 @@ def test_pulse_resistance_without_current_exits_2(tmp_path, capsys):
         path, index=False)
     rc, _, err = run(capsys, "pulse-resistance", path)
     assert rc == 2 and "missing column 'current_a'" in err
+
+
+def test_fit_battery_circuit_option_writes_a_circuit_block(tmp_path):
+    """Issue 'Equivalent-circuit and thermal pack model', item 3: fit-battery --circuit
+    identifies R0, R1, C1 from a pulse test and writes them where check finds them."""
+    import numpy as np
+    import pandas as pd
+
+    from planner.battery.circuit import CircuitParameters, simulate
+    from planner.battery.identify import pulse_test_profile
+    from planner.cli import main
+    from planner.definitions import load_battery
+    from planner.battery import integral
+
+    truth = CircuitParameters(capacity_ah=5.0, r0_ohm=0.006, r1_ohm=0.004, c1_f=7500.0,
+                              cells_series=4)
+    prof = pulse_test_profile(5.0, dt_s=0.5, soc_levels=(0.8, 0.5, 0.2))
+    sim = simulate(truth, prof.time_s, current_a=prof.current_a)
+    v = sim.voltage_v + np.random.default_rng(3).normal(0.0, 1e-3, sim.voltage_v.size)
+    pulse = tmp_path / "pulse.csv"
+    pd.DataFrame({"time_s": prof.time_s, "voltage_v": v, "current_a": prof.current_a,
+                  "power_w": v * prof.current_a}).to_csv(pulse, index=False)
+    # two constant-power discharges for the integral model itself
+    rows = []
+    for name, p in (("cp60", 60.0), ("cp120", 120.0)):
+        t = np.arange(0.0, 3000.0, 2.0)
+        c = integral.charge(t, np.full(t.size, p), 23.6, -1.02, 0.9648) / 3.6
+        rows.append(pd.DataFrame({"experiment": name, "time_s": t, "power_w": p,
+                                  "consumed_mah": c, "voltage_v": 15.5}))
+    data = tmp_path / "discharges.csv"
+    pd.concat(rows).to_csv(data, index=False)
+    out = tmp_path / "pack.yaml"
+    code = main(["fit-battery", str(data), "--out", str(out), "--name", "bench 4S",
+                 "--cells", "4", "--mass-kg", "0.6", "--circuit", str(pulse)])
+    assert code == 0
+    pack = load_battery(out)
+    assert pack.circuit["r1_ohm"] == pytest.approx(0.004, rel=0.05)
+    assert pack.circuit["c1_f"] == pytest.approx(7500.0, rel=0.05)
+    params = CircuitParameters.from_pack(pack)
+    assert params.r0_cell_ohm(0.5, 25.0) == pytest.approx(0.006, rel=0.05)

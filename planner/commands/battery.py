@@ -50,6 +50,15 @@ def _register_fit(sub) -> None:
     p.add_argument("--validate", help="comma-separated experiment ids to score only")
     p.add_argument("--plot", help="PNG of measured vs predicted C^β and residuals")
     p.add_argument("--json", help="write the fit and the metrics as JSON to this file")
+    p.add_argument("--circuit", metavar="PULSE_CSV",
+                   help="also identify the equivalent circuit (R0(SoC) from pulse edges, R1 "
+                        "and C1 from the relaxations, with the LiPo OCV) from a "
+                        "pulse-test record (time_s, voltage_v, current_a) and write it as the "
+                        "pack's 'circuit:' block")
+    p.add_argument("--circuit-hysteresis", action="store_true",
+                   help="also fit the hysteresis (γ, M) from the pulse test's current reversals")
+    p.add_argument("--circuit-soc0", default="1.0",
+                   help="state of charge at the start of the pulse test (default 1.0)")
     p.set_defaults(func=run_fit)
 
 
@@ -73,6 +82,34 @@ def _cells_from_voltage(experiments) -> int:
         raise InputError(f"cannot detect the cell count from a maximum voltage of {vmax:g} V; "
                          "give --cells")
     return cells
+
+
+def _fit_circuit(args, mapping: dict) -> dict:
+    """The ``circuit:`` block from a pulse test (:func:`identify.fit_pulse_test`)."""
+    from planner import record
+    from planner.battery import identify
+    from planner.battery.ocv import lipo_ocv
+
+    df = record.read_record(args.circuit, derive=False)
+    missing = [c for c in ("voltage_v", "current_a") if c not in df.columns]
+    if missing:
+        raise InputError(f"{args.circuit}: a pulse test needs the column(s) "
+                         f"{', '.join(missing)}")
+    soc0 = parse_float(args.circuit_soc0, "--circuit-soc0", 0.0, 1.0)
+    cells_p = int(mapping.get("cells_parallel", 1))
+    fitted = identify.fit_pulse_test(
+        df["time_s"].to_numpy(float), df["voltage_v"].to_numpy(float),
+        df["current_a"].to_numpy(float), capacity_ah=float(mapping["capacity_mah"]) / 1000.0,
+        soc0=soc0, cells_series=int(mapping["cells_series"]), cells_parallel=cells_p,
+        ocv=lipo_ocv, hysteresis=bool(args.circuit_hysteresis))
+    block = {k: (v if not isinstance(v, (np.floating, float)) else float(v))
+             for k, v in fitted.params.items()}
+    block["source"] = (f"fit-battery --circuit on {args.circuit} (pulse edges and "
+                       f"relaxations; LiPo OCV of Chen and Rincón-Mora 2006)")
+    print("circuit (per cell): " + ", ".join(
+        f"{k} {v:.4g} ± {fitted.stderr[k]:.2g}" for k, v in fitted.params.items()
+        if isinstance(v, float) and k in fitted.stderr))
+    return block
 
 
 def run_fit(args) -> int:
@@ -113,6 +150,8 @@ def run_fit(args) -> int:
                    "mass_kg": parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0),
                    "model": model.to_mapping()}
     mapping["source"] = source
+    if args.circuit:
+        mapping["circuit"] = _fit_circuit(args, mapping)
     battery_from_mapping(mapping, str(out))  # what we write must load back
     header = (f"# written by endurance fit-battery: integral model fitted to {files}\n"
               f"# stderr: delta ±{result['stderr']['delta']:.4g}, epsilon "
