@@ -28,6 +28,7 @@ COMMAND_MODULES = (
     "planner.commands.logs",
     "planner.commands.replay",
     "planner.commands.battery",
+    "planner.commands.hybrid",
     "planner.commands.aircraft",
     "planner.commands.diagnose",
 )
