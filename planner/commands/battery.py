@@ -1,7 +1,8 @@
-"""Battery identification commands: ``fit-battery``, ``design``, ``pulse-resistance``.
+"""Battery identification commands: ``fit-battery``, ``design``, ``pulse-resistance``, ``bench``.
 
 Argparse and printing only; the work is done by :mod:`planner.battery.fit`,
-:mod:`planner.battery.design` and :mod:`planner.battery.vda`.
+:mod:`planner.battery.design`, :mod:`planner.battery.vda`,
+:mod:`planner.battery.bench` and :mod:`planner.battery.campaign`.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ def register(sub) -> None:
     _register_fit(sub)
     _register_design(sub)
     _register_pulse(sub)
+    _register_bench(sub)
 
 
 # --------------------------------------------------------------------------- fit-battery
@@ -435,4 +437,102 @@ def run_pulse(args) -> int:
         except OSError as exc:
             raise InputError(f"{out}: cannot write ({exc.strerror})") from None
         print(f"wrote {out}")
+    return 0
+
+
+# --------------------------------------------------------------------------- bench
+
+#: Decimals the bench's CSV keeps per column (below the sensors' noise).
+_BENCH_DECIMALS = {"time_s": 3, "voltage_v": 4, "current_a": 4, "power_w": 4,
+                   "consumed_mah": 4}
+
+
+def _register_bench(sub) -> None:
+    from planner.battery import campaign
+
+    p = sub.add_parser(
+        "bench", help="virtual test bench: run a named discharge campaign (and the seed "
+                      "paper's cross-validation)",
+        description="Run a named campaign of constant-power, two-step and APRBS discharges on "
+                    "the virtual bench (equivalent-circuit LiPo pack with a diffusion-limited "
+                    "capacity, constant-power load, 1 Hz logging with seeded measurement "
+                    "noise, stop at the loaded cut-off) and write it as a flight-record CSV. "
+                    "With --report, fit the seed paper's m_const, m_2step and m_APRBS (β held "
+                    "at 0.9648 and free) and print their cross-validation table (seed "
+                    "Fig. 12–13).")
+    p.add_argument("--campaign", required=True, choices=list(campaign.CAMPAIGNS),
+                   help="seed: every test (constant 50/75/100/125 W, four two-step, three "
+                        "APRBS); or only constant, two-step or aprbs")
+    p.add_argument("--out", help="flight-record CSV to write")
+    p.add_argument("--report", action="store_true",
+                   help="fit the models and print the cross-validation table")
+    p.add_argument("--json", help="write the report as JSON to this file (with --report)")
+    p.add_argument("--battery", help="pack YAML to put on the bench (default: the seed's "
+                                     "Multistar 10 Ah 4S)")
+    p.add_argument("--seed", default="0", help="seed of the noise and the APRBS schedules "
+                                               "(integer, default 0)")
+    p.add_argument("--noise-v", default="0.01", help="voltage noise, 1 σ [V] (default 0.01)")
+    p.add_argument("--noise-a", default="0.05", help="current noise, 1 σ [A] (default 0.05)")
+    p.add_argument("--temperature", default="25", help="cell temperature [°C] (default 25)")
+    p.set_defaults(func=run_bench)
+
+
+def run_bench(args) -> int:
+    from planner import record
+    from planner.battery import bench, campaign
+    from planner.battery.thermal import T_RANGE_C
+
+    out = output_path(args.out, "--out")
+    json_out = output_path(args.json, "--json")
+    if not out and not args.report:
+        raise InputError("bench: give --out CSV and/or --report")
+    if json_out and not args.report:
+        raise InputError("--json needs --report")
+    try:
+        seed = int(args.seed)
+    except ValueError:
+        raise InputError(f"--seed: expected a non-negative integer, got {args.seed!r}") from None
+    if seed < 0:
+        raise InputError(f"--seed: expected a non-negative integer, got {args.seed!r}")
+    noise = bench.BenchNoise(parse_float(args.noise_v, "--noise-v", 0.0, 10.0),
+                             parse_float(args.noise_a, "--noise-a", 0.0, 100.0))
+    temperature = parse_float(args.temperature, "--temperature", *T_RANGE_C)
+    if args.battery:
+        battery = load_battery(args.battery)
+        try:
+            pack = bench.BenchPack.from_battery(battery)
+        except InputError:
+            raise
+        except ValueError as exc:
+            raise InputError(f"{args.battery}: {exc}") from None
+    else:
+        pack = bench.seed_pack()
+    records, info = campaign.run_campaign(pack, campaign=args.campaign, seed=seed, noise=noise,
+                                          temperature_c=temperature, return_info=True)
+    # what is written is what is fitted: fit-battery on the CSV gives the same numbers
+    records = records.round(_BENCH_DECIMALS)
+    print(f"virtual bench: {pack.name}, {pack.circuit.cells_series}S, "
+          f"{pack.capacity_as / integral.AS_PER_MAH:.0f} mAh, R0 {1e3 * pack.r_pack_ohm:.2f} mΩ, "
+          f"cut-off {pack.v_cutoff_cell:g} V/cell, {temperature:g} °C; campaign "
+          f"'{args.campaign}', seed {seed}")
+    print(f"{'experiment':<24} {'kind':<9} {'duration [s]':>12} {'mean P [W]':>10} "
+          f"{'drawn [mAh]':>11}  ended at")
+    for row in info.itertuples():
+        sub = records[records["experiment"] == row.experiment]
+        t, p = sub["time_s"].to_numpy(), sub["power_w"].to_numpy()
+        print(f"{row.experiment:<24} {row.kind:<9} {row.duration_s:12.0f} "
+              f"{np.trapezoid(p, t) / t[-1]:10.1f} {row.charge_mah:11.0f}  "
+              f"{'cut-off' if row.tripped else 'end of schedule'}")
+    if out:
+        record.write_record(records, out)
+        print(f"wrote {out} ({len(records)} samples)")
+    if args.report:
+        report = campaign.cross_validate(records)
+        print()
+        print(campaign.render_report(report), end="")
+        if json_out:
+            write_json(campaign.report_to_dict(report) | {
+                "campaign": args.campaign, "seed": seed, "pack": pack.name,
+                "noise": {"voltage_v": noise.voltage_v, "current_a": noise.current_a},
+                "temperature_c": temperature}, json_out)
     return 0
