@@ -13,6 +13,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from planner import schema as S
 from planner.battery import integral
 from planner.errors import InputError
@@ -311,6 +313,8 @@ AIRCRAFT_KEYS = {
     "climb_rate_ms": S.positive(),
     "descent_rate_ms": S.positive(),
     "max_takeoff_mass_kg": S.positive(),
+    "efficiency_slope": S.Key(S.NUMBER, default=0.0, low=-1.0, high=1.0),
+    "efficiency_reference_power_w": S.positive(),
     "cells_series_allowed": S.Key(S.LIST),
     "fixed_wing": S.Key(S.MAPPING),
     "multirotor": S.Key(S.MAPPING),
@@ -418,6 +422,8 @@ class Aircraft:
     descent_rate_ms: float = 1.5
     battery_path: str | None = None
     max_takeoff_mass_kg: float | None = None
+    efficiency_slope: float = 0.0
+    efficiency_reference_power_w: float | None = None
     cells_series_allowed: tuple[int, ...] | None = None
     fixed_wing: FixedWing | None = None
     multirotor: Multirotor | None = None
@@ -464,6 +470,20 @@ class Aircraft:
         power : numeric
             Battery power. [W]
         """
+        power = self._constant_efficiency_power(airspeed, climb_rate, air_density, mass,
+                                                load_factor)
+        if not self.efficiency_slope or not self.efficiency_reference_power_w:
+            return power
+        # efficiency against load (diagnose's efficiency_curve):
+        # 1/η(M) = 1/η0 − η1/η0² (M/M_ref − 1), M the mechanical power
+        eta0, ps = self.efficiency, self.system_power_w
+        mech = (np.asarray(power, float) - ps) * eta0
+        inv = 1.0 / eta0 - self.efficiency_slope / eta0**2 * (
+            mech / self.efficiency_reference_power_w - 1.0)
+        return mech * np.maximum(inv, 1.0) + ps
+
+    def _constant_efficiency_power(self, airspeed, climb_rate, air_density, mass,
+                                   load_factor=1.0):
         if self.is_multirotor:
             m = self.multirotor
             if m.power_model == "propeller":
@@ -497,6 +517,9 @@ class Aircraft:
         out["descent_rate_ms"] = float(self.descent_rate_ms)
         if self.max_takeoff_mass_kg is not None:
             out["max_takeoff_mass_kg"] = float(self.max_takeoff_mass_kg)
+        if self.efficiency_slope and self.efficiency_reference_power_w:
+            out["efficiency_slope"] = float(self.efficiency_slope)
+            out["efficiency_reference_power_w"] = float(self.efficiency_reference_power_w)
         if self.cells_series_allowed:
             out["cells_series_allowed"] = list(self.cells_series_allowed)
         block = self.multirotor if self.is_multirotor else self.fixed_wing
@@ -541,6 +564,8 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
                     climb_rate_ms=d["climb_rate_ms"] or climb,
                     descent_rate_ms=d["descent_rate_ms"] or descent,
                     battery_path=d["battery"], max_takeoff_mass_kg=d["max_takeoff_mass_kg"],
+                    efficiency_slope=d["efficiency_slope"],
+                    efficiency_reference_power_w=d["efficiency_reference_power_w"],
                     cells_series_allowed=allowed, fixed_wing=fw, multirotor=mr,
                     source=d["source"], path=where)
 

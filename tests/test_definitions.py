@@ -151,3 +151,25 @@ def test_literature_model_for_large_packs_scales_with_voltage():
     assert all(b > a for a, b in zip(deltas, deltas[1:]))
     assert IntegralModel.from_literature(12).delta == pytest.approx(
         2 * IntegralModel.from_literature(6).delta, rel=0.02)
+
+
+def test_efficiency_curve_from_diagnose_changes_battery_power(tmp_path):
+    """``efficiency_slope`` (diagnose's efficiency_curve): 1/η(M) = 1/η0 − η1/η0² (M/M_ref − 1),
+    so a falling efficiency costs more power above the reference and less below it."""
+    from dataclasses import replace
+    import yaml
+    ac = load_aircraft(REPO / "aircraft/solo_survey.yaml")
+    curved = replace(ac, efficiency_slope=-0.1, efficiency_reference_power_w=150.0)
+    rho, m = 1.2, 1.5
+    for v in (0.0, 15.0):
+        p0 = float(ac.battery_power(v, 0.0, rho, m))
+        mech = (p0 - ac.system_power_w) * ac.efficiency
+        expected = mech * (1 / ac.efficiency + 0.1 / ac.efficiency**2
+                           * (mech / 150.0 - 1)) + ac.system_power_w
+        assert float(curved.battery_power(v, 0.0, rho, m)) == pytest.approx(expected)
+    p = tmp_path / "a.yaml"
+    mapping = curved.to_mapping()
+    mapping["battery"] = str(REPO / "aircraft/batteries/solo_5200_4s.yaml")
+    p.write_text(yaml.safe_dump(mapping, allow_unicode=True))
+    again = load_aircraft(p)
+    assert again.efficiency_slope == -0.1 and again.efficiency_reference_power_w == 150.0

@@ -124,11 +124,6 @@ def _unstored(result, kind) -> list[str]:
     lines = []
     for f in result.findings:
         p = f["parameters"]
-        if kind == "aircraft" and f["effect"] == "efficiency_curve":
-            lines.append(f"efficiency_curve: η = {p['efficiency_at_reference']:.4f} at "
-                         f"{p['reference_mechanical_power_w']:.0f} W mechanical, slope "
-                         f"{p['efficiency_slope']:.4f} per unit of P/P_ref (efficiency below "
-                         "is the reference value)")
         if kind == "aircraft" and f["effect"] == "wind":
             lines.append(f"wind {p['wind_speed_ms']:.1f} m/s from {p['wind_from_deg']:.0f}° "
                          f"(weather, not aircraft: check --wind "

@@ -267,6 +267,13 @@ class DiagnoseResult:
         if "system_power_w" in v:
             values["system_power_w"] = float(max(v["system_power_w"], 0.0))
         ac = with_params(self.aircraft, values)
+        for f in self.findings:
+            if f.get("effect") == "efficiency_curve":
+                p = f["parameters"]
+                ac = replace(ac, efficiency=float(p["efficiency_at_reference"]),
+                             efficiency_slope=float(p["efficiency_slope"]),
+                             efficiency_reference_power_w=float(
+                                 p["reference_mechanical_power_w"]))
         names = ", ".join(e.name for e, _ in lv.result.selected) or "no effect found"
         return replace(ac, source=f"endurance diagnose ({names}) on "
                                   f"{', '.join(self.sources) or 'the given data'}; start values "
