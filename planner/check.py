@@ -34,8 +34,7 @@ from planner.errors import InputError, ModelError
 from planner.mission.legs import Environment, Mission
 
 MAH = integral.AS_PER_MAH  # A·s per mAh
-#: Points per leg at which the return-home reserve is checked.
-RTL_POINTS_PER_LEG = 5
+RTL_POINTS_PER_LEG = prof.RTL_POINTS_PER_LEG
 
 
 @dataclass
@@ -248,9 +247,10 @@ class MissionChain:
             reasons.append(f"{table.origin[i] or f'leg {i + 1}'}: current {peak:.1f} A exceeds "
                            f"the pack's {pack.max_discharge_c:g} C rating "
                            f"({pack.max_current_a:.1f} A)")
+        with_circuit = pack.circuit is not None or pack.thermal is not None
         v_min_allowed = cells * pack.cell_voltage_empty_v
         low = np.flatnonzero(v_end < v_min_allowed)
-        if low.size:
+        if low.size and not with_circuit:  # the circuit model judges the voltage itself
             i = int(low[0])
             warnings.append(f"loaded voltage {v_end[i]:.2f} V falls below "
                             f"{v_min_allowed:.2f} V ({pack.cell_voltage_empty_v:g} V/cell) "
@@ -264,16 +264,16 @@ class MissionChain:
                             f"the pack's {pack.capacity_mah:.0f} mAh, β = {model.beta} "
                             "(the pack file has no fitted model)")
 
+        rho0 = float(table.air_density[-1]) if len(table) else 1.225
+        p_hold = float(prof.hold_power(ac, mass, rho0, env.wind_speed_ms))
         circuit = None
-        if pack.circuit is not None or pack.thermal is not None:
-            circuit = self._circuit(table, power, temp, p_hold_fn=lambda: float(
-                prof.hold_power(ac, mass, float(table.air_density[-1]), env.wind_speed_ms)))
+        if with_circuit:
+            circuit = self._circuit(table, power, temp, p_hold)
             usable_v = circuit.pop("_usable_as")
             if usable_v < pack.usable_as:
                 limit = usable_v - self.reserve * cap
             v_end = circuit.pop("_leg_voltage_v")
             reasons += circuit["reasons"]
-            warnings = [w for w in warnings if not w.startswith("loaded voltage")]
 
         # landing reserve
         margin = limit - used
@@ -292,8 +292,6 @@ class MissionChain:
             reasons.append(f"lands with {100 * (1 - used / cap):.1f} % of nominal charge, "
                            f"below the {100 * self.reserve:.0f} % reserve "
                            f"(short by {-margin / MAH:.0f} mAh)")
-        rho0 = float(table.air_density[-1]) if len(table) else 1.225
-        p_hold = float(prof.hold_power(ac, mass, rho0, env.wind_speed_ms))
         s_final = float(s_end[-1]) if len(s_end) else 0.0
         margin_time = float(integral.time_to_charge(s_final, p_hold, max(limit, 0.0) / scale,
                                                     model.delta, model.epsilon, model.beta))
@@ -358,7 +356,7 @@ class MissionChain:
                 "max_range_airspeed_ms": float(b.max_range),
                 "max_range_power_w": float(power(b.max_range))}
 
-    def _circuit(self, table, power, temp, p_hold_fn, step_s: float = 1.0,
+    def _circuit(self, table, power, temp, p_hold: float, step_s: float = 1.0,
                  extend_s: float = 7200.0) -> dict:
         """Equivalent-circuit (and thermal) pack model along the mission.
 
@@ -383,7 +381,7 @@ class MissionChain:
         t_x = total + np.arange(0.0, extend_s, 5.0 * step_s)
         t = np.concatenate((t_m, t_x))
         leg = np.clip(np.searchsorted(table.end_time_s, t, side="right"), 0, len(table) - 1)
-        p = np.where(t < total, power[leg], p_hold_fn())
+        p = np.where(t < total, power[leg], p_hold)
         reasons = []
         try:
             res = simulate(params, t, power_w=p, temperature_c=thermal,
@@ -437,51 +435,19 @@ class MissionChain:
         if n == 0:
             return np.zeros(0), None, float(limit)
         ac, model = self.aircraft, self.pack.model
-        f = np.linspace(0.0, 1.0, RTL_POINTS_PER_LEG)
-        pos = table.start_en_m[:, None, :] + f[None, :, None] * (
-            table.end_en_m - table.start_en_m)[:, None, :]
-        alt = table.start_alt_m[:, None] + f * (table.end_alt_m - table.start_alt_m)[:, None]
-        stress = s_start[:, None] + f * (s_end - s_start)[:, None]
-        time = table.start_time_s[:, None] + f * table.duration_s[:, None]
-        pos, alt, stress, time = pos.reshape(-1, 2), alt.ravel(), stress.ravel(), time.ravel()
-        leg_of = np.repeat(np.arange(n), len(f))
-
-        dist = np.hypot(pos[:, 0], pos[:, 1])
-        course = np.degrees(np.arctan2(-pos[:, 0], -pos[:, 1])) % 360.0
-        w_e, w_n = prof.wind_vector(env.wind_speed_ms, env.wind_from_deg)
-        if ac.is_multirotor:
-            va, gs = prof.wind_triangle(course, w_e, w_n,
-                                        groundspeed=np.full(dist.shape, ac.cruise_speed_ms))
-            over = va > ac.max_airspeed_ms
-            _, gs_cap = prof.wind_triangle(course, w_e, w_n,
-                                           airspeed=np.full(dist.shape, ac.max_airspeed_ms))
-            va = np.where(over, ac.max_airspeed_ms, va)
-            gs = np.where(over, gs_cap, gs)
-        else:
-            va, gs = prof.wind_triangle(course, w_e, w_n,
-                                        airspeed=np.full(dist.shape, ac.cruise_speed_ms))
-        alt_pos = np.maximum(alt, 0.0)
-        rho = prof.air_density_at(env.site_altitude_m + alt_pos, env, temp)
-        home = dist < 1.0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t_back = np.where(home, 0.0, dist / gs)
-        va = np.where(home | ~np.isfinite(va), ac.cruise_speed_ms, va)
-        p_back = ac.battery_power(va, 0.0, rho, mass)
-        t_down = alt_pos / ac.descent_rate_ms
-        if ac.is_multirotor:
-            p_down = ac.battery_power(env.wind_speed_ms, -ac.descent_rate_ms, rho, mass)
-        else:
-            fw = ac.fixed_wing
-            v = fw.loiter_airspeed_ms or fw.cruise_airspeed_ms
-            nload = np.sqrt(1.0 + (v**2 / (prof.G * fw.loiter_radius_m)) ** 2)
-            p_down = ac.battery_power(v, -ac.descent_rate_ms, rho, mass, load_factor=nload)
+        pts = prof.return_home_points(table, ac, env, temp)
+        leg_of, time, dist = pts["leg"], pts["time_s"], pts["distance_m"]
+        stress = s_start[leg_of] + pts["frac"] * (s_end - s_start)[leg_of]
+        p_back = ac.battery_power(*pts["back"][:3], mass, load_factor=pts["back"][3])
+        p_down = ac.battery_power(*pts["down"][:3], mass, load_factor=pts["down"][3])
+        t_back, t_down = pts["t_back"], pts["t_down"]
         s_rtl = (t_back * integral.stress_rate(p_back, model.delta, model.epsilon)
                  + t_down * integral.stress_rate(p_down, model.delta, model.epsilon))
         charge = scale * integral.charge_from_stress(stress + s_rtl, model.beta)
         margin = np.where(np.isfinite(charge), limit - charge, -np.inf)
         # the mission's own end is judged by the landing reserve, not by a return from it
         margin[-1] = limit - scale * integral.charge_from_stress(stress[-1], model.beta)
-        per_leg = margin.reshape(n, len(f)).min(axis=1)
+        per_leg = margin.reshape(n, prof.RTL_POINTS_PER_LEG).min(axis=1)
         bad = np.flatnonzero(margin[:-1] < 0)
         pnr = None
         if bad.size:
@@ -489,8 +455,9 @@ class MissionChain:
             i = int(leg_of[j])
             pnr = {"time_s": float(time[j]), "leg": i + 1,
                    "leg_origin": table.origin[i] or f"leg {i + 1}",
-                   "east_m": float(pos[j, 0]), "north_m": float(pos[j, 1]),
-                   "altitude_m": float(alt[j]), "distance_home_m": float(dist[j]),
+                   "east_m": float(pts["east_m"][j]), "north_m": float(pts["north_m"][j]),
+                   "altitude_m": float(pts["altitude_m"][j]),
+                   "distance_home_m": float(dist[j]),
                    "rtl_margin_mah": (float(margin[j]) / MAH if np.isfinite(margin[j])
                                       else None)}
         finite = margin[np.isfinite(margin)]

@@ -24,9 +24,11 @@ from planner import atmosphere
 from planner.definitions import Aircraft
 from planner.mission.legs import LEG_KINDS, Environment, Mission
 
-#: ISA temperature lapse rate in the troposphere. [K/m]
-LAPSE_RATE = 0.0065
-G = 9.80665
+#: Points per leg at which the return-home reserve is checked.
+RTL_POINTS_PER_LEG = 5
+#: ISA temperature lapse rate and gravity, re-exported for the layers above.
+LAPSE_RATE = atmosphere.LAPSE_RATE
+G = atmosphere.G
 
 
 @dataclass
@@ -141,6 +143,26 @@ def wind_triangle(course_deg, wind_e, wind_n, *, airspeed=None, groundspeed=None
     return va, gs
 
 
+def capped_groundspeed(course_deg, wind_e, wind_n, groundspeed, max_airspeed):
+    """A multirotor holding a ground speed, up to its maximum airspeed.
+
+    Where the commanded ground speed would need more than ``max_airspeed``, the
+    aircraft flies at ``max_airspeed`` and its ground speed drops.
+
+    Returns
+    -------
+    airspeed, groundspeed : ndarray
+        [m/s]
+    capped : ndarray of bool
+        Where the maximum airspeed limits the ground speed.
+    """
+    va, gs = wind_triangle(course_deg, wind_e, wind_n, groundspeed=groundspeed)
+    capped = va > max_airspeed
+    _, gs_cap = wind_triangle(course_deg, wind_e, wind_n,
+                              airspeed=np.full(np.shape(va), max_airspeed))
+    return np.where(capped, max_airspeed, va), np.where(capped, gs_cap, gs), capped
+
+
 def air_density_at(altitude_amsl_m, environment: Environment, temperature_c=None):
     """Air density at altitude, with the site temperature/pressure when given.
 
@@ -157,7 +179,7 @@ def air_density_at(altitude_amsl_m, environment: Environment, temperature_c=None
         p = environment.pressure_pa * (atmosphere.pressure(h)
                                        / atmosphere.pressure(environment.site_altitude_m))
         if t is None:
-            t = 15.0 - LAPSE_RATE * h  # ISA temperature [°C]
+            t = atmosphere.temperature(h) - 273.15  # ISA [°C]
     return atmosphere.density(h, temperature_c=t, pressure_pa=p)
 
 
@@ -232,11 +254,10 @@ def leg_table(mission: Mission, aircraft: Aircraft, environment: Environment | N
 
     # -- cruise: wind triangle along the track
     va_air, gs_air = wind_triangle(course, w_e, w_n, airspeed=speed)
-    va_gnd, gs_gnd = wind_triangle(course, w_e, w_n, groundspeed=speed)
-    over = ~is_air & (va_gnd > vmax)            # cannot hold the ground speed
-    _, gs_cap = wind_triangle(course, w_e, w_n, airspeed=np.full(n, vmax))
-    va = np.where(is_air, va_air, np.where(over, vmax, va_gnd))
-    gs = np.where(is_air, gs_air, np.where(over, gs_cap, gs_gnd))
+    va_gnd, gs_gnd, capped = capped_groundspeed(course, w_e, w_n, speed, vmax)
+    over = ~is_air & capped                     # cannot hold the ground speed
+    va = np.where(is_air, va_air, va_gnd)
+    gs = np.where(is_air, gs_air, gs_gnd)
     short = dist < 1e-6
     gs = np.where(cruise & short, np.where(np.isnan(gs), 0.0, gs), gs)
     bad = cruise & ~short & ~(gs > 0)
@@ -320,7 +341,62 @@ def hold_power(aircraft: Aircraft, mass_kg, air_density, wind_speed_ms=0.0):
     """
     if aircraft.is_multirotor:
         return aircraft.battery_power(wind_speed_ms, 0.0, air_density, mass_kg)
+    v, n = loiter_state(aircraft)
+    return aircraft.battery_power(v, 0.0, air_density, mass_kg, load_factor=n)
+
+
+def loiter_state(aircraft: Aircraft) -> tuple[float, float]:
+    """Airspeed [m/s] and load factor of a fixed-wing aircraft's default loiter circle."""
     fw = aircraft.fixed_wing
     v = fw.loiter_airspeed_ms or fw.cruise_airspeed_ms
-    n = np.sqrt(1.0 + (v**2 / (G * fw.loiter_radius_m)) ** 2)
-    return aircraft.battery_power(v, 0.0, air_density, mass_kg, load_factor=n)
+    return v, float(np.sqrt(1.0 + (v**2 / (G * fw.loiter_radius_m)) ** 2))
+
+
+def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, temp):
+    """Geometry and flight states of the return-home points along a mission.
+
+    :data:`RTL_POINTS_PER_LEG` points on every leg; from each, the aircraft flies
+    straight home at its cruise speed (a multirotor holds ground speed up to its
+    maximum airspeed, a fixed-wing aircraft airspeed) at its current altitude, then
+    descends over home (a fixed-wing aircraft in a loiter circle).
+
+    Returns the points' leg, fraction along the leg, time, position, distance home and
+    the two flight states (straight back at cruise speed, descent at home) with their
+    durations; none depends on the pack.
+    """
+    ac = aircraft
+    n = len(table)
+    f = np.linspace(0.0, 1.0, RTL_POINTS_PER_LEG)
+    pos = table.start_en_m[:, None, :] + f[None, :, None] * (
+        table.end_en_m - table.start_en_m)[:, None, :]
+    alt = table.start_alt_m[:, None] + f * (table.end_alt_m - table.start_alt_m)[:, None]
+    time = table.start_time_s[:, None] + f * table.duration_s[:, None]
+    pos, alt, time = pos.reshape(-1, 2), alt.ravel(), time.ravel()
+    leg_of = np.repeat(np.arange(n), len(f))
+    frac = np.tile(f, n)
+
+    dist = np.hypot(pos[:, 0], pos[:, 1])
+    course = np.degrees(np.arctan2(-pos[:, 0], -pos[:, 1])) % 360.0
+    w_e, w_n = wind_vector(env.wind_speed_ms, env.wind_from_deg)
+    if ac.is_multirotor:
+        va, gs, _ = capped_groundspeed(course, w_e, w_n, np.full(dist.shape, ac.cruise_speed_ms),
+                                       ac.max_airspeed_ms)
+    else:
+        va, gs = wind_triangle(course, w_e, w_n,
+                                    airspeed=np.full(dist.shape, ac.cruise_speed_ms))
+    alt_pos = np.maximum(alt, 0.0)
+    rho = np.broadcast_to(np.asarray(
+        air_density_at(env.site_altitude_m + alt_pos, env, temp), float), dist.shape)
+    home = dist < 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_back = np.where(home, 0.0, dist / gs)
+    va = np.where(home | ~np.isfinite(va), ac.cruise_speed_ms, va)
+    t_down = alt_pos / ac.descent_rate_ms
+    if ac.is_multirotor:
+        down = (np.full(dist.shape, float(env.wind_speed_ms)), -ac.descent_rate_ms, rho, 1.0)
+    else:
+        v, nload = loiter_state(ac)
+        down = (np.full(dist.shape, float(v)), -ac.descent_rate_ms, rho, nload)
+    return {"leg": leg_of, "frac": frac, "time_s": time, "east_m": pos[:, 0],
+            "north_m": pos[:, 1], "altitude_m": alt, "distance_m": dist,
+            "t_back": t_back, "t_down": t_down, "back": (va, 0.0, rho, 1.0), "down": down}

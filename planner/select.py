@@ -15,7 +15,7 @@ more power. :func:`evaluate_packs` runs the *same* physics and reserve rules as
 * the integral-model stress :math:`S = \int dt/(\delta P^\varepsilon)` is summed leg
   by leg with per-pack δ, ε, β; the charge is :math:`\hat C = S^{1/\beta}`;
 * the landing reserve, the return-home reserve at
-  :data:`planner.check.RTL_POINTS_PER_LEG` points per leg (the same geometry as
+  :data:`planner.profile.RTL_POINTS_PER_LEG` points per leg (the same geometry as
   ``MissionChain._return_home``), the C rating with the loaded current of
   :func:`planner.check.loaded_current` and the take-off mass limit are checked as
   ``check`` does;
@@ -49,7 +49,7 @@ from planner import profile as prof
 from planner import schema as S
 from planner.battery import integral
 from planner.battery.ocv import lipo_ocv
-from planner.check import MAH, RTL_POINTS_PER_LEG, loaded_current
+from planner.check import MAH, loaded_current
 from planner.definitions import Aircraft, BatteryPack, battery_from_mapping
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
@@ -631,58 +631,6 @@ def _pack_arrays(packs, temperature_c):
             "cells": cells, "delta": delta, "eps": eps, "beta": beta, "scale": scale}
 
 
-def _return_home_points(table, aircraft: Aircraft, env: Environment, temp):
-    """Geometry and flight states of the return-home points (as ``check``'s ``_return_home``).
-
-    Returns the points' leg, fraction along the leg, time, position, distance home and
-    the two flight states (straight back at cruise speed, descent at home) with their
-    durations; none depends on the pack.
-    """
-    ac = aircraft
-    n = len(table)
-    f = np.linspace(0.0, 1.0, RTL_POINTS_PER_LEG)
-    pos = table.start_en_m[:, None, :] + f[None, :, None] * (
-        table.end_en_m - table.start_en_m)[:, None, :]
-    alt = table.start_alt_m[:, None] + f * (table.end_alt_m - table.start_alt_m)[:, None]
-    time = table.start_time_s[:, None] + f * table.duration_s[:, None]
-    pos, alt, time = pos.reshape(-1, 2), alt.ravel(), time.ravel()
-    leg_of = np.repeat(np.arange(n), len(f))
-    frac = np.tile(f, n)
-
-    dist = np.hypot(pos[:, 0], pos[:, 1])
-    course = np.degrees(np.arctan2(-pos[:, 0], -pos[:, 1])) % 360.0
-    w_e, w_n = prof.wind_vector(env.wind_speed_ms, env.wind_from_deg)
-    if ac.is_multirotor:
-        va, gs = prof.wind_triangle(course, w_e, w_n,
-                                    groundspeed=np.full(dist.shape, ac.cruise_speed_ms))
-        over = va > ac.max_airspeed_ms
-        _, gs_cap = prof.wind_triangle(course, w_e, w_n,
-                                       airspeed=np.full(dist.shape, ac.max_airspeed_ms))
-        va = np.where(over, ac.max_airspeed_ms, va)
-        gs = np.where(over, gs_cap, gs)
-    else:
-        va, gs = prof.wind_triangle(course, w_e, w_n,
-                                    airspeed=np.full(dist.shape, ac.cruise_speed_ms))
-    alt_pos = np.maximum(alt, 0.0)
-    rho = np.broadcast_to(np.asarray(
-        prof.air_density_at(env.site_altitude_m + alt_pos, env, temp), float), dist.shape)
-    home = dist < 1.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t_back = np.where(home, 0.0, dist / gs)
-    va = np.where(home | ~np.isfinite(va), ac.cruise_speed_ms, va)
-    t_down = alt_pos / ac.descent_rate_ms
-    if ac.is_multirotor:
-        down = (np.full(dist.shape, float(env.wind_speed_ms)), -ac.descent_rate_ms, rho, 1.0)
-    else:
-        fw = ac.fixed_wing
-        v = fw.loiter_airspeed_ms or fw.cruise_airspeed_ms
-        nload = np.sqrt(1.0 + (v**2 / (G * fw.loiter_radius_m)) ** 2)
-        down = (np.full(dist.shape, float(v)), -ac.descent_rate_ms, rho, nload)
-    return {"leg": leg_of, "frac": frac, "time_s": time, "east_m": pos[:, 0],
-            "north_m": pos[:, 1], "altitude_m": alt, "distance_m": dist,
-            "t_back": t_back, "t_down": t_down, "back": (va, 0.0, rho, 1.0), "down": down}
-
-
 def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack],
                    environment: Environment | None = None, *, reserve: float = 0.2,
                    temperature_c: float | None = None, payload_kg: float | None = None,
@@ -744,7 +692,7 @@ def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack
     limit = usable - reserve * cap
 
     # flight states: legs, return-home (back, down), hold; one power table for all
-    rtl = _return_home_points(table, ac, env, temp)
+    rtl = prof.return_home_points(table, ac, env, temp)
     npts = len(rtl["leg"])
     rho0 = float(table.air_density[-1])
     if ac.is_multirotor:
@@ -765,7 +713,7 @@ def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack
 
     dur = table.duration_s
     t_back, t_down = rtl["t_back"], rtl["t_down"]
-    f_points = np.linspace(0.0, 1.0, RTL_POINTS_PER_LEG)
+    f_points = np.linspace(0.0, 1.0, prof.RTL_POINTS_PER_LEG)
 
     out = {name: np.empty(k) for name in (
         "used", "energy", "peak", "rtl_min", "s_final", "p_hold")}
