@@ -15,7 +15,7 @@ import yaml
 
 from planner import schema
 from planner.battery import design, fit, integral, vda
-from planner.commands.common import fmt, output_path, parse_float, write_json
+from planner.commands.common import fmt, output_path, parse_float, parse_int, write_json
 from planner.definitions import IntegralModel, battery_from_mapping, load_battery
 from planner.errors import InputError
 
@@ -144,7 +144,7 @@ def run_fit(args) -> int:
         dropped = [k for k in old if k not in ("delta", "epsilon", "beta", "source")]
         mapping["model"] = model.to_mapping()
     else:
-        cells = (int(parse_float(args.cells, "--cells", 1, 40)) if args.cells
+        cells = (parse_int(args.cells, "--cells", 1, 40) if args.cells
                  else _cells_from_voltage(experiments))
         capacity = max(m.final_charge_mah for m in result["metrics"])
         mapping = {"name": args.name, "cells_series": cells,
@@ -307,7 +307,7 @@ def _model_for(args) -> tuple[IntegralModel, str]:
         what = "literature δ₀(N), ε₀(N)" if pack.model.literature else "fitted"
         return pack.model, f"{args.battery} ({what})"
     if args.cells:
-        cells = int(parse_float(args.cells, "--cells", 1, 40))
+        cells = parse_int(args.cells, "--cells", 1, 40)
         return IntegralModel.from_literature(cells), f"literature values for {cells} cells"
     raise InputError("give --battery B.yaml (its model) or --cells N (literature model)")
 

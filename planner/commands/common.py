@@ -50,6 +50,17 @@ def parse_float(text: str, option: str, low: float | None = None,
     return value
 
 
+def parse_int(text: str, option: str, low: int, high: int) -> int:
+    """A whole number in [low, high] (``4`` or ``4.0``), else :class:`InputError`."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value.is_integer() and low <= value <= high):
+        raise InputError(f"{option}: expected a whole number in [{low}, {high}], got {text!r}")
+    return int(value)
+
+
 def _default(obj: Any):
     if isinstance(obj, np.generic):
         return obj.item()

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from planner.commands.common import output_path, parse_float, parse_wind, write_json
+from planner.commands.common import output_path, parse_float, parse_int, parse_wind, write_json
 from planner.definitions import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission import load_mission
@@ -46,7 +46,7 @@ def run(args) -> int:
         env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
     temp = parse_float(args.temperature, "--temperature", -20, 60) if args.temperature else 25.0
     step = parse_float(args.step, "--step", 0.01, 10.0)
-    n_par = int(parse_float(args.supercap_parallel, "--supercap-parallel", 1, 100))
+    n_par = parse_int(args.supercap_parallel, "--supercap-parallel", 1, 100)
     result = MissionChain(aircraft, pack, temperature_c=temp).run(mission, env)
     legs = result.legs
     end = np.cumsum(legs.duration_s.to_numpy())

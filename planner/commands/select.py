@@ -14,6 +14,7 @@ from planner.commands.common import (
     output_path,
     parse_float,
     parse_fraction,
+    parse_int,
     parse_wind,
     write_json,
 )
@@ -86,18 +87,6 @@ def register(sub) -> None:
 
 # --------------------------------------------------------------------------- select
 
-def _parse_top(text):
-    if text is None:
-        return None
-    try:
-        n = int(text)
-    except ValueError:
-        raise InputError(f"--top: expected a whole number >= 1, got {text!r}") from None
-    if n < 1:
-        raise InputError(f"--top: expected a whole number >= 1, got {text!r}")
-    return n
-
-
 def run_select(args) -> int:
     from planner import select as sel
     from planner.sizing import plan_long_mission
@@ -105,7 +94,7 @@ def run_select(args) -> int:
     json_out = output_path(args.json, "--json")
     plot_out = output_path(args.plot, "--plot")
     reserve = parse_fraction(args.reserve, "--reserve")
-    top = _parse_top(args.top)
+    top = None if args.top is None else parse_int(args.top, "--top", 1, 10**9)
     min_tw = parse_float(args.min_thrust_to_weight, "--min-thrust-to-weight", 0.0, 20.0)
     temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
                    if args.temperature is not None else None)
@@ -245,18 +234,6 @@ def _parse_range(text, default):
     return lo, hi
 
 
-def _parse_points(text, default):
-    if text is None:
-        return default
-    try:
-        n = int(text)
-    except ValueError:
-        raise InputError(f"--points: expected a whole number >= 3, got {text!r}") from None
-    if not 3 <= n <= 100_000:
-        raise InputError(f"--points: expected a whole number in [3, 100000], got {text!r}")
-    return n
-
-
 def run_sweep(args) -> int:
     from planner import sizing
     from planner.mission.legs import Environment
@@ -310,7 +287,7 @@ def run_sweep(args) -> int:
         m0 = aircraft.empty_mass_kg + payload
         lo, hi = _parse_range(args.sweep_range, (0.05 * m0, 4.0 * m0))
         lo = max(lo, 1e-3)
-        n = _parse_points(args.points, 200)
+        n = 200 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
         sweep = sizing.endurance_sweep(
             aircraft, np.linspace(lo, hi, n), specific_energy_wh_per_kg=e_spec,
             cells_series=cells, cell_voltage_v=cell_v, model=model,
@@ -332,7 +309,7 @@ def run_sweep(args) -> int:
     free = (aircraft.max_takeoff_mass_kg - aircraft.empty_mass_kg - pack.total_mass_kg
             if aircraft.max_takeoff_mass_kg is not None else aircraft.empty_mass_kg)
     lo, hi = _parse_range(args.sweep_range, (0.0, max(free, 0.1 * aircraft.empty_mass_kg)))
-    n = _parse_points(args.points, 41)
+    n = 41 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
     sweep = sizing.range_sweep(aircraft, pack, np.linspace(lo, hi, n), reserve=reserve,
                                environment=env, altitude_m=altitude,
                                temperature_c=temperature)
