@@ -115,7 +115,8 @@ def _glauert_ratio(mu, x):
     """Root λ > 0 of λ² (μ² + (x + λ)²) = 1 (Glauert), bracketed Newton iteration.
 
     The root is unique when μ >= 0.62 or x > -1.755 (the fold of the relation lies in
-    μ < 0.6204, x <= -1.755); callers only use it there. Fixed iteration count.
+    μ < 0.6204, x <= -1.755); callers only use it there. At most
+    ``_NEWTON_ITERATIONS`` steps, fewer once every root has settled to rounding.
     """
     mu2 = np.asarray(mu, dtype=float) ** 2
     x = np.asarray(x, dtype=float)
@@ -134,7 +135,11 @@ def _glauert_ratio(mu, x):
             lo = np.where(up, lo, lam)
             step = lam - f / (2.0 * lam * q + 2.0 * lam * lam * s)
             inside = (step > lo) & (step < hi)
-            lam = np.where(inside, step, 0.5 * (lo + hi))
+            new = np.where(inside, step, 0.5 * (lo + hi))
+            settled = np.isnan(new) | (np.abs(new - lam) <= 1e-15 * np.abs(new))
+            lam = new
+            if settled.all():  # converged to rounding: more steps change nothing
+                break
     nan = np.isnan(mu2) | np.isnan(x)
     return np.where(nan, np.nan, lam)
 
