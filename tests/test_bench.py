@@ -60,35 +60,6 @@ def test_seed_pack_is_the_shipped_multistar_yaml(repo, pack):
     assert pack.model == from_yaml.model
 
 
-def test_without_diffusion_the_bench_is_circuit_simulate():
-    """available_fraction = 1 reproduces circuit.simulate sample for sample.
-
-    A pack with an R0(SoC) table, an RC branch and hysteresis, through an
-    APRBS profile with rests and on to the cut-off, at 10 °C (Arrhenius R0,
-    reduced capacity).
-    """
-    params = CircuitParameters(capacity_ah=2.0, r0_ohm=([0.0, 0.5, 1.0], [0.03, 0.02, 0.018]),
-                               r1_ohm=0.01, c1_f=2000.0, hysteresis_v=0.02,
-                               hysteresis_gamma=50.0, cells_series=3, cells_parallel=2)
-    pk = bench.BenchPack(params, available_fraction=1.0)
-    t = np.arange(0.0, 9000.0)
-    schedule = design.aprbs([40.0, 60.0, 90.0], (30, 300), 9000, 3)
-    power = design.sample_schedule(schedule, t)
-    power[(t >= 500) & (t < 800)] = 0.0  # rests
-    power[(t >= 1500) & (t < 1600)] = 0.0
-    ours = bench.simulate_bench(pk, t, power, temperature_c=10.0)
-    ref = circuit.simulate(params, t, power_w=power, temperature_c=10.0, v_cutoff_cell=3.5,
-                           stop_at_cutoff=False)
-    assert ours.tripped and np.any(power == 0.0)
-    k = ours.time_s.size
-    for name in ("voltage_v", "current_a", "power_w", "soc", "charge_as"):
-        assert_allclose(getattr(ours, name), getattr(ref, name)[:k], rtol=1e-12, atol=1e-12,
-                        err_msg=name)
-    assert_allclose(ours.surface_deficit, 0.0)
-    assert ours.cutoff_time_s == pytest.approx(ref.cutoff_time_s, rel=1e-12)
-    assert ours.cutoff_charge_as == pytest.approx(ref.cutoff_charge_as, rel=1e-12)
-
-
 # --------------------------------------------------------------------------- physics
 
 def test_loaded_voltage_sags_with_current(pack):

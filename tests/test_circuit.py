@@ -91,6 +91,53 @@ def test_stop_at_cutoff_disconnects_the_load():
 
 # --------------------------------------------------------------------------- power load
 
+def test_end_at_cutoff_keeps_the_loaded_sample_and_the_prefix_of_the_run():
+    # a bench load trips at the cut-off: the run ends there, nothing before it changes
+    p = cell(hysteresis_v=0.02, hysteresis_gamma=50.0)
+    t = np.arange(0.0, 4000.0)
+    full = simulate(p, t, power_w=25.0, v_cutoff_cell=3.5, diffusion=(0.8, 300.0))
+    ended = simulate(p, t, power_w=25.0, v_cutoff_cell=3.5, end_at_cutoff=True,
+                     diffusion=(0.8, 300.0))
+    k = ended.time_s.size
+    assert 100 < k < t.size
+    assert ended.cell_voltage_v[-1] <= 3.5 < ended.cell_voltage_v[-2]
+    assert ended.current_a[-1] > 0  # loaded, not rested
+    for name in ("voltage_v", "current_a", "soc", "surface_deficit", "charge_as",
+                 "hysteresis_v"):
+        assert_allclose(getattr(ended, name), getattr(full, name)[:k], rtol=0, atol=0,
+                        err_msg=name)
+    assert ended.cutoff_time_s == full.cutoff_time_s
+    with pytest.raises(InputError, match="end_at_cutoff needs v_cutoff_cell"):
+        simulate(p, t, power_w=25.0, end_at_cutoff=True)
+
+
+def test_diffusion_state_is_the_kibam_solution_and_sets_the_surface_soc():
+    r"""KiBaM (Manwell and McGowan 1993) in SoC terms, ẋ = (1 − c)/c · i/Q − x/τ_d.
+
+    A 20 A step for 1200 s then a rest: x follows x∞(1 − e^{−t/τ_d}) with
+    x∞ = (1 − c)/c · τ_d · i/Q, then decays as e^{−t/τ_d} (recovery); the
+    terminal voltage is OCV(z − x) − R0 i, the bulk SoC z is coulomb counting.
+    """
+    c, tau = 0.8, 600.0
+    p = cell(capacity_ah=10.0, r0_ohm=0.01, r1_ohm=0.0)
+    t = np.arange(0.0, 3000.0)
+    i = np.where(t < 1200.0, 20.0, 0.0)
+    r = simulate(p, t, current_a=i, diffusion=(c, tau))
+    x_inf = (1.0 - c) / c * tau * 20.0 / 36000.0
+    x = np.where(t <= 1200.0, x_inf * (1.0 - np.exp(-t / tau)),
+                 x_inf * (1.0 - np.exp(-1200.0 / tau)) * np.exp(-(t - 1200.0) / tau))
+    assert_allclose(r.surface_deficit, x, rtol=1e-10, atol=1e-14)
+    z = 1.0 - np.minimum(t, 1200.0) * 20.0 / 36000.0
+    assert_allclose(r.soc, z, rtol=1e-12)
+    assert_allclose(r.voltage_v + 0.01 * i, lipo_ocv(z - x), atol=2e-6)
+    # without diffusion the voltage sees the bulk SoC: the deficit costs voltage
+    plain = simulate(p, t, current_a=i)
+    assert plain.surface_deficit is None
+    assert np.all(r.voltage_v[1:1200] < plain.voltage_v[1:1200])
+    with pytest.raises(InputError, match="diffusion"):
+        simulate(p, t, current_a=i, diffusion=(0.0, 600.0))
+
+
 def test_power_beyond_deliverable_is_reported_not_nan():
     p = cell(cells_series=4, r0_ohm=0.05)
     t = np.arange(0.0, 60.0, 1.0)

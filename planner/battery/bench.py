@@ -52,12 +52,11 @@ show:
 * **recovery.** At rest (or at lower power) ``x`` relaxes with ``τ_d`` and
   the withheld charge becomes available again.
 
-The loop is the one of :func:`planner.battery.circuit.simulate` extended by
-``x`` (exact zero-order-hold update
+The simulation is :func:`planner.battery.circuit.simulate` with its
+``diffusion`` state (exact zero-order-hold update
 :math:`x_{k+1} = a x_k + (1-a)\,\frac{1-c}{c}\tau_d\, i_k/Q`,
-:math:`a = e^{-\Delta t/\tau_d}`); with ``c = 1`` it reproduces ``simulate``
-sample for sample (tested). The cell temperature is held constant
-(isothermal bench, a climate chamber).
+:math:`a = e^{-\Delta t/\tau_d}`); with ``c = 1`` the state stays 0. The cell
+temperature is held constant (isothermal bench, a climate chamber).
 
 Constant-power control and logging
 ----------------------------------
@@ -108,8 +107,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from planner.battery import design, integral
-from planner.battery.circuit import R_GAS, CircuitParameters
+from planner.battery import circuit, design, integral
+from planner.battery.circuit import CircuitParameters
 from planner.battery.ocv import lipo_ocv
 from planner.battery.thermal import check_temperature
 from planner.errors import InputError
@@ -146,8 +145,6 @@ SEED_CUTOFF_CELL_V = 3.5
 #: ... integral model m_const, seed Table 5 (used to design two-step tests).
 SEED_MODEL = {"delta": 23.6482, "epsilon": -1.0209, "beta": 0.9648}
 
-#: Points of the SoC grid on which OCV and R0 are tabulated (as in ``circuit.simulate``).
-_GRID_N = 4001
 
 #: Default KiBaM available-charge fraction c (assumed, see the module notes). [unitless]
 DEFAULT_AVAILABLE_FRACTION = 5.0 / 6.0
@@ -389,9 +386,9 @@ def simulate_bench(pack: BenchPack, time_s, power_w, *, temperature_c: float = 2
     Per step, in this order: the state at the start of the step gives the
     surface SoC, OCV and R0; the current is solved from the power; the sample
     (and the cut-off test) is recorded; the states advance over the step with
-    the current held (exact updates of ``z``, ``x``, ``v1``, ``h``). This is
-    :func:`planner.battery.circuit.simulate` (prescribed temperature) plus the
-    state ``x``; with ``available_fraction = 1`` the two agree.
+    the current held (exact updates of ``z``, ``x``, ``v1``, ``h``): this is
+    :func:`planner.battery.circuit.simulate` at a constant temperature with
+    ``diffusion=(available_fraction, diffusion_tau_s)`` and ``end_at_cutoff``.
     """
     t = np.asarray(time_s, dtype=float).ravel()
     n = t.size
@@ -413,112 +410,16 @@ def simulate_bench(pack: BenchPack, time_s, power_w, *, temperature_c: float = 2
     check_temperature(temp, "cell temperature")
 
     p = pack.circuit
-    ns, npar = p.cells_series, p.cells_parallel
-    fa = math.exp(p.r0_activation_energy_j_mol / R_GAS
-                  * (1.0 / (temp + 273.15) - 1.0 / (p.reference_temperature_c + 273.15)))
     fq = 1.0 - p.capacity_temp_coeff_per_c * max(0.0, p.reference_temperature_c - temp)
-    q_cell = p.capacity_ah * 3600.0 * fq
-    gain = (1.0 - pack.available_fraction) / pack.available_fraction * pack.diffusion_tau_s
-    tau_d = pack.diffusion_tau_s
-    m_h = p.hysteresis_v
-    gamma = p.hysteresis_gamma if m_h > 0 else 0.0
-    r1 = p.r1_ohm
-    has_rc = r1 > 0
-    tau1 = p.tau1_s
-    cut = float(pack.v_cutoff_cell)
-
-    grid = np.linspace(0.0, 1.0, _GRID_N)
-    ocv_arr = np.asarray(p.ocv(grid), dtype=float)
-    if ocv_arr.shape != grid.shape or not np.all(np.isfinite(ocv_arr)):
-        raise InputError("the OCV function must return finite voltages for soc in [0, 1]")
-    ocv_g = ocv_arr.tolist()
-    gn = _GRID_N - 1
-    if p.r0_is_table:
-        r0_g = np.interp(grid, p.r0_ohm[0], p.r0_ohm[1]).tolist()
-        r0_const = 0.0
-    else:
-        r0_g, r0_const = None, float(p.r0_ohm)
-    dts = np.r_[np.diff(t), 0.0].tolist()
-    loads = p_arr.tolist()
-    times = t.tolist()
-    exp, sqrt = math.exp, math.sqrt
-
-    z, x, h, v1 = float(soc0), 0.0, 0.0, 0.0
-    q_cum = 0.0
-    cutoff_time = cutoff_charge = undeliverable = None
-    prev_vcell = prev_q = prev_t = None
-    out_p, out_i, out_v, out_z, out_x, out_q = [], [], [], [], [], []
-    for k in range(n):
-        zs = z - x
-        xg = zs * gn
-        if xg <= 0.0:
-            ocv = ocv_g[0]
-            r0b = r0_g[0] if r0_g is not None else r0_const
-        elif xg >= gn:
-            ocv = ocv_g[gn]
-            r0b = r0_g[gn] if r0_g is not None else r0_const
-        else:
-            j = int(xg)
-            fr = xg - j
-            ocv = ocv_g[j] + fr * (ocv_g[j + 1] - ocv_g[j])
-            r0b = (r0_g[j] + fr * (r0_g[j + 1] - r0_g[j])) if r0_g is not None else r0_const
-        e_p = ns * (ocv + h - v1)
-        r_p = ns * r0b * fa / npar
-        pw = loads[k]
-        if pw == 0.0:
-            cur = 0.0
-        elif r_p <= 0.0:
-            cur = pw / e_p if e_p > 0.0 else 0.0
-        else:
-            disc = e_p * e_p - 4.0 * r_p * pw
-            if disc >= 0.0 and e_p + sqrt(disc) > 0.0:
-                cur = 2.0 * pw / (e_p + sqrt(disc))
-            else:
-                cur = e_p / (2.0 * r_p) if e_p > 0.0 else 0.0
-                if undeliverable is None:
-                    undeliverable = times[k]
-        volt = e_p - r_p * cur
-        out_p.append(volt * cur)
-        out_i.append(cur)
-        out_v.append(volt)
-        out_z.append(z)
-        out_x.append(x)
-        out_q.append(q_cum)
-        if cutoff_time is None:
-            vcell = volt / ns
-            if vcell <= cut:
-                if prev_vcell is None or prev_vcell == vcell:
-                    cutoff_time, cutoff_charge = times[k], q_cum
-                else:
-                    w = (prev_vcell - cut) / (prev_vcell - vcell)
-                    cutoff_time = prev_t + w * (times[k] - prev_t)
-                    cutoff_charge = prev_q + w * (q_cum - prev_q)
-                if stop_at_cutoff:
-                    break
-            prev_vcell, prev_q, prev_t = vcell, q_cum, times[k]
-        d = dts[k]
-        if d == 0.0:
-            break
-        icell = cur / npar
-        dq = icell * d
-        z -= dq / q_cell
-        ad = exp(-d / tau_d)
-        x = ad * x + (1.0 - ad) * gain * icell / q_cell
-        if gamma > 0.0 and dq != 0.0:
-            eh = exp(-gamma * abs(dq) / q_cell)
-            h = eh * h + (1.0 - eh) * (-m_h if dq > 0.0 else m_h)
-        if has_rc:
-            a = exp(-d / tau1)
-            v1 = a * v1 + r1 * (1.0 - a) * icell
-        q_cum += cur * d
-
-    m = len(out_v)
+    r = circuit.simulate(p, t, power_w=p_arr, soc0=soc0, temperature_c=temp,
+                         v_cutoff_cell=pack.v_cutoff_cell, end_at_cutoff=stop_at_cutoff,
+                         diffusion=(pack.available_fraction, pack.diffusion_tau_s))
     return BenchResult(
-        time_s=t[:m], power_w=np.array(out_p), current_a=np.array(out_i),
-        voltage_v=np.array(out_v), soc=np.array(out_z), surface_deficit=np.array(out_x),
-        charge_as=np.array(out_q), cells_series=ns, capacity_as=q_cell * npar,
-        v_cutoff_cell=cut, cutoff_time_s=cutoff_time, cutoff_charge_as=cutoff_charge,
-        undeliverable_time_s=undeliverable)
+        time_s=r.time_s, power_w=r.power_w, current_a=r.current_a, voltage_v=r.voltage_v,
+        soc=r.soc, surface_deficit=r.surface_deficit, charge_as=r.charge_as,
+        cells_series=r.cells_series, capacity_as=pack.capacity_as * fq,
+        v_cutoff_cell=float(pack.v_cutoff_cell), cutoff_time_s=r.cutoff_time_s,
+        cutoff_charge_as=r.cutoff_charge_as, undeliverable_time_s=r.undeliverable_time_s)
 
 
 # --------------------------------------------------------------------------- records

@@ -34,6 +34,26 @@ integrated exactly (coulomb counting) for the held current. The nonlinear
 coupling (OCV and R0 depend on z and T) is resolved step by step: the
 parameters are evaluated at the start of each step.
 
+Diffusion (optional)
+--------------------
+``simulate(..., diffusion=(c, tau_d))`` adds one state that the circuit
+lacks: the depletion ``x`` of the electrode surface against the bulk, the
+kinetic battery model (KiBaM) of Manwell and McGowan [5]_ written in
+state-of-charge terms. The OCV and R0 are then evaluated at the *surface*
+state of charge ``z − x``:
+
+.. math:: \dot x = \frac{1 - c}{c}\,\frac{\eta\, i}{Q(T)} - \frac{x}{\tau_d}
+
+KiBaM splits the charge into an *available* well (fraction ``c``) that feeds
+the current and a *bound* well that refills it; the height difference of the
+wells relaxes with :math:`\tau_d`. Under a steady current ``x`` settles at
+:math:`\frac{1-c}{c}\tau_d\, i/Q`, so the cut-off comes while the charge
+``Q x`` is still bound (a rate-dependent capacity beyond the IR drop), and it
+returns at rest (recovery). The update for the held current is exact:
+:math:`x_{k+1} = a x_k + (1-a)\frac{1-c}{c}\tau_d\,\eta i_k/Q`,
+:math:`a = e^{-\Delta t/\tau_d}`. The virtual bench
+(:mod:`planner.battery.bench`) uses it.
+
 Temperature
 -----------
 * R0 follows Arrhenius, ``R0(T) = R0_ref·exp(E_a/R·(1/T − 1/T_ref))``. The
@@ -98,6 +118,9 @@ References
    "Multi-domain modeling of lithium-ion batteries encompassing multi-physics
    in varied length scales," J. Electrochem. Soc., vol. 158, no. 8,
    pp. A955–A969, 2011, doi:10.1149/1.3597614.
+.. [5] J. F. Manwell and J. G. McGowan, "Lead acid battery storage model for
+   hybrid energy systems," Solar Energy, vol. 50, no. 5, pp. 399–405, 1993,
+   doi: 10.1016/0038-092X(93)90060-2.
 """
 
 from __future__ import annotations
@@ -514,7 +537,8 @@ class CircuitResult:
     voltage_v : ndarray
         Loaded terminal voltage. [V]
     ocv_v : ndarray
-        Open-circuit voltage OCV(SoC) (without hysteresis). [V]
+        Open-circuit voltage OCV(SoC) (without hysteresis; at the surface
+        SoC ``z − x`` with ``diffusion``). [V]
     soc : ndarray
         State of charge against the capacity available at the present
         temperature; may go below 0 when the run continues past empty. [unitless]
@@ -541,6 +565,9 @@ class CircuitResult:
         pack then delivers that maximum power instead. [s]
     empty_time_s : float or None
         When the state of charge first reached 0 (interpolated). [s]
+    surface_deficit : ndarray or None
+        Diffusion state ``x`` (surface SoC below the bulk SoC) when
+        :func:`simulate` ran with ``diffusion``; ``None`` otherwise. [unitless]
     """
 
     time_s: np.ndarray
@@ -561,6 +588,7 @@ class CircuitResult:
     cutoff_charge_as: float | None = None
     undeliverable_time_s: float | None = None
     empty_time_s: float | None = None
+    surface_deficit: np.ndarray | None = None
 
     @property
     def cell_voltage_v(self) -> np.ndarray:
@@ -606,7 +634,8 @@ def _grid(func, n: int = _GRID_N) -> list[float]:
 def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
              soc0: float = 1.0, temperature_c: float | Any | ThermalParameters = 25.0,
              v_cutoff_cell: float | None = None, stop_at_cutoff: bool = False,
-             hysteresis0_v: float = 0.0, rc0_v: float = 0.0) -> CircuitResult:
+             end_at_cutoff: bool = False, hysteresis0_v: float = 0.0, rc0_v: float = 0.0,
+             diffusion: tuple[float, float] | None = None) -> CircuitResult:
     r"""
     Run the equivalent-circuit pack model through a load profile.
 
@@ -633,8 +662,16 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         Disconnect the load (current 0) from the first sample at or below the
         cut-off on, as a low-voltage cut-off would (that sample then shows the
         rested voltage); otherwise the load goes on.
+    end_at_cutoff : bool, default False
+        End the run at the first sample at or below the cut-off, keeping that
+        sample with its loaded values (a bench whose load trips there); the
+        result is shorter than ``time_s``.
     hysteresis0_v, rc0_v : float, default 0
         Initial hysteresis and RC-branch voltage, per cell. [V]
+    diffusion : (float, float), optional
+        ``(c, tau_d_s)``: add the kinetic-battery-model diffusion state of the
+        module notes (available-charge fraction ``c`` in (0, 1], relaxation
+        time ``τ_d`` > 0 s). The surface deficit starts at 0 (equilibrium).
 
     Returns
     -------
@@ -679,6 +716,16 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         raise InputError(f"soc0 must lie in [0, 1], got {soc0!r}")
     if v_cutoff_cell is not None and not (0.0 < float(v_cutoff_cell) < 10.0):
         raise InputError(f"v_cutoff_cell must be a cell voltage in volts, got {v_cutoff_cell!r}")
+    if end_at_cutoff and v_cutoff_cell is None:
+        raise InputError("end_at_cutoff needs v_cutoff_cell")
+    if diffusion is not None:
+        c_avail, tau_d = (float(v) for v in diffusion)
+        if not (0.0 < c_avail <= 1.0 and math.isfinite(tau_d) and tau_d > 0.0):
+            raise InputError(f"diffusion must be (c in (0, 1], tau_d > 0 s), got {diffusion!r}")
+        # x settles at gain·i/Q under a steady current i (module notes)
+        diff_gain = (1.0 - c_avail) / c_avail * tau_d
+        a_d = np.exp(-np.r_[dt, 0.0] / tau_d).tolist()
+    has_diff = diffusion is not None and diff_gain > 0.0
 
     p = params
     ns, npar = p.cells_series, p.cells_parallel
@@ -727,6 +774,7 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
 
     # state
     z = float(soc0)
+    x_d = 0.0
     h = float(hysteresis0_v)
     v1 = float(rc0_v) if has_rc else 0.0
     temp = thermal.initial_c if thermal is not None else temps[0]
@@ -734,11 +782,12 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
     e_cum = 0.0
     cut = None if v_cutoff_cell is None else float(v_cutoff_cell)
     cutoff_time = cutoff_charge = undeliverable = empty_time = None
-    disconnected = False
+    disconnected = ending = False
     prev_vcell = prev_q = prev_t = None
 
     out_i, out_p, out_v, out_ocv, out_z, out_v1, out_h, out_t, out_q, out_cq, out_e = (
         [], [], [], [], [], [], [], [], [], [], [])
+    out_x = []
     exp = math.exp
     sqrt = math.sqrt
 
@@ -755,8 +804,8 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
             temp = temps[k]
             fa = f_arr[k]
             fq = fq_arr[k]
-        # tabulated OCV and R0 at z (held at the ends)
-        x = z * gn
+        # tabulated OCV and R0 at the surface SoC z − x_d (held at the ends)
+        x = (z - x_d) * gn
         if x <= 0.0:
             ocv = ocv_g[0]
             r0b = r0_g[0] if r0_g is not None else r0_const
@@ -806,7 +855,9 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
                     w = (prev_vcell - cut) / (prev_vcell - vcell)
                     cutoff_time = prev_t + w * (times[k] - prev_t)
                     cutoff_charge = prev_q + w * (q_cum - prev_q)
-                if stop_at_cutoff:
+                if end_at_cutoff:
+                    ending = True
+                elif stop_at_cutoff:
                     # the low-voltage cut-off opens at this instant: no load from here on
                     disconnected = True
                     cur = 0.0
@@ -824,7 +875,8 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         out_q.append(heat)
         out_cq.append(q_cum)
         out_e.append(e_cum)
-        if k == n - 1:
+        out_x.append(x_d)
+        if ending or k == n - 1:
             break
         d = dts[k]
         if d == 0.0:
@@ -836,6 +888,9 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         if empty_time is None and z > 0.0 >= z_new:
             empty_time = times[k] + d * z / (z - z_new)
         z = z_new
+        if has_diff:
+            ad = a_d[k]
+            x_d = ad * x_d + (1.0 - ad) * diff_gain * (dq / d) / (cap_as * fq)
         if gamma > 0.0 and dq != 0.0:
             eh = exp(-gamma * abs(dq) / (cap_as * fq))
             h = eh * h + (1.0 - eh) * (-m_h if dq > 0.0 else m_h)
@@ -849,13 +904,14 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         e_cum += volt * cur * d
 
     return CircuitResult(
-        time_s=t, current_a=np.array(out_i), power_w=np.array(out_p),
+        time_s=t[:len(out_v)], current_a=np.array(out_i), power_w=np.array(out_p),
         voltage_v=np.array(out_v), ocv_v=np.array(out_ocv), soc=np.array(out_z),
         rc_voltage_v=np.array(out_v1), hysteresis_v=np.array(out_h),
         temperature_c=np.array(out_t), heat_w=np.array(out_q), charge_as=np.array(out_cq),
         energy_j=np.array(out_e), cells_series=ns, v_cutoff_cell=cut,
         cutoff_time_s=cutoff_time, cutoff_charge_as=cutoff_charge,
-        undeliverable_time_s=undeliverable, empty_time_s=empty_time)
+        undeliverable_time_s=undeliverable, empty_time_s=empty_time,
+        surface_deficit=np.array(out_x) if diffusion is not None else None)
 
 
 def with_changes(params: CircuitParameters, **changes) -> CircuitParameters:
