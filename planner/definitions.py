@@ -57,6 +57,21 @@ MODEL_KEYS = {
 LITERATURE_MAX_CELLS = 6
 
 
+def filled_temperature(temperature_c) -> np.ndarray | None:
+    """Temperatures with missing samples filled from the nearest valid ones; ``None``
+    when there are none. [°C]"""
+    if temperature_c is None:
+        return None
+    temp = np.asarray(temperature_c, dtype=float).ravel()
+    ok = np.isfinite(temp)
+    if not ok.any():
+        return None
+    if not ok.all():
+        idx = np.arange(temp.size)
+        temp = np.interp(idx, idx[ok], temp[ok])
+    return temp
+
+
 @dataclass(frozen=True)
 class IntegralModel:
     """Parameters of the integral capacity model (DESIGN §5).
@@ -124,13 +139,44 @@ class IntegralModel:
         beta = integral.LITERATURE_BETA
         return cls(delta * capacity_as ** (1.0 - beta), eps, beta, literature=True)
 
-    def charge_scale(self, temperature_c: float | None = None) -> float:
-        """Factor on the charge drawn from the extensions (1 = none). [unitless]"""
+    def charge_scale(self, temperature_c=None):
+        """Factor on the charge drawn from the extensions (1 = none). [unitless]
+
+        ``temperature_c`` may be a number or an array (one factor per value). [°C]
+        """
         scale = 1.0 + self.fade_per_cycle * self.cycle
-        if temperature_c is not None and self.temperature_coefficient_per_c:
-            below = max(self.reference_temperature_c - temperature_c, 0.0)
-            scale *= 1.0 + self.temperature_coefficient_per_c * below
-        return scale
+        if temperature_c is None or not self.temperature_coefficient_per_c:
+            return scale
+        below = np.maximum(self.reference_temperature_c - np.asarray(temperature_c, float), 0.0)
+        out = scale * (1.0 + self.temperature_coefficient_per_c * below)
+        return out if np.ndim(out) else float(out)
+
+    def charge(self, time_s, power_w, temperature_c=None) -> np.ndarray:
+        r"""Charge drawn along a sampled power profile, with the extensions. [A s]
+
+        :math:`\hat C(t) = (1 + \varphi n) \int_0^t (1 + k\,h(T))\, dC_0` with
+        :math:`C_0` the integral model (:func:`planner.battery.integral.charge`)
+        and :math:`h = \max(T_{ref} - T, 0)` at the mid-point of each interval:
+        each increment of charge is scaled by the pack temperature of that
+        moment, as diagnose fits it (:mod:`planner.diagnose.effects`). For a
+        constant temperature this is ``charge_scale(T)·C_0``.
+
+        Parameters
+        ----------
+        time_s, power_w : array_like
+            Sample times [s] and electric power [W] (≤ 0 is a rest).
+        temperature_c : array_like, optional
+            Pack temperature per sample; missing values are filled from the
+            nearest valid sample. Without it (or all missing) no temperature
+            correction. [°C]
+        """
+        base = integral.charge(time_s, power_w, self.delta, self.epsilon, self.beta)
+        temp = filled_temperature(temperature_c) if self.temperature_coefficient_per_c else None
+        if temp is None:
+            return self.charge_scale() * base
+        scale = self.charge_scale(temp)
+        inc = np.diff(base) * 0.5 * (scale[1:] + scale[:-1])
+        return np.concatenate(([0.0], np.cumsum(inc)))
 
     def to_mapping(self) -> dict[str, Any]:
         out: dict[str, Any] = {"delta": float(self.delta), "epsilon": float(self.epsilon),

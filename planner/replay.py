@@ -7,7 +7,11 @@ Two levels, per experiment (flight or discharge):
   with the trapezoid integral of the measured current (RMSE in mAh, final
   normalized error in %, seed eq. 29–30). Without a pack file the literature
   model δ₀(N), ε₀(N), β = 0.9648 is used for the cell count N from the log
-  (``BATT_*``/``BAT1_N_CELLS``) or, failing that, N = ⌈V_max / 4.25 V⌉.
+  (``BATT_*``/``BAT1_N_CELLS``) or, failing that, N = ⌈V_max / 4.25 V⌉. A
+  pack that carries diagnose's extensions (``temperature_coefficient_per_c``,
+  ``fade_per_cycle``) has them applied: each increment of charge is scaled by
+  the logged pack temperature of that moment
+  (:meth:`planner.definitions.IntegralModel.charge`).
 * **power** (with an aircraft) — the physics model driven by the measured
   airspeed (else ground speed corrected with the logged wind, else ground
   speed), climb rate, air density (measured pressure and temperature, else
@@ -36,7 +40,7 @@ import pandas as pd
 
 from planner import atmosphere, record
 from planner.battery import integral
-from planner.definitions import Aircraft, BatteryPack, IntegralModel
+from planner.definitions import Aircraft, BatteryPack, IntegralModel, filled_temperature
 
 MAH = integral.AS_PER_MAH
 R_AIR = 287.05287
@@ -213,8 +217,13 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
     """Integral model driven by the measured power of one experiment."""
     t = exp["time_s"].to_numpy(float)
     p = exp["power_w"].to_numpy(float)
-    predicted = integral.charge(t, np.nan_to_num(p), model.delta, model.epsilon,
-                                model.beta) / MAH
+    temp = (filled_temperature(exp["temperature_c"].to_numpy(float))
+            if "temperature_c" in exp and model.temperature_coefficient_per_c else None)
+    # the model's charge, with the pack's temperature and fade extensions sample by sample
+    predicted = model.charge(t, np.nan_to_num(p), temp) / MAH
+    base = integral.charge(t, np.nan_to_num(p), model.delta, model.epsilon, model.beta)
+    # forward predictions hold the present extension factor: C = C_now + s·(C_0 − C_0,now)
+    scale = model.charge_scale(temp) * np.ones_like(t)
     measured = exp["consumed_mah"].to_numpy(float)
     measured = measured - measured[np.isfinite(measured)][0] if np.isfinite(measured).any() \
         else measured
@@ -232,7 +241,11 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
 
     rmse, final_err = metrics(measured)
     rmse_i, final_i = metrics(integrated)
-    stress = integral.stress_from_charge(predicted * MAH, model.beta)
+    stress = integral.stress_from_charge(base, model.beta)
+
+    def base_target(k, charge_as):
+        return base[k] + (charge_as - predicted[k] * MAH) / scale[k]
+
     p_avg = _rolling_mean(t, np.nan_to_num(p), 60.0)
     c_final = measured[np.isfinite(measured)][-1] if np.isfinite(measured).any() else np.nan
     time_errors = {}
@@ -240,8 +253,8 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
         k = int(np.searchsorted(t, t[0] + frac * (t[-1] - t[0])))
         k = min(k, len(t) - 1)
         if p_avg[k] > 0 and np.isfinite(c_final):
-            dt = integral.time_to_charge(stress[k], p_avg[k], c_final * MAH, model.delta,
-                                         model.epsilon, model.beta)
+            dt = integral.time_to_charge(stress[k], p_avg[k], base_target(k, c_final * MAH),
+                                         model.delta, model.epsilon, model.beta)
             time_errors[f"{int(frac * 100)}pct"] = float(t[k] + dt - t[-1])
     reached = predicted_at = None
     to_reserve = np.full_like(t, np.nan)
@@ -251,8 +264,8 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
         reached = float(t[hit[0]]) if hit.size else None
         with np.errstate(invalid="ignore", divide="ignore"):
             to_reserve = np.where(p_avg > 0, integral.time_to_charge(
-                stress, np.where(p_avg > 0, p_avg, 1.0), limit * MAH, model.delta,
-                model.epsilon, model.beta), np.nan)
+                stress, np.where(p_avg > 0, p_avg, 1.0), base_target(slice(None), limit * MAH),
+                model.delta, model.epsilon, model.beta), np.nan)
         k = len(t) // 2
         predicted_at = float(t[k] + to_reserve[k]) if np.isfinite(to_reserve[k]) else None
     result = BatteryReplay(model=label, rmse_mah=rmse, final_error_pct=final_err,

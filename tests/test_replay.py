@@ -87,6 +87,51 @@ def test_battery_replay_is_exact_when_the_model_made_the_data():
             assert all(abs(v) < 0.5 for v in e.battery.time_error_s.values())
 
 
+def test_battery_replay_applies_the_pack_temperature_coefficient_sample_by_sample():
+    """A pack with diagnose's cold coefficient k replays a cooling flight.
+
+    The truth is written independently of the code: with β = 1 the charge rate
+    is (1 + k·max(T_ref − T, 0)) / (δ P^ε), integrated by the trapezoid rule.
+    The extended pack follows it; the same pack without k misses the cold.
+    At a held 5 °C and constant power the pilot's time prediction is exact.
+    """
+    from scipy.integrate import cumulative_trapezoid
+
+    from planner.definitions import BatteryPack
+    k, ref = 0.01, 25.0
+    cold = IntegralModel(15.6, -1.03, 1.0, temperature_coefficient_per_c=k,
+                         reference_temperature_c=ref)
+    plain = IntegralModel(15.6, -1.03, 1.0)
+    t = np.arange(0, 1200.0, 0.5)
+    p = 120 + 40 * np.sin(t / 60.0)
+    temp = 25.0 - 25.0 * t / t[-1]
+    rate = (1 + k * np.maximum(ref - temp, 0)) / (15.6 * p ** -1.03)
+    c = cumulative_trapezoid(rate, t, initial=0.0) / 3.6
+    df = pd.DataFrame({"experiment": "x", "time_s": t, "power_w": p, "consumed_mah": c,
+                       "voltage_v": 15.0, "current_a": p / 15.0, "temperature_c": temp})
+    df.loc[100:120, "temperature_c"] = np.nan  # a gap in the sensor is bridged
+    with_k = replay(df, [{}], pack=BatteryPack("p", 4, 10000, 0.8, model=cold)).experiments[0]
+    without = replay(df, [{}], pack=BatteryPack("p", 4, 10000, 0.8, model=plain)).experiments[0]
+    assert abs(with_k.battery.final_error_pct) < 0.01
+    assert with_k.battery.rmse_mah < 0.05
+    assert without.battery.final_error_pct > 5.0  # 12.5 °C mean deficit × 1 %/°C
+
+    t_c = 5.0
+    p_c = np.full(t.size, 130.0)
+    c = t / (15.6 * 130.0 ** -1.03) * (1 + k * (ref - t_c)) / 3.6
+    df = pd.DataFrame({"experiment": "x", "time_s": t, "power_w": p_c, "consumed_mah": c,
+                       "voltage_v": 15.0, "current_a": p_c / 15.0, "temperature_c": t_c})
+    e = replay(df, [{}], pack=BatteryPack("p", 4, 10000, 0.8, model=cold)).experiments[0]
+    assert abs(e.battery.final_error_pct) < 1e-9
+    assert all(abs(v) < 0.5 for v in e.battery.time_error_s.values())
+    series = e.series["time_to_reserve_s"]
+    reserve_at = 0.8 * 10000
+    # at a constant rate the time to the reserve falls one second per second
+    k_mid = len(t) // 2
+    assert series[k_mid] == pytest.approx((reserve_at - c[k_mid]) / (c[1] - c[0]) * 0.5,
+                                          rel=1e-3)
+
+
 def test_detect_cells_from_voltage():
     """Highest voltages of the real logs (PROVENANCE.md) give their packs' cell counts."""
     for vmax, cells in [(16.54, 4), (24.31, 6), (30.96, 8), (11.62, 3), (49.91, 12),
