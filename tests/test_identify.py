@@ -13,6 +13,7 @@ from planner.battery.identify import (
     fit_ocv_low_rate,
     fit_pulse_test,
     fit_r0_pulse_edges,
+    fit_rate_discharges,
     fit_rc_relaxation,
     fit_thermal,
     pulse_test_profile,
@@ -129,6 +130,51 @@ def test_ocv_from_low_rate_discharge_and_charge():
     # one discharge branch alone is low by the same amount
     table1, _ = fit_ocv_low_rate(t[:n + 1], v[:n + 1], i[:n + 1])
     assert np.median(lipo_ocv(s) - table1(s)) == pytest.approx(0.013, abs=2e-3)
+
+
+def _cc_cv(params, current, cutoff, rng, t_end=4 * 3600.0):
+    """A charger's discharge: rest, constant current to the cut-off, then a tapering tail."""
+    t = np.arange(0.0, t_end, 10.0)
+    i = np.where(t < 10.0, 0.0, current)
+    r = simulate(params, t, current_a=i, v_cutoff_cell=cutoff)
+    k = int(np.searchsorted(t, r.cutoff_time_s))
+    i[k:] = current * np.exp(-(t[k:] - t[k]) / 120.0)   # the constant-voltage tail
+    keep = t < t[k] + 600.0
+    t, i = t[keep], i[keep]
+    v = simulate(params, t, current_a=i).voltage_v + rng.normal(0.0, 0.002, t.size)
+    return t, v, i
+
+
+def test_rate_discharges_give_back_the_ocv_and_the_dc_resistance():
+    """Constant-current discharges at 1, 2.5 and 5 A (with a CV tail and 2 mV noise) of a
+    cell with a known OCV and R: R within 3 %, the OCV within 5 mV where both rates
+    overlap, the low-rate range beyond from V + R·I."""
+    rng = np.random.default_rng(7)
+    true = CircuitParameters(capacity_ah=2.5, r0_ohm=0.03)
+    runs = [_cc_cv(true, 1.0, 3.0, rng), _cc_cv(true, 2.5, 3.5, rng),
+            _cc_cv(true, 5.0, 3.6, rng)]
+    table, fit = fit_rate_discharges(runs, capacity_ah=2.5)
+    assert fit.params["r0_ohm"] == pytest.approx(0.03, rel=0.03)
+    assert abs(fit.params["r0_ohm"] - 0.03) < 4 * fit.stderr["r0_ohm"] + 1e-4
+    z = np.linspace(0.3, 0.95, 14)
+    assert np.max(np.abs(table(z) - lipo_ocv(z))) < 0.005
+    assert table(1.0) == pytest.approx(float(lipo_ocv(1.0)), abs=0.005)  # the rested start
+    assert fit.rmse < 0.010  # noise plus the binning of a curved OCV
+    # default capacity: the largest charge delivered (the 1 A run to 3.0 V)
+    _, fit_default = fit_rate_discharges(runs)
+    assert fit_default.params["capacity_ah"] == pytest.approx(
+        max(np.sum(i[:-1] * np.diff(t)) for t, _, i in runs) / 3600.0, rel=1e-9)
+
+
+def test_rate_discharges_need_two_currents():
+    rng = np.random.default_rng(1)
+    true = CircuitParameters(capacity_ah=2.5, r0_ohm=0.03)
+    one = _cc_cv(true, 2.0, 3.4, rng)
+    with pytest.raises(FitError, match="two or more currents"):
+        fit_rate_discharges([one, _cc_cv(true, 2.1, 3.4, rng)])
+    t, v, i = one
+    with pytest.raises(FitError, match="run B: fewer than 3 samples at a constant current"):
+        fit_rate_discharges([one, (t[:5], v[:5], i[:5])], names=["run A", "run B"])
 
 
 def test_hysteresis_gamma_from_current_reversals():

@@ -84,7 +84,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -150,6 +150,8 @@ class Experiment:
         Measured charge drawn since the first sample. [A s]
     voltage_v : ndarray or None
         Pack terminal voltage where measured. [V]
+    current_a : ndarray or None
+        Pack current where measured (discharge positive). [A]
     """
 
     name: str
@@ -158,6 +160,7 @@ class Experiment:
     power_w: np.ndarray
     charge_as: np.ndarray
     voltage_v: np.ndarray | None = None
+    current_a: np.ndarray | None = None
 
     @property
     def duration_s(self) -> float:
@@ -297,10 +300,11 @@ def _experiment(name: str, source: str | None, sub: pd.DataFrame) -> Experiment:
                          "expected a discharge (current positive)")
     return Experiment(name=name, source=source, time_s=t - t[0],
                       power_w=np.where(power > 0, power, 0.0), charge_as=charge,
-                      voltage_v=voltage)
+                      voltage_v=voltage, current_a=current)
 
 
-def prepare_experiments(record, source: str | None = None) -> list[Experiment]:
+def prepare_experiments(record, source: str | None = None,
+                        only: Collection[str] | None = None) -> list[Experiment]:
     """Split a flight record into checked :class:`Experiment` objects.
 
     Parameters
@@ -309,6 +313,9 @@ def prepare_experiments(record, source: str | None = None) -> list[Experiment]:
         Flight record(s), DESIGN §4.
     source : str, optional
         Name of a DataFrame's origin for messages.
+    only : collection of str, optional
+        Keep only these experiment ids; the others are neither checked nor
+        returned (e.g. short tests that neither train nor validate).
 
     Raises
     ------
@@ -333,7 +340,12 @@ def prepare_experiments(record, source: str | None = None) -> list[Experiment]:
                                  f"(already in {seen[name] or 'an earlier table'}); "
                                  "expected unique experiment ids")
             seen[name] = src
-            out.append(_experiment(name, src, sub))
+            if only is None or name in only:
+                out.append(_experiment(name, src, sub))
+    if not out and only is not None and seen:
+        raise InputError(f"{source or next(iter(seen.values())) or '<DataFrame>'}: no experiment "
+                         f"named {', '.join(map(repr, sorted(only)))}; the data hold "
+                         f"{', '.join(map(repr, list(seen)[:8]))}{' …' if len(seen) > 8 else ''}")
     if not out:
         raise InputError(f"{source or '<DataFrame>'}: no samples to fit")
     return out

@@ -11,6 +11,9 @@ cell values are done by :func:`fit_pulse_test`.
   relaxation (:func:`fit_rc_relaxation`, least squares).
 * OCV(SoC) from a low-rate discharge, and a low-rate charge when available
   (:func:`fit_ocv_low_rate`).
+* OCV(SoC) and the DC resistance together from constant-current discharges at
+  two or more rates, as a charger/discharger logs them
+  (:func:`fit_rate_discharges`).
 * Hysteresis γ and M from the voltage after current reversals
   (:func:`fit_hysteresis`).
 * Thermal R_th and C_th from a temperature trace and the heat that drove it
@@ -664,6 +667,163 @@ def fit_ocv_low_rate(time_s, voltage_v, current_a, *, capacity_ah: float | None 
     table = ocv_table(s_k, v_k, where="fit_ocv_low_rate")
     return table, Fit({"capacity_ah": capacity_ah, "half_gap_v": half_gap},
                       {"ocv_v": se[keep]}, n=t.size, details={"soc": s_k})
+
+
+# --------------------------------------------------------------------------- rates
+
+#: A discharge counts as constant-current when 90 % of its loaded samples lie
+#: within this fraction of its level (the median loaded current).
+CC_TOLERANCE = 0.10
+#: Two current levels must differ by this factor to tell R from the OCV.
+MIN_LEVEL_RATIO = 1.2
+
+
+def current_level(current_a) -> tuple[float, float]:
+    """Level of a discharge (median loaded current, A) and the share of loaded samples
+    more than :data:`CC_TOLERANCE` from it (0 for an exact constant current)."""
+    i = np.asarray(current_a, dtype=float)
+    imax = float(np.max(i)) if i.size else 0.0
+    if not imax > 0:
+        return 0.0, 1.0
+    loaded = i[i > 0.5 * imax]
+    level = float(np.median(loaded))
+    off = float(np.mean(np.abs(loaded - level) > CC_TOLERANCE * level))
+    return level, off
+
+
+def fit_rate_discharges(discharges, *, capacity_ah: float | None = None, n_points: int = 40,
+                        settle_s: float = 60.0, names=None) -> tuple[OcvTable, Fit]:
+    r"""
+    OCV(SoC) and the DC resistance from constant-current discharges at two or more rates.
+
+    Each discharge starts full (SoC 1) and runs at a constant current, as a
+    charger/discharger logs it; only the samples within :data:`CC_TOLERANCE`
+    of the discharge's level are used (a constant-voltage tail at the cut-off,
+    where the current tapers, and the ramp at the start are left out; the
+    charge they draw still counts for the state of charge). At one state of charge the loaded voltage of a
+    discharge at current :math:`I` is :math:`V = \mathrm{OCV}(z) - R\,I`, so
+    two or more currents at the same :math:`z` separate the two: in each SoC
+    bin where at least two current levels (:data:`MIN_LEVEL_RATIO` apart) have
+    three or more settled samples each, :math:`V` is regressed on :math:`I`;
+    :math:`R` is the median of the bins' slopes (robust to the few bins near
+    the ends of the shorter discharges) and its standard error
+    :math:`1.25\,s/\sqrt{n_{bins}}`. The OCV is then :math:`V + R I` averaged in
+    every bin any discharge covers (and the rested voltage before the load,
+    at SoC 1), made increasing.
+
+    ``R`` is the resistance after ``settle_s`` of load: the ohmic R0 plus the
+    polarisation that has built up by then (the DC resistance), the one that
+    sets the voltage under a sustained load.
+
+    Parameters
+    ----------
+    discharges : sequence of (time_s, voltage_v, current_a)
+        [s], [V], [A] (discharge positive), each from full.
+    capacity_ah : float, optional
+        Capacity that scales the state of charge; default the largest charge
+        delivered by any discharge (a full low-rate discharge). [A h]
+    n_points : int
+        SoC bins.
+    settle_s : float
+        Samples in the first ``settle_s`` of each discharge are left out of the
+        regression (the polarisation is still building). [s]
+    names : sequence of str, optional
+        Names of the discharges for messages.
+
+    Returns
+    -------
+    table : OcvTable
+    fit : Fit
+        ``params``: ``r0_ohm`` (the DC resistance), ``capacity_ah``;
+        ``stderr``: ``r0_ohm``; ``rmse``: voltage residual of ``OCV(z) − R I``
+        over the settled samples [V]; ``details``: ``levels_a``,
+        ``soc_bins``, ``r_by_bin``.
+
+    Raises
+    ------
+    FitError
+        A discharge with fewer than 3 settled samples at its constant current,
+        or currents that do not span two levels over a common range of state
+        of charge.
+    """
+    names = list(names) if names is not None else [f"discharge {k + 1}"
+                                                   for k in range(len(discharges))]
+    data, levels = [], []
+    for name, (t, v, i) in zip(names, discharges):
+        t, v, i = _arrays(t, v, i)
+        level, _ = current_level(i)
+        if not level > 0:
+            raise FitError(f"{name}: draws no current")
+        on_level = (np.abs(i - level) <= CC_TOLERANCE * level) & (t - t[0] >= settle_s)
+        if on_level.sum() < 3:
+            raise FitError(f"{name}: fewer than 3 samples at a constant current "
+                           f"({level:.3g} A ± {100 * CC_TOLERANCE:.0f} %) after the first "
+                           f"{settle_s:g} s")
+        data.append((t - t[0], v, i, _charge_as(t, i)))
+        levels.append(level)
+    if not data:
+        raise FitError("no discharges given")
+    q_max = max(float(d[3][-1]) for d in data)
+    cap_as = (capacity_ah * 3600.0) if capacity_ah is not None else q_max
+    if not cap_as > 0:
+        raise FitError("the discharges draw no charge: cannot scale the state of charge")
+    edges = np.linspace(0.0, 1.0, n_points + 1)
+    soc, volt, cur, lev, rest = [], [], [], [], []
+    for (t, v, i, q), level in zip(data, levels):
+        z = 1.0 - q / cap_as
+        loaded = (np.abs(i - level) <= CC_TOLERANCE * level) & (t >= settle_s)
+        soc.append(z[loaded])
+        volt.append(v[loaded])
+        cur.append(i[loaded])
+        lev.append(np.full(int(loaded.sum()), level))
+        rested = (i < 0.02 * level) & (q < 1e-3 * cap_as)
+        rest.extend(v[rested].tolist())
+    soc, volt, cur, lev = (np.concatenate(a) for a in (soc, volt, cur, lev))
+    idx = np.clip(np.digitize(soc, edges) - 1, 0, n_points - 1)
+    r_bins, z_bins = [], []
+    for b in range(n_points):
+        sel = idx == b
+        if not sel.any():
+            continue
+        lv = lev[sel]
+        lo, hi = lv <= lv.min() * MIN_LEVEL_RATIO ** 0.5, lv >= lv.max() / MIN_LEVEL_RATIO ** 0.5
+        if lv.max() < MIN_LEVEL_RATIO * lv.min() or lo.sum() < 3 or hi.sum() < 3:
+            continue
+        a = np.c_[np.ones(int(sel.sum())), -cur[sel]]
+        coef, *_ = np.linalg.lstsq(a, volt[sel], rcond=None)
+        r_bins.append(float(coef[1]))
+        z_bins.append(0.5 * (edges[b] + edges[b + 1]))
+    if not r_bins:
+        raise FitError("the resistance needs discharges at two or more currents (at least "
+                       f"{MIN_LEVEL_RATIO:g}× apart) over a common range of state of charge; "
+                       f"got levels {', '.join(f'{x:.3g} A' for x in levels)}")
+    r_arr = np.asarray(r_bins)
+    r = float(np.median(r_arr))
+    if not r > 0:
+        raise FitError(f"the fitted resistance is {1000 * r:.3g} mΩ: the voltage does not fall "
+                       "with the current; check the current sign and the cell count")
+    se = (1.2533 * float(np.std(r_arr, ddof=1)) / math.sqrt(r_arr.size)
+          if r_arr.size > 1 else float("nan"))
+    est = volt + r * cur
+    centers = 0.5 * (edges[:-1] + edges[1:])
+    ocv = np.array([est[idx == b].mean() if np.any(idx == b) else np.nan
+                    for b in range(n_points)])
+    keep = np.isfinite(ocv)
+    s_k, v_k = list(centers[keep]), list(ocv[keep])
+    if rest and (not s_k or s_k[-1] < 1.0):
+        s_k.append(1.0)
+        v_k.append(max(float(np.mean(rest)), v_k[-1] if v_k else -np.inf))
+    if len(s_k) < 2:
+        raise FitError("the discharges cover too little of the state of charge for an OCV "
+                       "table")
+    v_k = np.maximum.accumulate(np.asarray(v_k))
+    v_k = v_k + 1e-6 * np.arange(v_k.size)   # strictly increasing
+    table = ocv_table(s_k, v_k, where="fit_rate_discharges")
+    resid = volt - (table(soc) - r * cur)
+    return table, Fit({"r0_ohm": r, "capacity_ah": cap_as / 3600.0},
+                      {"r0_ohm": se}, rmse=float(np.sqrt(np.mean(resid ** 2))), n=int(soc.size),
+                      details={"levels_a": levels, "soc_bins": np.asarray(z_bins),
+                               "r_by_bin": r_arr})
 
 
 # --------------------------------------------------------------------------- hysteresis

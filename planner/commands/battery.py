@@ -57,6 +57,12 @@ def _register_fit(sub) -> None:
                         "and C1 from the relaxations, with the LiPo OCV) from a "
                         "pulse-test record (time_s, voltage_v, current_a) and write it as the "
                         "pack's 'circuit:' block")
+    p.add_argument("--circuit-rates", action="store_true",
+                   help="also identify the equivalent circuit (an OCV(SoC) table and the DC "
+                        "resistance) from the training experiments — constant-current "
+                        "discharges from full at two or more currents, as a charger logs "
+                        "them — write the table beside --out as <name>_ocv.csv and the "
+                        "'circuit:' block, and score the validation experiments' voltage")
     p.add_argument("--circuit-hysteresis", action="store_true",
                    help="also fit the hysteresis (γ, M) from the pulse test's current reversals")
     p.add_argument("--circuit-soc0", default="1.0",
@@ -114,6 +120,67 @@ def _fit_circuit(args, mapping: dict) -> dict:
     return block
 
 
+def _fit_circuit_rates(mapping: dict, experiments, result: dict,
+                       out: Path) -> tuple[dict, list[dict]]:
+    """The ``circuit:`` block from constant-current discharges at several rates
+    (:func:`identify.fit_rate_discharges`) and its score on the validation experiments."""
+    from planner.battery import identify
+    from planner.battery.circuit import CircuitParameters, simulate
+    from planner.battery.ocv import write_ocv_csv
+
+    ns, npar = int(mapping["cells_series"]), int(mapping.get("cells_parallel", 1))
+    by_name = {e.name: e for e in experiments}
+
+    def arrays(name):
+        e = by_name[name]
+        for col, values in (("voltage_v", e.voltage_v), ("current_a", e.current_a)):
+            if values is None or not np.all(np.isfinite(values)):
+                raise InputError(f"{e.source or 'data'}: experiment '{name}': --circuit-rates "
+                                 f"needs column '{col}' with a value in every row")
+        return e.time_s, e.voltage_v, e.current_a
+
+    train = list(result["train"])
+    table, fitted = identify.fit_rate_discharges(
+        [(t, v / ns, i / npar) for t, v, i in map(arrays, train)], names=train)
+    r0, se = fitted.params["r0_ohm"], fitted.stderr["r0_ohm"]
+    ocv_path = out.with_name(out.stem + "_ocv.csv")
+    try:
+        write_ocv_csv(ocv_path, table)
+    except OSError as exc:
+        raise InputError(f"{ocv_path}: cannot write ({exc.strerror})") from None
+    block = {"capacity_ah": float(fitted.params["capacity_ah"]), "r0_ohm": float(r0),
+             "ocv_csv": ocv_path.name,
+             "source": (f"fit-battery --circuit-rates: OCV(SoC) and DC resistance "
+                        f"({1000 * r0:.3g} ± {1000 * se:.2g} mΩ per cell) from the "
+                        f"constant-current discharges {', '.join(train)}")}
+    print(f"circuit (per cell): DC resistance {1000 * r0:.3f} ± {1000 * se:.2g} mΩ, capacity "
+          f"{fitted.params['capacity_ah']:.4g} Ah, OCV {table.ocv_v[0]:.3f}–"
+          f"{table.ocv_v[-1]:.3f} V over SoC {table.soc[0]:.2f}–{table.soc[-1]:.2f} "
+          f"(wrote {ocv_path}); voltage RMSE on the training data "
+          f"{1000 * fitted.rmse:.1f} mV")
+    fitted_pack = CircuitParameters(capacity_ah=block["capacity_ah"], r0_ohm=r0, ocv=table,
+                                    cells_series=ns, cells_parallel=npar)
+    # baseline: what check assumes without the table, the LiPo OCV (with the same R)
+    baseline = CircuitParameters(capacity_ah=block["capacity_ah"], r0_ohm=r0,
+                                 cells_series=ns, cells_parallel=npar)
+    scores = []
+    for name in result["validate"]:
+        t, v, i = arrays(name)
+        row = {"experiment": name, "current_a": identify.current_level(i)[0],
+               "voltage_rmse_mv": 1000 * float(np.sqrt(np.mean(
+                   (simulate(fitted_pack, t, current_a=i).voltage_v - v) ** 2)))}
+        row["lipo_ocv_voltage_rmse_mv"] = 1000 * float(np.sqrt(np.mean(
+            (simulate(baseline, t, current_a=i).voltage_v - v) ** 2)))
+        scores.append(row)
+    if scores:
+        print(f"{'validation (circuit)':<20} {'current [A]':>11} {'voltage RMSE [mV]':>17} "
+              f"{'with the LiPo OCV [mV]':>22}")
+        for row in scores:
+            print(f"{row['experiment'][:20]:<20} {row['current_a']:>11.3g} "
+                  f"{row['voltage_rmse_mv']:>17.1f} {row['lipo_ocv_voltage_rmse_mv']:>22.1f}")
+    return block, scores
+
+
 def run_fit(args) -> int:
     out = output_path(args.out, "--out")
     plot_out = output_path(args.plot, "--plot")
@@ -129,7 +196,9 @@ def run_fit(args) -> int:
         if missing:
             raise InputError(f"{' and '.join(missing)} required without --battery "
                              "(the pack YAML needs name and mass_kg)")
-    experiments = fit.prepare_experiments(fit.load_records(args.data))
+    # with both lists given, the experiments in neither are left out unchecked
+    chosen = set(train) | set(validate) if train and validate else None
+    experiments = fit.prepare_experiments(fit.load_records(args.data), only=chosen)
     result = fit.fit_integral(experiments, beta=beta, train=train, validate=validate)
 
     files = ", ".join(str(d) for d in args.data)
@@ -152,8 +221,15 @@ def run_fit(args) -> int:
                    "mass_kg": parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0),
                    "model": model.to_mapping()}
     mapping["source"] = source
+    if args.circuit and args.circuit_rates:
+        raise InputError("give --circuit (a pulse test) or --circuit-rates (discharges at "
+                         "several currents), not both")
+    circuit_scores = None
     if args.circuit:
         mapping["circuit"] = _fit_circuit(args, mapping)
+    elif args.circuit_rates:
+        mapping["circuit"], circuit_scores = _fit_circuit_rates(mapping, experiments, result,
+                                                                Path(out))
     battery_from_mapping(mapping, str(out))  # what we write must load back
     header = (f"# written by endurance fit-battery: integral model fitted to {files}\n"
               f"# stderr: delta ±{result['stderr']['delta']:.4g}, epsilon "
@@ -174,6 +250,8 @@ def run_fit(args) -> int:
         data["metrics"] = [m.to_dict() for m in result["metrics"]]
         data["data"] = [str(d) for d in args.data]
         data["pack"] = mapping
+        if circuit_scores is not None:
+            data["circuit_validation"] = circuit_scores
         write_json(data, json_out)
     if plot_out:
         save_fit_plot(experiments, result, plot_out)
