@@ -14,8 +14,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from planner import record
-from planner.battery import bench, circuit, design, fit
-from planner.battery.circuit import CircuitParameters
+from planner.battery import bench, design, fit
 from planner.definitions import load_battery
 from planner.errors import InputError
 

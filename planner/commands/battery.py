@@ -15,7 +15,7 @@ import yaml
 
 from planner import schema
 from planner.battery import design, fit, integral, vda
-from planner.commands.common import fmt, output_path, parse_float, parse_int, write_json
+from planner.commands.common import fmt, output_path, parse_float, parse_int, plot_path, write_json
 from planner.definitions import IntegralModel, battery_from_mapping, load_battery
 from planner.errors import InputError
 
@@ -183,7 +183,7 @@ def _fit_circuit_rates(mapping: dict, experiments, result: dict,
 
 def run_fit(args) -> int:
     out = output_path(args.out, "--out")
-    plot_out = output_path(args.plot, "--plot")
+    plot_out = plot_path(args.plot)
     json_out = output_path(args.json, "--json")
     beta = parse_float(args.fix_beta, "--fix-beta", 0.5, 1.5) if args.fix_beta else None
     train, validate = _ids(args.train, "--train"), _ids(args.validate, "--validate")

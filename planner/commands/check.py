@@ -12,6 +12,7 @@ from planner.commands.common import (
     parse_float,
     parse_fraction,
     parse_wind,
+    plot_path,
     write_json,
 )
 from planner.definitions import load_aircraft_and_battery
@@ -43,7 +44,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     json_out = output_path(args.json, "--json")
-    plot_out = output_path(args.plot, "--plot")
+    plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
     temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
                    if args.temperature is not None else None)

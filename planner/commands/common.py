@@ -99,6 +99,20 @@ def output_path(path: str | None, option: str) -> str | None:
     return path
 
 
+def plot_path(path: str | None, option: str = "--plot") -> str | None:
+    """:func:`output_path` for a figure: also check that matplotlib can write its format."""
+    if path is None:
+        return None
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in formats:
+        raise InputError(f"{option} {path}: expected a figure file ending in "
+                         f"{', '.join('.' + f for f in sorted(formats))}")
+    return output_path(path, option)
+
+
 def fmt(value: float, digits: int = 1, width: int = 0) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-".rjust(width)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import yaml
 
-from planner.commands.common import output_path, parse_float, write_json
+from planner.commands.common import output_path, parse_float, plot_path, write_json
 from planner.definitions import aircraft_from_mapping, battery_from_mapping
 from planner.errors import InputError
 
@@ -52,7 +52,7 @@ def run(args) -> int:
     from planner.diagnose import diagnose, load_definitions
 
     json_out = output_path(args.json, "--json")
-    plot_out = output_path(args.plot, "--plot")
+    plot_out = plot_path(args.plot)
     out = output_path(args.out, "--out")
     payload = parse_float(args.payload, "--payload", 0.0, 1000.0)
     mass = parse_float(args.mass, "--mass", 0.01, 10000.0) if args.mass else None

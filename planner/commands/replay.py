@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import math
 
-from planner.commands.common import fmt, output_path, parse_float, parse_fraction, write_json
+from planner.commands.common import (
+    fmt,
+    output_path,
+    parse_float,
+    parse_fraction,
+    plot_path,
+    write_json,
+)
 from planner.data import load_flight_data
 from planner.definitions import load_aircraft, load_battery
 
@@ -34,7 +41,7 @@ def run(args) -> int:
     from planner.replay import replay
 
     json_out = output_path(args.json, "--json")
-    plot_out = output_path(args.plot, "--plot")
+    plot_out = plot_path(args.plot)
     payload = parse_float(args.payload, "--payload", 0.0, 1000.0)
     reserve = parse_fraction(args.reserve, "--reserve")
     site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0)

@@ -16,6 +16,7 @@ from planner.commands.common import (
     parse_fraction,
     parse_int,
     parse_wind,
+    plot_path,
     write_json,
 )
 from planner.definitions import default_battery_path, load_aircraft, load_battery
@@ -92,7 +93,7 @@ def run_select(args) -> int:
     from planner.sizing import plan_long_mission
 
     json_out = output_path(args.json, "--json")
-    plot_out = output_path(args.plot, "--plot")
+    plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
     top = None if args.top is None else parse_int(args.top, "--top", 1, 10**9)
     min_tw = parse_float(args.min_thrust_to_weight, "--min-thrust-to-weight", 0.0, 20.0)
@@ -239,7 +240,7 @@ def run_sweep(args) -> int:
     from planner.mission.legs import Environment
 
     csv_out = output_path(args.csv, "--csv")
-    plot_out = output_path(args.plot, "--plot")
+    plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
     temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
                    if args.temperature is not None else None)
