@@ -66,7 +66,8 @@ def test_reserve_option():
     (["check", ROUTE, "--aircraft", SOLO, "--json", "/no/such/dir/r.json"], "--json"),
     (["check", ROUTE], "--aircraft"),
     (["check", ROUTE, "--aircraft", SOLO, "--plot", "r.txt"], "expected a figure file"),
-    (["select", ROUTE, "--aircraft", SOLO, "--plot", "p.xyz"], "expected a figure file"),
+    (["select", ROUTE, "--aircraft", SOLO, "--packs", "aircraft/packs/catalog.yaml",
+      "--plot", "p.xyz"], "expected a figure file"),
 ])
 def test_bad_input_exits_2_with_one_line(args, needle):
     p = run(*args)
