@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import traceback
 import warnings
@@ -62,6 +63,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Argument names (``dest``) that name files a command reads, and files it writes.
+INPUT_ARGS = ("mission", "aircraft", "battery", "packs", "data", "logs", "log", "map",
+              "circuit")
+OUTPUT_ARGS = ("out", "json", "plot", "csv")
+
+
+def _paths(value) -> list[str]:
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, (list, tuple)):
+        return [v for v in value if isinstance(v, str)]
+    return []
+
+
+def check_outputs_are_not_inputs(args) -> None:
+    """Input files are never modified: refuse an output path that names an input file."""
+    inputs = {}
+    for name in INPUT_ARGS:
+        for path in _paths(getattr(args, name, None)):
+            if os.path.isfile(path):
+                inputs[os.path.realpath(path)] = path
+    for name in OUTPUT_ARGS:
+        for path in _paths(getattr(args, name, None)):
+            real = os.path.realpath(path)
+            if real in inputs:
+                raise InputError(f"--{name} {path}: is also an input of this command "
+                                 f"({inputs[real]}); input files are never overwritten, "
+                                 "expected another path")
+
+
 def _format_warning(message, category, filename, lineno, line=None):
     return f"warning: {message}\n"
 
@@ -75,6 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     try:
+        check_outputs_are_not_inputs(args)
         return int(args.func(args))
     except (InputError, ModelError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -104,3 +104,22 @@ def test_input_files_are_not_modified(tmp_path):
     before = {p: p.read_bytes() for p in [Path(ROUTE), Path(SOLO)]}
     main(["check", ROUTE, "--aircraft", SOLO, "--quiet", "--json", str(tmp_path / "o.json")])
     assert all(p.read_bytes() == b for p, b in before.items())
+
+
+def test_an_output_path_that_names_an_input_is_refused(tmp_path):
+    """Input files are never modified, whatever output option names them."""
+    import shutil
+    mission = tmp_path / "route.yaml"
+    shutil.copy(REPO / "missions" / "survey_route.yaml", mission)
+    log = tmp_path / "calm.bin"
+    shutil.copy(REPO / "logs" / "sim_solo_calm.bin", log)
+    before = {p: p.read_bytes() for p in (mission, log)}
+    for args in (["check", mission, "--aircraft", SOLO, "--json", mission],
+                 ["check", mission, "--aircraft", SOLO, "--plot", tmp_path / "x.png",
+                  "--json", tmp_path / ".." / tmp_path.name / "route.yaml"],
+                 ["export", log, "--csv", log]):
+        p = run(*map(str, args))
+        assert p.returncode == 2, p.stderr
+        assert "input files are never overwritten" in p.stderr
+        assert len(p.stderr.strip().splitlines()) == 1
+    assert {p: p.read_bytes() for p in (mission, log)} == before
