@@ -82,4 +82,17 @@ def load_flight_data(paths, *, column_map=None, require_battery: bool = True
                 experiment=Path(path).name.split(".")[0] + ":" + frame["experiment"])
             ids = set(frames[i]["experiment"].unique())
         seen |= ids
-    return pd.concat(frames, ignore_index=True), metas
+    data = pd.concat(frames, ignore_index=True)
+    # an experiment must span some time to be analysed: drop instants with a warning
+    span = data.groupby("experiment", sort=False)["time_s"].agg(["size", "min", "max"])
+    instant = span.index[(span["size"] < 2) | ~(span["max"] > span["min"])]
+    if len(instant) == len(span):
+        raise InputError(f"{', '.join(map(str, paths))}: no experiment spans more than one "
+                         "instant (every one has fewer than 2 samples or all its samples at "
+                         "the same time_s); expected samples over time")
+    if len(instant):
+        warnings.warn(f"skipped experiment(s) {', '.join(map(str, instant[:5]))}"
+                      f"{' …' if len(instant) > 5 else ''}: fewer than 2 samples or no time "
+                      "between them", stacklevel=2)
+        data = data[~data["experiment"].isin(instant)].reset_index(drop=True)
+    return data, metas

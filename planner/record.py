@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -79,6 +80,26 @@ COLUMNS: dict[str, Column] = {c.name: c for c in (
 
 #: Always required; plus ``power_w`` or both ``voltage_v`` and ``current_a``.
 REQUIRED = ("time_s",)
+
+#: Physical range of a column: finite values outside it are sensor glitches or corrupt
+#: data (a 1e308 speed, a −300 °C air temperature, a pressure of 0 Pa). They become
+#: missing values with a warning, so one bad sample does not void a log.
+PLAUSIBLE: dict[str, tuple[float, float]] = {
+    "voltage_v": (0.0, 1000.0),
+    "current_a": (-2000.0, 2000.0),
+    "power_w": (-1e6, 1e6),
+    "consumed_mah": (-1e7, 1e7),
+    "temperature_c": (-100.0, 200.0),
+    "ambient_temperature_c": (-100.0, 100.0),
+    "pressure_pa": (1e3, 2e5),            # about 30 km altitude up to deep below sea level
+    "altitude_m": (-12_000.0, 30_000.0),
+    "climb_rate_ms": (-300.0, 300.0),
+    "groundspeed_ms": (0.0, 300.0),
+    "airspeed_ms": (-50.0, 300.0),
+    "course_deg": (-360.0, 720.0),
+    "wind_n_ms": (-150.0, 150.0),
+    "wind_e_ms": (-150.0, 150.0),
+}
 
 _TEXT = {n for n, c in COLUMNS.items() if c.kind == "text"}
 _NUMERIC = [n for n, c in COLUMNS.items() if c.kind != "text"]
@@ -169,6 +190,19 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
         first = int(np.flatnonzero(bad)[0])
         raise InputError(f"{where}: column '{name}' {_row_label(df, first, csv_lines)}: "
                          f"expected a number, got {df[name].iloc[first]!r}")
+    for name, (low, high) in PLAUSIBLE.items():
+        if name not in out.columns:
+            continue
+        values = out[name].to_numpy(float)
+        with np.errstate(invalid="ignore"):
+            odd = np.isinf(values) | (values < low) | (values > high)
+        if odd.any():
+            first = int(np.flatnonzero(odd)[0])
+            warnings.warn(f"{where}: column '{name}': {int(odd.sum())} value(s) outside "
+                          f"[{low:g}, {high:g}] {COLUMNS[name].unit}, first "
+                          f"{_row_label(df, first, csv_lines)} = {values[first]:g}: read as "
+                          "missing", stacklevel=2)
+            out[name] = np.where(odd, np.nan, values)
     for name in _TEXT:
         if name in out.columns:
             out[name] = out[name].astype("str")
@@ -308,6 +342,38 @@ def _ordered(df: pd.DataFrame) -> pd.DataFrame:
     return df[known + [c for c in df.columns if c not in COLUMNS]]
 
 
+def drop_truncated_last_line(df: pd.DataFrame, path: str | os.PathLike,
+                             sep: str = ",") -> pd.DataFrame:
+    """Drop the last row of a CSV table when the file's last line was cut short.
+
+    A file that ends without a newline, in a line with fewer fields than the
+    header, was truncated (a log copied while it was written, a download cut
+    off): its last row is partial, so it is skipped with a warning rather than
+    read as a sample with blank fields. Compressed files are left as read.
+    """
+    path = Path(path)
+    if df.empty or path.suffix.lower() == ".gz":
+        return df
+    try:
+        with open(path, "rb") as fh:
+            header = fh.readline()
+            fh.seek(0, os.SEEK_END)
+            size = fh.tell()
+            fh.seek(max(0, size - 65536))
+            tail = fh.read()
+    except OSError:
+        return df
+    if not tail or tail.endswith(b"\n"):
+        return df
+    last = tail.rsplit(b"\n", 1)[-1]
+    if last.count(sep.encode()) >= header.count(sep.encode()):
+        return df
+    warnings.warn(f"{path}: the last line is incomplete ({last.count(sep.encode()) + 1} of "
+                  f"{header.count(sep.encode()) + 1} fields; file truncated?): skipped",
+                  stacklevel=2)
+    return df.iloc[:-1]
+
+
 def read_record(path: str | os.PathLike, *, derive: bool = True,
                 require_power: bool = True) -> pd.DataFrame:
     """Read a flight-record CSV file and validate it.
@@ -338,6 +404,7 @@ def read_record(path: str | os.PathLike, *, derive: bool = True,
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OSError) as exc:
         raise InputError(f"{path}: not a readable CSV file ({exc})") from None
     df.columns = [str(c).strip() for c in df.columns]
+    df = drop_truncated_last_line(df, path)
     out = validate_record(df, path, require_power=require_power, csv_lines=True)
     if derive:
         out = complete_record(out)

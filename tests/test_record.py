@@ -264,3 +264,44 @@ def test_resample_record_per_experiment():
     assert_allclose(b.power_w, 5 + 10 * b.time_s)
     with pytest.raises(ValueError, match="period_s"):
         resample_record(df, 0)
+
+
+def test_implausible_values_are_read_as_missing_with_a_warning():
+    """A 1e308 ground speed or a −300 °C air temperature is corrupt data: the sample's
+    value becomes missing (the rest of the log stays usable) and the warning names the
+    column, the count and the first row."""
+    df = pd.DataFrame({"time_s": [0.0, 1.0, 2.0], "power_w": [100.0, 110.0, 120.0],
+                       "groundspeed_ms": [5.0, 1e308, 6.0],
+                       "ambient_temperature_c": [-300.0, 15.0, 15.0]})
+    with pytest.warns(UserWarning) as caught:
+        out = validate_record(df, "f.csv")
+    text = " ".join(str(w.message) for w in caught)
+    assert "column 'groundspeed_ms': 1 value(s) outside [0, 300] m/s, first row 2" in text
+    assert "column 'ambient_temperature_c'" in text and "row 1 (line 2)" in text
+    assert np.isnan(out["groundspeed_ms"][1]) and out["groundspeed_ms"][2] == 6.0
+    assert np.isnan(out["ambient_temperature_c"][0])
+
+
+def test_a_truncated_last_line_is_skipped_with_a_warning(tmp_path):
+    path = tmp_path / "cut.csv"
+    path.write_text("time_s,power_w,voltage_v\n0,100,15\n1,101,15\n2,1")  # cut mid-row
+    with pytest.warns(UserWarning, match="the last line is incomplete"):
+        df = read_record(path)
+    assert list(df["time_s"]) == [0.0, 1.0]
+    whole = tmp_path / "whole.csv"
+    whole.write_text("time_s,power_w,voltage_v\n0,100,15\n1,101,15\n2,102,15")  # no newline
+    assert len(read_record(whole)) == 3
+
+
+def test_experiments_without_duration_are_skipped_or_refused(tmp_path):
+    from planner.data import load_flight_data
+    path = tmp_path / "r.csv"
+    pd.DataFrame({"experiment": ["a", "a", "b"], "time_s": [0.0, 1.0, 5.0],
+                  "power_w": [100.0, 100.0, 100.0]}).to_csv(path, index=False)
+    with pytest.warns(UserWarning, match=r"skipped experiment\(s\) b"):
+        df, _ = load_flight_data(path)
+    assert set(df["experiment"]) == {"a"}
+    same = tmp_path / "same.csv"
+    pd.DataFrame({"time_s": [5.0, 5.0], "power_w": [1.0, 2.0]}).to_csv(same, index=False)
+    with pytest.raises(InputError, match="no experiment spans more than one instant"):
+        load_flight_data(same)

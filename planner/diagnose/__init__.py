@@ -325,9 +325,12 @@ def _load(data, column_map) -> tuple[pd.DataFrame, list[dict], list[str]]:
     if isinstance(data, (str, os.PathLike)):
         data = [data]
     paths = list(data)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         df, metas = load_flight_data(paths, column_map=column_map)
+    for w in caught:  # what the readers skipped or read as missing; not library noise
+        if w.category is UserWarning:
+            warnings.warn(str(w.message), stacklevel=2)
     return df, metas, [str(p) for p in paths]
 
 

@@ -49,7 +49,7 @@ import yaml
 
 from planner.errors import InputError
 from planner.logs._common import Meta
-from planner.record import COLUMNS, add_consumed, validate_record
+from planner.record import COLUMNS, add_consumed, drop_truncated_last_line, validate_record
 
 __all__ = ["FIELD_MAP", "MAPS_DIR", "load_map", "read_csv_log"]
 
@@ -268,6 +268,7 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
         raise InputError(f"{path}: not a readable CSV file ({type(exc).__name__}: "
                          f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
     raw.columns = [str(c).strip() for c in raw.columns]
+    raw = drop_truncated_last_line(raw, path)
 
     if cmap is None:
         from planner.record import complete_record
