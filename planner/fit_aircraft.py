@@ -124,8 +124,16 @@ def split_experiments(s: Samples, validate: list[str] | None, train: list[str] |
         if unknown:
             raise InputError(f"unknown experiment(s) {sorted(unknown)}; the data has "
                              f"{', '.join(ids[:10])}{' …' if len(ids) > 10 else ''}")
+        both = set(validate or []) & set(train or [])
+        if both:
+            raise InputError(f"experiment(s) {sorted(both)} both train and validate; expected "
+                             "held-out flights the fit has not seen")
         val = set(validate or []) or (set(ids) - set(train))
         trn = set(train or []) or (set(ids) - val)
+        if not trn or not val:
+            raise InputError(f"{'no training' if not trn else 'no validation'} flight left "
+                             f"(the data has {', '.join(ids[:10])}); expected at least one "
+                             "of each")
         return np.isin(s.experiment, list(trn)), np.isin(s.experiment, list(val)), "given"
     if len(ids) >= 2:
         val = set(ids[2::3]) or {ids[-1]}           # every third flight held out

@@ -216,10 +216,12 @@ def test_design_aprbs(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("option,value", [("--hold", "300,30"), ("--levels", "50"),
-                                          ("--seed", "x")])
+                                          ("--seed", "x"), ("--seed", "-1"),
+                                          ("--hold", "1e-9,1e-9"), ("--hold", "0.01,0.02")])
 def test_design_aprbs_bad_options_exit_2(tmp_path, capsys, option, value):
     rc, _, err = run(capsys, "design", "aprbs", option, value, "--out", tmp_path / "s.csv")
-    assert rc == 2 and err.startswith(f"error: {option}")
+    assert rc == 2 and err.startswith("error: --") and option in err
+    assert len(err.strip().splitlines()) == 1
 
 
 # --------------------------------------------------------------------------- pulse-resistance
@@ -364,3 +366,12 @@ def test_experiments_in_neither_list_are_left_out_unchecked(tmp_path, capsys, be
     assert rc == 0, err
     rc, _, err = run(capsys, *base, "--train", "p050", "--validate", "nope")
     assert rc == 2 and "nope" in err
+
+
+def test_bench_on_a_pack_the_campaign_cannot_test_exits_2(tmp_path, capsys):
+    tiny = tmp_path / "tiny.yaml"
+    text = (REPO / "aircraft" / "batteries" / "solo_5200_4s.yaml").read_text()
+    tiny.write_text("\n".join("capacity_mah: 1" if line.startswith("capacity_mah:") else line
+                              for line in text.splitlines()))
+    rc, _, err = run(capsys, "bench", "--campaign", "seed", "--report", "--battery", tiny)
+    assert rc == 2 and f"{tiny}: cannot run the 'seed' campaign" in err

@@ -215,3 +215,8 @@ def test_fit_aircraft_bad_input(tmp_path):
     code = main(["fit-aircraft", str(csv), "--aircraft", str(REPO / "aircraft/solo_survey.yaml"),
                  "--out", str(tmp_path / "o.yaml")])
     assert code == 2
+    # validating on the training flight would score the fit on data it has seen
+    code = main(["fit-aircraft", str(REPO / "logs/sim_solo_calm.bin"), "--aircraft",
+                 str(REPO / "aircraft/solo_survey.yaml"), "--train", "sim_solo_calm",
+                 "--validate", "sim_solo_calm", "--out", str(tmp_path / "o.yaml")])
+    assert code == 2 and not (tmp_path / "o.yaml").exists()

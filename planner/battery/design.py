@@ -183,7 +183,7 @@ def aprbs(levels_w, hold_s=(30.0, 300.0), min_duration_s=3500.0, rng=None, *,
         raise ValueError(f"resolution_s must be > 0, got {resolution_s!r}")
     if not isinstance(rng, np.random.Generator):
         rng = np.random.default_rng(rng)
-    k_lo = int(np.ceil(lo / resolution_s - 1e-9))
+    k_lo = max(1, int(np.ceil(lo / resolution_s - 1e-9)))  # a hold lasts at least one step
     k_hi = int(np.floor(hi / resolution_s + 1e-9))
     if k_hi < k_lo:
         raise ValueError(f"no multiple of resolution_s={resolution_s} lies in hold_s={hold_s}")

@@ -412,6 +412,10 @@ def run_two_step(args) -> int:
     return 0
 
 
+#: Most steps an APRBS schedule may have (a programmable load's table is far shorter).
+MAX_APRBS_STEPS = 100_000
+
+
 def run_aprbs(args) -> int:
     out = output_path(args.out, "--out")
     levels = _floats(args.levels, "--levels")
@@ -424,14 +428,15 @@ def run_aprbs(args) -> int:
                          f"got {args.hold!r}")
     min_duration = parse_float(args.min_duration, "--min-duration", 1e-3, 1e7)
     resolution = parse_float(args.resolution, "--resolution", 1e-3, 1e4)
-    if math.floor(hi / resolution + 1e-9) < math.ceil(lo / resolution - 1e-9):
-        raise InputError(f"--resolution {args.resolution}: no multiple of it lies in "
-                         f"--hold {args.hold}")
+    if math.floor(hi / resolution + 1e-9) < max(1, math.ceil(lo / resolution - 1e-9)):
+        raise InputError(f"--resolution {args.resolution}: no multiple of it (at least one) "
+                         f"lies in --hold {args.hold}")
+    if min_duration / max(lo, resolution) > MAX_APRBS_STEPS:
+        raise InputError(f"--hold {args.hold}: holds this short make more than "
+                         f"{MAX_APRBS_STEPS:,} steps in {min_duration:g} s; expected longer "
+                         "holds (the seed paper holds 30–300 s)")
     if args.seed is not None:
-        try:
-            seed = int(args.seed)
-        except ValueError:
-            raise InputError(f"--seed: expected an integer, got {args.seed!r}") from None
+        seed = parse_int(args.seed, "--seed", 0, 2**32 - 1)
     else:
         seed = int(np.random.SeedSequence().entropy % 2**31)
     schedule = design.aprbs(levels, (lo, hi), min_duration, seed, resolution_s=resolution)
@@ -585,8 +590,14 @@ def run_bench(args) -> int:
             raise InputError(f"{args.battery}: {exc}") from None
     else:
         pack = bench.seed_pack()
-    records, info = campaign.run_campaign(pack, campaign=args.campaign, seed=seed, noise=noise,
-                                          temperature_c=temperature, return_info=True)
+    try:
+        records, info = campaign.run_campaign(pack, campaign=args.campaign, seed=seed,
+                                              noise=noise, temperature_c=temperature,
+                                              return_info=True)
+    except ValueError as exc:  # a pack the campaign's powers cannot test
+        raise InputError(f"{args.battery or 'seed pack'}: cannot run the '{args.campaign}' "
+                         f"campaign on this pack ({exc}); expected a pack of the size the "
+                         "campaign's powers are designed for") from None
     # what is written is what is fitted: fit-battery on the CSV gives the same numbers
     records = records.round(_BENCH_DECIMALS)
     print(f"virtual bench: {pack.name}, {pack.circuit.cells_series}S, "
