@@ -374,6 +374,11 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
         notes: list[str] = []
         t = exp["time_s"].to_numpy(float)
         model, label = _pack_model(pack, meta, exp.get("voltage_v", pd.Series(dtype=float)))
+        if pack is not None and "voltage_v" in exp:
+            cells = meta.get("battery_cells") or detect_cells(exp["voltage_v"])
+            if cells and cells != pack.cells_series:
+                notes.append(f"the log's pack has {cells} cells in series, the pack file "
+                             f"{pack.cells_series}: is it the pack that flew?")
         capacity = (pack.total_capacity_mah if pack is not None
                     else meta.get("battery_capacity_mah"))
         series = {"time_s": t, "measured_w": exp["power_w"].to_numpy(float)}

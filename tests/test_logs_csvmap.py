@@ -127,6 +127,12 @@ def test_map_validation_names_file_and_key(tmp_path):
         load_map(p)
     with pytest.raises(InputError, match="column map not found"):
         load_map(tmp_path / "none.yaml")
+    p = write(tmp_path, "m.yaml", "time: t\ncolumns:\n  voltage_v: {column: v, scale: .nan}\n")
+    with pytest.raises(InputError, match=r"columns\.voltage_v\.scale must be a finite number"):
+        load_map(p)
+    p = write(tmp_path, "m.yaml", "time: t\ncolumns:\n  voltage_v: v\nmeta: {battery_cells: -6}\n")
+    with pytest.raises(InputError, match=r"meta\.battery_cells: expected a whole number"):
+        load_map(p)
 
 
 def test_csv_errors_name_column_and_row(tmp_path):

@@ -220,3 +220,17 @@ def test_fit_aircraft_bad_input(tmp_path):
                  str(REPO / "aircraft/solo_survey.yaml"), "--train", "sim_solo_calm",
                  "--validate", "sim_solo_calm", "--out", str(tmp_path / "o.yaml")])
     assert code == 2 and not (tmp_path / "o.yaml").exists()
+
+
+def test_replay_notes_a_pack_file_with_another_cell_count(tmp_path):
+    from planner.definitions import load_battery
+    text = (REPO / "aircraft/batteries/solo_5200_4s.yaml").read_text()
+    six = tmp_path / "six.yaml"
+    six.write_text(text.replace("cells_series: 4", "cells_series: 6"))
+    from planner.data import load_flight_data
+    data, metas = load_flight_data(REPO / "logs/sim_solo_calm.bin")
+    e = replay(data, metas, pack=load_battery(six)).experiments[0]
+    assert any("4 cells in series, the pack file 6" in n for n in e.notes)
+    e = replay(data, metas, pack=load_battery(REPO / "aircraft/batteries/solo_5200_4s.yaml")
+               ).experiments[0]
+    assert not any("cells in series" in n for n in e.notes)

@@ -347,7 +347,8 @@ def prepare_experiments(record, source: str | None = None,
                          f"named {', '.join(map(repr, sorted(only)))}; the data hold "
                          f"{', '.join(map(repr, list(seen)[:8]))}{' …' if len(seen) > 8 else ''}")
     if not out:
-        raise InputError(f"{source or '<DataFrame>'}: no samples to fit")
+        names = [str(src) for src, _ in frames if src is not None] or [source or "<DataFrame>"]
+        raise InputError(f"{', '.join(names)}: no samples to fit")
     return out
 
 

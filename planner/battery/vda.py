@@ -128,7 +128,7 @@ def _arrays(time_s, voltage_v, current_a, where: str):
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             raise InputError(f"{where}: column '{name}' sample {k + 1}: expected a finite "
-                             f"number, got {a[k]!r}")
+                             f"number, got {float(a[k]):g}")
     if np.any(np.diff(t) <= 0):
         k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
         raise InputError(f"{where}: column 'time_s' sample {k + 1}: time must increase")

@@ -309,9 +309,9 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
         base = next((c for c in ("current_a", "voltage_v") if c in channels), None)
     if base is None:
         if require_battery:
-            raise InputError(f"{meta.source}: no battery voltage/current in this log "
-                             "(pass require_battery=False, or --allow-no-battery, to read the other "
-                             "channels)")
+            raise InputError(f"{meta.source}: no battery voltage/current in this log; "
+                             "expected a log with battery data (export --allow-no-battery "
+                             "reads the other channels)")
         if not channels:
             raise InputError(f"{meta.source}: no usable data in this log")
         cont = [c for c in channels.values() if c.column not in STATE_COLUMNS] or \

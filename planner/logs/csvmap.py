@@ -40,6 +40,7 @@ order; time must not go backwards within an experiment (checked by
 from __future__ import annotations
 
 import difflib
+import math
 import os
 from pathlib import Path
 
@@ -80,6 +81,8 @@ def _unknown(where: str, key: str, allowed: set) -> InputError:
 def _number(where: str, key: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(f"{where}: {key} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise InputError(f"{where}: {key} must be a finite number, got {value!r}")
     return float(value)
 
 
@@ -218,6 +221,16 @@ def load_map(source: str | os.PathLike | dict) -> dict:
     for key in meta:
         if key not in _META_KEYS:
             raise _unknown(f"{where}: meta", key, _META_KEYS)
+    for key, (low, high) in (("battery_cells", (1, 40)),
+                             ("battery_capacity_mah", (1.0, 1e7))):
+        if key in meta:
+            value = meta[key]
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not low <= value <= high
+                    or (key == "battery_cells" and not float(value).is_integer())):
+                raise InputError(f"{where}: meta.{key}: expected a "
+                                 f"{'whole ' if key == 'battery_cells' else ''}number in "
+                                 f"[{low:g}, {high:g}], got {value!r}")
     out["meta"] = dict(meta)
     if not out["columns"] and not out["derived"]:
         raise InputError(f"{where}: the map has no 'columns'")
