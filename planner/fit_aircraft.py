@@ -130,10 +130,9 @@ def split_experiments(s: Samples, validate: list[str] | None, train: list[str] |
                              "held-out flights the fit has not seen")
         val = set(validate or []) or (set(ids) - set(train))
         trn = set(train or []) or (set(ids) - val)
-        if not trn or not val:
-            raise InputError(f"{'no training' if not trn else 'no validation'} flight left "
-                             f"(the data has {', '.join(ids[:10])}); expected at least one "
-                             "of each")
+        if not trn:
+            raise InputError(f"no training flight left (the data has {', '.join(ids[:10])}); "
+                             "expected at least one")
         return np.isin(s.experiment, list(trn)), np.isin(s.experiment, list(val)), "given"
     if len(ids) >= 2:
         val = set(ids[2::3]) or {ids[-1]}           # every third flight held out

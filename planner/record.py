@@ -101,6 +101,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "wind_e_ms": (-150.0, 150.0),
 }
 
+_BATTERY = {"voltage_v", "current_a", "power_w", "consumed_mah"}
 _TEXT = {n for n, c in COLUMNS.items() if c.kind == "text"}
 _NUMERIC = [n for n, c in COLUMNS.items() if c.kind != "text"]
 # Channels that hold a state (step signal): previous-value interpolation.
@@ -195,7 +196,9 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
             continue
         values = out[name].to_numpy(float)
         with np.errstate(invalid="ignore"):
-            odd = np.isinf(values) | (values < low) | (values > high)
+            odd = (values < low) | (values > high)
+        if name in _BATTERY:  # an infinite battery reading is reported where it is used
+            odd &= np.isfinite(values)
         if odd.any():
             first = int(np.flatnonzero(odd)[0])
             warnings.warn(f"{where}: column '{name}': {int(odd.sum())} value(s) outside "
