@@ -4,7 +4,9 @@ Keys, units and defaults follow DESIGN §8. Each file is validated when loaded
 and every problem is reported at once in one line naming the file and the key
 (:class:`planner.errors.InputError`). The tables ``BATTERY_KEYS``,
 ``AIRCRAFT_KEYS``, ``FIXED_WING_KEYS`` and ``MULTIROTOR_KEYS`` are the schema;
-``POWER_MODEL_KEYS`` lists the keys each multirotor power model needs.
+``POWER_MODEL_KEYS`` lists the keys each multirotor power model needs. The constants
+under "limits" (``MASS_MAX_KG``, ``SPEED_MAX_MS``, ...) bound the numbers to what small
+electric UAVs can have, with the reason for each.
 """
 
 from __future__ import annotations
@@ -16,8 +18,66 @@ from typing import Any
 import numpy as np
 
 from planner import schema as S
+from planner.atmosphere import G
 from planner.battery import integral
 from planner.errors import InputError
+
+# --------------------------------------------------------------------------- limits
+# Physical limits of the numbers in aircraft and battery files. The planner is for
+# small electric UAVs; these bounds are wide enough for the largest electric UAVs flown
+# and keep every model finite (a value like 1e308 otherwise overflows, or ends in NaN
+# and inf deep inside a run). Each is checked when the file is loaded.
+
+#: Any mass: empty aircraft, maximum take-off, one pack. NASA's solar Helios, the
+#: largest electric UAV flown, weighed up to about 930 kg. [kg]
+MASS_MAX_KG = 1000.0
+#: Any airspeed or ground speed. Record-setting racing quadcopters have flown near
+#: 130 m/s; small survey UAVs cruise at 5–30 m/s, and above ~100 m/s (Mach 0.3) the
+#: incompressible drag polar stops holding anyway. [m/s]
+SPEED_MAX_MS = 150.0
+#: Least fixed-wing airspeed. The induced power B/V of the polar grows without bound as
+#: V → 0; no wing, not even a paper dart, flies at 1 m/s. [m/s]
+AIRSPEED_MIN_MS = 1.0
+#: Least multirotor cruise ground speed: at 0.1 m/s a 1 km leg already lasts close to
+#: three hours. (The top airspeed takes AIRSPEED_MIN_MS: the best-speed search of
+#: ``check`` starts at 0.5 m/s.) [m/s]
+GROUNDSPEED_MIN_MS = 0.1
+#: Default climb and descent rates. Autopilot defaults are 1–3 m/s (ArduCopter
+#: WPNAV_SPEED_UP 2.5 m/s, WPNAV_SPEED_DN 1.5 m/s); 50 m/s leaves room for racing
+#: quadcopters. [m/s]
+VERTICAL_SPEED_MAX_MS = 50.0
+#: Any electric power (avionics and payload load, efficiency reference). A 1000 kg
+#: multirotor hovers on some 200–400 kW. [W]
+POWER_MAX_W = 1.0e6
+#: Capacity of one pack: from a 1 mAh coin cell (smaller than any flight pack) to
+#: 1000 Ah, far above the tens of Ah of the largest UAV packs. [mAh]
+CAPACITY_MIN_MAH, CAPACITY_MAX_MAH = 1.0, 1.0e6
+#: Continuous discharge rating. Marketed LiPo ratings stop near 150 C. [1/h]
+DISCHARGE_C_MAX = 1000.0
+#: Wing reference area: a 15 cm micro air vehicle has about 0.02 m², Helios (75 m span,
+#: 2.4 m chord) about 180 m². [m²]
+WING_AREA_MIN_M2, WING_AREA_MAX_M2 = 0.005, 500.0
+#: Steepest bank of a sustained loiter turn (load factor 2). Autopilots default lower:
+#: ArduPlane ROLL_LIMIT_DEG 45°, PX4 FW_R_LIM 50°. [deg]
+LOITER_BANK_MAX_DEG = 60.0
+#: Widest loiter circle: beyond 10 km a loiter is a route, not a hold. [m]
+LOITER_RADIUS_MAX_M = 1.0e4
+#: Rotor diameter: nano-quadcopter propellers are about 30 mm, the rotors of
+#: crewed-size electric multicopters about 2 m (the existing 5 m bound stays). [m]
+ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M = 0.02, 5.0
+#: Static propeller coefficients (rev/s convention) lie near C_T 0.05–0.2 and C_P
+#: 0.02–0.1 for small propellers (Brandt and Selig 2011); the lower bounds are 10 times
+#: below that, where the rotor speed of the propeller model runs away. [unitless]
+CT_MIN, CP_MIN = 0.005, 0.002
+#: Rotor tip speed: small propellers run their tips at some 100–250 m/s; at 10 m/s a
+#: rotor barely turns, and a tip at the speed of sound (340 m/s, ISA sea level) is
+#: beyond the model. [m/s]
+TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS = 10.0, 340.0
+#: Maximum total thrust: a thrust-to-weight ratio of 10 on a 1000 kg aircraft. [N]
+THRUST_MAX_N = 1.0e5
+#: Least propulsion efficiency, battery to useful power: the propulsion fits allow no
+#: less than 0.1–0.2; below 0.05 the aircraft is a heater. [unitless]
+EFFICIENCY_MIN = 0.05
 
 # --------------------------------------------------------------------------- battery
 
@@ -25,9 +85,9 @@ BATTERY_KEYS = {
     "name": S.Key(S.TEXT, required=True),
     "cells_series": S.Key(S.INTEGER, required=True, low=1, high=40),
     "cells_parallel": S.Key(S.INTEGER, default=1, low=1, high=100),
-    "capacity_mah": S.positive(required=True),
-    "mass_kg": S.positive(required=True),
-    "max_discharge_c": S.positive(),
+    "capacity_mah": S.between(CAPACITY_MIN_MAH, CAPACITY_MAX_MAH, required=True),
+    "mass_kg": S.positive(required=True, high=MASS_MAX_KG),
+    "max_discharge_c": S.positive(high=DISCHARGE_C_MAX),
     "internal_resistance_ohm": S.non_negative(high=10.0),
     "cell_voltage_empty_v": S.Key(S.NUMBER, default=3.5, low=2.0, high=4.2),
     "usable_fraction": S.Key(S.NUMBER, default=1.0, low=0.0, low_open=True, high=1.0),
@@ -35,20 +95,22 @@ BATTERY_KEYS = {
     "circuit": S.Key(S.MAPPING),
     "thermal": S.Key(S.MAPPING),
     "chemistry": S.Key(S.TEXT, default="lipo"),
-    "price": S.non_negative(),
+    "price": S.non_negative(high=1.0e9),  # any currency; keeps totals finite
     "count": S.Key(S.INTEGER, default=1, low=1, high=16),
     "source": S.Key(S.TEXT),
 }
 
 MODEL_KEYS = {
-    "delta": S.positive(required=True),
+    # δ's unit follows ε and β (t = δ P^ε C^β), so only its magnitude is bounded: fitted
+    # and literature values lie near 10–30, and within 1e±20 P^ε C^β stays finite
+    "delta": S.between(1.0e-20, 1.0e20, required=True),
     "epsilon": S.Key(S.NUMBER, required=True, low=-3.0, high=0.5),
     "beta": S.Key(S.NUMBER, default=integral.LITERATURE_BETA, low=0.5, high=1.5),
     # extensions written by `endurance diagnose --out` (DESIGN §6)
     "temperature_coefficient_per_c": S.Key(S.NUMBER, default=0.0, low=-0.2, high=0.2),
     "reference_temperature_c": S.Key(S.NUMBER, default=25.0, low=-40, high=80),
     "fade_per_cycle": S.Key(S.NUMBER, default=0.0, low=-0.01, high=0.05),
-    "cycle": S.Key(S.NUMBER, default=0.0, low=0.0),
+    "cycle": S.Key(S.NUMBER, default=0.0, low=0.0, high=1.0e5),  # LiPo: 300–1000 cycles
     "source": S.Key(S.TEXT),
 }
 
@@ -352,15 +414,15 @@ AIRCRAFT_TYPES = ("fixed_wing", "multirotor")
 AIRCRAFT_KEYS = {
     "name": S.Key(S.TEXT, required=True),
     "type": S.Key(S.TEXT, required=True, choices=AIRCRAFT_TYPES),
-    "empty_mass_kg": S.positive(required=True),
+    "empty_mass_kg": S.positive(required=True, high=MASS_MAX_KG),
     "battery": S.Key(S.TEXT),
-    "efficiency": S.Key(S.NUMBER, required=True, low=0.0, low_open=True, high=1.0),
-    "system_power_w": S.non_negative(default=0.0),
-    "climb_rate_ms": S.positive(),
-    "descent_rate_ms": S.positive(),
-    "max_takeoff_mass_kg": S.positive(),
+    "efficiency": S.between(EFFICIENCY_MIN, 1.0, required=True),
+    "system_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
+    "climb_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS),
+    "descent_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS),
+    "max_takeoff_mass_kg": S.positive(high=MASS_MAX_KG),
     "efficiency_slope": S.Key(S.NUMBER, default=0.0, low=-1.0, high=1.0),
-    "efficiency_reference_power_w": S.positive(),
+    "efficiency_reference_power_w": S.between(1.0, POWER_MAX_W),
     "cells_series_allowed": S.Key(S.LIST),
     "fixed_wing": S.Key(S.MAPPING),
     "multirotor": S.Key(S.MAPPING),
@@ -368,31 +430,33 @@ AIRCRAFT_KEYS = {
 }
 
 FIXED_WING_KEYS = {
-    "wing_area_m2": S.positive(required=True),
+    "wing_area_m2": S.between(WING_AREA_MIN_M2, WING_AREA_MAX_M2, required=True),
     "cd0": S.Key(S.NUMBER, required=True, low=0.0, low_open=True, high=0.5),
     "k": S.Key(S.NUMBER, low=0.0, low_open=True, high=1.0),
     "aspect_ratio": S.Key(S.NUMBER, low=1.0, high=60.0),
     "oswald_efficiency": S.Key(S.NUMBER, low=0.3, high=1.0),
-    "cruise_airspeed_ms": S.positive(required=True),
-    "stall_speed_ms": S.positive(),
-    "max_airspeed_ms": S.positive(),
-    "loiter_radius_m": S.positive(default=60.0),
-    "loiter_airspeed_ms": S.positive(),
+    "cruise_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, required=True),
+    "stall_speed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
+    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
+    # at least min_loiter_radius() of the loiter airspeed and stall speed (_fixed_wing);
+    # the default 60 m is widened to it when the aircraft is too fast to turn that tight
+    "loiter_radius_m": S.positive(default=60.0, high=LOITER_RADIUS_MAX_M),
+    "loiter_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
 }
 
 MULTIROTOR_KEYS = {
     "rotors": S.Key(S.INTEGER, required=True, low=1, high=32),
-    "rotor_diameter_m": S.positive(required=True, high=5.0),
-    "ct": S.positive(high=1.0),
-    "cp": S.positive(high=1.0),
+    "rotor_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M, required=True),
+    "ct": S.between(CT_MIN, 1.0),
+    "cp": S.between(CP_MIN, 1.0),
     "drag_area_m2": S.non_negative(default=0.0, high=10.0),
     "power_model": S.Key(S.TEXT, choices=("propeller", "momentum")),
-    "cruise_speed_ms": S.positive(default=5.0),
-    "max_airspeed_ms": S.positive(default=15.0),
+    "cruise_speed_ms": S.between(GROUNDSPEED_MIN_MS, SPEED_MAX_MS, default=5.0),
+    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, default=15.0),
     "induced_factor": S.Key(S.NUMBER, default=1.15, low=1.0, high=2.0),
     "figure_of_merit": S.Key(S.NUMBER, low=0.2, high=1.0),
-    "tip_speed_ms": S.positive(),
-    "max_thrust_n": S.positive(),
+    "tip_speed_ms": S.between(TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS),
+    "max_thrust_n": S.positive(high=THRUST_MAX_N),
 }
 
 #: Keys each multirotor power model needs (besides rotors and diameter).
@@ -616,35 +680,105 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
                     source=d["source"], path=where)
 
 
+def min_loiter_radius(loiter_airspeed_ms: float, stall_speed_ms: float | None = None,
+                      bank_max_deg: float = LOITER_BANK_MAX_DEG) -> float:
+    r"""
+    Tightest level loiter circle a fixed-wing can fly at its loiter airspeed. [m]
+
+    Parameters
+    ----------
+    loiter_airspeed_ms : float
+        Airspeed of the loiter. [m/s]
+    stall_speed_ms : float, optional
+        Wings-level stall speed; the stall speed in a turn rises as :math:`\sqrt n`. [m/s]
+    bank_max_deg : float, default :data:`LOITER_BANK_MAX_DEG`
+        Steepest bank allowed. [deg]
+
+    Returns
+    -------
+    radius : float
+        ``inf`` when the loiter airspeed is not above the stall speed. [m]
+
+    Notes
+    -----
+    .. math:: r_{min} = rac{V^2}{g 	an\phi_{max}}, \qquad
+              \cos\phi_{max} = \max\left(\cos\phi_{bank}, (V_s/V)^2
+ight)
+
+    Level coordinated turn (Anderson, *Aircraft Performance and Design*, ch. 6): the
+    load factor is :math:`n = 1/\cos\phi` and must stay below :math:`(V/V_s)^2` so that
+    the wing does not stall in the turn.
+    """
+    cos_max = np.cos(np.radians(bank_max_deg))
+    if stall_speed_ms is not None:
+        cos_max = max(cos_max, (stall_speed_ms / loiter_airspeed_ms) ** 2)
+    if cos_max >= 1.0:
+        return float("inf")
+    tan_max = np.sqrt(1.0 - cos_max**2) / cos_max
+    return float(loiter_airspeed_ms**2 / (G * tan_max))
+
+
 def _fixed_wing(data: Any, where: str, problems: list[str]) -> FixedWing | None:
     n = len(problems)
-    d = S.check_mapping(data, FIXED_WING_KEYS, where, "fixed_wing.", problems)
+    bad: set[str] = set()
+    d = S.check_mapping(data, FIXED_WING_KEYS, where, "fixed_wing.", problems, bad)
+
+    def given(key):  # present and valid on its own: usable in checks across keys
+        return d[key] is not None and key not in bad
+
     k = d["k"]
     if k is None:
         if d["aspect_ratio"] is None or d["oswald_efficiency"] is None:
             problems.append("fixed_wing needs 'k' or both 'aspect_ratio' and "
                             "'oswald_efficiency' (K = 1/(π e AR))")
-        else:
+        elif given("aspect_ratio") and given("oswald_efficiency"):
             from planner.power import fixed_wing
             k = float(fixed_wing.induced_drag_factor(d["aspect_ratio"], d["oswald_efficiency"]))
     elif d["aspect_ratio"] is not None:
         problems.append("fixed_wing: give either 'k' or 'aspect_ratio'/'oswald_efficiency', "
                         "not both")
-    stall, cruise = d["stall_speed_ms"], d["cruise_airspeed_ms"]
+    stall = d["stall_speed_ms"] if given("stall_speed_ms") else None
+    cruise = d["cruise_airspeed_ms"] if given("cruise_airspeed_ms") else None
+    top = d["max_airspeed_ms"] if given("max_airspeed_ms") else None
+    loiter = d["loiter_airspeed_ms"] if given("loiter_airspeed_ms") else None
     if stall is not None and cruise is not None and cruise <= stall:
         problems.append(f"fixed_wing.cruise_airspeed_ms ({cruise}) must be above "
                         f"stall_speed_ms ({stall})")
+    if top is not None and stall is not None and top <= stall:
+        problems.append(f"fixed_wing.max_airspeed_ms must be above the stall speed "
+                        f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {top!r}")
+    elif top is not None and cruise is not None and top < cruise:
+        problems.append(f"fixed_wing.max_airspeed_ms must be at least the cruise airspeed "
+                        f"(fixed_wing.cruise_airspeed_ms {cruise:g} m/s), got {top!r}")
+    if loiter is not None and stall is not None and loiter <= stall:
+        problems.append(f"fixed_wing.loiter_airspeed_ms must be above the stall speed "
+                        f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {loiter!r}")
+    elif loiter is not None and top is not None and loiter > top:
+        problems.append(f"fixed_wing.loiter_airspeed_ms must be at most the maximum airspeed "
+                        f"(fixed_wing.max_airspeed_ms {top:g} m/s), got {loiter!r}")
     if len(problems) > n:
+        return None
+    v_loiter = loiter or cruise
+    radius = d["loiter_radius_m"]
+    r_min = min_loiter_radius(v_loiter, stall)
+    if data.get("loiter_radius_m") is None:  # the default circle, widened for a fast aircraft
+        radius = max(radius, float(np.ceil(r_min * 10.0)) / 10.0)
+    elif radius < r_min:
+        above = f", above the stall speed {stall:g} m/s" if stall is not None else ""
+        problems.append(f"fixed_wing.loiter_radius_m must be at least {r_min:.1f} m (a level "
+                        f"turn at the loiter airspeed {v_loiter:g} m/s with at most "
+                        f"{LOITER_BANK_MAX_DEG:g}° of bank{above}), got {radius!r}")
         return None
     return FixedWing(wing_area_m2=d["wing_area_m2"], cd0=d["cd0"], k=k,
                      cruise_airspeed_ms=cruise, stall_speed_ms=stall,
-                     max_airspeed_ms=d["max_airspeed_ms"], loiter_radius_m=d["loiter_radius_m"],
-                     loiter_airspeed_ms=d["loiter_airspeed_ms"])
+                     max_airspeed_ms=top, loiter_radius_m=radius,
+                     loiter_airspeed_ms=loiter)
 
 
 def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None:
     n = len(problems)
-    d = S.check_mapping(data, MULTIROTOR_KEYS, where, "multirotor.", problems)
+    bad: set[str] = set()
+    d = S.check_mapping(data, MULTIROTOR_KEYS, where, "multirotor.", problems, bad)
     model = d["power_model"]
     if model is None:  # "infer", as ModelChain.infer_dc_model
         model = "propeller" if d["ct"] is not None and d["cp"] is not None else "momentum"
@@ -654,6 +788,22 @@ def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None
                         + " and ".join(f"'multirotor.{m}'" for m in missing))
     if (d["ct"] is None) != (d["cp"] is None):
         problems.append("multirotor: give both 'ct' and 'cp' or neither")
+    cruise, top = d["cruise_speed_ms"], d["max_airspeed_ms"]
+    if not bad & {"cruise_speed_ms", "max_airspeed_ms"} and cruise > top:
+        problems.append(f"multirotor.cruise_speed_ms must be at most the maximum airspeed "
+                        f"(multirotor.max_airspeed_ms {top:g} m/s), got {cruise!r}")
+    if model == "momentum" and not bad & {"figure_of_merit", "induced_factor"}:
+        # momentum theory: profile power P0/P_ideal = 1/FM − κ must not be negative
+        from planner.power.momentum import DEFAULT_FIGURE_OF_MERIT
+        fm, kappa = d["figure_of_merit"], d["induced_factor"]
+        if fm is None and kappa * DEFAULT_FIGURE_OF_MERIT > 1.0:
+            problems.append(f"multirotor.induced_factor must be at most "
+                            f"{1.0 / DEFAULT_FIGURE_OF_MERIT:.3g} with the default "
+                            f"figure of merit {DEFAULT_FIGURE_OF_MERIT:g} (profile power "
+                            f">= 0), got {kappa!r}")
+        elif fm is not None and kappa * fm > 1.0:
+            problems.append(f"multirotor.figure_of_merit must be at most 1/induced_factor "
+                            f"= {1.0 / kappa:.3g} (profile power >= 0), got {fm!r}")
     if len(problems) > n:
         return None
     return Multirotor(rotors=d["rotors"], rotor_diameter_m=d["rotor_diameter_m"],

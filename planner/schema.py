@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -60,6 +61,11 @@ def positive(required=False, default=None, high=None):
     return Key(NUMBER, required, default, low=0.0, low_open=True, high=high)
 
 
+def between(low, high, required=False, default=None):
+    """A number in the closed range [``low``, ``high``]."""
+    return Key(NUMBER, required, default, low=low, high=high)
+
+
 def non_negative(required=False, default=None, high=None):
     return Key(NUMBER, required, default, low=0.0, high=high)
 
@@ -83,6 +89,28 @@ def _type_ok(kind: str, value: Any) -> bool:
     raise AssertionError(kind)
 
 
+_YAML12_NUMBER = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)[eE][-+]?[0-9]+")
+
+
+def _type_hint(kind: str, value: Any) -> str:
+    """Why a number written as ``1e3`` arrived as text: YAML 1.1 wants ``1.0e+3``."""
+    if kind in (NUMBER, INTEGER) and isinstance(value, str) and _YAML12_NUMBER.fullmatch(
+            value.strip()):
+        return " (YAML reads exponent notation without a decimal point as text: write " \
+               "e.g. 1.0e+3)"
+    return ""
+
+
+def _shown(value: Any) -> str:
+    """A value for a message; a whole number of many digits as ``1e+300`` (or its length)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
+        try:
+            return f"{float(value):g}"
+        except OverflowError:
+            return f"a number of {len(str(abs(value)))} digits"
+    return repr(value)
+
+
 def _expected(kind: str) -> str:
     return {NUMBER: "a number", INTEGER: "a whole number", TEXT: "text",
             BOOL: "true or false", MAPPING: "a mapping of keys", LIST: "a list",
@@ -90,7 +118,8 @@ def _expected(kind: str) -> str:
 
 
 def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
-                  problems: list[str] | None = None) -> dict[str, Any]:
+                  problems: list[str] | None = None,
+                  rejected: set[str] | None = None) -> dict[str, Any]:
     """Validate ``data`` against ``spec``; return a dict with defaults filled in.
 
     Parameters
@@ -104,6 +133,9 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
         Key path of ``data`` inside the file (``"fixed_wing."``), for messages.
     problems : list of str, optional
         Collect problems here instead of raising (for nested blocks).
+    rejected : set of str, optional
+        Add here the keys that are present but invalid, so that checks across keys can
+        leave them out instead of reporting the same value twice.
 
     Raises
     ------
@@ -124,36 +156,45 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
                 f" (expected one of: {', '.join(spec)})")
             problems.append(f"unknown key '{prefix}{key}'{hint}")
     for key, k in spec.items():
-        value = data.get(key, _MISSING)
-        name = f"{prefix}{key}"
-        if value is _MISSING or value is None:
-            if k.required:
-                problems.append(f"missing required key '{name}' ({_expected(k.kind)})")
-            out[key] = k.default
-            continue
-        if not _type_ok(k.kind, value):
-            problems.append(f"{name} must be {_expected(k.kind)}, got {value!r}")
-            out[key] = k.default
-            continue
-        if k.kind == INTEGER:
-            value = int(value)
-        if k.kind in (NUMBER, INTEGER):
-            value_f = float(value)
-            if not math.isfinite(value_f):
-                problems.append(f"{name} must be finite, got {value!r}")
-            if k.low is not None and (value_f < k.low or (k.low_open and value_f <= k.low)):
-                problems.append(f"{name} must be {'>' if k.low_open else '>='} {k.low:g}, "
-                                f"got {value!r}")
-            if k.high is not None and (value_f > k.high or (k.high_open and value_f >= k.high)):
-                problems.append(f"{name} must be {'<' if k.high_open else '<='} {k.high:g}, "
-                                f"got {value!r}")
-        if k.choices is not None and value not in k.choices:
-            problems.append(f"{name} must be one of {', '.join(map(str, k.choices))}, "
-                            f"got {value!r}")
-        out[key] = value
+        before = len(problems)
+        out[key] = _check_value(data.get(key, _MISSING), k, f"{prefix}{key}", problems)
+        if rejected is not None and len(problems) > before:
+            rejected.add(key)
     if own and problems:
         raise InputError(f"{where}: " + "; ".join(problems))
     return out
+
+
+def _check_value(value: Any, k: Key, name: str, problems: list[str]) -> Any:
+    """Check one value against its key; return it, or the default when absent or unusable."""
+    if value is _MISSING or value is None:
+        if k.required:
+            problems.append(f"missing required key '{name}' ({_expected(k.kind)})")
+        return k.default
+    if not _type_ok(k.kind, value):
+        problems.append(f"{name} must be {_expected(k.kind)}, got {value!r}"
+                        f"{_type_hint(k.kind, value)}")
+        return k.default
+    if k.kind == INTEGER:
+        value = int(value)
+    if k.kind in (NUMBER, INTEGER):
+        try:
+            value_f = float(value)
+        except OverflowError:  # a YAML integer of hundreds of digits
+            value_f = math.inf if value > 0 else -math.inf
+        if not math.isfinite(value_f):
+            problems.append(f"{name} must be finite, got {_shown(value)}")
+            return k.default
+        if k.low is not None and (value_f < k.low or (k.low_open and value_f <= k.low)):
+            problems.append(f"{name} must be {'>' if k.low_open else '>='} {k.low:g}, "
+                            f"got {_shown(value)}")
+        if k.high is not None and (value_f > k.high or (k.high_open and value_f >= k.high)):
+            problems.append(f"{name} must be {'<' if k.high_open else '<='} {k.high:g}, "
+                            f"got {_shown(value)}")
+    if k.choices is not None and value not in k.choices:
+        problems.append(f"{name} must be one of {', '.join(map(str, k.choices))}, "
+                        f"got {value!r}")
+    return value
 
 
 def load_yaml(path: str | Path) -> Any:

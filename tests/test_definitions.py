@@ -74,7 +74,8 @@ def test_k_from_aspect_ratio_and_oswald(tmp_path):
 
 
 @pytest.mark.parametrize("text, match", [
-    ("name: p\ncells_series: 4\ncapacity_mah: -5\nmass_kg: 0.2\n", "capacity_mah must be > 0"),
+    ("name: p\ncells_series: 4\ncapacity_mah: -5\nmass_kg: 0.2\n",
+     "capacity_mah must be >= 1, got -5"),
     ("name: p\ncells_series: 4\ncapacity_mah: 1000\nmas_kg: 0.2\n",
      "unknown key 'mas_kg' \\(did you mean 'mass_kg'\\?\\)"),
     ("name: p\ncells_series: four\ncapacity_mah: 1000\nmass_kg: 0.2\n",

@@ -12,16 +12,28 @@ import numpy as np
 from planner.errors import InputError
 
 
-def parse_wind(text: str) -> tuple[float, float]:
-    """``SPEED@FROM_DEG`` (m/s, degrees the wind blows from) → (speed, direction)."""
+def parse_wind(text: str, max_speed_ms: float = 100.0) -> tuple[float, float]:
+    """``SPEED@FROM_DEG`` (m/s, degrees the wind blows from) → (speed, direction).
+
+    The speed must be in [0, ``max_speed_ms``] m/s. The default 100 m/s (360 km/h) is
+    above any sustained surface wind on record (the strongest tropical cyclones reach
+    some 85–90 m/s) and several times what a small UAV can fly in; larger values only
+    overflow the models. The direction must be a compass bearing in [0, 360] degrees;
+    360 (north, as METAR and aviation reports write it) is returned as 0. Other values
+    are rejected rather than wrapped: ``-90`` or ``400`` is more likely a typo than a
+    bearing.
+    """
     try:
         speed_s, direction_s = text.split("@")
         speed, direction = float(speed_s), float(direction_s)
     except ValueError:
         raise InputError(f"--wind: expected SPEED@FROM_DEG, e.g. 6@270 (m/s from the west), "
                          f"got {text!r}") from None
-    if not (math.isfinite(speed) and math.isfinite(direction)) or speed < 0:
-        raise InputError(f"--wind: speed must be >= 0 m/s and finite, got {text!r}")
+    if not (math.isfinite(speed) and 0.0 <= speed <= max_speed_ms):
+        raise InputError(f"--wind: speed must be in [0, {max_speed_ms:g}] m/s, got {text!r}")
+    if not (math.isfinite(direction) and 0.0 <= direction <= 360.0):
+        raise InputError(f"--wind: direction must be a bearing in [0, 360] degrees (the "
+                         f"direction the wind blows from, 0 or 360 = north), got {text!r}")
     return speed, direction % 360.0
 
 
