@@ -14,7 +14,9 @@ Schema (https://docs.qgroundcontrol.com/master/en/qgc-dev-guide/file_formats/pla
                             "TransectStyleComplexItem": {"Items": [simple items ...]}}]},
      "geoFence": {...}, "rallyPoints": {...}}
 
-``null`` params are read as NaN. Survey, corridor-scan and structure-scan
+``null`` params are read as NaN ("unset"); the non-standard JSON ``NaN`` and
+``Infinity`` that Python's reader accepts are refused, as is a home position
+that is not finite or out of range. Survey, corridor-scan and structure-scan
 complex items are flown through the simple items QGroundControl saved in
 ``TransectStyleComplexItem.Items``; other complex items (landing patterns) are
 not supported. The geofence and rally points are not read.
@@ -32,6 +34,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from planner.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
 from planner.mission.route import MavItem, mav_items_to_steps, route_to_legs
@@ -45,7 +48,13 @@ TRANSECT_ITEMS = ("survey", "CorridorScan", "StructureScan")
 
 
 def _is_number(x: Any) -> bool:
+    """A JSON number, not a bool (may be the non-standard NaN or Infinity)."""
     return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _is_finite(x: Any) -> bool:
+    """A finite JSON number (not a bool, not the non-standard NaN or Infinity)."""
+    return _is_number(x) and math.isfinite(x)
 
 
 def _is_int(x: Any) -> bool:
@@ -69,14 +78,17 @@ def _simple_item(item: Any, key: str, seq: int, where: Path) -> MavItem:
     for j, v in enumerate(params):
         if v is None:
             values.append(math.nan)
-        elif _is_number(v):
+        elif _is_finite(v):
             values.append(float(v))
+        elif _is_number(v):
+            raise InputError(f"{where}: {key}.params[{j}] must be a finite number or null, "
+                             f"got {v!r}")
         else:
             raise InputError(f"{where}: {key}.params[{j}] must be a number or null, got {v!r}")
     terrain = item.get("AMSLAltAboveTerrain")
-    if terrain is not None and not _is_number(terrain):
-        raise InputError(f"{where}: {key}.AMSLAltAboveTerrain must be a number or null, got "
-                         f"{terrain!r}")
+    if terrain is not None and not _is_finite(terrain):
+        raise InputError(f"{where}: {key}.AMSLAltAboveTerrain must be a finite number or "
+                         f"null, got {terrain!r}")
     jump_id = item.get("doJumpId")
     return MavItem(seq=int(jump_id) if _is_int(jump_id) else seq,
                    command=int(item["command"]), frame=int(item["frame"]),
@@ -114,12 +126,20 @@ def read_plan(path: str | Path) -> tuple[dict, list[MavItem]]:
                          "'plannedHomePosition'")
     home = mission.get("plannedHomePosition")
     if (not isinstance(home, list) or len(home) < 3
-            or not all(_is_number(v) for v in home[:3])):
-        raise InputError(f"{path}: mission.plannedHomePosition must be [lat, lon, alt_amsl], "
-                         f"got {home!r}")
+            or not all(_is_finite(v) for v in home[:3])):
+        raise InputError(f"{path}: mission.plannedHomePosition must be [lat, lon, alt_amsl] "
+                         f"(finite numbers), got {home!r}")
     if home[0] == 0 and home[1] == 0:
         raise InputError(f"{path}: mission.plannedHomePosition is 0, 0 (expected the home "
                          "latitude and longitude)")
+    if not (-90 <= home[0] <= 90 and -180 <= home[1] <= 180):
+        raise InputError(f"{path}: mission.plannedHomePosition latitude/longitude {home[0]:g}, "
+                         f"{home[1]:g} out of range (expected -90..90, -180..180 degrees)")
+    lo, hi = ALTITUDE_RANGE_M
+    if not lo <= home[2] <= hi:
+        raise InputError(f"{path}: mission.plannedHomePosition altitude {home[2]:g} m above "
+                         f"mean sea level is outside the atmosphere model (expected {lo:g} to "
+                         f"{hi:g} m)")
     items = mission.get("items")
     if not isinstance(items, list) or not items:
         raise InputError(f"{path}: mission.items must be a non-empty list of mission items")
@@ -180,7 +200,7 @@ def load_plan(path: str | Path, *, vehicle_type: str | None = None) -> Mission:
     vtype = vehicle_type or plan_vehicle_type(mission)
     key = {"multirotor": "hoverSpeed", "fixed_wing": "cruiseSpeed"}.get(vtype)
     speed = mission.get(key) if key else None
-    if speed is not None and (not _is_number(speed) or speed <= 0):
+    if speed is not None and (not _is_finite(speed) or speed <= 0):
         raise InputError(f"{path}: mission.{key} must be a number > 0, got {speed!r}")
     steps = mav_items_to_steps(items, alt, where=str(path), vehicle_type=vtype)
     legs = route_to_legs(steps, lat, lon, where=str(path),

@@ -13,7 +13,8 @@ Conventions
 -----------
 - Take-off is a vertical climb from the current position to the take-off
   altitude; the take-off item's latitude/longitude is not flown to.
-- A navigation item whose latitude and longitude are both 0 (or NaN) means
+- A navigation item whose latitude and longitude are both 0 (or unset: NaN,
+  ``null`` in a ``.plan``) means
   "the current position"; if its relative altitude is also 0, the current
   altitude is kept (ArduPilot's convention).
 - A waypoint less than :data:`MIN_CRUISE_M` away horizontally becomes a
@@ -31,6 +32,25 @@ Conventions
 - ``DO_JUMP`` is expanded as ArduPilot flies it: each jump item keeps its own
   counter for the whole mission (an inner loop of nested loops is not
   re-armed); at most :data:`MAX_JUMPS` jumps in all.
+- Legs are straight lines in the leg frame of :mod:`planner.mission.geo`: a leg to,
+  from or through home has its great-circle length at any range; any other
+  leg must stay within about :data:`~planner.mission.geo.FRAME_ERROR_KM` of
+  home, where the frame is within :data:`MAX_FRAME_ERROR` of the great circle.
+
+Bounds on input
+---------------
+- A hold, a timed loiter or a loiter in turns lasts at most :data:`MAX_HOLD_S`
+  (24 h: beyond any battery-powered flight, so a larger value is a typing
+  error; it also keeps the mission's time series, sampled every second by the
+  check, to a size that fits in memory), and so do all the holds of a mission
+  together (``DO_JUMP`` repeats included);
+- a loiter has at most :data:`MAX_LOITER_TURNS` turns (ArduPilot stores the
+  turns of ``NAV_LOITER_TURNS`` in one byte, ``AP_Mission``);
+- hold times are >= 0; latitudes, longitudes and altitudes are finite;
+- every altitude, as height above mean sea level (the site altitude plus the
+  altitude above home), lies in the range of the atmosphere model,
+  :data:`planner.atmosphere.ALTITUDE_RANGE_M`, checked here so that the
+  message names the file, the item and the value as written.
 """
 
 from __future__ import annotations
@@ -41,8 +61,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from planner.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
-from planner.mission.geo import latlon_to_en
+from planner.mission.geo import FRAME_ERROR_KM, frame_error, great_circle_distance, latlon_to_aeqd
 from planner.mission.legs import Leg
 
 #: Horizontal distance below which a waypoint is a vertical move. [m]
@@ -51,9 +72,89 @@ MIN_CRUISE_M = 0.5
 MIN_ALT_CHANGE_M = 0.01
 #: Most DO_JUMP jumps expanded in one mission.
 MAX_JUMPS = 100
+#: Longest single hold, timed loiter or loiter in turns (24 h). [s]
+MAX_HOLD_S = 86400.0
+#: Most turns of one loiter (ArduPilot keeps them in one byte). [unitless]
+MAX_LOITER_TURNS = 255
+#: Largest relative error of a leg's length in the local frame (0.1 %). [unitless]
+MAX_FRAME_ERROR = 1e-3
 
 ACTIONS = ("takeoff", "waypoint", "hold", "loiter", "rtl", "land", "speed",
            "climb_rate", "descent_rate")
+
+
+def hold_problem(value: float, what: str = "hold time") -> str | None:
+    """Why a hold or loiter duration is not accepted, or ``None``.
+
+    Parameters
+    ----------
+    value : float
+        The duration as written. [s]
+    what : str
+        Its name in the message.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"hold time 1e+308 s is out of range (expected 0 to 86400 s, 24 h)"``.
+    """
+    if math.isfinite(value) and 0.0 <= value <= MAX_HOLD_S:
+        return None
+    return (f"{what} {value:g} s is out of range (expected 0 to {MAX_HOLD_S:g} s, "
+            f"{MAX_HOLD_S / 3600:g} h)")
+
+
+def total_hold_problem(legs: list[Leg]) -> tuple[str, str] | None:
+    """Where and why the holds of a mission add up to more than :data:`MAX_HOLD_S`.
+
+    Parameters
+    ----------
+    legs : list of Leg
+
+    Returns
+    -------
+    (origin, message) or None
+        The origin of the ``hover``/``loiter`` leg at which the running total
+        first passes the bound, and the message; ``None`` if it never does.
+    """
+    total = 0.0
+    for leg in legs:
+        if leg.kind in ("hover", "loiter") and leg.duration_s:
+            total += leg.duration_s
+            if total > MAX_HOLD_S:
+                return leg.origin, (f"the holds and loiters of the mission add up to "
+                                    f"{total:g} s here (expected at most {MAX_HOLD_S:g} s, "
+                                    f"{MAX_HOLD_S / 3600:g} h, in all, DO_JUMP repeats "
+                                    "included)")
+    return None
+
+
+def altitude_problem(alt_m: float, site_alt_amsl_m: float) -> str | None:
+    """Why an altitude above home is outside the atmosphere model, or ``None``.
+
+    Parameters
+    ----------
+    alt_m : float
+        Altitude above home. [m]
+    site_alt_amsl_m : float
+        Altitude of home above mean sea level. [m]
+
+    Returns
+    -------
+    str or None
+        The height above mean sea level and the range of
+        :data:`planner.atmosphere.ALTITUDE_RANGE_M`, as heights above home too.
+    """
+    lo, hi = ALTITUDE_RANGE_M
+    amsl = site_alt_amsl_m + alt_m
+    if not math.isfinite(amsl):
+        return f"is {alt_m!r} (expected a finite number)"
+    if lo <= amsl <= hi:
+        return None
+    return (f"puts the aircraft at {amsl:g} m above mean sea level (home at "
+            f"{site_alt_amsl_m:g} m AMSL), outside the atmosphere model (expected "
+            f"{lo:g} to {hi:g} m AMSL, i.e. {lo - site_alt_amsl_m:g} to "
+            f"{hi - site_alt_amsl_m:g} m above home)")
 
 
 @dataclass(frozen=True)
@@ -123,16 +224,20 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
     Raises
     ------
     InputError
-        A loiter given in turns without a radius or speed, or a route with no
-        flight legs.
+        A loiter given in turns without a radius or speed, or lasting more than
+        :data:`MAX_HOLD_S`; holds adding up to more than that; a leg the local
+        frame cannot represent within :data:`MAX_FRAME_ERROR` (far from home
+        and not through it); a route with no flight legs.
     """
     lat = np.array([np.nan if s.lat_deg is None else s.lat_deg for s in steps], dtype=float)
     lon = np.array([np.nan if s.lon_deg is None else s.lon_deg for s in steps], dtype=float)
-    east, north = latlon_to_en(lat, lon, home_lat_deg, home_lon_deg)
+    east, north = latlon_to_aeqd(lat, lon, home_lat_deg, home_lon_deg)
     east, north = np.atleast_1d(east), np.atleast_1d(north)
+    home_ll = (float(home_lat_deg), float(home_lon_deg))
 
     legs: list[Leg] = []
     pos = (0.0, 0.0)
+    here = (home_ll, "home")      # (latitude, longitude) of pos, and where it came from
     alt = 0.0
     climb_rate = descent_rate = None
 
@@ -146,19 +251,38 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
                         end_alt_m=target_alt, climb_rate_ms=rate, origin=origin))
         alt = target_alt
 
-    def move(target: tuple[float, float], target_alt: float, origin: str) -> None:
-        nonlocal pos, alt
+    def check_frame(start: tuple[float, float], end: tuple[float, float], origin: str,
+                    start_origin: str) -> None:
+        err = frame_error(*start, *end, *home_ll)
+        if err <= MAX_FRAME_ERROR:
+            return
+        length = great_circle_distance(*start, *end)
+        far = max(great_circle_distance(*home_ll, *start), great_circle_distance(*home_ll, *end))
+        raise InputError(
+            f"{where}: {origin}: the {length / 1e3:.0f} km leg from {start_origin} reaches "
+            f"{far / 1e3:.0f} km from home without passing through it, where the planner's "
+            f"flat frame about home misstates its length by {err:.2%} (expected legs within "
+            f"about {FRAME_ERROR_KM:g} km of home, or straight to or from home, error at most "
+            f"{MAX_FRAME_ERROR:.1%}; plan far-apart legs from a nearer home)")
+
+    def move(target: tuple[float, float], target_alt: float, origin: str,
+             target_ll: tuple[float, float]) -> None:
+        nonlocal pos, alt, here
         if math.hypot(target[0] - pos[0], target[1] - pos[1]) < MIN_CRUISE_M:
             vertical(target_alt, origin)
             return
+        check_frame(here[0], target_ll, origin, here[1])
         legs.append(Leg("cruise", start_en_m=pos, end_en_m=target, start_alt_m=alt,
                         end_alt_m=target_alt, speed_ms=speed_ms,
                         speed_is_airspeed=speed_is_airspeed, origin=origin))
-        pos, alt = target, target_alt
+        pos, alt, here = target, target_alt, (target_ll, origin)
 
     for i, step in enumerate(steps):
         act = step.action
-        target = pos if np.isnan(east[i]) else (float(east[i]), float(north[i]))
+        if np.isnan(east[i]):
+            target, target_ll = pos, here[0]
+        else:
+            target, target_ll = (float(east[i]), float(north[i])), (float(lat[i]), float(lon[i]))
         target_alt = alt if step.alt_m is None else float(step.alt_m)
         if act == "takeoff":
             if target_alt < alt:
@@ -167,7 +291,7 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
             else:
                 vertical(target_alt, step.origin)
         elif act == "waypoint":
-            move(target, target_alt, step.origin)
+            move(target, target_alt, step.origin, target_ll)
             if step.hold_s:
                 legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
                                 end_alt_m=alt, duration_s=float(step.hold_s),
@@ -178,7 +302,7 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
                                 end_alt_m=alt, duration_s=float(step.duration_s),
                                 origin=step.origin))
         elif act == "loiter":
-            move(target, target_alt, step.origin)
+            move(target, target_alt, step.origin, target_ll)
             duration = step.duration_s
             if step.turns is not None:
                 if not step.radius_m or not speed_ms:
@@ -186,6 +310,11 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
                         f"{where}: {step.origin}: a loiter of {step.turns:g} turns needs a "
                         "radius and a speed (set a speed before it) to give its duration")
                 duration = step.turns * 2.0 * math.pi * step.radius_m / speed_ms
+                problem = hold_problem(duration, "loiter time")
+                if problem:
+                    raise InputError(
+                        f"{where}: {step.origin}: {step.turns:g} turns of {step.radius_m:g} m "
+                        f"at {speed_ms:g} m/s: {problem}")
             if not duration:
                 continue
             legs.append(Leg("loiter", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
@@ -195,8 +324,8 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
                             loiter_radius_m=step.radius_m or None, origin=step.origin))
         elif act in ("rtl", "land"):
             if act == "rtl":
-                target = (0.0, 0.0)
-            move(target, alt, step.origin)
+                target, target_ll = (0.0, 0.0), home_ll
+            move(target, alt, step.origin, target_ll)
             vertical(0.0, step.origin)
             rest = [s.origin for s in steps[i + 1:] if s.action not in ("speed", "climb_rate",
                                                                         "descent_rate")]
@@ -216,6 +345,9 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
     if not legs:
         raise InputError(f"{where}: the mission has no flight legs "
                          "(expected a take-off or at least one waypoint)")
+    too_long = total_hold_problem(legs)
+    if too_long:
+        raise InputError(f"{where}: {too_long[0]}: {too_long[1]}")
     return legs
 
 
@@ -330,6 +462,11 @@ def _finite(x: float) -> bool:
     return x is not None and math.isfinite(x)
 
 
+def _label(item: MavItem) -> str:
+    """Where an item is, for messages: ``"line 15 (item 13)"``."""
+    return f"{item.origin} (item {item.seq})"
+
+
 def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: str,
                        vehicle_type: str | None = None) -> list[RouteStep]:
     """Turn MAVLink mission items (without home) into route steps.
@@ -355,7 +492,9 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
     ------
     InputError
         ``NAV_LOITER_UNLIM`` (unbounded), a bad ``DO_JUMP``, a navigation
-        item in an unsupported frame or without a finite position.
+        item in an unsupported frame or without a finite position, an infinite
+        coordinate, an altitude outside the atmosphere model, a hold time < 0
+        or above :data:`MAX_HOLD_S`, more than :data:`MAX_LOITER_TURNS` turns.
     """
     ignored: dict[int, list[str]] = {}
     terrain_warned = False
@@ -369,6 +508,14 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
                 raise InputError(f"{where}: {origin}: {cmd_name(cmd)} loiters without end, "
                                  "so the mission has no duration (expected LOITER_TIME or "
                                  "LOITER_TURNS)")
+            if any(math.isinf(v) for v in p[4:7]):
+                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} latitude, "
+                                 f"longitude, altitude {p[4]:g}, {p[5]:g}, {p[6]:g} (expected "
+                                 "finite numbers)")
+            if _finite(p[4]) != _finite(p[5]):
+                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} latitude, "
+                                 f"longitude {p[4]:g}, {p[5]:g} (expected both numbers, or "
+                                 "both unset for the current position)")
             if _finite(p[4]) and _finite(p[5]) and not (p[4] == 0 and p[5] == 0):
                 lat, lon = float(p[4]), float(p[5])
                 if not (-90 <= lat <= 90 and -180 <= lon <= 180):
@@ -396,16 +543,35 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
                     raise InputError(f"{where}: {origin}: frame {item.frame} not supported for "
                                      f"{cmd_name(cmd)} (expected 0 global, 3 relative or 10 "
                                      "terrain)")
+                problem = altitude_problem(alt, home_alt_amsl_m)
+                if problem:
+                    ref = ("above mean sea level" if item.frame in _FRAMES_AMSL
+                           else "above home" if item.frame in _FRAMES_RELATIVE
+                           else "above terrain")
+                    raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} altitude "
+                                     f"{p[6]:g} m (frame {item.frame}, {ref}) {problem}")
                 if lat is None and item.frame in _FRAMES_RELATIVE and p[6] == 0:
                     alt = None  # "here, at the current altitude"
         if cmd in _WAYPOINT_CMDS:
-            hold = float(p[0]) if cmd != 31 and _finite(p[0]) and p[0] > 0 else None
+            hold = None
+            if cmd != 31 and not math.isnan(p[0]):   # NaN (null): no hold
+                problem = hold_problem(p[0], "param1 (hold time)")
+                if problem:
+                    raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} {problem}")
+                hold = float(p[0]) if p[0] > 0 else None
             steps.append(RouteStep("waypoint", lat, lon, alt, hold_s=hold, origin=origin))
         elif cmd in (18, 19):
             if not _finite(p[0]) or p[0] < 0:
                 what = "turns" if cmd == 18 else "seconds"
                 raise InputError(f"{where}: {origin}: {cmd_name(cmd)} param1 ({what}) must be "
                                  f">= 0, got {p[0]!r}")
+            if cmd == 19 and hold_problem(p[0]):
+                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} "
+                                 f"{hold_problem(p[0], 'param1 (loiter time)')}")
+            if cmd == 18 and p[0] > MAX_LOITER_TURNS:
+                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} param1 (turns) "
+                                 f"{p[0]:g} is out of range (expected 0 to {MAX_LOITER_TURNS}, "
+                                 "the most ArduPilot stores)")
             radius = abs(float(p[2])) if _finite(p[2]) and p[2] != 0 else None
             steps.append(RouteStep("loiter", lat, lon, alt, radius_m=radius, origin=origin,
                                    turns=float(p[0]) if cmd == 18 else None,
@@ -417,10 +583,14 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
         elif cmd in (21, 85):
             steps.append(RouteStep("land", lat, lon, origin=origin))
         elif cmd == 93:
-            if _finite(p[0]) and p[0] >= 0:
-                steps.append(RouteStep("hold", duration_s=float(p[0]), origin=origin))
-            else:
+            if math.isnan(p[0]) or p[0] == -1:   # -1: wait for a time of day, not modelled
                 ignored.setdefault(cmd, []).append(origin)
+                continue
+            problem = hold_problem(p[0], "param1 (delay)")
+            if problem:
+                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} {problem[:-1]}, "
+                                 "or -1 for a time of day)")
+            steps.append(RouteStep("hold", duration_s=float(p[0]), origin=origin))
         elif cmd == 178:
             kind = int(p[0]) if _finite(p[0]) else 0
             if not _finite(p[1]) or p[1] <= 0:  # -1 (or 0): no change

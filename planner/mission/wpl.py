@@ -8,6 +8,10 @@ then one mission item per line, tab-separated::
 The item with index 0 is home, its altitude above mean sea level. Any run of
 whitespace is accepted as the separator. Blank lines are skipped. Commands and
 frames are interpreted by :func:`planner.mission.route.mav_items_to_steps`.
+
+Latitude, longitude and altitude must be finite numbers (``nan`` or ``inf``
+is refused; 0, 0 is "the current position"); param1..param4 may be ``nan``
+(unset, as MAVLink allows) but not infinite.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from planner.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
 from planner.mission.route import MavItem, mav_items_to_steps, route_to_legs
@@ -51,6 +56,11 @@ def _parse_line(text: str, lineno: int, where: Path) -> MavItem:
             kind = "an integer" if name in _INT_FIELDS else "a number"
             raise InputError(f"{where}: line {lineno}: {name} is {raw!r} (expected {kind})"
                              ) from None
+        value = values[name]
+        if name not in _INT_FIELDS and not math.isfinite(value) and (
+                math.isinf(value) or name in ("latitude", "longitude", "altitude")):
+            raise InputError(f"{where}: line {lineno} (item {values['index']}): {name} is "
+                             f"{raw!r} (expected a finite number)")
     params = tuple(values[k] for k in FIELDS[4:11])
     return MavItem(seq=values["index"], command=values["command"], frame=values["frame"],
                    params=params, origin=f"line {lineno}")
@@ -62,7 +72,8 @@ def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
     Raises
     ------
     InputError
-        Missing header, a malformed line, no home item, a duplicate index.
+        Missing header, a malformed line, a coordinate that is not finite, no
+        home item or a home out of range, a duplicate index.
     """
     path = Path(path)
     lines = _read_text(path).splitlines()
@@ -84,9 +95,18 @@ def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
     if not all(math.isfinite(v) for v in home.params[4:7]):
         raise InputError(f"{path}: {home.origin}: home latitude, longitude and altitude must "
                          "be numbers")
-    if home.params[4] == 0 and home.params[5] == 0:
+    lat, lon, alt = home.params[4:7]
+    if lat == 0 and lon == 0:
         raise InputError(f"{path}: {home.origin}: home position is 0, 0 (expected the "
                          "home latitude and longitude)")
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise InputError(f"{path}: {home.origin} (item 0): home latitude/longitude {lat:g}, "
+                         f"{lon:g} out of range (expected -90..90, -180..180 degrees)")
+    lo, hi = ALTITUDE_RANGE_M
+    if not lo <= alt <= hi:
+        raise InputError(f"{path}: {home.origin} (item 0): home altitude {alt:g} m above mean "
+                         f"sea level is outside the atmosphere model (expected {lo:g} to "
+                         f"{hi:g} m)")
     seen = {0: home.origin}
     for item in rest:
         if item.seq in seen:

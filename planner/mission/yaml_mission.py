@@ -38,6 +38,15 @@ to the home altitude), ``source``, and ``home`` (optional in the legs form).
 
 Every problem found is reported at once, in one line naming the file and each
 key path (``legs[2].cruise.distance_m``).
+
+Bounds (shared with the other formats, see :mod:`planner.mission.route`): a
+hover, a loiter or a waypoint's ``hold_s`` lasts 0 to
+:data:`~planner.mission.route.MAX_HOLD_S` (24 h), and so do all of them
+together; a cruise is at most :data:`MAX_LEG_M` long; a loiter has at most
+:data:`~planner.mission.route.MAX_LOITER_TURNS` turns; the home and site
+altitudes and every altitude of the mission (site altitude + altitude above
+home) lie in the atmosphere model's range,
+:data:`planner.atmosphere.ALTITUDE_RANGE_M`; numbers are finite.
 """
 
 from __future__ import annotations
@@ -50,9 +59,19 @@ from typing import Any
 
 import yaml
 
+from planner.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
+from planner.mission.geo import EARTH_RADIUS_M
 from planner.mission.legs import LEG_KINDS, Environment, Leg, Mission
-from planner.mission.route import RouteStep, route_to_legs
+from planner.mission.route import (
+    MAX_HOLD_S,
+    MAX_LOITER_TURNS,
+    RouteStep,
+    altitude_problem,
+    hold_problem,
+    route_to_legs,
+    total_hold_problem,
+)
 
 COMMON_KEYS = ("name", "source", "payload_kg", "environment", "home")
 LEGS_KEYS = COMMON_KEYS + ("legs",)
@@ -73,6 +92,10 @@ LEG_KEYS = {
 }
 SPEED_KEYS = {"speed_ms": None, "groundspeed_ms": False, "airspeed_ms": True}
 
+#: Longest cruise leg of the legs form: half the Earth's circumference, the
+#: longest great circle between two points. [m]
+MAX_LEG_M = math.pi * EARTH_RADIUS_M
+_ATMOSPHERE = "the atmosphere model's range, m above mean sea level"
 _SCI = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 _MISSING = object()
 
@@ -114,8 +137,12 @@ class _Checker:
 
     def number(self, mapping: dict, key: str, path: str, *, required: bool = False,
                minimum: float | None = None, positive: bool = False,
-               maximum: float | None = None) -> float | None:
-        """A finite number (``None`` where absent or bad, the problem recorded)."""
+               maximum: float | None = None, why_max: str = "",
+               why_min: str = "") -> float | None:
+        """A finite number (``None`` where absent or bad, the problem recorded).
+
+        ``why_max`` and ``why_min`` explain the bounds in the message, e.g. ``"24 h"``.
+        """
         full = _join(path, key)
         value = mapping.get(key, _MISSING)
         if value is _MISSING or value is None:
@@ -135,10 +162,12 @@ class _Checker:
             self.add(full, f"must be > 0, got {value:g}")
             return None
         if minimum is not None and value < minimum:
-            self.add(full, f"must be >= {minimum:g}, got {value:g}")
+            why = f" ({why_min})" if why_min else ""
+            self.add(full, f"must be >= {minimum:g}{why}, got {value:g}")
             return None
         if maximum is not None and value > maximum:
-            self.add(full, f"must be <= {maximum:g}, got {value:g}")
+            why = f" ({why_max})" if why_max else ""
+            self.add(full, f"must be <= {maximum:g}{why}, got {value:g}")
             return None
         return value
 
@@ -172,6 +201,20 @@ def _describe(value: Any) -> str:
     return f"{value!r} ({type(value).__name__})"
 
 
+def _altitude(chk: _Checker, path: str, written: float, alt_m: float, site: float) -> bool:
+    """Record a problem if ``alt_m`` above home is outside the atmosphere model.
+
+    ``written`` is the value in the file (``alt_m`` itself, or a ``height_m``).
+    Returns True when the altitude is accepted.
+    """
+    problem = altitude_problem(alt_m, site)
+    if problem is None:
+        return True
+    to = "" if written == alt_m else f" (to {alt_m:g} m above home)"
+    chk.add(path, f"{written:g} m{to} {problem}")
+    return False
+
+
 def _speed(chk: _Checker, mapping: dict, path: str, keys=("airspeed_ms", "groundspeed_ms")
            ) -> tuple[float | None, bool | None]:
     key = chk.one_of(mapping, keys, path)
@@ -192,7 +235,9 @@ def _environment(chk: _Checker, data: dict, site_default: float) -> Environment:
     wind_from = chk.number(env, "wind_from_deg", p)
     temp = chk.number(env, "temperature_c", p, minimum=-273.15)
     pressure = chk.number(env, "pressure_pa", p, positive=True)
-    site = chk.number(env, "site_altitude_m", p)
+    site = chk.number(env, "site_altitude_m", p, minimum=ALTITUDE_RANGE_M[0],
+                      maximum=ALTITUDE_RANGE_M[1], why_max=_ATMOSPHERE,
+                      why_min=_ATMOSPHERE)
     return Environment(wind_speed_ms=wind or 0.0,
                        wind_from_deg=(wind_from or 0.0) % 360.0,
                        temperature_c=temp, pressure_pa=pressure,
@@ -209,13 +254,15 @@ def _home(chk: _Checker, data: dict, required: bool) -> tuple[float, float, floa
         return None
     lat = chk.number(home, "lat", "home", required=True, minimum=-90, maximum=90)
     lon = chk.number(home, "lon", "home", required=True, minimum=-180, maximum=180)
-    alt = chk.number(home, "alt_m", "home", required=True)
+    alt = chk.number(home, "alt_m", "home", required=True, minimum=ALTITUDE_RANGE_M[0],
+                     maximum=ALTITUDE_RANGE_M[1], why_max=_ATMOSPHERE,
+                     why_min=_ATMOSPHERE)
     if lat is None or lon is None or alt is None:
         return None
     return lat, lon, alt
 
 
-def _legs_form(chk: _Checker, raw: Any) -> list[Leg]:
+def _legs_form(chk: _Checker, raw: Any, site: float) -> list[Leg]:
     if not isinstance(raw, list):
         chk.add("legs", f"must be a list of legs, got {_describe(raw)}")
         return []
@@ -258,6 +305,9 @@ def _legs_form(chk: _Checker, raw: Any) -> list[Leg]:
                 target = 0.0 if key is None else chk.number(p, "altitude_m", path)
             if target is None or len(chk.problems) > before:
                 continue
+            written = target if key != "height_m" else p["height_m"]
+            if not _altitude(chk, _join(path, key or "altitude_m"), float(written), target, site):
+                continue
             if (kind == "climb") != (target > alt):
                 chk.add(path, f"goes from {alt:g} m to {target:g} m (expected a "
                         f"{'higher' if kind == 'climb' else 'lower'} altitude; use "
@@ -267,11 +317,15 @@ def _legs_form(chk: _Checker, raw: Any) -> list[Leg]:
                             end_alt_m=target, climb_rate_ms=rate, origin=origin))
             alt = target
         elif kind == "cruise":
-            dist = chk.number(p, "distance_m", path, required=True, minimum=0.0)
+            dist = chk.number(p, "distance_m", path, required=True, minimum=0.0,
+                              maximum=MAX_LEG_M, why_max="half the Earth's circumference")
             course = chk.number(p, "course_deg", path, required=True)
             speed, is_air = _speed(chk, p, path)
             new_alt = chk.number(p, "altitude_m", path)
             if dist is None or course is None or len(chk.problems) > before:
+                continue
+            if new_alt is not None and not _altitude(chk, _join(path, "altitude_m"), new_alt,
+                                                     new_alt, site):
                 continue
             c = math.radians(course)
             end = (pos[0] + dist * math.sin(c), pos[1] + dist * math.cos(c))
@@ -281,7 +335,8 @@ def _legs_form(chk: _Checker, raw: Any) -> list[Leg]:
                             origin=origin))
             pos, alt = end, end_alt
         elif kind == "hover":
-            dur = chk.number(p, "duration_s", path, required=True, minimum=0.0)
+            dur = chk.number(p, "duration_s", path, required=True, minimum=0.0,
+                             maximum=MAX_HOLD_S, why_max="24 h")
             if dur is None:
                 continue
             legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
@@ -294,25 +349,34 @@ def _legs_form(chk: _Checker, raw: Any) -> list[Leg]:
                 chk.add(path, "needs duration_s, or turns with radius_m and airspeed_ms")
                 continue
             if key == "duration_s":
-                dur = chk.number(p, "duration_s", path, minimum=0.0)
+                dur = chk.number(p, "duration_s", path, minimum=0.0, maximum=MAX_HOLD_S,
+                                 why_max="24 h")
             else:
-                turns = chk.number(p, "turns", path, positive=True)
+                turns = chk.number(p, "turns", path, positive=True, maximum=MAX_LOITER_TURNS,
+                                   why_max="the most ArduPilot stores")
                 if "radius_m" not in p or not ("airspeed_ms" in p or "groundspeed_ms" in p):
                     chk.add(path, "turns needs radius_m and airspeed_ms (or groundspeed_ms): "
                             "the duration is turns x 2 pi radius / speed")
                     continue
                 dur = (None if turns is None or radius is None or speed is None
                        else turns * 2.0 * math.pi * radius / speed)
+                if dur is not None and hold_problem(dur):
+                    chk.add(path, f"{turns:g} turns of {radius:g} m at {speed:g} m/s: "
+                            f"{hold_problem(dur, 'loiter time')}")
+                    continue
             if dur is None or len(chk.problems) > before:
                 continue
             legs.append(Leg("loiter", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
                             end_alt_m=alt, speed_ms=speed, speed_is_airspeed=is_air,
                             duration_s=dur, loiter_radius_m=radius, origin=origin))
+    too_long = total_hold_problem(legs)
+    if too_long:
+        chk.add(too_long[0], too_long[1])
     return legs
 
 
 def _waypoints_form(chk: _Checker, data: dict,
-                    home: tuple[float, float, float] | None) -> list[Leg]:
+                    home: tuple[float, float, float] | None, site: float) -> list[Leg]:
     raw = data["waypoints"]
     if not isinstance(raw, list):
         chk.add("waypoints", f"must be a list of waypoints, got {_describe(raw)}")
@@ -322,6 +386,8 @@ def _waypoints_form(chk: _Checker, data: dict,
         return []
     steps: list[RouteStep] = []
     takeoff = chk.number(data, "takeoff_alt_m", "", positive=True)
+    if takeoff is not None and not _altitude(chk, "takeoff_alt_m", takeoff, takeoff, site):
+        takeoff = None
     if takeoff is not None:
         steps.append(RouteStep("takeoff", alt_m=takeoff, origin="takeoff_alt_m"))
     speed, is_air = _speed(chk, data, "", keys=tuple(SPEED_KEYS))
@@ -333,7 +399,9 @@ def _waypoints_form(chk: _Checker, data: dict,
         lat = chk.number(wp, "lat", path, required=True, minimum=-90, maximum=90)
         lon = chk.number(wp, "lon", path, required=True, minimum=-180, maximum=180)
         alt = chk.number(wp, "alt_m", path, required=True)
-        hold = chk.number(wp, "hold_s", path, minimum=0.0)
+        if alt is not None and not _altitude(chk, _join(path, "alt_m"), alt, alt, site):
+            alt = None
+        hold = chk.number(wp, "hold_s", path, minimum=0.0, maximum=MAX_HOLD_S, why_max="24 h")
         wp_speed, wp_air = _speed(chk, wp, path, keys=tuple(SPEED_KEYS))
         if wp_speed is not None:
             steps.append(RouteStep("speed", speed_ms=wp_speed, speed_is_airspeed=wp_air,
@@ -415,9 +483,9 @@ def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None) -> M
     env = _environment(chk, data, home[2] if home else 0.0)
     legs: list[Leg] = []
     if has_legs and not has_wps:
-        legs = _legs_form(chk, data["legs"])
+        legs = _legs_form(chk, data["legs"], env.site_altitude_m)
     elif has_wps and not has_legs:
-        legs = _waypoints_form(chk, data, home)
+        legs = _waypoints_form(chk, data, home, env.site_altitude_m)
     chk.done()
     return Mission(name=name, legs=legs, environment=env, payload_kg=payload or 0.0,
                    home=home, source=where)
