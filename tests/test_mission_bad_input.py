@@ -461,3 +461,25 @@ def test_frame_error_is_zero_through_home_and_small_near_it():
     r = geo.FRAME_ERROR_KM / 6371.0
     lat = 48.0 + np.degrees(r)
     assert geo.frame_error(lat, 9.99, lat, 10.01, 48.0, 10.0) == pytest.approx(1e-3, rel=0.05)
+
+
+@pytest.mark.parametrize("block, needle", [
+    ("environment: {wind_speed_ms: 1.0e+308}", "environment.wind_speed_ms"),
+    ("environment: {temperature_c: -200}", "environment.temperature_c"),
+])
+def test_yaml_environment_is_bounded(tmp_path, block, needle):
+    path = tmp_path / "m.yaml"
+    path.write_text(f"{block}\nlegs:\n  - climb: {{height_m: 30}}\n"
+                    "  - hover: {duration_s: 60}\n  - descend: {height_m: 30}\n")
+    with pytest.raises(InputError, match=needle.replace(".", r"\.")):
+        load_mission(path)
+
+
+@pytest.mark.parametrize("speed", ["1.0e-300", "1.0e+308"])
+def test_yaml_speeds_are_bounded(tmp_path, speed):
+    path = tmp_path / "m.yaml"
+    path.write_text("legs:\n  - climb: {height_m: 30}\n"
+                    f"  - cruise: {{distance_m: 500, groundspeed_ms: {speed}}}\n"
+                    "  - descend: {height_m: 30}\n")
+    with pytest.raises(InputError, match="groundspeed_ms"):
+        load_mission(path)

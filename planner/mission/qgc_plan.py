@@ -37,7 +37,7 @@ from typing import Any
 from planner.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
-from planner.mission.route import MavItem, mav_items_to_steps, route_to_legs
+from planner.mission.route import MAX_SPEED_MS, MavItem, mav_items_to_steps, route_to_legs
 
 #: MAV_TYPE values flown as fixed-wing (fixed wing and the VTOL types).
 MAV_TYPES_FIXED_WING = frozenset({1, 19, 20, 21, 22, 23, 24, 25})
@@ -200,8 +200,9 @@ def load_plan(path: str | Path, *, vehicle_type: str | None = None) -> Mission:
     vtype = vehicle_type or plan_vehicle_type(mission)
     key = {"multirotor": "hoverSpeed", "fixed_wing": "cruiseSpeed"}.get(vtype)
     speed = mission.get(key) if key else None
-    if speed is not None and (not _is_finite(speed) or speed <= 0):
-        raise InputError(f"{path}: mission.{key} must be a number > 0, got {speed!r}")
+    if speed is not None and (not _is_finite(speed) or not 0 < speed <= MAX_SPEED_MS):
+        raise InputError(f"{path}: mission.{key} must be a number in (0, {MAX_SPEED_MS:g}] m/s, "
+                         f"got {speed!r}")
     steps = mav_items_to_steps(items, alt, where=str(path), vehicle_type=vtype)
     legs = route_to_legs(steps, lat, lon, where=str(path),
                          speed_ms=None if speed is None else float(speed))

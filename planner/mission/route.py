@@ -74,6 +74,9 @@ MIN_ALT_CHANGE_M = 0.01
 MAX_JUMPS = 100
 #: Longest single hold, timed loiter or loiter in turns (24 h). [s]
 MAX_HOLD_S = 86400.0
+#: Fastest speed a mission may ask for (the aircraft files' bound: racing quadcopters
+#: have flown near 130 m/s). [m/s]
+MAX_SPEED_MS = 150.0
 #: Most turns of one loiter (ArduPilot keeps them in one byte). [unitless]
 MAX_LOITER_TURNS = 255
 #: Largest relative error of a leg's length in the local frame (0.1 %). [unitless]
@@ -595,6 +598,9 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
             kind = int(p[0]) if _finite(p[0]) else 0
             if not _finite(p[1]) or p[1] <= 0:  # -1 (or 0): no change
                 continue
+            if p[1] > MAX_SPEED_MS:
+                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} speed {p[1]:g} m/s; "
+                                 f"expected at most {MAX_SPEED_MS:g} m/s (or -1 for no change)")
             if kind in (0, 1):
                 airspeed = kind == 0 and vehicle_type != "multirotor"
                 steps.append(RouteStep("speed", speed_ms=float(p[1]),

@@ -66,12 +66,18 @@ from planner.mission.legs import LEG_KINDS, Environment, Leg, Mission
 from planner.mission.route import (
     MAX_HOLD_S,
     MAX_LOITER_TURNS,
+    MAX_SPEED_MS,
     RouteStep,
     altitude_problem,
     hold_problem,
     route_to_legs,
     total_hold_problem,
 )
+
+#: Slowest mission speed: slower, a leg never ends in a flight's time. [m/s]
+MIN_SPEED_MS = 0.1
+#: Strongest wind a mission may give, as for ``--wind``. [m/s]
+MAX_WIND_MS = 100.0
 
 COMMON_KEYS = ("name", "source", "payload_kg", "environment", "home")
 LEGS_KEYS = COMMON_KEYS + ("legs",)
@@ -220,7 +226,13 @@ def _speed(chk: _Checker, mapping: dict, path: str, keys=("airspeed_ms", "ground
     key = chk.one_of(mapping, keys, path)
     if key is None:
         return None, None
-    return chk.number(mapping, key, path, positive=True), SPEED_KEYS[key]
+    speed = chk.number(mapping, key, path, positive=True, maximum=MAX_SPEED_MS,
+                       why_max="the aircraft files' bound")
+    if speed is not None and speed < MIN_SPEED_MS:
+        chk.add(_join(path, key), f"must be >= {MIN_SPEED_MS:g} m/s (slower, the leg never "
+                                  f"ends), got {speed:g}")
+        speed = None
+    return speed, SPEED_KEYS[key]
 
 
 # --------------------------------------------------------------------------
@@ -231,9 +243,11 @@ def _environment(chk: _Checker, data: dict, site_default: float) -> Environment:
     if not env:
         return Environment(site_altitude_m=site_default)
     p = "environment"
-    wind = chk.number(env, "wind_speed_ms", p, minimum=0.0)
-    wind_from = chk.number(env, "wind_from_deg", p)
-    temp = chk.number(env, "temperature_c", p, minimum=-273.15)
+    wind = chk.number(env, "wind_speed_ms", p, minimum=0.0, maximum=MAX_WIND_MS,
+                      why_max="above any sustained surface wind on record")
+    wind_from = chk.number(env, "wind_from_deg", p)  # a bearing: taken modulo 360°
+    temp = chk.number(env, "temperature_c", p, minimum=-90.0, maximum=60.0,
+                      why_min="the coldest air on record", why_max="the hottest on record")
     pressure = chk.number(env, "pressure_pa", p, positive=True)
     site = chk.number(env, "site_altitude_m", p, minimum=ALTITUDE_RANGE_M[0],
                       maximum=ALTITUDE_RANGE_M[1], why_max=_ATMOSPHERE,
