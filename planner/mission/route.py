@@ -274,7 +274,10 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
         if math.hypot(target[0] - pos[0], target[1] - pos[1]) < MIN_CRUISE_M:
             vertical(target_alt, origin)
             return
-        check_frame(here[0], target_ll, origin, here[1])
+        # within a quarter of FRAME_ERROR_KM of home the frame error is below 1/16 of
+        # the limit (it grows as r²): skip the exact test for the usual short missions
+        if max(math.hypot(*pos), math.hypot(*target)) > 250.0 * FRAME_ERROR_KM:
+            check_frame(here[0], target_ll, origin, here[1])
         legs.append(Leg("cruise", start_en_m=pos, end_en_m=target, start_alt_m=alt,
                         end_alt_m=target_alt, speed_ms=speed_ms,
                         speed_is_airspeed=speed_is_airspeed, origin=origin))
