@@ -128,7 +128,11 @@ def _unit(lat_rad, lon_rad):
 
 
 def _axes(lat0, lon0):
-    """Up, east and north unit vectors at a point on the sphere. [rad in]"""
+    """Up, east and north unit vectors (ECEF components) at a point. [rad in]
+
+    The same geodetic latitude gives the ellipsoid's normal and the sphere's
+    radial direction, so the tangent-plane and the leg frame share them.
+    """
     sp, cp, sl, cl = np.sin(lat0), np.cos(lat0), np.sin(lon0), np.cos(lon0)
     up = (cp * cl, cp * sl, sp)
     east = (-sl, cl, 0.0 * sp)
@@ -303,15 +307,6 @@ def _ecef(lat_rad, lon_rad):
     return n * c * np.cos(lon_rad), n * c * np.sin(lon_rad), n * _B2_OVER_A2 * s
 
 
-def _ell_axes(lat0, lon0):
-    """East, north and up unit vectors (ECEF components) at the home point."""
-    sp, cp, sl, cl = np.sin(lat0), np.cos(lat0), np.sin(lon0), np.cos(lon0)
-    east = (-sl, cl, 0.0)
-    north = (-sp * cl, -sp * sl, cp)
-    up = (cp * cl, cp * sl, sp)
-    return east, north, up
-
-
 def latlon_to_en(lat_deg, lon_deg, home_lat_deg, home_lon_deg):
     """East and north of home, in metres, of points given by latitude and longitude.
 
@@ -332,7 +327,7 @@ def latlon_to_en(lat_deg, lon_deg, home_lat_deg, home_lon_deg):
     x, y, z = _ecef(np.radians(np.asarray(lat_deg, dtype=float)),
                     np.radians(np.asarray(lon_deg, dtype=float)))
     dx, dy, dz = x - x0, y - y0, z - z0
-    (ex, ey, _), (nx, ny, nz), _ = _ell_axes(lat0, lon0)
+    _, (ex, ey, _), (nx, ny, nz) = _axes(lat0, lon0)
     return _out(ex * dx + ey * dy), _out(nx * dx + ny * dy + nz * dz)
 
 
@@ -362,7 +357,7 @@ def en_to_latlon(east_m, north_m, home_lat_deg, home_lon_deg):
     """
     lat0, lon0 = np.radians(home_lat_deg), np.radians(home_lon_deg)
     x0, y0, z0 = _ecef(lat0, lon0)
-    (ex, ey, _), (nx, ny, nz), (ux, uy, uz) = _ell_axes(lat0, lon0)
+    (ux, uy, uz), (ex, ey, _), (nx, ny, nz) = _axes(lat0, lon0)
     e = np.asarray(east_m, dtype=float)
     n = np.asarray(north_m, dtype=float)
     qx = x0 + ex * e + nx * n
