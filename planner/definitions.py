@@ -213,30 +213,29 @@ class IntegralModel:
         out = scale * (1.0 + self.temperature_coefficient_per_c * below)
         return out if np.ndim(out) else float(out)
 
-    def charge(self, time_s, power_w, temperature_c=None) -> np.ndarray:
-        r"""Charge drawn along a sampled power profile, with the extensions. [A s]
+    def extend_charge(self, base_as, temperature_c=None) -> np.ndarray:
+        r"""The integral model's charge with the extensions applied sample by sample. [A s]
 
         :math:`\hat C(t) = (1 + \varphi n) \int_0^t (1 + k\,h(T))\, dC_0` with
-        :math:`C_0` the integral model (:func:`planner.battery.integral.charge`)
-        and :math:`h = \max(T_{ref} - T, 0)` at the mid-point of each interval:
-        each increment of charge is scaled by the pack temperature of that
-        moment, as diagnose fits it (:mod:`planner.diagnose.effects`). For a
-        constant temperature this is ``charge_scale(T)·C_0``.
+        :math:`C_0` the integral model's own charge along the profile
+        (:func:`planner.battery.integral.charge`) and :math:`h = \max(T_{ref} - T, 0)`
+        at the mid-point of each interval: each increment of charge is scaled by
+        the pack temperature of that moment, as diagnose fits it
+        (:mod:`planner.diagnose.effects`). For a constant temperature this is
+        ``charge_scale(T)·C_0``.
 
         Parameters
         ----------
-        time_s, power_w : array_like
-            Sample times [s] and electric power [W] (≤ 0 is a rest).
+        base_as : array_like
+            :math:`C_0` per sample. [A s]
         temperature_c : array_like, optional
-            Pack temperature per sample; missing values are filled from the
-            nearest valid sample. Without it (or all missing) no temperature
-            correction. [°C]
+            Pack temperature, one finite value per sample (fill gaps with
+            :func:`filled_temperature`); ``None``: no temperature correction. [°C]
         """
-        base = integral.charge(time_s, power_w, self.delta, self.epsilon, self.beta)
-        temp = filled_temperature(temperature_c) if self.temperature_coefficient_per_c else None
-        if temp is None:
+        base = np.asarray(base_as, dtype=float)
+        if temperature_c is None or not self.temperature_coefficient_per_c:
             return self.charge_scale() * base
-        scale = self.charge_scale(temp)
+        scale = self.charge_scale(temperature_c)
         inc = np.diff(base) * 0.5 * (scale[1:] + scale[:-1])
         return np.concatenate(([0.0], np.cumsum(inc)))
 

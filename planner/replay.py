@@ -11,7 +11,7 @@ Two levels, per experiment (flight or discharge):
   pack that carries diagnose's extensions (``temperature_coefficient_per_c``,
   ``fade_per_cycle``) has them applied: each increment of charge is scaled by
   the logged pack temperature of that moment
-  (:meth:`planner.definitions.IntegralModel.charge`).
+  (:meth:`planner.definitions.IntegralModel.extend_charge`).
 * **power** (with an aircraft) — the physics model driven by the measured
   airspeed (else ground speed corrected with the logged wind, else ground
   speed), climb rate, air density (measured pressure and temperature, else
@@ -219,9 +219,9 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
     p = exp["power_w"].to_numpy(float)
     temp = (filled_temperature(exp["temperature_c"].to_numpy(float))
             if "temperature_c" in exp and model.temperature_coefficient_per_c else None)
-    # the model's charge, with the pack's temperature and fade extensions sample by sample
-    predicted = model.charge(t, np.nan_to_num(p), temp) / MAH
     base = integral.charge(t, np.nan_to_num(p), model.delta, model.epsilon, model.beta)
+    # the model's charge, with the pack's temperature and fade extensions sample by sample
+    predicted = model.extend_charge(base, temp) / MAH
     # forward predictions hold the present extension factor: C = C_now + s·(C_0 − C_0,now)
     scale = model.charge_scale(temp) * np.ones_like(t)
     measured = exp["consumed_mah"].to_numpy(float)
