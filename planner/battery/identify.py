@@ -671,24 +671,21 @@ def fit_ocv_low_rate(time_s, voltage_v, current_a, *, capacity_ah: float | None 
 
 # --------------------------------------------------------------------------- rates
 
-#: A discharge counts as constant-current when 90 % of its loaded samples lie
-#: within this fraction of its level (the median loaded current).
+#: Samples within this fraction of a discharge's level (the median loaded current)
+#: make its constant-current phase.
 CC_TOLERANCE = 0.10
 #: Two current levels must differ by this factor to tell R from the OCV.
 MIN_LEVEL_RATIO = 1.2
 
 
-def current_level(current_a) -> tuple[float, float]:
-    """Level of a discharge (median loaded current, A) and the share of loaded samples
-    more than :data:`CC_TOLERANCE` from it (0 for an exact constant current)."""
+def current_level(current_a) -> float:
+    """Level of a discharge: the median of its loaded samples (above half the
+    largest current); 0 when it draws no current. [A]"""
     i = np.asarray(current_a, dtype=float)
     imax = float(np.max(i)) if i.size else 0.0
     if not imax > 0:
-        return 0.0, 1.0
-    loaded = i[i > 0.5 * imax]
-    level = float(np.median(loaded))
-    off = float(np.mean(np.abs(loaded - level) > CC_TOLERANCE * level))
-    return level, off
+        return 0.0
+    return float(np.median(i[i > 0.5 * imax]))
 
 
 def fit_rate_discharges(discharges, *, capacity_ah: float | None = None, n_points: int = 40,
@@ -751,7 +748,7 @@ def fit_rate_discharges(discharges, *, capacity_ah: float | None = None, n_point
     data, levels = [], []
     for name, (t, v, i) in zip(names, discharges):
         t, v, i = _arrays(t, v, i)
-        level, _ = current_level(i)
+        level = current_level(i)
         if not level > 0:
             raise FitError(f"{name}: draws no current")
         on_level = (np.abs(i - level) <= CC_TOLERANCE * level) & (t - t[0] >= settle_s)
@@ -759,19 +756,18 @@ def fit_rate_discharges(discharges, *, capacity_ah: float | None = None, n_point
             raise FitError(f"{name}: fewer than 3 samples at a constant current "
                            f"({level:.3g} A ± {100 * CC_TOLERANCE:.0f} %) after the first "
                            f"{settle_s:g} s")
-        data.append((t - t[0], v, i, _charge_as(t, i)))
+        data.append((v, i, _charge_as(t, i), on_level))
         levels.append(level)
     if not data:
         raise FitError("no discharges given")
-    q_max = max(float(d[3][-1]) for d in data)
+    q_max = max(float(d[2][-1]) for d in data)
     cap_as = (capacity_ah * 3600.0) if capacity_ah is not None else q_max
     if not cap_as > 0:
         raise FitError("the discharges draw no charge: cannot scale the state of charge")
     edges = np.linspace(0.0, 1.0, n_points + 1)
     soc, volt, cur, lev, rest = [], [], [], [], []
-    for (t, v, i, q), level in zip(data, levels):
+    for (v, i, q, loaded), level in zip(data, levels):
         z = 1.0 - q / cap_as
-        loaded = (np.abs(i - level) <= CC_TOLERANCE * level) & (t >= settle_s)
         soc.append(z[loaded])
         volt.append(v[loaded])
         cur.append(i[loaded])

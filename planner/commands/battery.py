@@ -166,7 +166,7 @@ def _fit_circuit_rates(mapping: dict, experiments, result: dict,
     scores = []
     for name in result["validate"]:
         t, v, i = arrays(name)
-        row = {"experiment": name, "current_a": identify.current_level(i)[0],
+        row = {"experiment": name, "current_a": identify.current_level(i),
                "voltage_rmse_mv": 1000 * float(np.sqrt(np.mean(
                    (simulate(fitted_pack, t, current_a=i).voltage_v - v) ** 2)))}
         row["lipo_ocv_voltage_rmse_mv"] = 1000 * float(np.sqrt(np.mean(
