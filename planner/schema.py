@@ -89,12 +89,13 @@ def _type_ok(kind: str, value: Any) -> bool:
     raise AssertionError(kind)
 
 
-_YAML12_NUMBER = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)[eE][-+]?[0-9]+")
+#: A number in exponent notation that YAML 1.1 (PyYAML) reads as text: ``1e3``, ``5E-2``.
+EXPONENT_TEXT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
 def _type_hint(kind: str, value: Any) -> str:
     """Why a number written as ``1e3`` arrived as text: YAML 1.1 wants ``1.0e+3``."""
-    if kind in (NUMBER, INTEGER) and isinstance(value, str) and _YAML12_NUMBER.fullmatch(
+    if kind in (NUMBER, INTEGER) and isinstance(value, str) and EXPONENT_TEXT.fullmatch(
             value.strip()):
         return " (YAML reads exponent notation without a decimal point as text: write " \
                "e.g. 1.0e+3)"

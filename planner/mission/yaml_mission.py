@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import difflib
 import math
-import re
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +72,7 @@ from planner.mission.route import (
     route_to_legs,
     total_hold_problem,
 )
+from planner.schema import EXPONENT_TEXT
 
 #: Slowest mission speed: slower, a leg never ends in a flight's time. [m/s]
 MIN_SPEED_MS = 0.1
@@ -102,7 +102,6 @@ SPEED_KEYS = {"speed_ms": None, "groundspeed_ms": False, "airspeed_ms": True}
 #: longest great circle between two points. [m]
 MAX_LEG_M = math.pi * EARTH_RADIUS_M
 _ATMOSPHERE = "the atmosphere model's range, m above mean sea level"
-_SCI = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 _MISSING = object()
 
 
@@ -155,7 +154,7 @@ class _Checker:
             if required:
                 self.add(full, "is required (a number)")
             return None
-        if isinstance(value, str) and _SCI.fullmatch(value.strip()):
+        if isinstance(value, str) and EXPONENT_TEXT.fullmatch(value.strip()):
             value = float(value)  # YAML 1.1 reads 1e3 (no dot) as a string
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.add(full, f"must be a number, got {_describe(value)}")
