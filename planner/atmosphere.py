@@ -39,6 +39,9 @@ R_AIR = 287.05287
 KELVIN = 273.15
 """Offset from degrees Celsius to kelvin [K]."""
 ALTITUDE_RANGE_M = (-500.0, 11000.0)
+MAX_WIND_MS = 100.0
+"""Strongest wind the planner takes [m s⁻¹]: above any sustained surface wind on record
+(the strongest tropical cyclones reach some 85–90 m/s); larger values only overflow."""
 """Validity range of the tropospheric model (geopotential altitude) [m]."""
 
 _EXPONENT = G / (R_AIR * LAPSE_RATE)  # 5.25588, barometric exponent [unitless]

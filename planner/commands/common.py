@@ -9,16 +9,16 @@ from typing import Any
 
 import numpy as np
 
+from planner.atmosphere import MAX_WIND_MS
 from planner.errors import InputError
 
 
-def parse_wind(text: str, max_speed_ms: float = 100.0) -> tuple[float, float]:
+def parse_wind(text: str, max_speed_ms: float = MAX_WIND_MS) -> tuple[float, float]:
     """``SPEED@FROM_DEG`` (m/s, degrees the wind blows from) → (speed, direction).
 
-    The speed must be in [0, ``max_speed_ms``] m/s. The default 100 m/s (360 km/h) is
-    above any sustained surface wind on record (the strongest tropical cyclones reach
-    some 85–90 m/s) and several times what a small UAV can fly in; larger values only
-    overflow the models. The direction must be a compass bearing in [0, 360] degrees;
+    The speed must be in [0, ``max_speed_ms``] m/s; the default
+    :data:`planner.atmosphere.MAX_WIND_MS` (100 m/s) is several times what a small UAV
+    can fly in. The direction must be a compass bearing in [0, 360] degrees;
     360 (north, as METAR and aviation reports write it) is returned as 0. Other values
     are rejected rather than wrapped: ``-90`` or ``400`` is more likely a typo than a
     bearing.

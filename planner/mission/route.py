@@ -62,6 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.atmosphere import ALTITUDE_RANGE_M
+from planner.definitions import SPEED_MAX_MS
 from planner.errors import InputError
 from planner.mission.geo import FRAME_ERROR_KM, frame_error, great_circle_distance, latlon_to_aeqd
 from planner.mission.legs import Leg
@@ -74,9 +75,8 @@ MIN_ALT_CHANGE_M = 0.01
 MAX_JUMPS = 100
 #: Longest single hold, timed loiter or loiter in turns (24 h). [s]
 MAX_HOLD_S = 86400.0
-#: Fastest speed a mission may ask for (the aircraft files' bound: racing quadcopters
-#: have flown near 130 m/s). [m/s]
-MAX_SPEED_MS = 150.0
+#: Fastest speed a mission may ask for: the aircraft files' bound. [m/s]
+MAX_SPEED_MS = SPEED_MAX_MS
 #: Most turns of one loiter (ArduPilot keeps them in one byte). [unitless]
 MAX_LOITER_TURNS = 255
 #: Largest relative error of a leg's length in the local frame (0.1 %). [unitless]

@@ -58,7 +58,7 @@ from typing import Any
 
 import yaml
 
-from planner.atmosphere import ALTITUDE_RANGE_M
+from planner.atmosphere import ALTITUDE_RANGE_M, MAX_WIND_MS
 from planner.errors import InputError
 from planner.mission.geo import EARTH_RADIUS_M
 from planner.mission.legs import LEG_KINDS, Environment, Leg, Mission
@@ -76,8 +76,6 @@ from planner.schema import EXPONENT_TEXT
 
 #: Slowest mission speed: slower, a leg never ends in a flight's time. [m/s]
 MIN_SPEED_MS = 0.1
-#: Strongest wind a mission may give, as for ``--wind``. [m/s]
-MAX_WIND_MS = 100.0
 
 COMMON_KEYS = ("name", "source", "payload_kg", "environment", "home")
 LEGS_KEYS = COMMON_KEYS + ("legs",)
