@@ -2,9 +2,9 @@
 
 Every file in ``logs/`` whose name starts with ``sim_`` is made by this script
 from a shipped mission and aircraft, flown by our own models
-(:func:`planner.simulate.simulate_flight`) with known "true" aircraft
+(:func:`testkit.flight.simulate_flight`) with known "true" aircraft
 parameters that differ from the aircraft file's, and written by
-:mod:`planner.logs.writers`. Nothing here is a real flight; every file says so
+:mod:`testkit.writers`. Nothing here is a real flight; every file says so
 inside (``MSG``/``STATUSTEXT``/logged string "SIMULATED by uav-endurance-planner",
 ULog info key ``simulated``). Real logs stay in ``../shared/data/logs``.
 
@@ -43,7 +43,7 @@ from planner.definitions import load_aircraft_and_battery
 from planner.fit_aircraft import with_params
 from planner.mission import load_mission
 from planner.mission.legs import Environment, Mission
-from planner.simulate import simulate_flight
+from testkit.flight import simulate_flight
 
 #: True parameters of the simulated 3DR Solo (aircraft/solo_survey.yaml has η 0.80,
 #: f 0.03 m², P_S 8 W).
@@ -158,7 +158,7 @@ def flight_record(example: Example) -> pd.DataFrame:
 
 def write_example(example: Example, out_dir: Path) -> Path:
     """Simulate one example and write its log into ``out_dir``."""
-    from planner.logs.writers import write_log
+    from testkit.writers import write_log
 
     truth, pack, mission, _ = load(example)
     df = flight_record(example)

@@ -187,14 +187,14 @@ def test_wind_needs_the_course():
 
 
 def test_fixed_wing_flights_with_measured_airspeed():
-    """Fixed-wing flights flown by planner.simulate in three winds: the polar and η are
+    """Fixed-wing flights flown by testkit.flight in three winds: the polar and η are
     calibrated; a wind cannot matter when the airspeed is measured, and diagnose says so."""
     import pandas as pd
 
     from planner.definitions import load_aircraft_and_battery
     from planner.mission import load_mission
     from planner.mission.legs import Environment
-    from planner.simulate import simulate_flight
+    from testkit.flight import simulate_flight
 
     repo = Path(__file__).resolve().parents[1]
     ac, pack = load_aircraft_and_battery(repo / "aircraft/phoenix_s.yaml")

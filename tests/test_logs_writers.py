@@ -12,7 +12,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from planner.definitions import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.logs import read_log
-from planner.logs.writers import (
+from testkit.writers import (
     DATAFLASH_FORMATS,
     SIMULATED_TEXT,
     ULOG_TOPICS,
@@ -23,7 +23,7 @@ from planner.logs.writers import (
 )
 from planner.mission import load_mission
 from planner.mission.legs import Environment
-from planner.simulate import simulate_flight
+from testkit.flight import simulate_flight
 
 FORMATS = (".bin", ".tlog", ".ulg")
 

@@ -14,7 +14,7 @@ from planner.fit_aircraft import fit_aircraft, with_params
 from planner.mission import load_mission
 from planner.mission.legs import Environment
 from planner.replay import detect_cells, flight_phases, replay
-from planner.simulate import simulate_flight
+from testkit.flight import simulate_flight
 
 REPO = Path(__file__).resolve().parents[1]
 TRUTH = {"efficiency": 0.72, "drag_area_m2": 0.045, "system_power_w": 15.0}
