@@ -32,8 +32,8 @@ from planner.battery.ocv import lipo_ocv
 from planner.definitions import Aircraft, BatteryPack, load_aircraft_and_battery
 from planner.errors import InputError, ModelError
 from planner.mission.legs import Environment, Mission
+from planner.units import AS_PER_MAH
 
-MAH = integral.AS_PER_MAH  # A·s per mAh
 RTL_POINTS_PER_LEG = prof.RTL_POINTS_PER_LEG
 
 
@@ -280,18 +280,18 @@ class MissionChain:
         usable_now = limit + self.reserve * cap
         if circuit is not None and usable_now < pack.usable_as and margin < 0:
             reasons.append(f"the loaded cell voltage reaches the {pack.cell_voltage_empty_v:g} V "
-                           f"cut-off after {usable_now / MAH:.0f} mAh with the pack at "
+                           f"cut-off after {usable_now / AS_PER_MAH:.0f} mAh with the pack at "
                            f"{circuit['pack_temperature_c']:.0f} °C (of "
-                           f"{pack.usable_as / MAH:.0f} mAh usable when warm): the mission "
-                           f"ends {-margin / MAH:.0f} mAh short of the reserve")
+                           f"{pack.usable_as / AS_PER_MAH:.0f} mAh usable when warm): the mission "
+                           f"ends {-margin / AS_PER_MAH:.0f} mAh short of the reserve")
         elif used > usable_now:
-            reasons.append(f"needs {used / MAH:.0f} mAh, more than the "
-                           f"{usable_now / MAH:.0f} mAh the pack can give: it runs out "
+            reasons.append(f"needs {used / AS_PER_MAH:.0f} mAh, more than the "
+                           f"{usable_now / AS_PER_MAH:.0f} mAh the pack can give: it runs out "
                            f"before landing")
         elif margin < 0:
             reasons.append(f"lands with {100 * (1 - used / cap):.1f} % of nominal charge, "
                            f"below the {100 * self.reserve:.0f} % reserve "
-                           f"(short by {-margin / MAH:.0f} mAh)")
+                           f"(short by {-margin / AS_PER_MAH:.0f} mAh)")
         s_final = float(s_end[-1]) if len(s_end) else 0.0
         margin_time = float(integral.time_to_charge(s_final, p_hold, max(limit, 0.0) / scale,
                                                     model.delta, model.epsilon, model.beta))
@@ -314,8 +314,8 @@ class MissionChain:
             "airspeed_ms": table.airspeed_ms, "groundspeed_ms": table.groundspeed_ms,
             "climb_rate_ms": table.climb_rate_ms, "altitude_m": table.end_alt_m,
             "power_w": power, "current_a": current, "voltage_v": v_end,
-            "charge_mah": (c_end - c_start) / MAH, "remaining_fraction": 1.0 - c_end / cap,
-            "rtl_margin_mah": rtl_margin_leg / MAH,
+            "charge_mah": (c_end - c_start) / AS_PER_MAH, "remaining_fraction": 1.0 - c_end / cap,
+            "rtl_margin_mah": rtl_margin_leg / AS_PER_MAH,
         })
         series = _series(table, power, s_start, s_end, model, scale, cap)
         energy = float(np.sum(power * dur)) / 3600.0
@@ -323,12 +323,12 @@ class MissionChain:
             verdict="NO-GO" if reasons else "GO", reasons=reasons, warnings=warnings,
             aircraft=ac.name, battery=pack.name + (f" ×{pack.count}" if pack.count > 1 else ""),
             takeoff_mass_kg=mass, duration_s=float(np.sum(dur)), energy_wh=energy,
-            charge_used_mah=used / MAH, capacity_mah=cap / MAH,
-            usable_mah=(limit + self.reserve * cap) / MAH,
-            reserve_mah=self.reserve * cap / MAH,
+            charge_used_mah=used / AS_PER_MAH, capacity_mah=cap / AS_PER_MAH,
+            usable_mah=(limit + self.reserve * cap) / AS_PER_MAH,
+            reserve_mah=self.reserve * cap / AS_PER_MAH,
             remaining_fraction=1.0 - used / cap, reserve_fraction=self.reserve,
-            margin_mah=margin / MAH, margin_time_s=margin_time, hold_power_w=p_hold,
-            legs=legs, point_of_no_return=pnr, rtl_min_margin_mah=rtl_min / MAH,
+            margin_mah=margin / AS_PER_MAH, margin_time_s=margin_time, hold_power_w=p_hold,
+            legs=legs, point_of_no_return=pnr, rtl_min_margin_mah=rtl_min / AS_PER_MAH,
             peak_current_a=peak,
             min_voltage_v=float(np.nanmin(v_end)) if np.any(np.isfinite(v_end)) else float("nan"),
             battery_model=("literature" if model.literature else "fitted"), series=series,
@@ -423,8 +423,8 @@ class MissionChain:
             "worst_leg": worst_leg + 1,
             "worst_leg_origin": origin[worst_leg] or f"leg {worst_leg + 1}",
             "cutoff_time_s": res.cutoff_time_s,
-            "charge_to_cutoff_mah": usable / MAH,
-            "charge_used_mah": float(res.charge_as[in_mission][-1]) / MAH,
+            "charge_to_cutoff_mah": usable / AS_PER_MAH,
+            "charge_used_mah": float(res.charge_as[in_mission][-1]) / AS_PER_MAH,
             "max_temperature_c": float(res.temperature_c[in_mission].max()),
             "reasons": reasons, "_usable_as": usable, "_leg_voltage_v": leg_v,
         }
@@ -458,7 +458,7 @@ class MissionChain:
                    "east_m": float(pts["east_m"][j]), "north_m": float(pts["north_m"][j]),
                    "altitude_m": float(pts["altitude_m"][j]),
                    "distance_home_m": float(dist[j]),
-                   "rtl_margin_mah": (float(margin[j]) / MAH if np.isfinite(margin[j])
+                   "rtl_margin_mah": (float(margin[j]) / AS_PER_MAH if np.isfinite(margin[j])
                                       else None)}
         finite = margin[np.isfinite(margin)]
         rtl_min = float(finite.min()) if finite.size else float("-inf")

@@ -21,6 +21,7 @@ from planner import schema as S
 from planner.atmosphere import G
 from planner.battery import integral
 from planner.errors import InputError
+from planner.units import AS_PER_MAH
 
 # --------------------------------------------------------------------------- limits
 # Physical limits of the numbers in aircraft and battery files. The planner is for
@@ -301,7 +302,7 @@ class BatteryPack:
     def __post_init__(self):
         if self.model is None:
             object.__setattr__(self, "model", IntegralModel.from_literature(
-                self.cells_series, self.capacity_mah * integral.AS_PER_MAH))
+                self.cells_series, self.capacity_mah * AS_PER_MAH))
 
     # totals over `count` packs in parallel
     @property
@@ -315,7 +316,7 @@ class BatteryPack:
     @property
     def capacity_as(self) -> float:
         """Nominal charge of the installed packs. [A s]"""
-        return self.total_capacity_mah * integral.AS_PER_MAH
+        return self.total_capacity_mah * AS_PER_MAH
 
     @property
     def usable_as(self) -> float:

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from planner.errors import InputError
+from planner.units import AS_PER_MAH
 
 __all__ = [
     "COLUMNS",
@@ -330,7 +331,7 @@ def add_consumed(df: pd.DataFrame) -> pd.DataFrame:
     else:
         groups = [np.arange(len(out))]
     for rows in groups:
-        consumed[rows] = cumulative_trapezoid(i_all[rows], t_all[rows]) / 3.6
+        consumed[rows] = cumulative_trapezoid(i_all[rows], t_all[rows]) / AS_PER_MAH
     out["consumed_mah"] = consumed
     return out
 

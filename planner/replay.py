@@ -41,8 +41,8 @@ import pandas as pd
 from planner import atmosphere, record
 from planner.battery import integral
 from planner.definitions import Aircraft, BatteryPack, IntegralModel, filled_temperature
+from planner.units import AS_PER_MAH
 
-MAH = integral.AS_PER_MAH
 R_AIR = 287.05287
 PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent")
 
@@ -206,7 +206,7 @@ def _pack_model(pack: BatteryPack | None, meta: dict, voltage) -> tuple[Integral
     if not cells:
         return None, "no voltage to find the cell count"
     cap = meta.get("battery_capacity_mah")
-    model = IntegralModel.from_literature(cells, cap * MAH if cap else None)
+    model = IntegralModel.from_literature(cells, cap * AS_PER_MAH if cap else None)
     size = f", {cap:.0f} mAh from the log" if cap else ", capacity unknown: β = 1"
     return model, f"literature {cells}S ({how}{size})"
 
@@ -221,14 +221,14 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
             if "temperature_c" in exp and model.temperature_coefficient_per_c else None)
     base = integral.charge(t, np.nan_to_num(p), model.delta, model.epsilon, model.beta)
     # the model's charge, with the pack's temperature and fade extensions sample by sample
-    predicted = model.extend_charge(base, temp) / MAH
+    predicted = model.extend_charge(base, temp) / AS_PER_MAH
     # forward predictions hold the present extension factor: C = C_now + s·(C_0 − C_0,now)
     scale = model.charge_scale(temp) * np.ones_like(t)
     measured = exp["consumed_mah"].to_numpy(float)
     measured = measured - measured[np.isfinite(measured)][0] if np.isfinite(measured).any() \
         else measured
     current = exp["current_a"].to_numpy(float) if "current_a" in exp else np.full_like(t, np.nan)
-    integrated = record.cumulative_trapezoid(current, t) / MAH
+    integrated = record.cumulative_trapezoid(current, t) / AS_PER_MAH
 
     def metrics(meas):
         ok = np.isfinite(meas) & np.isfinite(predicted)
@@ -244,7 +244,7 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
     stress = integral.stress_from_charge(base, model.beta)
 
     def base_target(k, charge_as):
-        return base[k] + (charge_as - predicted[k] * MAH) / scale[k]
+        return base[k] + (charge_as - predicted[k] * AS_PER_MAH) / scale[k]
 
     p_avg = _rolling_mean(t, np.nan_to_num(p), 60.0)
     c_final = measured[np.isfinite(measured)][-1] if np.isfinite(measured).any() else np.nan
@@ -253,7 +253,7 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
         k = int(np.searchsorted(t, t[0] + frac * (t[-1] - t[0])))
         k = min(k, len(t) - 1)
         if p_avg[k] > 0 and np.isfinite(c_final):
-            dt = integral.time_to_charge(stress[k], p_avg[k], base_target(k, c_final * MAH),
+            dt = integral.time_to_charge(stress[k], p_avg[k], base_target(k, c_final * AS_PER_MAH),
                                          model.delta, model.epsilon, model.beta)
             time_errors[f"{int(frac * 100)}pct"] = float(t[k] + dt - t[-1])
     reached = predicted_at = None
@@ -264,7 +264,7 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
         reached = float(t[hit[0]]) if hit.size else None
         with np.errstate(invalid="ignore", divide="ignore"):
             to_reserve = np.where(p_avg > 0, integral.time_to_charge(
-                stress, np.where(p_avg > 0, p_avg, 1.0), base_target(slice(None), limit * MAH),
+                stress, np.where(p_avg > 0, p_avg, 1.0), base_target(slice(None), limit * AS_PER_MAH),
                 model.delta, model.epsilon, model.beta), np.nan)
         k = len(t) // 2
         predicted_at = float(t[k] + to_reserve[k]) if np.isfinite(to_reserve[k]) else None

@@ -49,10 +49,11 @@ from planner import profile as prof
 from planner import schema as S
 from planner.battery import integral
 from planner.battery.ocv import lipo_ocv
-from planner.check import MAH, loaded_current
+from planner.check import loaded_current
 from planner.definitions import Aircraft, BatteryPack, battery_from_mapping
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
+from planner.units import AS_PER_MAH
 
 __all__ = ["CATALOG_KEYS", "CONSTRAINTS", "DEFAULT_MIN_THRUST_TO_WEIGHT", "OBJECTIVES",
            "PackEvaluation", "PowerTable", "Selection", "catalog_from_mapping",
@@ -626,7 +627,7 @@ def _pack_arrays(packs, temperature_c):
     (m, count, cap_mah, frac, r, c_rate, cells, delta, eps, beta,
      scale) = np.array(rows, dtype=float).T
     total_mah = cap_mah * count
-    return {"mass": m * count, "cap": total_mah * MAH, "usable": total_mah * MAH * frac,
+    return {"mass": m * count, "cap": total_mah * AS_PER_MAH, "usable": total_mah * AS_PER_MAH * frac,
             "r": np.nan_to_num(r, nan=0.0) / count, "imax": c_rate * total_mah / 1000.0,
             "cells": cells, "delta": delta, "eps": eps, "beta": beta, "scale": scale}
 
@@ -792,10 +793,10 @@ def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack
             r = MissionChain(ac, packs[i], reserve=reserve, temperature_c=temperature_c).run(
                 flown, env)
             checked[i] = r
-            used[i], margin[i] = r.charge_used_mah * MAH, r.margin_mah * MAH
+            used[i], margin[i] = r.charge_used_mah * AS_PER_MAH, r.margin_mah * AS_PER_MAH
             margin_time[i] = r.margin_time_s
-            usable[i] = r.usable_mah * MAH
-            out["rtl_min"][i] = r.rtl_min_margin_mah * MAH
+            usable[i] = r.usable_mah * AS_PER_MAH
+            out["rtl_min"][i] = r.rtl_min_margin_mah * AS_PER_MAH
             pnr_index[i] = -1 if r.point_of_no_return is None else 0
     usable_now = usable.copy()
 
@@ -859,11 +860,11 @@ def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack
         mission_name=mission.name, reserve_fraction=float(reserve), payload_kg=payload,
         min_thrust_to_weight=float(min_thrust_to_weight),
         duration_s=float(np.sum(dur)), pack_mass_kg=pa["mass"], takeoff_mass_kg=mass,
-        capacity_mah=cap / MAH, usable_mah=usable / MAH, reserve_mah=reserve * cap / MAH,
-        charge_used_mah=used / MAH, margin_mah=margin / MAH,
+        capacity_mah=cap / AS_PER_MAH, usable_mah=usable / AS_PER_MAH, reserve_mah=reserve * cap / AS_PER_MAH,
+        charge_used_mah=used / AS_PER_MAH, margin_mah=margin / AS_PER_MAH,
         remaining_fraction=1.0 - used / cap, margin_time_s=margin_time,
         hold_power_w=out["p_hold"], energy_wh=out["energy"],
-        rtl_min_margin_mah=out["rtl_min"] / MAH, pnr_index=pnr_index,
+        rtl_min_margin_mah=out["rtl_min"] / AS_PER_MAH, pnr_index=pnr_index,
         peak_current_a=out["peak"], peak_leg=peak_leg, undeliverable_leg=undeliverable,
         max_current_a=imax, thrust_to_weight=tw,
         violated=violated, max_takeoff_mass_kg=mtow, cells_allowed=allowed, checked=checked,

@@ -32,10 +32,11 @@ from scipy.optimize import minimize_scalar
 
 from planner import profile as prof
 from planner.battery import integral
-from planner.check import MAH, MissionChain, MissionResult
+from planner.check import MissionChain, MissionResult
 from planner.definitions import Aircraft, BatteryPack, IntegralModel
 from planner.errors import InputError
 from planner.mission.legs import Environment, Leg, Mission
+from planner.units import AS_PER_MAH
 
 __all__ = ["CHEMISTRIES", "EnduranceSweep", "RangeSweep", "Sortie", "SortiePlan", "SplitPoint",
            "endurance_sweep", "plan_long_mission", "plan_sorties", "range_sweep",
@@ -248,7 +249,7 @@ def endurance_sweep(aircraft: Aircraft, battery_mass_kg, *, specific_energy_wh_p
         specific_energy_wh_per_kg=float(specific_energy_wh_per_kg),
         cells_series=int(cells_series), cell_voltage_v=float(cell_voltage_v),
         payload_kg=float(payload_kg), reserve_fraction=float(reserve), model=model,
-        battery_mass_kg=m_b, takeoff_mass_kg=mass, capacity_mah=cap_as / MAH,
+        battery_mass_kg=m_b, takeoff_mass_kg=mass, capacity_mah=cap_as / AS_PER_MAH,
         hold_power_w=p, endurance_s=t, feasible=ok, thrust_to_weight=tw, optimum=optimum,
         notes=notes)
 
@@ -567,7 +568,7 @@ def sortie_lower_bound(charge_used_mah: float, pack: BatteryPack, reserve: float
     limit = pack.usable_as - reserve * pack.capacity_as
     if limit <= 0:
         return 10**9
-    used = charge_used_mah * MAH
+    used = charge_used_mah * AS_PER_MAH
     return max(1, math.ceil((used / limit) ** pack.model.beta - 1e-12))
 
 

@@ -254,11 +254,11 @@ def test_fit_battery_circuit_option_writes_a_circuit_block(tmp_path):
     import numpy as np
     import pandas as pd
 
+    from planner.battery import integral
     from planner.battery.circuit import CircuitParameters, simulate
     from planner.battery.identify import pulse_test_profile
     from planner.cli import main
     from planner.definitions import load_battery
-    from planner.battery import integral
 
     truth = CircuitParameters(capacity_ah=5.0, r0_ohm=0.006, r1_ohm=0.004, c1_f=7500.0,
                               cells_series=4)

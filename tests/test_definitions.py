@@ -158,6 +158,7 @@ def test_efficiency_curve_from_diagnose_changes_battery_power(tmp_path):
     """``efficiency_slope`` (diagnose's efficiency_curve): 1/η(M) = 1/η0 − η1/η0² (M/M_ref − 1),
     so a falling efficiency costs more power above the reference and less below it."""
     from dataclasses import replace
+
     import yaml
     ac = load_aircraft(REPO / "aircraft/solo_survey.yaml")
     curved = replace(ac, efficiency_slope=-0.1, efficiency_reference_power_w=150.0)

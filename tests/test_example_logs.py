@@ -17,8 +17,8 @@ from planner.data import load_flight_data
 from planner.definitions import load_aircraft_and_battery
 from planner.fit_aircraft import fit_aircraft
 from planner.logs import read_log
-from testkit.writers import SIMULATED_TEXT
 from planner.replay import replay
+from testkit.writers import SIMULATED_TEXT
 
 MAX_BYTES = 500_000
 

@@ -12,6 +12,9 @@ from numpy.testing import assert_allclose, assert_array_equal
 from planner.definitions import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.logs import read_log
+from planner.mission import load_mission
+from planner.mission.legs import Environment
+from testkit.flight import simulate_flight
 from testkit.writers import (
     DATAFLASH_FORMATS,
     SIMULATED_TEXT,
@@ -21,9 +24,6 @@ from testkit.writers import (
     write_tlog,
     write_ulog,
 )
-from planner.mission import load_mission
-from planner.mission.legs import Environment
-from testkit.flight import simulate_flight
 
 FORMATS = (".bin", ".tlog", ".ulg")
 

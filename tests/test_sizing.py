@@ -9,10 +9,11 @@ import pytest
 
 from planner import select as sel
 from planner import sizing
-from planner.check import MAH, MissionChain
+from planner.check import MissionChain
 from planner.definitions import IntegralModel, aircraft_from_mapping, load_aircraft, load_battery
 from planner.errors import InputError
 from planner.mission.legs import Environment, Leg, Mission
+from planner.units import AS_PER_MAH as MAH
 
 REPO = Path(__file__).resolve().parents[1]
 

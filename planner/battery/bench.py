@@ -107,11 +107,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from planner.battery import circuit, design, integral
+from planner.battery import circuit, design
 from planner.battery.circuit import CircuitParameters
 from planner.battery.ocv import lipo_ocv
 from planner.battery.thermal import check_temperature
 from planner.errors import InputError
+from planner.units import AS_PER_MAH
 
 __all__ = [
     "DEFAULT_NOISE",
@@ -461,7 +462,7 @@ def to_record(result: BenchResult, experiment: str, noise: BenchNoise = DEFAULT_
     consumed_as = np.concatenate(([0.0], np.cumsum(i[:-1] * dt)))
     return pd.DataFrame({"experiment": experiment, "time_s": result.time_s, "voltage_v": v,
                          "current_a": i, "power_w": power,
-                         "consumed_mah": consumed_as / integral.AS_PER_MAH},
+                         "consumed_mah": consumed_as / AS_PER_MAH},
                         columns=list(RECORD_COLUMNS))
 
 
@@ -554,7 +555,7 @@ def two_step_discharge(pack: BenchPack, p1_w: float, p2_w: float, k: float,
     **kwargs
         Passed to :func:`run_schedule`.
     """
-    test = design.two_step(p1_w, p2_w, k, capacity_mah * integral.AS_PER_MAH, **pack.model)
+    test = design.two_step(p1_w, p2_w, k, capacity_mah * AS_PER_MAH, **pack.model)
     name = experiment or f"two_step_{p1_w:03.0f}_{p2_w:03.0f}_k{k:g}"
     return run_schedule(pack, test.schedule(), name, **kwargs)
 

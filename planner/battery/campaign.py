@@ -50,6 +50,7 @@ import numpy as np
 import pandas as pd
 
 from planner.battery import bench, fit, integral
+from planner.units import AS_PER_MAH
 
 __all__ = [
     "BETA_MODES",
@@ -184,7 +185,7 @@ def run_campaign(pack: bench.BenchPack | None = None, *, campaign: str = "seed",
     children = iter(np.random.SeedSequence(seed).spawn(n_tests))
     common = {"dt_s": dt_s, "noise": noise, "temperature_c": temperature_c,
               "return_truth": True}
-    c0_mah = config.two_step_capacity_fraction * pack.capacity_as / integral.AS_PER_MAH
+    c0_mah = config.two_step_capacity_fraction * pack.capacity_as / AS_PER_MAH
     runs = []
     for p in config.constant_w:
         child = next(children)
@@ -211,7 +212,7 @@ def run_campaign(pack: bench.BenchPack | None = None, *, campaign: str = "seed",
     info = pd.DataFrame([{"experiment": r["experiment"].iloc[0],
                           "kind": experiment_kind(r["experiment"].iloc[0]),
                           "duration_s": float(truth.time_s[-1]),
-                          "charge_mah": float(truth.charge_as[-1]) / integral.AS_PER_MAH,
+                          "charge_mah": float(truth.charge_as[-1]) / AS_PER_MAH,
                           "tripped": truth.tripped} for r, truth in runs])
     return records, info
 

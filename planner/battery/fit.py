@@ -96,6 +96,7 @@ from scipy.optimize import OptimizeWarning, least_squares
 from planner import record as rec
 from planner.battery import integral
 from planner.errors import FitError, InputError
+from planner.units import AS_PER_MAH
 
 __all__ = [
     "CONDITION_LIMIT",
@@ -280,7 +281,7 @@ def _experiment(name: str, source: str | None, sub: pd.DataFrame) -> Experiment:
         _finite(power, "power_w", where, sub, source)
     if consumed is not None:
         _finite(consumed, "consumed_mah", where, sub, source)
-        charge = (consumed - consumed[0]) * integral.AS_PER_MAH
+        charge = (consumed - consumed[0]) * AS_PER_MAH
     elif current is not None:
         _finite(current, "current_a", where, sub, source)
         charge = rec.cumulative_trapezoid(current, t)
@@ -453,9 +454,9 @@ def experiment_metrics(exp: Experiment, delta: float, epsilon: float, beta: floa
     return ExperimentMetrics(
         experiment=exp.name, split=split, samples=len(exp.time_s),
         duration_s=exp.duration_s, mean_power_w=exp.mean_power_w,
-        final_charge_mah=c_final / integral.AS_PER_MAH,
-        predicted_final_charge_mah=float(c_hat[-1]) / integral.AS_PER_MAH,
-        rmse_mah=float(np.sqrt(np.mean(r**2))) / integral.AS_PER_MAH,
+        final_charge_mah=c_final / AS_PER_MAH,
+        predicted_final_charge_mah=float(c_hat[-1]) / AS_PER_MAH,
+        rmse_mah=float(np.sqrt(np.mean(r**2))) / AS_PER_MAH,
         final_error_pct=float(r[-1] / c_final * 100.0),
         time_error_s=float(_time_error(exp, np.asarray(stress, float), beta)))
 

@@ -23,7 +23,6 @@ from planner.errors import ModelError
 #: β of the seed paper (held fixed in its fits). [unitless]
 LITERATURE_BETA = 0.9648
 
-AS_PER_MAH = 3.6  # 1 mAh = 3.6 A·s
 
 
 def literature_delta(cells_series):

@@ -18,6 +18,7 @@ from planner.battery import design, fit, integral, vda
 from planner.commands.common import fmt, output_path, parse_float, parse_int, plot_path, write_json
 from planner.definitions import IntegralModel, battery_from_mapping, load_battery
 from planner.errors import InputError
+from planner.units import AS_PER_MAH
 
 #: Full-charge cell voltage used to detect the cell count from the data. [V]
 CELL_FULL_V = 4.2
@@ -309,7 +310,7 @@ def save_fit_plot(experiments, result: dict, path) -> None:
         row[0].set_ylabel("$C^\\beta$ [(A·s)$^\\beta$]")
         row[0].legend(loc="upper left", fontsize=8)
         row[0].grid(alpha=0.3)
-        row[1].plot(t_min, (e.charge_as - c_hat) / integral.AS_PER_MAH, color="C0", lw=1.2,
+        row[1].plot(t_min, (e.charge_as - c_hat) / AS_PER_MAH, color="C0", lw=1.2,
                     label=f"$r = C - \\hat C$ (RMSE {m.rmse_mah:.1f} mAh, "
                           f"final {m.final_error_pct:+.2f} %)")
         row[1].axhline(0.0, color="0.5", lw=0.8)
@@ -397,7 +398,7 @@ def run_two_step(args) -> int:
     k = parse_float(args.k, "--k", 1e-6, 1e6)
     cap = parse_float(args.capacity_mah, "--capacity-mah", 1e-3, 1e8)
     model, what = _model_for(args)
-    test = design.two_step(p1, p2, k, cap * integral.AS_PER_MAH, model.delta, model.epsilon,
+    test = design.two_step(p1, p2, k, cap * AS_PER_MAH, model.delta, model.epsilon,
                            model.beta)
     print(f"two-step test drawing C0 = {cap:g} mAh (model: {what}; δ = {model.delta:.4g}, "
           f"ε = {model.epsilon:.4g}, β = {model.beta:.4g})")
@@ -455,7 +456,7 @@ def run_aprbs(args) -> int:
         t = np.arange(0.0, total + 0.5, 1.0)
         c = integral.charge(t, design.sample_schedule(schedule, t), model.delta,
                             model.epsilon, model.beta)
-        print(f"  the model ({what}) draws {c[-1] / integral.AS_PER_MAH:.0f} mAh over it")
+        print(f"  the model ({what}) draws {c[-1] / AS_PER_MAH:.0f} mAh over it")
     print(f"wrote {out}")
     return 0
 
@@ -601,7 +602,7 @@ def run_bench(args) -> int:
     # what is written is what is fitted: fit-battery on the CSV gives the same numbers
     records = records.round(_BENCH_DECIMALS)
     print(f"virtual bench: {pack.name}, {pack.circuit.cells_series}S, "
-          f"{pack.capacity_as / integral.AS_PER_MAH:.0f} mAh, R0 {1e3 * pack.r_pack_ohm:.2f} mΩ, "
+          f"{pack.capacity_as / AS_PER_MAH:.0f} mAh, R0 {1e3 * pack.r_pack_ohm:.2f} mΩ, "
           f"cut-off {pack.v_cutoff_cell:g} V/cell, {temperature:g} °C; campaign "
           f"'{args.campaign}', seed {seed}")
     print(f"{'experiment':<24} {'kind':<9} {'duration [s]':>12} {'mean P [W]':>10} "

@@ -38,10 +38,10 @@ from planner.definitions import Aircraft, BatteryPack, IntegralModel
 from planner.diagnose import search as S
 from planner.diagnose.effects import EFFECTS, make_effects
 from planner.errors import FitError, InputError, ModelError
+from planner.units import AS_PER_MAH
 
 __all__ = ["EFFECTS", "DiagnoseResult", "diagnose"]
 
-MAH = integral.AS_PER_MAH
 
 
 @dataclass
@@ -351,7 +351,7 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
             continue
         if "consumed_mah" in sub and np.isfinite(sub["consumed_mah"].to_numpy(float)).any():
             c = S._interp_nan(t, sub["consumed_mah"].to_numpy(float))
-            c = (c - c[0]) * MAH
+            c = (c - c[0]) * AS_PER_MAH
         elif "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).any():
             c = rec.cumulative_trapezoid(sub["current_a"].to_numpy(float), t)
         else:
@@ -455,7 +455,7 @@ def _as_given_capacity(level, pack) -> tuple[float, float]:
         dc = level.c[idx[-1]] - level.c[s]
         if dc > 0:
             finals.append((abs(rs[idx[-1]]), dc))
-    return float(np.sqrt(np.mean(rs**2))) / MAH, S._weighted_final(finals)
+    return float(np.sqrt(np.mean(rs**2))) / AS_PER_MAH, S._weighted_final(finals)
 
 
 def _as_given_power(level, aircraft) -> tuple[float, float]:

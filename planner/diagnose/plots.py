@@ -16,9 +16,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from planner.battery import integral
 from planner.diagnose.effects import EFFECTS
 from planner.plots import save
+from planner.units import AS_PER_MAH
 
 BEFORE = {"color": "0.55", "label": "before: calibrated baseline"}
 AFTER = {"color": "C3", "label": "after: extended model"}
@@ -40,7 +40,7 @@ def plot_residual_time(report, ax=None):
         if level.name == "capacity":
             idx = score.heldout_samples
             order = np.argsort(idx, kind="stable")
-            idx, r = idx[order], score.heldout_sample_resid[order] / integral.AS_PER_MAH
+            idx, r = idx[order], score.heldout_sample_resid[order] / AS_PER_MAH
             t = level.t[idx] / 60.0
             seg = np.diff(level.exp_index[idx]) != 0
             breaks = np.flatnonzero((np.diff(idx) != 1) | seg) + 1

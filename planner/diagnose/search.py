@@ -98,12 +98,10 @@ from scipy.optimize import least_squares
 from scipy.stats import chi2
 
 from planner import atmosphere
-from planner.battery import integral
 from planner.errors import FitError, ModelError
 from planner.fit_aircraft import with_params
 from planner.replay import flight_phases
-
-MAH = integral.AS_PER_MAH
+from planner.units import AS_PER_MAH
 
 #: Folds of the cross-validation. [unitless]
 N_FOLDS = 4
@@ -1125,7 +1123,7 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
         nn.append(int(train.sum()))
         rho.append(_ar1(fit.train_resid, level.row_group[train]))
     sr = np.concatenate(sr_all)
-    scale = MAH if level.name == "capacity" else 1.0
+    scale = AS_PER_MAH if level.name == "capacity" else 1.0
     unit_loss[~has] = np.nan
     return Score(tuple(e.name for e in effects), fits,
                  float(np.sqrt(np.mean(sr**2))) / scale,
