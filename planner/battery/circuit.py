@@ -131,6 +131,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 import pandas as pd
 
@@ -623,12 +624,380 @@ def _as_series_input(value, n: int, name: str) -> np.ndarray:
     return arr
 
 
-def _grid(func, n: int = _GRID_N) -> list[float]:
+def _grid(func, n: int = _GRID_N) -> np.ndarray:
     z = np.linspace(0.0, 1.0, n)
     values = np.asarray(func(z), dtype=float)
     if values.shape != z.shape or not np.all(np.isfinite(values)):
         raise InputError("the OCV function must return finite voltages for soc in [0, 1]")
-    return values.tolist()
+    return values
+
+
+# --------------------------------------------------------------------------- the step kernel
+#
+# One time loop for every use of the circuit: a single pack with every sample recorded
+# (:func:`simulate`) and many packs at once with only the events and a few reductions
+# kept (:func:`simulate_packs`, the mission chain's pack axis). The loop runs over time;
+# each step updates every pack. It is compiled with numba: the state of step k+1 depends
+# on step k, so the time axis cannot be vectorised, and a Python loop over time costs
+# microseconds per step where the compiled loop costs nanoseconds per pack.
+
+_NAN = float("nan")
+
+
+@numba.njit(cache=True)
+def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
+            ns, npar, cap_as, eta_c, m_h, gamma, r1, tau1, ea_r, t_ref, kq,
+            ocv_tab, ocv_idx, r0_tab, r0_idx, r0_scale, diff_gain, tau_d,
+            thermal, r_th, tau_th, t_air, t0, temps, t_lo, t_hi,
+            cut, stop_at_cutoff, end_at_cutoff, n_window, probe_slot, n_probes,
+            record, stop_when_all_cut):
+    """Run the circuit of every pack through the load (see :func:`simulate_packs`)."""
+    n = t.size
+    k = ns.size
+    gn = ocv_tab.shape[1] - 1
+    rec_n = n if record else 1
+    out = np.full((12, k if record else 1, rec_n), _NAN)
+    ev = np.full((11, k), _NAN)   # events and reductions, rows documented in simulate_packs
+    probe = np.full((k, max(n_probes, 1)), _NAN)
+    z = np.full(k, soc0)
+    xd = np.zeros(k)
+    h = np.full(k, h0)
+    v1 = np.full(k, v10)
+    temp = np.empty(k)
+    for i in range(k):
+        temp[i] = t0[i] if thermal[i] else temps[0]
+    q = np.zeros(k)
+    e = np.zeros(k)
+    disconnected = np.zeros(k, np.bool_)
+    prev_v = np.full(k, _NAN)
+    prev_q = np.zeros(k)
+    prev_t = np.zeros(k)
+    a_rc = np.ones(k)
+    a_th = np.ones(k)
+    a_d = np.ones(k)
+    last_dt = -1.0
+    vmin = np.full(k, np.inf)
+    tmax = np.full(k, -np.inf)
+    steps = 0
+    for j in range(n):
+        steps = j + 1
+        d = t[j + 1] - t[j] if j < n - 1 else 0.0
+        if d != last_dt and d > 0.0:
+            for i in range(k):
+                a_rc[i] = np.exp(-d / tau1[i]) if tau1[i] > 0.0 else 0.0
+                a_th[i] = np.exp(-d / tau_th[i]) if thermal[i] else 1.0
+                a_d[i] = np.exp(-d / tau_d[i]) if diff_gain[i] > 0.0 else 1.0
+            last_dt = d
+        col = step_col[j]
+        in_window = j < n_window
+        slot = probe_slot[j]
+        ending = False
+        all_cut = True
+        for i in range(k):
+            if thermal[i]:
+                tc = temp[i]
+                if (tc < t_lo or tc > t_hi) and np.isnan(ev[6, i]):
+                    ev[6, i] = t[j]
+                    ev[7, i] = tc
+                    ev[10, i] = 1.0 if in_window else 0.0
+                tc = min(max(tc, t_lo), t_hi)
+            else:
+                tc = temps[j]
+                temp[i] = tc
+            fa = np.exp(ea_r[i] * (1.0 / (tc + 273.15) - 1.0 / (t_ref[i] + 273.15)))
+            fq = 1.0 - kq[i] * (t_ref[i] - tc) if tc < t_ref[i] else 1.0
+            # tabulated OCV and R0 at the surface state of charge z − x (held at the ends)
+            x = (z[i] - xd[i]) * gn
+            oi = ocv_idx[i]
+            ri = r0_idx[i]
+            if x <= 0.0:
+                ocv = ocv_tab[oi, 0]
+                r0b = r0_tab[ri, 0]
+            elif x >= gn:
+                ocv = ocv_tab[oi, gn]
+                r0b = r0_tab[ri, gn]
+            else:
+                jj = int(x)
+                fr = x - jj
+                ocv = ocv_tab[oi, jj] + fr * (ocv_tab[oi, jj + 1] - ocv_tab[oi, jj])
+                r0b = r0_tab[ri, jj] + fr * (r0_tab[ri, jj + 1] - r0_tab[ri, jj])
+            r0c = r0b * r0_scale[i] * fa
+            e_p = ns[i] * (ocv + h[i] - v1[i])
+            r_p = ns[i] * r0c / npar[i]
+            ld = load_table[i, col]
+            if disconnected[i]:
+                cur = 0.0
+            elif not by_power:
+                cur = ld
+            elif ld == 0.0:
+                cur = 0.0
+            elif r_p <= 0.0:
+                if e_p > 0.0:
+                    cur = ld / e_p
+                else:
+                    cur = 0.0
+                    if ld > 0.0 and np.isnan(ev[2, i]):
+                        ev[2, i] = t[j]
+            else:
+                disc = e_p * e_p - 4.0 * r_p * ld
+                if disc >= 0.0 and e_p + np.sqrt(disc) > 0.0:
+                    cur = 2.0 * ld / (e_p + np.sqrt(disc))
+                else:
+                    cur = e_p / (2.0 * r_p) if e_p > 0.0 else 0.0
+                    if np.isnan(ev[2, i]):
+                        ev[2, i] = t[j]
+            volt = e_p - r_p * cur
+            # the cut-off event compares the loaded cell voltage
+            if cut > 0.0 and np.isnan(ev[0, i]):
+                vcell = volt / ns[i]
+                if vcell <= cut:
+                    pv = prev_v[i]
+                    if np.isnan(pv) or pv == vcell:
+                        ev[0, i] = t[j]
+                        ev[1, i] = q[i]
+                    else:
+                        w = (pv - cut) / (pv - vcell)
+                        ev[0, i] = prev_t[i] + w * (t[j] - prev_t[i])
+                        ev[1, i] = prev_q[i] + w * (q[i] - prev_q[i])
+                    if end_at_cutoff:
+                        ending = True
+                    elif stop_at_cutoff:
+                        disconnected[i] = True
+                        cur = 0.0
+                        volt = e_p
+                prev_v[i] = vcell
+                prev_q[i] = q[i]
+                prev_t[i] = t[j]
+            if np.isnan(ev[0, i]):
+                all_cut = False
+            heat = cur * cur * r_p
+            if tau1[i] > 0.0:
+                heat += ns[i] * npar[i] * v1[i] * v1[i] / r1[i]
+            if record:
+                out[0, i, j] = cur
+                out[1, i, j] = volt * cur
+                out[2, i, j] = volt
+                out[3, i, j] = ns[i] * ocv
+                out[4, i, j] = z[i]
+                out[5, i, j] = ns[i] * v1[i]
+                out[6, i, j] = ns[i] * h[i]
+                out[7, i, j] = temp[i]
+                out[8, i, j] = heat
+                out[9, i, j] = q[i]
+                out[10, i, j] = e[i]
+                out[11, i, j] = xd[i]
+            if in_window or j == 0:
+                if volt < vmin[i]:
+                    vmin[i] = volt
+                    ev[4, i] = j
+                if temp[i] > tmax[i]:
+                    tmax[i] = temp[i]
+                ev[8, i] = q[i]
+            if slot >= 0:
+                probe[i, slot] = volt
+            if d == 0.0 or ending:
+                continue
+            # state update over the step, exact for the held current
+            icell = cur / npar[i]
+            dq = icell * d if icell >= 0.0 else eta_c[i] * icell * d
+            qcap = cap_as[i] * fq
+            z_new = z[i] - dq / qcap
+            if np.isnan(ev[3, i]) and z[i] > 0.0 >= z_new:
+                ev[3, i] = t[j] + d * z[i] / (z[i] - z_new)
+            z[i] = z_new
+            if diff_gain[i] > 0.0:
+                xd[i] = a_d[i] * xd[i] + (1.0 - a_d[i]) * diff_gain[i] * (dq / d) / qcap
+            if gamma[i] > 0.0 and dq != 0.0:
+                eh = np.exp(-gamma[i] * abs(dq) / qcap)
+                h[i] = eh * h[i] + (1.0 - eh) * (-m_h[i] if dq > 0.0 else m_h[i])
+            if tau1[i] > 0.0:
+                v1[i] = a_rc[i] * v1[i] + r1[i] * (1.0 - a_rc[i]) * icell
+            if thermal[i]:
+                target = t_air[i] + r_th[i] * heat
+                temp[i] = target + (temp[i] - target) * a_th[i]
+            q[i] += cur * d
+            e[i] += volt * cur * d
+        if ending:
+            break
+        if stop_when_all_cut and all_cut and j >= n_window:
+            break
+    for i in range(k):
+        ev[5, i] = vmin[i]
+        ev[9, i] = tmax[i]
+    return out, ev, probe, steps
+
+
+def _tables(params_list):
+    """Unique OCV and R0(SoC) grids of the packs, and each pack's row in them."""
+    ocv_rows, ocv_key, ocv_idx = [], {}, []
+    r0_rows, r0_key, r0_idx, r0_scale = [np.ones(_GRID_N)], {}, [], []
+    z = np.linspace(0.0, 1.0, _GRID_N)
+    for p in params_list:
+        key = id(p.ocv)
+        if key not in ocv_key:
+            ocv_key[key] = len(ocv_rows)
+            ocv_rows.append(_grid(p.ocv))
+        ocv_idx.append(ocv_key[key])
+        if p.r0_is_table:
+            key = (tuple(p.r0_ohm[0]), tuple(p.r0_ohm[1]))
+            if key not in r0_key:
+                r0_key[key] = len(r0_rows)
+                r0_rows.append(np.interp(z, p.r0_ohm[0], p.r0_ohm[1]))
+            r0_idx.append(r0_key[key])
+            r0_scale.append(1.0)
+        else:
+            r0_idx.append(0)
+            r0_scale.append(float(p.r0_ohm))
+    return (np.array(ocv_rows), np.array(ocv_idx, np.int64), np.array(r0_rows),
+            np.array(r0_idx, np.int64), np.array(r0_scale))
+
+
+@dataclass
+class PackRuns:
+    """Events and reductions of :func:`simulate_packs` (one element per pack).
+
+    Attributes
+    ----------
+    cutoff_time_s, cutoff_charge_as : ndarray
+        When the loaded cell voltage first reached the cut-off, and the charge drawn by
+        then (interpolated between samples); NaN: not reached. [s], [A s]
+    undeliverable_time_s : ndarray
+        First time the asked power exceeded what the pack can deliver (NaN: never). [s]
+    empty_time_s : ndarray
+        When the state of charge first reached 0 (NaN: never). [s]
+    window_min_voltage_v : ndarray
+        Lowest loaded voltage over the window (the first ``n_window`` samples). [V]
+    window_min_step : ndarray of int
+        Sample of that lowest voltage.
+    window_max_temperature_c : ndarray
+        Highest cell temperature over the window. [°C]
+    window_end_charge_as : ndarray
+        Charge drawn before the last sample of the window. [A s]
+    out_of_range_time_s, out_of_range_temperature_c : ndarray
+        First time a coupled pack temperature left the model's range, and that
+        temperature; from then on the model's parameters use the temperature held at the
+        range's edge (NaN: never). [s], [°C]
+    out_of_range_in_window : ndarray of bool
+        Whether that happened within the window.
+    probe_voltage_v : ndarray, shape (packs, probes)
+        Loaded voltage at the probe samples. [V]
+    steps : int
+        Samples run (the run ends early once every pack is past the cut-off and the
+        window, with ``stop_when_all_cut``).
+    """
+
+    cutoff_time_s: np.ndarray
+    cutoff_charge_as: np.ndarray
+    undeliverable_time_s: np.ndarray
+    empty_time_s: np.ndarray
+    window_min_voltage_v: np.ndarray
+    window_min_step: np.ndarray
+    window_max_temperature_c: np.ndarray
+    window_end_charge_as: np.ndarray
+    out_of_range_time_s: np.ndarray
+    out_of_range_temperature_c: np.ndarray
+    out_of_range_in_window: np.ndarray
+    probe_voltage_v: np.ndarray
+    steps: int
+
+
+def _prepare(params_list, thermal_list, t, temperature_c):
+    k = len(params_list)
+    ocv_tab, ocv_idx, r0_tab, r0_idx, r0_scale = _tables(params_list)
+    arr = lambda f: np.array([float(f(p)) for p in params_list])  # noqa: E731
+    thermal = np.array([th is not None for th in thermal_list], np.bool_)
+    th_or = lambda f, d: np.array([f(th) if th is not None else d  # noqa: E731
+                                   for th in thermal_list], float)
+    temps = _as_series_input(temperature_c, t.size, "temperature_c")
+    return dict(
+        ns=arr(lambda p: p.cells_series), npar=arr(lambda p: p.cells_parallel),
+        cap_as=arr(lambda p: p.capacity_ah * 3600.0),
+        eta_c=arr(lambda p: p.coulombic_efficiency),
+        m_h=arr(lambda p: p.hysteresis_v),
+        gamma=arr(lambda p: p.hysteresis_gamma if p.hysteresis_v > 0 else 0.0),
+        r1=arr(lambda p: p.r1_ohm), tau1=arr(lambda p: p.tau1_s),
+        ea_r=arr(lambda p: p.r0_activation_energy_j_mol / R_GAS),
+        t_ref=arr(lambda p: p.reference_temperature_c),
+        kq=arr(lambda p: p.capacity_temp_coeff_per_c),
+        ocv_tab=ocv_tab, ocv_idx=ocv_idx, r0_tab=r0_tab, r0_idx=r0_idx, r0_scale=r0_scale,
+        thermal=thermal, r_th=th_or(lambda th: th.r_th_k_per_w, 0.0),
+        tau_th=th_or(lambda th: th.tau_s, 1.0), t_air=th_or(lambda th: th.t_air_c, 0.0),
+        t0=th_or(lambda th: th.initial_c, 0.0), temps=temps, k=k)
+
+
+def simulate_packs(params_list, time_s, power_w, *, step_col=None, temperature_c=25.0,
+                   thermal=None, v_cutoff_cell: float | None = None, window: int | None = None,
+                   probes=None, stop_when_all_cut: bool = False) -> PackRuns:
+    r"""
+    Run the equivalent-circuit model of many packs through their load profiles at once.
+
+    The same equations and the same time loop as :func:`simulate`, over a pack axis:
+    the load of pack ``i`` at sample ``j`` is ``power_w[i, step_col[j]]``, so a mission
+    of L legs needs only an (packs × L) table of leg powers, not (packs × samples).
+    Only events and reductions are kept (:class:`PackRuns`).
+
+    Parameters
+    ----------
+    params_list : sequence of CircuitParameters
+        One per pack.
+    time_s : array_like
+        Sample times, non-decreasing. [s]
+    power_w : array_like, shape (packs, columns)
+        Power drawn from each pack, held from each sample to the next. [W]
+    step_col : array_like of int, optional
+        Column of ``power_w`` for each sample; default ``arange(samples)``.
+    temperature_c : float or array_like
+        Cell temperature of the packs without a thermal model (constant or per sample).
+        [°C]
+    thermal : sequence of ThermalParameters or None, optional
+        Per pack: the lumped thermal model coupled to the circuit (air and initial
+        temperature from it), or None for the prescribed ``temperature_c``.
+    v_cutoff_cell : float, optional
+        Cut-off per cell for the cut-off event. [V]
+    window : int, optional
+        The samples over which the minimum voltage, the maximum temperature and the
+        charge at the end are taken (default all).
+    probes : array_like of int, optional
+        Samples at which the loaded voltage of every pack is kept.
+    stop_when_all_cut : bool
+        End the run once every pack has reached the cut-off, past the window.
+
+    Returns
+    -------
+    PackRuns
+    """
+    t = np.asarray(time_s, float).ravel()
+    n = t.size
+    if n == 0:
+        raise InputError("time_s is empty")
+    if np.any(np.diff(t) < 0):
+        raise InputError("time_s must not decrease")
+    load = np.ascontiguousarray(np.asarray(power_w, float))
+    if load.ndim != 2 or load.shape[0] != len(params_list):
+        raise InputError("power_w must have one row per pack")
+    step_col = (np.arange(n, dtype=np.int64) if step_col is None
+                else np.asarray(step_col, np.int64))
+    thermal = [None] * len(params_list) if thermal is None else list(thermal)
+    k = _prepare(params_list, thermal, t, temperature_c)
+    count = k.pop("k")
+    n_window = n if window is None else max(int(window), 1)
+    probes = np.zeros(0, np.int64) if probes is None else np.asarray(probes, np.int64)
+    uniq, inverse = np.unique(probes, return_inverse=True)
+    slot = np.full(n, -1, np.int64)
+    slot[uniq] = np.arange(uniq.size)
+    _, ev, probe, steps = _kernel(
+        t, load, step_col, True, 1.0, 0.0, 0.0, **k, diff_gain=np.zeros(count),
+        tau_d=np.ones(count), t_lo=T_RANGE_C[0], t_hi=T_RANGE_C[1],
+        cut=float(v_cutoff_cell or 0.0), stop_at_cutoff=False, end_at_cutoff=False,
+        n_window=n_window, probe_slot=slot, n_probes=int(uniq.size), record=False,
+        stop_when_all_cut=bool(stop_when_all_cut))
+    return PackRuns(
+        cutoff_time_s=ev[0], cutoff_charge_as=ev[1], undeliverable_time_s=ev[2],
+        empty_time_s=ev[3], window_min_voltage_v=ev[5],
+        window_min_step=ev[4].astype(np.int64), window_max_temperature_c=ev[9],
+        window_end_charge_as=ev[8], out_of_range_time_s=ev[6],
+        out_of_range_temperature_c=ev[7], out_of_range_in_window=ev[10] == 1.0,
+        probe_voltage_v=probe[:, inverse] if uniq.size else probe[:, :0], steps=int(steps))
 
 
 def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
@@ -696,6 +1065,9 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
     delivers its maximum power (``I = E/(2R)``) — no NaN. The energy drawn is
     then the delivered power, ``energy_j[-1] = Σ V_k I_k Δt_k``; otherwise it
     equals ``Σ P_k Δt_k``.
+
+    The heat of every step, ``I² R0 + v_RC²/R1`` ([HESS] eq. 10), drives the lumped
+    thermal step of :func:`planner.battery.thermal.lumped_temperature` ([HESS] eq. 11).
     """
     if (power_w is None) == (current_a is None):
         raise InputError("give exactly one of power_w and current_a")
@@ -718,200 +1090,46 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         raise InputError(f"v_cutoff_cell must be a cell voltage in volts, got {v_cutoff_cell!r}")
     if end_at_cutoff and v_cutoff_cell is None:
         raise InputError("end_at_cutoff needs v_cutoff_cell")
+    gain, tau_d = 0.0, 1.0
     if diffusion is not None:
         c_avail, tau_d = (float(v) for v in diffusion)
         if not (0.0 < c_avail <= 1.0 and math.isfinite(tau_d) and tau_d > 0.0):
             raise InputError(f"diffusion must be (c in (0, 1], tau_d > 0 s), got {diffusion!r}")
         # x settles at gain·i/Q under a steady current i (module notes)
-        diff_gain = (1.0 - c_avail) / c_avail * tau_d
-        a_d = np.exp(-np.r_[dt, 0.0] / tau_d).tolist()
-    has_diff = diffusion is not None and diff_gain > 0.0
-
-    p = params
-    ns, npar = p.cells_series, p.cells_parallel
-    ncell = ns * npar
-    cap_as = p.capacity_ah * 3600.0
-    eta_c = p.coulombic_efficiency
-    m_h = p.hysteresis_v
-    gamma = p.hysteresis_gamma if m_h > 0 else 0.0
-    r1 = p.r1_ohm
-    has_rc = r1 > 0
-    ea_r = p.r0_activation_energy_j_mol / R_GAS
-    inv_tref = 1.0 / (p.reference_temperature_c + 273.15)
-    t_ref = p.reference_temperature_c
-    kq = p.capacity_temp_coeff_per_c
-
-    # temperature mode
+        gain = (1.0 - c_avail) / c_avail * tau_d
     thermal = temperature_c if isinstance(temperature_c, ThermalParameters) else None
     if thermal is not None:
         check_temperature(thermal.t_air_c, "air temperature")
         check_temperature(thermal.initial_c, "initial pack temperature")
-        t_air = thermal.t_air_c
-        r_th = thermal.r_th_k_per_w
-        a_th = np.exp(-np.r_[dt, 0.0] / thermal.tau_s).tolist()
-        temps = None
+        temps = 25.0
     else:
-        temps_arr = _as_series_input(temperature_c, n, "temperature_c")
-        check_temperature(temps_arr, "cell temperature")
-        temps = temps_arr.tolist()
-        f_arr = np.exp(ea_r * (1.0 / (temps_arr + 273.15) - inv_tref)).tolist()
-        fq_arr = (1.0 - kq * np.maximum(0.0, t_ref - temps_arr)).tolist()
-
-    # tabulated nonlinearities
-    ocv_g = _grid(p.ocv)
-    gn = _GRID_N - 1
-    if p.r0_is_table:
-        r0_g = np.interp(np.linspace(0.0, 1.0, _GRID_N), p.r0_ohm[0], p.r0_ohm[1]).tolist()
-        r0_const = 0.0
-    else:
-        r0_g = None
-        r0_const = float(p.r0_ohm)
-    if has_rc:
-        a_rc = np.exp(-np.r_[dt, 0.0] / p.tau1_s).tolist()
-    dts = np.r_[dt, 0.0].tolist()
-    loads = load.tolist()
-    times = t.tolist()
-
-    # state
-    z = float(soc0)
-    x_d = 0.0
-    h = float(hysteresis0_v)
-    v1 = float(rc0_v) if has_rc else 0.0
-    temp = thermal.initial_c if thermal is not None else temps[0]
-    q_cum = 0.0
-    e_cum = 0.0
-    cut = None if v_cutoff_cell is None else float(v_cutoff_cell)
-    cutoff_time = cutoff_charge = undeliverable = empty_time = None
-    disconnected = ending = False
-    prev_vcell = prev_q = prev_t = None
-
-    out_i, out_p, out_v, out_ocv, out_z, out_v1, out_h, out_t, out_q, out_cq, out_e = (
-        [], [], [], [], [], [], [], [], [], [], [])
-    out_x = []
-    exp = math.exp
-    sqrt = math.sqrt
-
-    for k in range(n):
-        if thermal is not None:
-            if not (T_RANGE_C[0] <= temp <= T_RANGE_C[1]):
-                raise ModelError(
-                    f"cell temperature reached {temp:.1f} °C at t = {times[k]:.0f} s (coupled "
-                    f"thermal model), outside the battery model's range "
-                    f"[{T_RANGE_C[0]:g} °C, {T_RANGE_C[1]:g} °C]")
-            fa = exp(ea_r * (1.0 / (temp + 273.15) - inv_tref))
-            fq = 1.0 - kq * (t_ref - temp) if temp < t_ref else 1.0
-        else:
-            temp = temps[k]
-            fa = f_arr[k]
-            fq = fq_arr[k]
-        # tabulated OCV and R0 at the surface SoC z − x_d (held at the ends)
-        x = (z - x_d) * gn
-        if x <= 0.0:
-            ocv = ocv_g[0]
-            r0b = r0_g[0] if r0_g is not None else r0_const
-        elif x >= gn:
-            ocv = ocv_g[gn]
-            r0b = r0_g[gn] if r0_g is not None else r0_const
-        else:
-            j = int(x)
-            fr = x - j
-            ocv = ocv_g[j] + fr * (ocv_g[j + 1] - ocv_g[j])
-            r0b = (r0_g[j] + fr * (r0_g[j + 1] - r0_g[j])) if r0_g is not None else r0_const
-        r0c = r0b * fa
-        e_p = ns * (ocv + h - v1)
-        r_p = ns * r0c / npar
-        # current of this step
-        if disconnected:
-            cur = 0.0
-        elif not by_power:
-            cur = loads[k]
-        else:
-            pw = loads[k]
-            if pw == 0.0:
-                cur = 0.0
-            elif r_p <= 0.0:
-                if e_p > 0.0:
-                    cur = pw / e_p
-                else:
-                    cur = 0.0
-                    if undeliverable is None and pw > 0:
-                        undeliverable = times[k]
-            else:
-                disc = e_p * e_p - 4.0 * r_p * pw
-                if disc >= 0.0 and e_p + sqrt(disc) > 0.0:
-                    cur = 2.0 * pw / (e_p + sqrt(disc))
-                else:
-                    cur = e_p / (2.0 * r_p) if e_p > 0.0 else 0.0
-                    if undeliverable is None:
-                        undeliverable = times[k]
-        volt = e_p - r_p * cur
-        # events (the cut-off compares the loaded cell voltage)
-        if cut is not None and cutoff_time is None:
-            vcell = volt / ns
-            if vcell <= cut:
-                if prev_vcell is None or prev_vcell == vcell:
-                    cutoff_time, cutoff_charge = times[k], q_cum
-                else:
-                    w = (prev_vcell - cut) / (prev_vcell - vcell)
-                    cutoff_time = prev_t + w * (times[k] - prev_t)
-                    cutoff_charge = prev_q + w * (q_cum - prev_q)
-                if end_at_cutoff:
-                    ending = True
-                elif stop_at_cutoff:
-                    # the low-voltage cut-off opens at this instant: no load from here on
-                    disconnected = True
-                    cur = 0.0
-                    volt = e_p
-            prev_vcell, prev_q, prev_t = vcell, q_cum, times[k]
-        heat = cur * cur * r_p + (ncell * v1 * v1 / r1 if has_rc else 0.0)
-        out_i.append(cur)
-        out_p.append(volt * cur)
-        out_v.append(volt)
-        out_ocv.append(ns * ocv)
-        out_z.append(z)
-        out_v1.append(ns * v1)
-        out_h.append(ns * h)
-        out_t.append(temp)
-        out_q.append(heat)
-        out_cq.append(q_cum)
-        out_e.append(e_cum)
-        out_x.append(x_d)
-        if ending or k == n - 1:
-            break
-        d = dts[k]
-        if d == 0.0:
-            continue
-        # state update over the step (exact for the held current)
-        icell = cur / npar
-        dq = icell * d if icell >= 0.0 else eta_c * icell * d
-        z_new = z - dq / (cap_as * fq)
-        if empty_time is None and z > 0.0 >= z_new:
-            empty_time = times[k] + d * z / (z - z_new)
-        z = z_new
-        if has_diff:
-            ad = a_d[k]
-            x_d = ad * x_d + (1.0 - ad) * diff_gain * (dq / d) / (cap_as * fq)
-        if gamma > 0.0 and dq != 0.0:
-            eh = exp(-gamma * abs(dq) / (cap_as * fq))
-            h = eh * h + (1.0 - eh) * (-m_h if dq > 0.0 else m_h)
-        if has_rc:
-            a = a_rc[k]
-            v1 = a * v1 + r1 * (1.0 - a) * icell
-        if thermal is not None:
-            target = t_air + r_th * heat
-            temp = target + (temp - target) * a_th[k]
-        q_cum += cur * d
-        e_cum += volt * cur * d
-
+        temps = _as_series_input(temperature_c, n, "temperature_c")
+        check_temperature(temps, "cell temperature")
+    k = _prepare([params], [thermal], t, temps)
+    k.pop("k")
+    out, ev, _, steps = _kernel(
+        t, load[None, :], np.arange(n, dtype=np.int64), by_power, float(soc0),
+        float(hysteresis0_v), float(rc0_v), **k, diff_gain=np.array([gain]),
+        tau_d=np.array([tau_d]), t_lo=T_RANGE_C[0], t_hi=T_RANGE_C[1],
+        cut=float(v_cutoff_cell or 0.0), stop_at_cutoff=bool(stop_at_cutoff),
+        end_at_cutoff=bool(end_at_cutoff), n_window=n, probe_slot=np.full(n, -1, np.int64),
+        n_probes=0, record=True, stop_when_all_cut=False)
+    if thermal is not None and np.isfinite(ev[6, 0]):
+        raise ModelError(
+            f"cell temperature reached {ev[7, 0]:.1f} °C at t = {ev[6, 0]:.0f} s (coupled "
+            f"thermal model), outside the battery model's range "
+            f"[{T_RANGE_C[0]:g} °C, {T_RANGE_C[1]:g} °C]")
+    m = int(steps)
+    o = out[:, 0, :m]
+    opt = lambda v: None if not np.isfinite(v) else float(v)  # noqa: E731
     return CircuitResult(
-        time_s=t[:len(out_v)], current_a=np.array(out_i), power_w=np.array(out_p),
-        voltage_v=np.array(out_v), ocv_v=np.array(out_ocv), soc=np.array(out_z),
-        rc_voltage_v=np.array(out_v1), hysteresis_v=np.array(out_h),
-        temperature_c=np.array(out_t), heat_w=np.array(out_q), charge_as=np.array(out_cq),
-        energy_j=np.array(out_e), cells_series=ns, v_cutoff_cell=cut,
-        cutoff_time_s=cutoff_time, cutoff_charge_as=cutoff_charge,
-        undeliverable_time_s=undeliverable, empty_time_s=empty_time,
-        surface_deficit=np.array(out_x) if diffusion is not None else None)
+        time_s=t[:m], current_a=o[0], power_w=o[1], voltage_v=o[2], ocv_v=o[3], soc=o[4],
+        rc_voltage_v=o[5], hysteresis_v=o[6], temperature_c=o[7], heat_w=o[8],
+        charge_as=o[9], energy_j=o[10], cells_series=params.cells_series,
+        v_cutoff_cell=None if v_cutoff_cell is None else float(v_cutoff_cell),
+        cutoff_time_s=opt(ev[0, 0]), cutoff_charge_as=opt(ev[1, 0]),
+        undeliverable_time_s=opt(ev[2, 0]), empty_time_s=opt(ev[3, 0]),
+        surface_deficit=o[11].copy() if diffusion is not None else None)
 
 
 def with_changes(params: CircuitParameters, **changes) -> CircuitParameters:
