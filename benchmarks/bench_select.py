@@ -82,7 +82,7 @@ def main() -> None:
         t_vec = statistics.median(times)
         t0 = time.perf_counter()
         for p in packs[:N_LOOP]:
-            MissionChain(ac, p).run(mission)
+            MissionChain(ac, p).check(mission)
         t_loop = (time.perf_counter() - t0) / N_LOOP * N_PACKS
         print(f"{ac.name} ({ac.type}, power via {ev.method}):")
         print(f"  vectorised evaluate_packs   {t_vec * 1e3:8.0f} ms  (median of {REPEATS}; "

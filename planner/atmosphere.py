@@ -237,3 +237,43 @@ def density(altitude_m=0.0, temperature_c=None, pressure_pa=None):
         used = [temperature_c, pressure_pa]
     rho = p / (R_AIR * t)
     return _restore(rho, *[u for u in used if u is not None])
+
+
+def site_density(altitude_amsl_m, site_altitude_m=0.0, site_temperature_c=None,
+                 site_pressure_pa=None):
+    r"""
+    Air density at altitude above a site whose temperature and pressure may be known.
+
+    Parameters
+    ----------
+    altitude_amsl_m : numeric
+        Altitude above mean sea level. [m]
+    site_altitude_m : float, default 0
+        Altitude of the site (home). [m]
+    site_temperature_c : float, optional
+        Air temperature at the site; None = ISA. [°C]
+    site_pressure_pa : float, optional
+        Static pressure at the site; None = ISA. [Pa]
+
+    Returns
+    -------
+    density : numeric
+        [kg m⁻³]
+
+    Notes
+    -----
+    A site temperature shifts the ISA profile (the lapse rate is kept):
+    :math:`T(h) = T_{site} - L (h - h_{site})`. A site pressure is carried to altitude
+    with the ISA pressure ratio, :math:`p(h) = p_{site}\, p_{ISA}(h)/p_{ISA}(h_{site})`.
+    The density is then :func:`density` of that temperature and pressure.
+    """
+    h = np.asarray(altitude_amsl_m, dtype=float)
+    t = None
+    if site_temperature_c is not None:
+        t = site_temperature_c - LAPSE_RATE * (h - site_altitude_m)
+    p = None
+    if site_pressure_pa is not None:
+        p = site_pressure_pa * (pressure(h) / pressure(site_altitude_m))
+        if t is None:
+            t = temperature(h) - KELVIN
+    return _restore(density(h, temperature_c=t, pressure_pa=p), altitude_amsl_m)

@@ -76,6 +76,9 @@ CT_MIN, CP_MIN = 0.005, 0.002
 TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS = 10.0, 340.0
 #: Maximum total thrust: a thrust-to-weight ratio of 10 on a 1000 kg aircraft. [N]
 THRUST_MAX_N = 1.0e5
+#: Lower end of a multirotor's airspeed range in the best-speed searches: it hovers at
+#: 0 m/s, but the range speed search needs a positive start. [m/s]
+MULTIROTOR_MIN_AIRSPEED_MS = 0.5
 #: Least propulsion efficiency, battery to useful power: the propulsion fits allow no
 #: less than 0.1–0.2; below 0.05 the aircraft is a heater. [unitless]
 EFFICIENCY_MIN = 0.05
@@ -338,6 +341,21 @@ class BatteryPack:
     def with_model(self, model: IntegralModel) -> BatteryPack:
         return replace(self, model=model)
 
+    def circuit_parameters(self):
+        """The equivalent-circuit parameters of the installed packs (``circuit:`` block,
+        with capacity and R0 from the pack where the block leaves them out)."""
+        from planner.battery.circuit import CircuitParameters
+
+        return CircuitParameters.from_pack(self)
+
+    def thermal_parameters(self):
+        """The lumped thermal parameters of the ``thermal:`` block (None without one)."""
+        from planner.battery.thermal import ThermalParameters
+
+        if self.thermal is None:
+            return None
+        return ThermalParameters.from_mapping(self.thermal, self.path or self.name)
+
     def to_mapping(self) -> dict[str, Any]:
         """The pack as a YAML-ready mapping (keys of DESIGN §8)."""
         out: dict[str, Any] = {"name": self.name, "cells_series": self.cells_series,
@@ -554,6 +572,19 @@ class Aircraft:
     def max_airspeed_ms(self) -> float:
         return (self.multirotor.max_airspeed_ms if self.is_multirotor
                 else self.fixed_wing.top_airspeed_ms)
+
+    @property
+    def min_airspeed_ms(self) -> float:
+        """Least airspeed of steady flight. [m/s]
+
+        Fixed-wing: the stall speed, else half the cruise airspeed. Multirotor:
+        :data:`MULTIROTOR_MIN_AIRSPEED_MS` (it hovers; the bound keeps the best-speed
+        searches away from zero).
+        """
+        if self.is_multirotor:
+            return MULTIROTOR_MIN_AIRSPEED_MS
+        fw = self.fixed_wing
+        return fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
 
     def battery_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0):
         """Electric power drawn from the pack in steady flight.
@@ -837,6 +868,81 @@ def load_aircraft_and_battery(aircraft_path, battery_path=None) -> tuple[Aircraf
     return aircraft, load_battery(path)
 
 
+# --------------------------------------------------------------------------- catalog
+
+#: Top-level keys of a catalog file.
+CATALOG_KEYS = {
+    "packs": S.Key(S.LIST, required=True),
+    "name": S.Key(S.TEXT),
+    "source": S.Key(S.TEXT),
+}
+
+
+def catalog_from_mapping(data: Any, where: str) -> list[BatteryPack]:
+    """Validate a catalog mapping (``packs:`` list of DESIGN §8 packs) and build the packs.
+
+    Each pack is validated with :func:`planner.definitions.battery_from_mapping`
+    under the name ``"{where}: packs[i]"``; every problem of every pack is reported
+    at once in one line.
+
+    Raises
+    ------
+    InputError
+        A missing or empty ``packs`` list, an unknown top-level key, or any problem in
+        any pack (``catalog.yaml: packs[2]: mass_kg must be > 0, got -1``).
+    """
+    d = S.check_mapping(data, CATALOG_KEYS, where)
+    items = d["packs"]
+    if not items:
+        raise InputError(f"{where}: 'packs' is empty, expected a list of battery packs")
+    packs, problems = [], []
+    for i, item in enumerate(items):
+        try:
+            packs.append(battery_from_mapping(item, f"{where}: packs[{i}]"))
+        except InputError as exc:
+            problems.append(str(exc))
+    if problems:
+        raise InputError("; ".join(problems))
+    return packs
+
+
+def load_catalog(path: str | Path) -> list[BatteryPack]:
+    """Load a pack catalog: a YAML file with a ``packs:`` list, or a folder of pack files.
+
+    Parameters
+    ----------
+    path : str or Path
+        A catalog file (``packs:`` list of battery mappings, DESIGN §8, each with
+        optional ``price`` and ``count``), or a folder whose ``*.yaml``/``*.yml``
+        files are single packs or catalogs themselves (read in name order).
+
+    Returns
+    -------
+    list of BatteryPack
+    """
+    path = Path(path)
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir()
+                       if p.suffix.lower() in (".yaml", ".yml") and p.is_file())
+        if not files:
+            raise InputError(f"{path}: folder holds no pack files (*.yaml)")
+        packs, problems = [], []
+        for f in files:
+            try:
+                data = S.load_yaml(f)
+                if isinstance(data, dict) and "packs" in data:
+                    packs.extend(catalog_from_mapping(data, str(f)))
+                else:
+                    packs.append(battery_from_mapping(data, str(f)))
+            except InputError as exc:
+                problems.append(str(exc))
+        if problems:
+            raise InputError("; ".join(problems))
+        return packs
+    return catalog_from_mapping(S.load_yaml(path), str(path))
+
+
+
 __all__ = [
     "Aircraft",
     "BatteryPack",
@@ -848,4 +954,6 @@ __all__ = [
     "load_aircraft",
     "load_aircraft_and_battery",
     "load_battery",
+    "load_catalog",
+    "catalog_from_mapping",
 ]

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner import atmosphere
+from planner.wind import capped_groundspeed, wind_triangle, wind_vector
 from planner.definitions import Aircraft
 from planner.mission.legs import LEG_KINDS, Environment, Mission
 
@@ -94,93 +95,15 @@ class LegTable:
         return len(self.kind)
 
 
-def wind_vector(wind_speed_ms, wind_from_deg):
-    """Wind velocity (east, north) from speed and the direction it blows from. [m/s]"""
-    a = np.radians(wind_from_deg)
-    return -wind_speed_ms * np.sin(a), -wind_speed_ms * np.cos(a)
-
-
-def wind_triangle(course_deg, wind_e, wind_n, *, airspeed=None, groundspeed=None):
-    r"""
-    Solve the wind triangle for a track over ground.
-
-    Give either the airspeed (find the ground speed) or the ground speed (find
-    the airspeed).
-
-    Parameters
-    ----------
-    course_deg : numeric
-        Desired track over ground, 0 = north, clockwise. [deg]
-    wind_e, wind_n : numeric
-        Wind velocity towards east and north. [m/s]
-    airspeed, groundspeed : numeric
-        [m/s]
-
-    Returns
-    -------
-    airspeed, groundspeed : numeric
-        Ground speed is NaN where the aircraft cannot make good the track
-        (crosswind above airspeed, or a headwind at least as strong as the
-        airspeed). [m/s]
-
-    Notes
-    -----
-    With :math:`w_a` the along-track and :math:`w_c` the cross-track wind,
-    :math:`V_g = w_a + \sqrt{V_a^2 - w_c^2}` and
-    :math:`V_a = \sqrt{(V_g - w_a)^2 + w_c^2}`.
-    """
-    chi = np.radians(course_deg)
-    along = wind_e * np.sin(chi) + wind_n * np.cos(chi)
-    cross = wind_e * np.cos(chi) - wind_n * np.sin(chi)
-    if groundspeed is not None:
-        gs = np.asarray(groundspeed, dtype=float)
-        return np.hypot(gs - along, cross), gs
-    va = np.asarray(airspeed, dtype=float)
-    disc = va**2 - cross**2
-    with np.errstate(invalid="ignore"):
-        gs = along + np.sqrt(np.where(disc >= 0, disc, np.nan))
-    gs = np.where(gs > 1e-6, gs, np.nan)
-    return va, gs
-
-
-def capped_groundspeed(course_deg, wind_e, wind_n, groundspeed, max_airspeed):
-    """A multirotor holding a ground speed, up to its maximum airspeed.
-
-    Where the commanded ground speed would need more than ``max_airspeed``, the
-    aircraft flies at ``max_airspeed`` and its ground speed drops.
-
-    Returns
-    -------
-    airspeed, groundspeed : ndarray
-        [m/s]
-    capped : ndarray of bool
-        Where the maximum airspeed limits the ground speed.
-    """
-    va, gs = wind_triangle(course_deg, wind_e, wind_n, groundspeed=groundspeed)
-    capped = va > max_airspeed
-    _, gs_cap = wind_triangle(course_deg, wind_e, wind_n,
-                              airspeed=np.full(np.shape(va), max_airspeed))
-    return np.where(capped, max_airspeed, va), np.where(capped, gs_cap, gs), capped
-
-
 def air_density_at(altitude_amsl_m, environment: Environment, temperature_c=None):
-    """Air density at altitude, with the site temperature/pressure when given.
+    """Air density at altitude in a mission's environment (:func:`atmosphere.site_density`).
 
-    A site temperature (``temperature_c``, else the environment's) shifts the
-    ISA profile; a measured site pressure is carried to altitude with the
-    barometric ratio of ISA. [kg m⁻³]
+    ``temperature_c`` (``--temperature``) overrides the environment's site temperature.
+    [kg m⁻³]
     """
-    h = np.asarray(altitude_amsl_m, dtype=float)
     t_site = temperature_c if temperature_c is not None else environment.temperature_c
-    dh = h - environment.site_altitude_m
-    t = None if t_site is None else t_site - LAPSE_RATE * dh
-    p = None
-    if environment.pressure_pa is not None:
-        p = environment.pressure_pa * (atmosphere.pressure(h)
-                                       / atmosphere.pressure(environment.site_altitude_m))
-        if t is None:
-            t = atmosphere.temperature(h) - 273.15  # ISA [°C]
-    return atmosphere.density(h, temperature_c=t, pressure_pa=p)
+    return atmosphere.site_density(altitude_amsl_m, environment.site_altitude_m, t_site,
+                                   environment.pressure_pa)
 
 
 def _column(legs, name, default=np.nan):
@@ -334,15 +257,26 @@ def leg_power(table: LegTable, aircraft: Aircraft, mass_kg):
                                   mass_kg, load_factor=table.load_factor)
 
 
+def hold_state(aircraft: Aircraft, air_density, wind_speed_ms=0.0):
+    """Flight state of holding position: ``(airspeed, climb_rate, air_density,
+    load_factor)``.
+
+    A multirotor hovers (its airspeed is the wind speed); a fixed-wing aircraft flies its
+    default loiter circle (:func:`loiter_state`).
+    """
+    if aircraft.is_multirotor:
+        return (float(wind_speed_ms), 0.0, air_density, 1.0)
+    v, n = loiter_state(aircraft)
+    return (v, 0.0, air_density, n)
+
+
 def hold_power(aircraft: Aircraft, mass_kg, air_density, wind_speed_ms=0.0):
     """Power to hold position: hover (multirotor) or loiter (fixed-wing). [W]
 
     The figure behind the margin "as extra hover or loiter time".
     """
-    if aircraft.is_multirotor:
-        return aircraft.battery_power(wind_speed_ms, 0.0, air_density, mass_kg)
-    v, n = loiter_state(aircraft)
-    return aircraft.battery_power(v, 0.0, air_density, mass_kg, load_factor=n)
+    v, climb, rho, n = hold_state(aircraft, air_density, wind_speed_ms)
+    return aircraft.battery_power(v, climb, rho, mass_kg, load_factor=n)
 
 
 def loiter_state(aircraft: Aircraft) -> tuple[float, float]:

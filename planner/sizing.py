@@ -600,7 +600,7 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
     if n == 0:
         raise InputError(f"{mission.source or mission.name}: the mission has no legs")
     chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature_c)
-    whole = chain.run(mission, env)
+    whole = chain.check(mission, env)
     temp = temperature_c if temperature_c is not None else env.temperature_c
     table = prof.leg_table(mission, aircraft, env, temperature_c=temp)
     mass = aircraft.empty_mass_kg + pack.total_mass_kg + mission.payload_kg
@@ -621,7 +621,7 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
         return at(b) - at(a)
 
     def run(a, b, k):
-        return chain.run(sortie_mission(mission, a, b, k), env)
+        return chain.check(sortie_mission(mission, a, b, k), env)
 
     sorties: list[Sortie] = []
     a = 0.0

@@ -5,7 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planner.check import MissionChain, loaded_current
+from planner.battery.circuit import loaded_current
+from planner.chain import MissionChain
 from planner.definitions import load_aircraft_and_battery
 from planner.mission.legs import Environment, Leg, Mission
 
@@ -36,7 +37,7 @@ def test_seed_hover_and_vertical_powers_through_the_chain():
             Leg("climb", start_alt_m=0, end_alt_m=30, climb_rate_ms=3, origin="c3"),
             Leg("climb", start_alt_m=30, end_alt_m=90, climb_rate_ms=6, origin="c6"),
             Leg("descend", start_alt_m=90, end_alt_m=60, climb_rate_ms=3, origin="d3")]
-    r = chain().run(Mission("seed", legs, SEA_LEVEL_20C))
+    r = chain().check(Mission("seed", legs, SEA_LEVEL_20C))
     assert r.takeoff_mass_kg == pytest.approx(0.6)
     assert r.legs["power_w"].tolist() == pytest.approx([75.2, 102.4, 129.5, 48.0], rel=0.015)
 
@@ -44,18 +45,18 @@ def test_seed_hover_and_vertical_powers_through_the_chain():
 def test_climb_power_difference_is_m_g_climb_over_eta():
     c = chain()
     legs = [Leg("hover", duration_s=10), Leg("climb", end_alt_m=20, climb_rate_ms=2.0)]
-    r = c.run(Mission("m", legs, SEA_LEVEL_20C))
+    r = c.check(Mission("m", legs, SEA_LEVEL_20C))
     dp = r.legs["power_w"][1] - r.legs["power_w"][0]
     assert dp == pytest.approx(0.6 * 9.80665 * 2.0 / 0.65, rel=0.01)
 
 
 def test_zero_length_mission_uses_no_energy():
-    r = chain().run(Mission("nothing", [Leg("hover", duration_s=0.0)], SEA_LEVEL_20C))
+    r = chain().check(Mission("nothing", [Leg("hover", duration_s=0.0)], SEA_LEVEL_20C))
     assert r.energy_wh == 0 and r.charge_used_mah == 0 and r.remaining_fraction == 1
 
 
 def test_energy_is_integral_of_power_and_charge_only_falls():
-    r = chain("solo_survey.yaml").run(out_and_back(800, hold=60))
+    r = chain("solo_survey.yaml").check(out_and_back(800, hold=60))
     assert r.energy_wh == pytest.approx(
         float(np.sum(r.legs.power_w * r.legs.duration_s)) / 3600)
     assert np.all(np.diff(r.series["remaining_fraction"]) <= 1e-12)
@@ -68,9 +69,9 @@ def test_headwind_lengthens_and_tailwind_shortens_the_same_leg(aircraft):
     is TAS ∓ wind, so the leg takes longer into the wind."""
     c = chain(aircraft)
     leg = [Leg("cruise", (0, 0), (2000, 0), 50, 50, speed_ms=12.0, speed_is_airspeed=True)]
-    still = c.run(Mission("m", leg, Environment(0, 0)))
-    head = c.run(Mission("m", leg, Environment(5, 90)))               # wind from the east
-    tail = c.run(Mission("m", leg, Environment(5, 270)))
+    still = c.check(Mission("m", leg, Environment(0, 0)))
+    head = c.check(Mission("m", leg, Environment(5, 90)))               # wind from the east
+    tail = c.check(Mission("m", leg, Environment(5, 270)))
     assert head.duration_s > still.duration_s > tail.duration_s
     assert head.legs.groundspeed_ms[0] == pytest.approx(12 - 5)
     assert tail.legs.groundspeed_ms[0] == pytest.approx(12 + 5)
@@ -82,12 +83,12 @@ def test_multirotor_holding_ground_speed_pays_in_airspeed_not_time():
     time in wind; the airspeed, and so the power, changes instead."""
     c = chain("solo_survey.yaml")
     leg = [Leg("cruise", (0, 0), (2000, 0), 50, 50)]                   # 8 m/s ground speed
-    head = c.run(Mission("m", leg, Environment(5, 90)))
-    tail = c.run(Mission("m", leg, Environment(5, 270)))
+    head = c.check(Mission("m", leg, Environment(5, 90)))
+    tail = c.check(Mission("m", leg, Environment(5, 270)))
     assert head.duration_s == pytest.approx(tail.duration_s)
     assert head.legs.airspeed_ms[0] == pytest.approx(8 + 5)
     assert tail.legs.airspeed_ms[0] == pytest.approx(8 - 5)
-    strong = c.run(Mission("m", leg, Environment(16, 90)))            # 24 m/s > max 20
+    strong = c.check(Mission("m", leg, Environment(16, 90)))            # 24 m/s > max 20
     assert strong.legs.airspeed_ms[0] == pytest.approx(20.0)
     assert strong.legs.groundspeed_ms[0] == pytest.approx(4.0)
     assert strong.duration_s > head.duration_s
@@ -96,34 +97,34 @@ def test_multirotor_holding_ground_speed_pays_in_airspeed_not_time():
 def test_crosswind_triangle_fixed_wing():
     c = chain("x8_mapper.yaml")
     leg = [Leg("cruise", (0, 0), (0, 3000), 50, 50)]                   # course 000°
-    r = c.run(Mission("m", leg, Environment(6, 90)))                    # wind from the east
+    r = c.check(Mission("m", leg, Environment(6, 90)))                    # wind from the east
     assert r.legs.groundspeed_ms[0] == pytest.approx(np.sqrt(18**2 - 6**2))
 
 
 def test_wind_stronger_than_aircraft_is_nogo_with_reason():
     c = chain("phoenix_s.yaml")
     leg = [Leg("cruise", (0, 0), (2000, 0), 50, 50, origin="legs[0]")]
-    r = c.run(Mission("m", leg, Environment(30, 90)))
+    r = c.check(Mission("m", leg, Environment(30, 90)))
     assert r.verdict == "NO-GO"
     assert any("stronger than the aircraft can fly" in why for why in r.reasons)
 
 
 def test_long_mission_is_nogo_with_landing_reserve_reason():
-    r = chain().run(out_and_back(3000, hold=600))
+    r = chain().check(out_and_back(3000, hold=600))
     assert r.verdict == "NO-GO" and r.margin_mah < 0
     assert any("reserve" in why for why in r.reasons)
 
 
 def test_short_mission_is_go_with_positive_margin_and_extra_hover_time():
-    r = chain().run(out_and_back(300, hold=30))
+    r = chain().check(out_and_back(300, hold=30))
     assert r.verdict == "GO" and r.margin_mah > 0 and r.margin_time_s > 0
     assert r.point_of_no_return is None
 
 
 def test_reserve_setting_changes_the_verdict():
     mission = out_and_back(1000, hold=120)
-    loose = chain(reserve=0.05).run(mission)
-    strict = chain(reserve=0.9).run(mission)
+    loose = chain(reserve=0.05).check(mission)
+    strict = chain(reserve=0.9).check(mission)
     assert loose.margin_mah > strict.margin_mah
     assert strict.verdict == "NO-GO"
 
@@ -135,7 +136,7 @@ def test_point_of_no_return_found_on_a_one_way_trip():
     legs = [Leg("climb", end_alt_m=20, origin="climb"),
             Leg("cruise", (0, 0), (0, 6000), 20, 20, origin="away"),
             Leg("descend", (0, 6000), (0, 6000), 20, 0, origin="land")]
-    r = c.run(Mission("one way", legs, SEA_LEVEL_20C))
+    r = c.check(Mission("one way", legs, SEA_LEVEL_20C))
     pnr = r.point_of_no_return
     assert pnr is not None and pnr["leg_origin"] == "away"
     assert 0 < pnr["distance_home_m"] < 6000
@@ -146,10 +147,10 @@ def test_margin_time_is_consistent_with_hover_charge():
     """Spending the margin as hover lands exactly at the reserve."""
     c = chain()
     base = out_and_back(300, hold=30)
-    r = c.run(base)
+    r = c.check(base)
     extra = Mission("m", base.legs[:-1] + [Leg("hover", duration_s=r.margin_time_s)]
                     + base.legs[-1:], base.environment)
-    r2 = c.run(extra)
+    r2 = c.check(extra)
     # the hover is flown at altitude (density differs by < 0.5 %), so allow a little slack
     assert r2.margin_mah == pytest.approx(0.0, abs=0.01 * r.margin_mah + 1)
 
@@ -157,8 +158,8 @@ def test_margin_time_is_consistent_with_hover_charge():
 def test_cold_dense_air_lowers_multirotor_power():
     c = chain()
     hover = [Leg("hover", duration_s=60)]
-    cold = c.run(Mission("m", hover, Environment(temperature_c=-10)))
-    hot = c.run(Mission("m", hover, Environment(temperature_c=35, site_altitude_m=2000)))
+    cold = c.check(Mission("m", hover, Environment(temperature_c=-10)))
+    hot = c.check(Mission("m", hover, Environment(temperature_c=35, site_altitude_m=2000)))
     assert cold.legs.power_w[0] < hot.legs.power_w[0]
 
 
@@ -166,7 +167,7 @@ def test_c_rating_violation_is_a_reason():
     aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
     from dataclasses import replace
     weak = replace(pack, max_discharge_c=1.0)
-    r = MissionChain(aircraft, weak).run(out_and_back(100))
+    r = MissionChain(aircraft, weak).check(out_and_back(100))
     assert any("C rating" in why for why in r.reasons)
 
 
@@ -180,7 +181,7 @@ def test_payload_and_mtow():
     c = chain()
     m = out_and_back(100)
     m.payload_kg = 1.0
-    r = c.run(m)
+    r = c.check(m)
     assert r.takeoff_mass_kg == pytest.approx(1.6)
     assert any("maximum" in why and "take-off mass" in why for why in r.reasons)
 
@@ -195,8 +196,8 @@ def test_cold_pack_nogoes_a_mission_a_warm_pack_completes():
     """Issue 'Equivalent-circuit and thermal pack model': at 0 °C R0 rises (Arrhenius)
     and the available capacity falls, so the loaded voltage reaches the cut-off sooner."""
     mission = long_hover(18)
-    warm = chain("solo_survey.yaml", temperature_c=25.0).run(mission)
-    cold = chain("solo_survey.yaml", temperature_c=0.0).run(mission)
+    warm = chain("solo_survey.yaml", temperature_c=25.0).check(mission)
+    cold = chain("solo_survey.yaml", temperature_c=0.0).check(mission)
     assert warm.verdict == "GO", warm.reasons
     assert cold.verdict == "NO-GO"
     assert any("cut-off" in why and "0 °C" in why for why in cold.reasons)
@@ -207,7 +208,7 @@ def test_cold_pack_nogoes_a_mission_a_warm_pack_completes():
 
 def test_voltage_cutoff_inside_the_mission_is_a_voltage_reason():
     c = chain("solo_survey.yaml", temperature_c=-10.0, reserve=0.0)
-    r = c.run(long_hover(30))
+    r = c.check(long_hover(30))
     assert r.verdict == "NO-GO"
     assert any("loaded voltage reaches the cut-off" in why for why in r.reasons)
     assert r.circuit["cutoff_time_s"] < r.duration_s
@@ -217,7 +218,7 @@ def test_without_circuit_block_the_simple_voltage_estimate_is_used():
     aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
     from dataclasses import replace
     plain = replace(pack, circuit=None, thermal=None)
-    r = MissionChain(aircraft, plain).run(long_hover(5))
+    r = MissionChain(aircraft, plain).check(long_hover(5))
     assert r.circuit is None and np.isfinite(r.min_voltage_v)
 
 
@@ -228,7 +229,7 @@ def test_best_speeds_fixed_wing_match_the_polar():
     aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/x8_mapper.yaml")
     ac = replace(aircraft, fixed_wing=replace(aircraft.fixed_wing, stall_speed_ms=5.0),
                  system_power_w=0.0)   # a constant load moves the range optimum faster
-    r = MissionChain(ac, pack).run(Mission("m", [Leg("hover", duration_s=60)],
+    r = MissionChain(ac, pack).check(Mission("m", [Leg("hover", duration_s=60)],
                                            SEA_LEVEL_20C))
     rho = 1.2041
     fw = ac.fixed_wing

@@ -10,7 +10,13 @@ import pytest
 from planner import select as sel
 from planner import sizing
 from planner.check import MissionChain
-from planner.definitions import IntegralModel, aircraft_from_mapping, load_aircraft, load_battery
+from planner.definitions import (
+    IntegralModel,
+    aircraft_from_mapping,
+    load_aircraft,
+    load_battery,
+    load_catalog,
+)
 from planner.errors import InputError
 from planner.mission.legs import Environment, Leg, Mission
 from planner.units import AS_PER_MAH as MAH
@@ -116,7 +122,7 @@ def long_survey(lanes=16, lane_m=1500.0, spacing=60.0, alt=40.0):
 
 
 def small_catalog():
-    packs = {p.name: p for p in sel.load_catalog(REPO / "aircraft/packs/catalog.yaml")}
+    packs = {p.name: p for p in load_catalog(REPO / "aircraft/packs/catalog.yaml")}
     return [packs[n] for n in ("DJI TB47D 4500 mAh 6S", "Molicel P42A 4S2P 8.4 Ah Li-ion",
                                "3DR Solo Smart Battery 5200 mAh 4S",
                                "Generic 3S 2200 mAh 25C LiPo")]
@@ -133,7 +139,7 @@ def test_too_long_survey_is_split_into_the_fewest_sorties_that_each_pass_check()
     chain = MissionChain(ac, plan.pack)
     # every sortie passes the pre-flight check on its own
     for s in plan.sorties:
-        r = chain.run(s.mission)
+        r = chain.check(s.mission)
         assert r.go, (s.number, r.reasons)
         assert s.mission.legs[0].start_en_m == (0.0, 0.0)
         assert s.mission.legs[-1].end_en_m == pytest.approx((0.0, 0.0))
@@ -146,7 +152,7 @@ def test_too_long_survey_is_split_into_the_fewest_sorties_that_each_pass_check()
     assert any(0.0 < s.fraction < 1.0 for s in plan.splits)   # a lane cut mid-way
     # minimal: the count meets the charge bound, so one fewer sortie cannot work —
     # (n − 1) sorties hold less integral-model stress than the route alone needs
-    whole = chain.run(mission)
+    whole = chain.check(mission)
     limit = plan.pack.usable_as - 0.2 * plan.pack.capacity_as
     needed = (whole.charge_used_mah * MAH / limit) ** plan.pack.model.beta
     assert plan.count - 1 < needed <= plan.count
@@ -169,7 +175,7 @@ def test_split_times_and_positions_are_on_the_route():
     mission = long_survey()
     pack = small_catalog()[0]
     plan = sizing.plan_sorties(mission, ac, pack)
-    table_end = MissionChain(ac, pack).run(mission).legs
+    table_end = MissionChain(ac, pack).check(mission).legs
     for s in plan.splits:
         leg = mission.legs[s.leg]
         start = np.array(leg.start_en_m)

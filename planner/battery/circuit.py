@@ -518,6 +518,40 @@ def validate_thermal_block(data: Any, where: str) -> None:
 
 # --------------------------------------------------------------------------- simulation
 
+def loaded_current(power_w, open_circuit_v, resistance_ohm):
+    r"""
+    Pack current that delivers ``power_w`` through a series resistance.
+
+    .. math:: I = \frac{V_{oc} - \sqrt{V_{oc}^2 - 4 R P}}{2 R}
+
+    the smaller root of :math:`P = (V_{oc} - I R) I` ([HESS] eq. 2 with the RC branch and
+    the hysteresis at rest), as the time step of :func:`simulate` solves it.
+
+    Parameters
+    ----------
+    power_w : numeric
+        Power drawn. [W]
+    open_circuit_v : numeric
+        Open-circuit voltage. [V]
+    resistance_ohm : numeric
+        Series resistance; 0 gives ``P / V_oc``. Broadcasts (one per pack). [Ω]
+
+    Returns
+    -------
+    current : ndarray
+        NaN where :math:`P > V_{oc}^2/(4R)`, the most the pack can deliver. [A]
+    """
+    p = np.asarray(power_w, dtype=float)
+    v = np.asarray(open_circuit_v, dtype=float)
+    r = np.asarray(resistance_ohm, dtype=float)
+    r_safe = np.where(r > 0, r, 1.0)
+    disc = v**2 - 4.0 * r_safe * p
+    with np.errstate(invalid="ignore", divide="ignore"):
+        current = np.where(disc >= 0, (v - np.sqrt(np.where(disc >= 0, disc, 0.0)))
+                           / (2 * r_safe), np.nan)
+        return np.where(r > 0, current, p / v)
+
+
 @dataclass
 class CircuitResult:
     """Time series and events of :func:`simulate` (pack quantities unless stated).
@@ -657,7 +691,7 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
     gn = ocv_tab.shape[1] - 1
     rec_n = n if record else 1
     out = np.full((12, k if record else 1, rec_n), _NAN)
-    ev = np.full((11, k), _NAN)   # events and reductions, rows documented in simulate_packs
+    ev = np.full((12, k), _NAN)   # events and reductions, rows documented in simulate_packs
     probe = np.full((k, max(n_probes, 1)), _NAN)
     z = np.full(k, soc0)
     xd = np.zeros(k)
@@ -795,6 +829,7 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
                 ev[8, i] = q[i]
             if slot >= 0:
                 probe[i, slot] = volt
+            ev[11, i] = q[i]
             if d == 0.0 or ending:
                 continue
             # state update over the step, exact for the held current
@@ -873,6 +908,8 @@ class PackRuns:
         Highest cell temperature over the window. [°C]
     window_end_charge_as : ndarray
         Charge drawn before the last sample of the window. [A s]
+    end_charge_as : ndarray
+        Charge drawn before the last sample run. [A s]
     out_of_range_time_s, out_of_range_temperature_c : ndarray
         First time a coupled pack temperature left the model's range, and that
         temperature; from then on the model's parameters use the temperature held at the
@@ -894,6 +931,7 @@ class PackRuns:
     window_min_step: np.ndarray
     window_max_temperature_c: np.ndarray
     window_end_charge_as: np.ndarray
+    end_charge_as: np.ndarray
     out_of_range_time_s: np.ndarray
     out_of_range_temperature_c: np.ndarray
     out_of_range_in_window: np.ndarray
@@ -995,7 +1033,7 @@ def simulate_packs(params_list, time_s, power_w, *, step_col=None, temperature_c
         cutoff_time_s=ev[0], cutoff_charge_as=ev[1], undeliverable_time_s=ev[2],
         empty_time_s=ev[3], window_min_voltage_v=ev[5],
         window_min_step=ev[4].astype(np.int64), window_max_temperature_c=ev[9],
-        window_end_charge_as=ev[8], out_of_range_time_s=ev[6],
+        window_end_charge_as=ev[8], end_charge_as=ev[11], out_of_range_time_s=ev[6],
         out_of_range_temperature_c=ev[7], out_of_range_in_window=ev[10] == 1.0,
         probe_voltage_v=probe[:, inverse] if uniq.size else probe[:, :0], steps=int(steps))
 

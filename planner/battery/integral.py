@@ -64,7 +64,7 @@ def _check(delta, beta):
 
 def stress_rate(power_w, delta, epsilon):
     r"""
-    Integrand :math:`1/(\delta P^\varepsilon)`; zero where the load is off.
+    Integrand :math:`1/(\delta P^\varepsilon)` of [UAV23] eq. 14; zero where the load is off.
 
     Parameters
     ----------
@@ -76,14 +76,32 @@ def stress_rate(power_w, delta, epsilon):
     Returns
     -------
     rate : numeric
-        d S / d t. [(A s)^β / s]
+        d S / d t; NaN where the power is NaN. [(A s)^β / s]
     """
     p = np.asarray(power_w, dtype=float)
-    on = p > 0
-    safe = np.where(on, p, 1.0)
-    rate = np.where(on, 1.0 / (delta * safe**epsilon), 0.0)
-    rate = np.where(np.isnan(p), np.nan, rate)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lp = np.where(p > 0, np.log(np.where(p > 0, p, 1.0)), np.where(np.isnan(p), np.nan,
+                                                                      -np.inf))
+    rate = stress_rate_from_log_power(lp, delta, epsilon)
     return rate if rate.ndim else float(rate)
+
+
+def stress_rate_from_log_power(log_power, delta, epsilon):
+    r""":func:`stress_rate` from :math:`\ln P`: :math:`e^{-\varepsilon \ln P}/\delta`.
+
+    ``log_power`` of −inf is a rest (rate 0); NaN propagates. The form the mission chain
+    uses, whose power table holds :math:`\ln P`. [(A s)^β / s]
+    """
+    lp = np.asarray(log_power, float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        rate = np.asarray(np.multiply(-np.asarray(epsilon, float), lp))
+        if rate.ndim:
+            np.exp(rate, out=rate)
+        rate = np.asarray(np.exp(rate) if not rate.ndim else rate) / np.asarray(delta, float)
+    off = ~np.isfinite(lp)
+    if off.any():
+        rate = np.where(off, np.where(np.isnan(lp), np.nan, 0.0), rate)
+    return rate
 
 
 def stress_piecewise(duration_s, power_w, delta, epsilon):
@@ -106,9 +124,11 @@ def stress_piecewise(duration_s, power_w, delta, epsilon):
 
 
 def charge_from_stress(stress, beta):
-    """Charge drawn :math:`\\hat C = S^{1/\\beta}`. [A s]"""
-    s = np.clip(np.asarray(stress, dtype=float), 0.0, None)
-    out = s ** (1.0 / beta)
+    r"""Charge drawn :math:`\hat C = S^{1/\beta}` ([UAV23] eq. 14); 0 for S ≤ 0. [A s]"""
+    st = np.asarray(stress, float)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c = np.exp(np.log(np.where(st > 0, st, 1.0)) / beta)
+    out = np.where(st > 0, c, np.where(np.isnan(st), np.nan, 0.0))
     return out if out.ndim else float(out)
 
 

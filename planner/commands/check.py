@@ -59,7 +59,7 @@ def run(args) -> int:
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
     chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature)
-    result = chain.run(mission, env)
+    result = chain.check(mission, env)
     if not args.quiet:
         print(render(result, mission.name, env))
     else:

@@ -47,7 +47,7 @@ def run(args) -> int:
     temp = parse_float(args.temperature, "--temperature", -20, 60) if args.temperature else 25.0
     step = parse_float(args.step, "--step", 0.01, 10.0)
     n_par = parse_int(args.supercap_parallel, "--supercap-parallel", 1, 100)
-    result = MissionChain(aircraft, pack, temperature_c=temp).run(mission, env)
+    result = MissionChain(aircraft, pack, temperature_c=temp).check(mission, env)
     legs = result.legs
     end = np.cumsum(legs.duration_s.to_numpy())
     if not len(end) or end[-1] <= 0:

@@ -19,7 +19,7 @@ from planner.commands.common import (
     plot_path,
     write_json,
 )
-from planner.definitions import default_battery_path, load_aircraft, load_battery
+from planner.definitions import default_battery_path, load_aircraft, load_battery, load_catalog
 from planner.errors import InputError
 from planner.mission import load_mission
 
@@ -102,7 +102,7 @@ def run_select(args) -> int:
     payload = (parse_float(args.payload, "--payload", 0.0, 1000.0)
                if args.payload is not None else None)
     aircraft = load_aircraft(args.aircraft)
-    packs = sel.load_catalog(args.packs)
+    packs = load_catalog(args.packs)
     mission = load_mission(args.mission, vehicle_type=aircraft.type)
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
