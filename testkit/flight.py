@@ -16,6 +16,7 @@ import pandas as pd
 from scipy.signal import lfilter
 
 from planner import profile as prof
+from planner.wind import wind_vector
 from planner.battery.circuit import CircuitParameters, simulate
 from planner.definitions import Aircraft, BatteryPack
 from planner.mission.legs import Environment, Mission
@@ -73,7 +74,7 @@ def simulate_flight(mission: Mission, aircraft: Aircraft, pack: BatteryPack, *,
     current = battery.current_a + current_noise_a * rng.standard_normal(t.size)
     voltage = battery.voltage_v + voltage_noise_v * rng.standard_normal(t.size)
     amsl = env.site_altitude_m + alt
-    w_e, w_n = prof.wind_vector(env.wind_speed_ms, env.wind_from_deg)
+    w_e, w_n = wind_vector(env.wind_speed_ms, env.wind_from_deg)
     from planner import atmosphere
     pressure = atmosphere.pressure(amsl) if env.pressure_pa is None else (
         env.pressure_pa * atmosphere.pressure(amsl) / atmosphere.pressure(env.site_altitude_m))
