@@ -23,7 +23,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from planner.check import MissionChain
-from planner.definitions import load_aircraft_and_battery
+from planner.parameters import load_aircraft_and_battery
 from planner.mission import load_mission
 
 

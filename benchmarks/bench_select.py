@@ -25,7 +25,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from planner.chain import MissionChain
-from planner.definitions import BatteryPack, load_aircraft
+from planner.parameters import BatteryPack, load_aircraft
 from planner.mission.legs import Environment, Leg, Mission
 from planner.select import evaluate_packs
 
@@ -75,7 +75,7 @@ def catalog(k: int, seed: int = 1) -> list[BatteryPack]:
         cap = float(rng.uniform(1500, 22000))
         model = None
         if rng.random() < 0.4:
-            from planner.definitions import IntegralModel
+            from planner.parameters import IntegralModel
             model = IntegralModel(float(rng.uniform(3.5, 5.0)) * cells,
                                   float(rng.uniform(-1.05, -0.99)), 0.9648)
         packs.append(BatteryPack(

@@ -39,7 +39,7 @@ if str(REPO) not in sys.path:           # run from a fresh clone without install
 import numpy as np
 import pandas as pd
 
-from planner.definitions import load_aircraft_and_battery
+from planner.parameters import load_aircraft_and_battery
 from planner.fit_aircraft import with_params
 from planner.mission import load_mission
 from planner.mission.legs import Environment, Mission

@@ -56,13 +56,7 @@ from planner.battery import integral
 from planner.battery.circuit import loaded_current, simulate_packs
 from planner.battery.ocv import lipo_ocv
 from planner.battery.thermal import T_RANGE_C
-from planner.definitions import (
-    Aircraft,
-    BatteryPack,
-    IntegralModel,
-    filled_temperature,
-    load_aircraft_and_battery,
-)
+from planner.parameters import Aircraft, BatteryPack, IntegralModel, load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
 from planner.powertable import PowerTable
@@ -877,10 +871,25 @@ class MissionChain:
 
 # --------------------------------------------------------------------------- helpers
 
+def filled_temperature(temperature_c) -> np.ndarray | None:
+    """Temperatures with missing samples filled from the nearest valid ones; ``None``
+    when there are none. [°C]"""
+    if temperature_c is None:
+        return None
+    temp = np.asarray(temperature_c, dtype=float).ravel()
+    ok = np.isfinite(temp)
+    if not ok.any():
+        return None
+    if not ok.all():
+        idx = np.arange(temp.size)
+        temp = np.interp(idx, idx[ok], temp[ok])
+    return temp
+
+
 def _pack_arrays(packs, temperature_c):
     """Per-pack parameters as arrays (one Python pass over the packs).
 
-    The totals are those of :class:`~planner.definitions.BatteryPack` (``count`` packs
+    The totals are those of :class:`~planner.parameters.BatteryPack` (``count`` packs
     in parallel: mass and capacity × count, resistance ÷ count).
     """
     nan = float("nan")

@@ -1,6 +1,6 @@
 """Identify an aircraft's power parameters from flights.
 
-The physics model (:meth:`planner.definitions.Aircraft.battery_power`) driven
+The physics model (:meth:`planner.parameters.Aircraft.battery_power`) driven
 by the measured flight state (:func:`planner.replay.flight_state`) is fitted
 to the measured electric power of the airborne samples by least squares
 (:func:`scipy.optimize.least_squares`):
@@ -31,7 +31,7 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from planner import record
-from planner.definitions import Aircraft
+from planner.parameters import Aircraft
 from planner.errors import FitError, InputError
 from planner.replay import flight_phases, flight_state
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from planner import atmosphere
 from planner.wind import capped_groundspeed, wind_triangle, wind_vector
-from planner.definitions import Aircraft
+from planner.parameters import Aircraft
 from planner.mission.legs import LEG_KINDS, Environment, Mission
 
 #: Points per leg at which the return-home reserve is checked.

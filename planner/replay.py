@@ -11,7 +11,7 @@ Two levels, per experiment (flight or discharge):
   pack that carries diagnose's extensions (``temperature_coefficient_per_c``,
   ``fade_per_cycle``) has them applied: each increment of charge is scaled by
   the logged pack temperature of that moment
-  (:meth:`planner.definitions.IntegralModel.extend_charge`).
+  (:meth:`planner.parameters.IntegralModel.extend_charge`).
 * **power** (with an aircraft) — the physics model driven by the measured
   airspeed (else ground speed corrected with the logged wind, else ground
   speed), climb rate, air density (measured pressure and temperature, else
@@ -40,7 +40,8 @@ import pandas as pd
 
 from planner import atmosphere, record
 from planner.battery import integral
-from planner.definitions import Aircraft, BatteryPack, IntegralModel, filled_temperature
+from planner.chain import filled_temperature
+from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.units import AS_PER_MAH
 
 R_AIR = 287.05287

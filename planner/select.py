@@ -24,7 +24,7 @@ import pandas as pd
 
 from planner.atmosphere import G
 from planner.chain import CHECK_CONSTRAINTS, ChainResult, MissionChain
-from planner.definitions import Aircraft, BatteryPack
+from planner.parameters import Aircraft, BatteryPack
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
 

@@ -16,7 +16,7 @@ Three questions a UAV operator asks before buying packs or planning a long job:
   and pass :meth:`planner.check.MissionChain.run` with the reserves.
 
 All three use the same models as ``check``: the aircraft's battery power
-(:meth:`planner.definitions.Aircraft.battery_power`, :func:`planner.profile.hold_power`)
+(:meth:`planner.parameters.Aircraft.battery_power`, :func:`planner.profile.hold_power`)
 and the integral capacity model (:func:`planner.battery.integral.time_to_charge`).
 """
 
@@ -33,7 +33,7 @@ from scipy.optimize import minimize_scalar
 from planner import profile as prof
 from planner.battery import integral
 from planner.check import MissionChain, MissionResult
-from planner.definitions import Aircraft, BatteryPack, IntegralModel
+from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.errors import InputError
 from planner.mission.legs import Environment, Leg, Mission
 from planner.units import AS_PER_MAH
@@ -146,7 +146,7 @@ def endurance_sweep(aircraft: Aircraft, battery_mass_kg, *, specific_energy_wh_p
     model : IntegralModel, optional
         Integral capacity model; None = the literature start values δ₀(N), ε₀(N),
         β = 0.9648 with δ rescaled to each capacity, as a pack file without a fitted
-        model gets (:meth:`planner.definitions.IntegralModel.from_literature`).
+        model gets (:meth:`planner.parameters.IntegralModel.from_literature`).
     usable_fraction : float, default 1
     payload_kg : float, default 0
     reserve : float, default 0.2

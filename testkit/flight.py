@@ -17,8 +17,8 @@ from scipy.signal import lfilter
 
 from planner import profile as prof
 from planner.wind import wind_vector
-from planner.battery.circuit import CircuitParameters, simulate
-from planner.definitions import Aircraft, BatteryPack
+from planner.battery.circuit import simulate
+from planner.parameters import Aircraft, BatteryPack
 from planner.mission.legs import Environment, Mission
 
 
@@ -69,7 +69,7 @@ def simulate_flight(mission: Mission, aircraft: Aircraft, pack: BatteryPack, *,
     gust = lfilter([np.sqrt(1 - a * a)], [1.0, -a], rng.standard_normal(t.size))
     power = power_leg[leg] * (1.0 + turbulence * gust)
 
-    params = CircuitParameters.from_pack(pack)
+    params = pack.circuit_parameters()
     battery = simulate(params, t, power_w=power, temperature_c=temperature_c)
     current = battery.current_a + current_noise_a * rng.standard_normal(t.size)
     voltage = battery.voltage_v + voltage_noise_v * rng.standard_normal(t.size)

@@ -32,8 +32,8 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
-from planner.battery.circuit import CircuitParameters, simulate
-from planner.definitions import aircraft_from_mapping, battery_from_mapping
+from planner.battery.circuit import simulate
+from planner.parameters import aircraft_from_mapping, battery_from_mapping
 
 G0 = 9.80665
 R_AIR = 287.05287
@@ -62,7 +62,7 @@ def battery(mapping=None):
 def _circuit(pack_map, *, temp_coeff=0.0, activation=0.0, capacity_factor=1.0,
              r0_factor=1.0):
     pack = battery(pack_map)
-    p = CircuitParameters.from_pack(pack)
+    p = pack.circuit_parameters()
     return replace(p, capacity_temp_coeff_per_c=temp_coeff, r0_activation_energy_j_mol=activation,
                    capacity_ah=p.capacity_ah * capacity_factor, r0_ohm=p.r0_ohm * r0_factor)
 

@@ -15,7 +15,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from planner import record
 from planner.battery import bench, design, fit
-from planner.definitions import load_battery
+from planner.parameters import load_battery
 from planner.errors import InputError
 
 POWERS = (50.0, 75.0, 100.0, 125.0)

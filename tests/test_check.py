@@ -7,7 +7,7 @@ import pytest
 
 from planner.battery.circuit import loaded_current
 from planner.chain import MissionChain
-from planner.definitions import load_aircraft_and_battery
+from planner.parameters import load_aircraft_and_battery
 from planner.mission.legs import Environment, Leg, Mission
 
 REPO = Path(__file__).resolve().parents[1]

@@ -7,16 +7,16 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
 
-from planner.battery import ocv as ocv_mod
 from planner.battery.circuit import (
     CircuitParameters,
     simulate,
-    validate_circuit_block,
-    validate_thermal_block,
 )
-from planner.battery.ocv import OcvTable, lipo_ocv, read_ocv_csv
+from planner.battery.ocv import OcvTable, lipo_ocv
 from planner.battery.thermal import ThermalParameters
 from planner.errors import InputError, ModelError
+from planner.parameters.blocks import circuit_block, circuit_from_mapping, circuit_to_mapping, thermal_from_mapping
+from planner.parameters import BatteryPack
+from planner.parameters.ocv import read_ocv_csv, write_ocv_csv
 
 
 def cell(**kw):
@@ -258,16 +258,16 @@ def test_coupled_thermal_runaway_beyond_range_is_a_model_error():
 def test_from_mapping_round_trip_and_defaults():
     block = {"capacity_ah": 5.0, "r0_ohm": {"soc": [0.0, 0.5, 1.0], "ohm": [0.01, 0.006, 0.007]},
              "r1_ohm": 0.003, "c1_f": 8000, "hysteresis_v": 0.01, "hysteresis_gamma": 30}
-    p = CircuitParameters.from_mapping(block, "pack.yaml", cells_series=6)
+    p = circuit_from_mapping(block, "pack.yaml", cells_series=6)
     assert p.cells_series == 6 and p.cells_parallel == 1
     assert p.r0_cell_ohm(0.25) == pytest.approx(0.008)
     assert p.r0_activation_energy_j_mol == 25_000.0
-    again = CircuitParameters.from_mapping(p.to_mapping(), "x")
-    assert again.to_mapping() == p.to_mapping()
+    again = circuit_from_mapping(circuit_to_mapping(p), "x")
+    assert circuit_to_mapping(again) == circuit_to_mapping(p)
 
 
 def test_from_mapping_takes_capacity_and_r0_from_the_pack():
-    p = CircuitParameters.from_mapping({}, "pack.yaml", capacity_ah=10.0, r0_ohm=0.005,
+    p = circuit_from_mapping({}, "pack.yaml", capacity_ah=10.0, r0_ohm=0.005,
                                        cells_series=4, cells_parallel=2)
     assert (p.capacity_ah, p.r0_ohm, p.pack_capacity_ah) == (10.0, 0.005, 20.0)
     assert p.r0_pack_ohm(0.5) == pytest.approx(0.01)
@@ -287,13 +287,13 @@ def test_from_mapping_takes_capacity_and_r0_from_the_pack():
 ])
 def test_from_mapping_errors_name_the_key(block, match):
     with pytest.raises(InputError, match=match) as err:
-        CircuitParameters.from_mapping(block, "aircraft/batteries/x.yaml")
+        circuit_from_mapping(block, "aircraft/batteries/x.yaml")
     assert str(err.value).startswith("aircraft/batteries/x.yaml: ")
 
 
 def test_all_problems_reported_at_once():
     with pytest.raises(InputError) as err:
-        CircuitParameters.from_mapping({"capacity_ah": -1, "r0_ohm": -1, "r1_ohm": -2}, "f.yaml")
+        circuit_from_mapping({"capacity_ah": -1, "r0_ohm": -1, "r1_ohm": -2}, "f.yaml")
     msg = str(err.value)
     assert "capacity_ah" in msg and "r0_ohm" in msg and "r1_ohm" in msg
 
@@ -306,38 +306,35 @@ def test_dataclass_rejects_impossible_values():
 
 
 def test_validate_blocks_for_the_battery_loader():
-    validate_circuit_block({"r1_ohm": 0.002, "c1_f": 5000}, "x.yaml")   # capacity from pack
+    circuit_block({"r1_ohm": 0.002, "c1_f": 5000}, "x.yaml")   # capacity from pack
     with pytest.raises(InputError, match="x.yaml: unknown key 'circuit.r2_ohm'"):
-        validate_circuit_block({"r2_ohm": 1.0}, "x.yaml")
-    validate_thermal_block({"r_th_k_per_w": 2.0, "c_th_j_per_k": 800}, "x.yaml")
+        circuit_block({"r2_ohm": 1.0}, "x.yaml")
+    thermal_from_mapping({"r_th_k_per_w": 2.0, "c_th_j_per_k": 800}, "x.yaml")
     with pytest.raises(InputError, match="thermal.c_th_j_per_k"):
-        validate_thermal_block({"r_th_k_per_w": 2.0}, "x.yaml")
+        thermal_from_mapping({"r_th_k_per_w": 2.0}, "x.yaml")
 
 
 def test_ocv_csv_relative_to_the_yaml_file(tmp_path):
     (tmp_path / "cell_ocv.csv").write_text(
         "soc [1], ocv [V]\n0.0, 3.0\n0.5, 3.7\n1.0, 4.2\n", encoding="utf-8")
-    p = CircuitParameters.from_mapping({"capacity_ah": 1, "r0_ohm": 0.01,
+    p = circuit_from_mapping({"capacity_ah": 1, "r0_ohm": 0.01,
                                         "ocv_csv": "cell_ocv.csv"},
                                        str(tmp_path / "pack.yaml"))
     assert isinstance(p.ocv, OcvTable)
     assert p.ocv(0.25) == pytest.approx(3.35)
-    assert p.to_mapping()["ocv_csv"] == "cell_ocv.csv"
+    assert circuit_to_mapping(p)["ocv_csv"] == "cell_ocv.csv"
     with pytest.raises(InputError, match="circuit.ocv_csv: .*missing.csv: OCV file not found"):
-        CircuitParameters.from_mapping({"capacity_ah": 1, "r0_ohm": 0.01,
+        circuit_from_mapping({"capacity_ah": 1, "r0_ohm": 0.01,
                                         "ocv_csv": "missing.csv"}, str(tmp_path / "pack.yaml"))
 
 
-def test_from_pack_uses_pack_fields():
-    class Pack:
-        cells_series, cells_parallel, capacity_mah = 4, 2, 10000.0
-        internal_resistance_ohm, count, path = 0.02, 2, "p.yaml"
-
-        def __init__(self):
-            self.circuit = {"r1_ohm": 0.002, "c1_f": 9000.0}
-
-    p = CircuitParameters.from_pack(Pack())
+def test_pack_circuit_uses_pack_fields():
+    pack = BatteryPack(name="p", cells_series=4, cells_parallel=2, capacity_mah=10000.0,
+                       mass_kg=1.0, internal_resistance_ohm=0.02, count=2,
+                       circuit=circuit_block({"r1_ohm": 0.002, "c1_f": 9000.0}, "p.yaml"))
+    p = pack.circuit_parameters()
     assert p.capacity_ah == 5.0 and p.cells_parallel == 4 and p.r0_ohm == pytest.approx(0.01)
+    assert p.r1_ohm == 0.002 and p.c1_f == 9000.0
 
 
 # --------------------------------------------------------------------------- OCV tables
@@ -356,7 +353,7 @@ def test_ocv_csv_reading_units_and_order(tmp_path):
     assert np.isnan(table(np.nan))
     assert table.soc_from_ocv(3.35) == pytest.approx(0.25)
     out = tmp_path / "out.csv"
-    ocv_mod.write_ocv_csv(out, table)
+    write_ocv_csv(out, table)
     assert_allclose(read_ocv_csv(out).ocv_v, table.ocv_v)
 
 

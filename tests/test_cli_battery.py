@@ -13,7 +13,8 @@ from test_fit import TRUE, constant, scheduled
 
 from planner.battery import design, fit, integral, vda
 from planner.cli import main
-from planner.definitions import load_battery
+from planner.parameters import load_battery
+from planner.parameters.schedule import read_schedule
 
 REPO = Path(__file__).resolve().parents[1]
 MULTISTAR = REPO / "aircraft" / "batteries" / "multistar_10ah_4s.yaml"
@@ -190,7 +191,7 @@ def test_design_two_step(tmp_path, capsys):
     test = design.two_step(50, 125, 1, 36000.0, pack.model.delta, pack.model.epsilon,
                            pack.model.beta)
     assert f"t1 = {test.t1_s:.0f} s" in stdout and f"total:  {test.total_s:.0f} s" in stdout
-    back = design.read_schedule(out)
+    back = read_schedule(out)
     assert back["power_w"].tolist() == [50.0, 125.0]
     assert back["duration_s"].to_numpy() == pytest.approx([test.t1_s, test.t2_s], rel=1e-5)
 
@@ -209,7 +210,7 @@ def test_design_aprbs(tmp_path, capsys):
                               "--out", path)
         assert rc == 0, err
     assert a.read_text() == b.read_text()
-    s = design.read_schedule(a)
+    s = read_schedule(a)
     pd.testing.assert_frame_equal(s, design.aprbs([50, 75, 100, 125], (30, 300), 3500, 1),
                                   check_exact=False)
     assert "seed 1" in stdout
@@ -258,7 +259,7 @@ def test_fit_battery_circuit_option_writes_a_circuit_block(tmp_path):
     from planner.battery.circuit import CircuitParameters, simulate
     from planner.battery.identify import pulse_test_profile
     from planner.cli import main
-    from planner.definitions import load_battery
+    from planner.parameters import load_battery
 
     truth = CircuitParameters(capacity_ah=5.0, r0_ohm=0.006, r1_ohm=0.004, c1_f=7500.0,
                               cells_series=4)
@@ -282,9 +283,9 @@ def test_fit_battery_circuit_option_writes_a_circuit_block(tmp_path):
                  "--cells", "4", "--mass-kg", "0.6", "--circuit", str(pulse)])
     assert code == 0
     pack = load_battery(out)
-    assert pack.circuit["r1_ohm"] == pytest.approx(0.004, rel=0.05)
-    assert pack.circuit["c1_f"] == pytest.approx(7500.0, rel=0.05)
-    params = CircuitParameters.from_pack(pack)
+    assert pack.circuit.r1_ohm == pytest.approx(0.004, rel=0.05)
+    assert pack.circuit.c1_f == pytest.approx(7500.0, rel=0.05)
+    params = pack.circuit_parameters()
     assert params.r0_cell_ohm(0.5, 25.0) == pytest.approx(0.006, rel=0.05)
 
 
@@ -320,10 +321,9 @@ def test_circuit_rates_on_real_molicel_p42a_cells(tmp_path, capsys, shared_data)
     assert rc == 0, err
     assert (tmp_path / "p42a_ocv.csv").is_file()
     pack = load_battery(out)
-    assert pack.circuit["ocv_csv"] == "p42a_ocv.csv"
-    assert 0.006 < pack.circuit["r0_ohm"] < 0.010
-    from planner.battery.circuit import CircuitParameters
-    params = CircuitParameters.from_pack(pack)
+    assert pack.circuit.ocv_csv == "p42a_ocv.csv"
+    assert 0.006 < pack.circuit.r0_ohm < 0.010
+    params = pack.circuit_parameters()
     assert params.ocv(1.0) == pytest.approx(4.19, abs=0.02)    # the rested full cell
     assert 3.4 < params.ocv(0.3) < 3.7                          # not the LiPo curve's shape
     scores = json.loads((tmp_path / "fit.json").read_text())["circuit_validation"]

@@ -82,11 +82,11 @@ def test_select_none_feasible_exits_1_and_plans_sorties(tmp_path):
 @pytest.mark.parametrize("content, needles", [
     (("packs:\n  - {name: a, cells_series: 4, capacity_mah: 5000, mass_kg: 0.5}\n"
       "  - {name: b, cells_series: 4, capacity_mah: 5000, mass_kg: 0.5, colour: red}\n"),
-     ["packs[1]", "colour"]),
+     ["packs[2]", "colour"]),
     ("packs:\n  - {name: a, cells_series: 4, capacity_mah: 5000, mass_kg: -0.5}\n",
-     ["packs[0]", "mass_kg"]),
+     ["packs[1]", "mass_kg"]),
     (("packs:\n  - {name: a, cells_series: 4, capacity_mah: 5000, mass_kg: 0.5, "
-      "max_discharge_c: -3}\n"), ["packs[0]", "max_discharge_c"]),
+      "max_discharge_c: -3}\n"), ["packs[1]", "max_discharge_c"]),
 ])
 def test_bad_catalog_exits_2_with_one_line_naming_file_and_key(tmp_path, content, needles):
     cat = tmp_path / "bad_catalog.yaml"

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.definitions import load_aircraft, load_aircraft_and_battery, load_battery
+from planner.parameters import load_aircraft, load_aircraft_and_battery, load_battery
 from planner.errors import InputError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -147,7 +147,7 @@ def test_round_trip_to_mapping(tmp_path):
 
 def test_literature_model_for_large_packs_scales_with_voltage():
     """The start-value polynomials turn over above 6 cells; δ keeps growing as N^(−ε)."""
-    from planner.definitions import IntegralModel
+    from planner.parameters import IntegralModel
     deltas = [IntegralModel.from_literature(n).delta for n in range(3, 15)]
     assert all(b > a for a, b in zip(deltas, deltas[1:]))
     assert IntegralModel.from_literature(12).delta == pytest.approx(

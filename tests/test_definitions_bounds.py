@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 import yaml
 
-from planner import definitions as D
+from planner.parameters import aircraft as D
 from planner.cli import main
 from planner.commands.common import parse_wind
-from planner.definitions import load_aircraft, load_battery
+from planner.parameters import load_aircraft, load_battery
 from planner.errors import InputError
 
 REPO = Path(__file__).resolve().parents[1]

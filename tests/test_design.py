@@ -6,6 +6,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from planner.battery import design, integral
+from planner.parameters.schedule import read_schedule, write_schedule
 
 M_CONST = {"delta": 23.6482, "epsilon": -1.0209, "beta": 0.9648}  # seed Table 5
 
@@ -142,7 +143,7 @@ def test_aprbs_rejects_bad_parameters(kw, match):
 
 def test_schedule_csv_round_trip_for_a_programmable_load(tmp_path):
     s = design.aprbs([50, 75, 100, 125], rng=2)
-    path = design.write_schedule(s, tmp_path / "schedule.csv", comment="seed=2")
+    path = write_schedule(s, tmp_path / "schedule.csv", comment="seed=2")
     lines = path.read_text().splitlines()
     assert lines[0].startswith("#") and "[s]" in lines[1] and "[W]" in lines[1]
     assert "# seed=2" in lines
@@ -151,7 +152,7 @@ def test_schedule_csv_round_trip_for_a_programmable_load(tmp_path):
     assert list(raw.columns) == ["time_s", "power_w"]
     assert raw["power_w"].iloc[-1] == 0.0  # load off at the end
     assert raw["time_s"].iloc[-1] == pytest.approx(s["duration_s"].sum())
-    back = design.read_schedule(path)
+    back = read_schedule(path)
     assert_allclose(back.to_numpy(), s.to_numpy())
 
 

@@ -9,7 +9,7 @@ import yaml
 from diagnose_generators import PACK_6S, PACK_10AH, aircraft_file, capacity_dataset, power_dataset
 
 from planner.cli import main
-from planner.definitions import load_aircraft, load_battery
+from planner.parameters import load_aircraft, load_battery
 
 REPO = Path(__file__).resolve().parents[1]
 SOLO = str(REPO / "aircraft/solo_survey.yaml")

@@ -21,6 +21,7 @@ from planner.battery.identify import (
 from planner.battery.ocv import lipo_ocv
 from planner.battery.thermal import lumped_temperature
 from planner.errors import FitError
+from planner.parameters.blocks import circuit_from_mapping, circuit_to_mapping
 
 TRUE = CircuitParameters(capacity_ah=5.0,
                          r0_ohm={"soc": [0.0, 0.5, 1.0], "ohm": [0.012, 0.008, 0.009]},
@@ -78,7 +79,7 @@ def test_pulse_test_round_trip_r0_r1_c1_within_5_percent(pulse_record):
     assert fit.params["hysteresis_v"] == pytest.approx(0.005, rel=0.1)
     # the result is a valid circuit block
     block = dict(fit.params, capacity_ah=5.0)
-    assert CircuitParameters.from_mapping(block, "fit").r1_ohm == fit.params["r1_ohm"]
+    assert circuit_from_mapping(block, "fit").r1_ohm == fit.params["r1_ohm"]
 
 
 def test_pulse_test_without_the_ocv_is_within_its_standard_errors(pulse_record):
@@ -92,7 +93,7 @@ def test_pulse_test_without_the_ocv_is_within_its_standard_errors(pulse_record):
 
 def test_pulse_test_of_a_pack_with_known_ocv_and_hysteresis(pulse_record):
     # 3S1P pack: per-cell values come back; with the OCV known the hysteresis is fitted too
-    pack = CircuitParameters(**{**TRUE.to_mapping(), "cells_series": 3,
+    pack = CircuitParameters(**{**circuit_to_mapping(TRUE), "cells_series": 3,
                                 "r0_ohm": (TRUE.r0_ohm[0], TRUE.r0_ohm[1])})
     prof = pulse_test_profile(5.0, dt_s=0.2, soc_levels=(0.8, 0.5, 0.2))
     sim = simulate(pack, prof.time_s, current_a=prof.current_a)

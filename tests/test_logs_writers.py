@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from planner.definitions import load_aircraft_and_battery
+from planner.parameters import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.logs import read_log
 from planner.mission import load_mission

@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 from planner import select as sel
-from planner.battery import integral
 from planner.battery.circuit import loaded_current
 from planner.chain import MissionChain
-from planner.definitions import IntegralModel, load_aircraft, load_battery, load_catalog
+from planner.parameters import IntegralModel, load_aircraft, load_battery, load_catalog
 from planner.errors import InputError
 from planner.mission import load_mission
 from planner.mission.legs import Environment, Leg, Mission
@@ -332,12 +331,12 @@ def test_catalog_folder_of_pack_files(tmp_path):
 @pytest.mark.parametrize("text, needles", [
     (("packs:\n  - {name: a, cells_series: 3, capacity_mah: 2000, mass_kg: 0.2}\n"
       "  - {name: b, cells_series: 4, capacity_mah: 3000, mass_kg: 0.3, weight_kg: 1}\n"),
-     ["packs[1]", "weight_kg"]),
+     ["packs[2]", "weight_kg"]),
     ("packs:\n  - {name: a, cells_series: 3, capacity_mah: 2000, mass_kg: -0.2}\n",
-     ["packs[0]", "mass_kg", "> 0"]),
+     ["packs[1]", "mass_kg", "> 0"]),
     (("packs:\n  - {name: a, cells_series: 3, capacity_mah: 2000, mass_kg: 0.2, price: -1}\n"
       "  - {name: b, cells_series: 3, capacity_mah: 2000}\n"),
-     ["packs[0]", "price", "packs[1]", "mass_kg"]),
+     ["packs[1]", "price", "packs[2]", "mass_kg"]),
     ("packs: []\n", ["empty"]),
     ("pack:\n  - {name: a}\n", ["unknown key 'pack'", "packs"]),
     ("packs: {name: a}\n", ["packs must be a list"]),

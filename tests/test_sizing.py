@@ -10,7 +10,7 @@ import pytest
 from planner import select as sel
 from planner import sizing
 from planner.check import MissionChain
-from planner.definitions import (
+from planner.parameters import (
     IntegralModel,
     aircraft_from_mapping,
     load_aircraft,

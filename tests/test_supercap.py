@@ -22,6 +22,7 @@ from planner.battery.supercap import (
     simulate_supercap,
 )
 from planner.errors import InputError, ModelError
+from planner.parameters.blocks import supercap_from_mapping, supercap_to_mapping
 
 # --------------------------------------------------------------------------- supercap
 
@@ -90,15 +91,15 @@ def test_slow_branch_redistribution_conserves_charge():
 
 
 def test_supercap_mapping_and_errors():
-    p = SupercapParameters.from_mapping(BCAP1500.to_mapping(), "hess.yaml")
+    p = supercap_from_mapping(supercap_to_mapping(BCAP1500), "hess.yaml")
     assert p == BCAP1500
     with pytest.raises(InputError, match=r"hess.yaml: .*unknown key 'supercap.esr_ohm'"):
-        SupercapParameters.from_mapping({"c0_f": 1.0, "r_fast_ohm": 1.0, "esr_ohm": 1},
+        supercap_from_mapping({"c0_f": 1.0, "r_fast_ohm": 1.0, "esr_ohm": 1},
                                         "hess.yaml")
     with pytest.raises(InputError, match="supercap.c0_f must be > 0"):
-        SupercapParameters.from_mapping({"c0_f": -1.0, "r_fast_ohm": 1.0}, "hess.yaml")
+        supercap_from_mapping({"c0_f": -1.0, "r_fast_ohm": 1.0}, "hess.yaml")
     with pytest.raises(InputError, match="come together"):
-        SupercapParameters.from_mapping({"c0_f": 1.0, "r_fast_ohm": 1.0, "r_slow_ohm": 1.0},
+        supercap_from_mapping({"c0_f": 1.0, "r_fast_ohm": 1.0, "r_slow_ohm": 1.0},
                                         "hess.yaml")
     with pytest.raises(InputError, match="r_fast_ohm must be a number > 0"):
         SupercapParameters(c0_f=1.0, r_fast_ohm=-0.1)

@@ -14,6 +14,7 @@ from planner.battery.thermal import (
     steady_state_temperature,
 )
 from planner.errors import InputError, ModelError
+from planner.parameters.blocks import thermal_from_mapping, thermal_to_mapping
 
 
 def test_steady_state_is_air_plus_rth_q():
@@ -73,15 +74,15 @@ def test_heat_generation_steady_state_r0_plus_r1():
 
 
 def test_thermal_block_validation():
-    th = ThermalParameters.from_mapping({"r_th_k_per_w": 2.0, "c_th_j_per_k": 800.0,
+    th = thermal_from_mapping({"r_th_k_per_w": 2.0, "c_th_j_per_k": 800.0,
                                          "t_air_c": 5.0}, "pack.yaml")
     assert th.tau_s == 1600.0 and th.initial_c == 5.0
-    assert ThermalParameters.from_mapping(th.to_mapping(), "x") == th
+    assert thermal_from_mapping(thermal_to_mapping(th), "x") == th
     with pytest.raises(InputError, match=r"pack.yaml: .*unknown key 'thermal.r_th_k_w' "
                                          r"\(did you mean 'thermal.r_th_k_per_w'\?\)"):
-        ThermalParameters.from_mapping({"r_th_k_w": 2.0, "c_th_j_per_k": 800.0}, "pack.yaml")
+        thermal_from_mapping({"r_th_k_w": 2.0, "c_th_j_per_k": 800.0}, "pack.yaml")
     with pytest.raises(InputError, match="thermal.c_th_j_per_k must be > 0"):
-        ThermalParameters.from_mapping({"r_th_k_per_w": 2.0, "c_th_j_per_k": -8.0}, "p.yaml")
+        thermal_from_mapping({"r_th_k_per_w": 2.0, "c_th_j_per_k": -8.0}, "p.yaml")
     with pytest.raises(InputError, match="r_th_k_per_w must be a number > 0"):
         ThermalParameters(r_th_k_per_w=-1.0, c_th_j_per_k=1.0)
 

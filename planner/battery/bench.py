@@ -225,15 +225,15 @@ class BenchPack:
 
     @classmethod
     def from_battery(cls, pack, **overrides) -> BenchPack:
-        """A bench pack from a :class:`planner.definitions.BatteryPack`.
+        """A bench pack from a :class:`planner.parameters.BatteryPack`.
 
-        The circuit comes from :meth:`CircuitParameters.from_pack` (the pack's
+        The circuit comes from :meth:`planner.parameters.BatteryPack.circuit_parameters` (the pack's
         ``circuit:`` block, R0 from ``internal_resistance_ohm``), the cut-off
         from ``cell_voltage_empty_v`` (3.5 V when absent) and the design model
         from ``model``. ``overrides`` set other fields (``available_fraction``,
         ``diffusion_tau_s``, ...).
         """
-        circuit = CircuitParameters.from_pack(pack)
+        circuit = pack.circuit_parameters()
         cut = getattr(pack, "cell_voltage_empty_v", None) or SEED_CUTOFF_CELL_V
         m = pack.model
         kw = {"circuit": circuit, "v_cutoff_cell": float(cut), "name": str(pack.name),

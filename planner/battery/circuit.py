@@ -128,15 +128,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import Any
 
 import numba
 import numpy as np
 import pandas as pd
 
-from planner import schema as S
-from planner.battery.ocv import lipo_ocv, read_ocv_csv
+from planner.battery.ocv import lipo_ocv
 from planner.battery.thermal import T_RANGE_C, ThermalParameters, check_temperature
 from planner.errors import InputError, ModelError
 
@@ -149,31 +147,11 @@ DEFAULT_CAPACITY_TEMP_COEFF = 0.006
 #: Points of the uniform SoC grid on which OCV and R0(SoC) are tabulated for the time loop.
 _GRID_N = 4001
 
-CIRCUIT_KEYS = {
-    "capacity_ah": S.positive(high=2000.0),
-    "r0_ohm": S.Key(S.ANY),
-    "r1_ohm": S.non_negative(default=0.0, high=10.0),
-    "c1_f": S.positive(),
-    "hysteresis_v": S.non_negative(default=0.0, high=0.5),
-    "hysteresis_gamma": S.non_negative(high=1e5),
-    "ocv_csv": S.Key(S.TEXT),
-    "r0_activation_energy_j_mol": S.Key(S.NUMBER, default=DEFAULT_R0_ACTIVATION_J_MOL,
-                                        low=0.0, high=200_000.0),
-    "capacity_temp_coeff_per_c": S.Key(S.NUMBER, default=DEFAULT_CAPACITY_TEMP_COEFF,
-                                       low=0.0, high=0.02),
-    "reference_temperature_c": S.Key(S.NUMBER, default=25.0, low=T_RANGE_C[0],
-                                     high=T_RANGE_C[1]),
-    "coulombic_efficiency": S.Key(S.NUMBER, default=1.0, low=0.0, low_open=True, high=1.0),
-    "cells_series": S.Key(S.INTEGER, low=1, high=40),
-    "cells_parallel": S.Key(S.INTEGER, low=1, high=100),
-    "source": S.Key(S.TEXT),
-}
-
-
 # --------------------------------------------------------------------------- parameters
 
-def _r0_table(value: Any, key: str, problems: list[str]):
-    """Parse ``r0_ohm``: a number or ``{soc: [...], ohm: [...]}``; append problems."""
+def parse_r0(value: Any, key: str, problems: list[str]):
+    """Parse ``r0_ohm``: a number, a ``(soc, ohm)`` pair or ``{soc: [...], ohm: [...]}``;
+    append what is wrong to ``problems`` (naming ``key``) and return None."""
     if isinstance(value, bool):
         problems.append(f"{key} must be a number or a mapping {{soc: [...], ohm: [...]}}, "
                         f"got {value!r}")
@@ -276,7 +254,7 @@ class CircuitParameters:
 
     def __post_init__(self):
         problems: list[str] = []
-        r0 = _r0_table(self.r0_ohm, "r0_ohm", problems)
+        r0 = parse_r0(self.r0_ohm, "r0_ohm", problems)
         if r0 is not None:
             object.__setattr__(self, "r0_ohm", r0)
 
@@ -374,147 +352,6 @@ class CircuitParameters:
         with np.errstate(divide="ignore"):
             p = np.where(r > 0, v * v / (4.0 * np.where(r > 0, r, 1.0)), np.inf)
         return float(p) if np.ndim(p) == 0 else p
-
-    # ---------------------------------------------------------------- YAML
-    @classmethod
-    def from_mapping(cls, data: Any, where: str, *, base_dir: str | Path | None = None,
-                     capacity_ah: float | None = None, r0_ohm: Any = None,
-                     cells_series: int | None = None,
-                     cells_parallel: int | None = None) -> CircuitParameters:
-        """Validate a YAML ``circuit:`` block and build the parameters.
-
-        Parameters
-        ----------
-        data : mapping
-            The block (keys in the module docstring, per cell).
-        where : str
-            The file, for messages; ``ocv_csv`` is read relative to its folder
-            unless ``base_dir`` is given.
-        capacity_ah, r0_ohm, cells_series, cells_parallel : optional
-            Values from the pack, used where the block leaves them out
-            (``capacity_ah`` and ``r0_ohm`` per cell).
-
-        Raises
-        ------
-        InputError
-            Every problem at once, naming ``where`` and the key (unknown key
-            with the likely intended one, wrong type, impossible value, bad
-            OCV file).
-        """
-        problems: list[str] = []
-        d = _check_block(data, where, base_dir, problems)
-        if d is not None:
-            if d["capacity_ah"] is None:
-                d["capacity_ah"] = capacity_ah
-            if d["r0_ohm"] is None and r0_ohm is not None:
-                d["r0_ohm"] = _r0_table(r0_ohm, "r0_ohm", problems)
-            if d["cells_series"] is None:
-                d["cells_series"] = cells_series or 1
-            if d["cells_parallel"] is None:
-                d["cells_parallel"] = cells_parallel or 1
-            if d["capacity_ah"] is None:
-                problems.append("missing required key 'circuit.capacity_ah' (a number; or "
-                                "give the pack's capacity_mah)")
-            if d["r0_ohm"] is None:
-                problems.append("missing required key 'circuit.r0_ohm' (a number or a table; "
-                                "or give the pack's internal_resistance_ohm)")
-        if problems:
-            raise InputError(f"{where}: " + "; ".join(problems))
-        ocv = d.pop("ocv")
-        try:
-            return cls(ocv=ocv, **d)
-        except InputError as exc:
-            raise InputError(f"{where}: {exc}".replace(": circuit: ", ": circuit.")) from None
-
-    @classmethod
-    def from_pack(cls, pack) -> CircuitParameters:
-        """Parameters of a :class:`planner.definitions.BatteryPack` and its ``circuit:`` block.
-
-        Capacity and R0 default to the pack's ``capacity_mah`` and
-        ``internal_resistance_ohm`` (converted per cell); ``count`` packs in
-        parallel add to ``cells_parallel``.
-        """
-        n_s = int(pack.cells_series)
-        n_p = int(pack.cells_parallel)
-        count = int(getattr(pack, "count", 1) or 1)
-        r_pack = getattr(pack, "internal_resistance_ohm", None)
-        where = str(getattr(pack, "path", None) or getattr(pack, "name", "battery"))
-        params = cls.from_mapping(
-            dict(pack.circuit or {}), where, capacity_ah=pack.capacity_mah / 1000.0 / n_p,
-            r0_ohm=None if r_pack is None else r_pack * n_p / n_s,
-            cells_series=n_s, cells_parallel=n_p)
-        if count > 1:
-            params = replace(params, cells_parallel=params.cells_parallel * count)
-        return params
-
-    def to_mapping(self) -> dict[str, Any]:
-        """The YAML ``circuit:`` block (an OCV given only as a callable is not written)."""
-        out: dict[str, Any] = {"capacity_ah": float(self.capacity_ah)}
-        if self.r0_is_table:
-            out["r0_ohm"] = {"soc": [float(x) for x in self.r0_ohm[0]],
-                             "ohm": [float(x) for x in self.r0_ohm[1]]}
-        else:
-            out["r0_ohm"] = float(self.r0_ohm)
-        out["r1_ohm"] = float(self.r1_ohm)
-        if self.c1_f is not None:
-            out["c1_f"] = float(self.c1_f)
-        out["hysteresis_v"] = float(self.hysteresis_v)
-        out["hysteresis_gamma"] = float(self.hysteresis_gamma)
-        if self.ocv_csv:
-            out["ocv_csv"] = str(self.ocv_csv)
-        out["r0_activation_energy_j_mol"] = float(self.r0_activation_energy_j_mol)
-        out["capacity_temp_coeff_per_c"] = float(self.capacity_temp_coeff_per_c)
-        out["reference_temperature_c"] = float(self.reference_temperature_c)
-        out["coulombic_efficiency"] = float(self.coulombic_efficiency)
-        out["cells_series"] = int(self.cells_series)
-        out["cells_parallel"] = int(self.cells_parallel)
-        if self.source:
-            out["source"] = self.source
-        return out
-
-
-def _check_block(data: Any, where: str, base_dir, problems: list[str]) -> dict | None:
-    """Check a ``circuit:`` block's keys; return parsed values (``ocv`` loaded)."""
-    n_before = len(problems)
-    d = S.check_mapping(data, CIRCUIT_KEYS, where, prefix="circuit.", problems=problems)
-    if d["r0_ohm"] is not None:
-        d["r0_ohm"] = _r0_table(d["r0_ohm"], "circuit.r0_ohm", problems)
-    if (d["r1_ohm"] or 0.0) > 0 and d["c1_f"] is None:
-        problems.append("circuit.c1_f is required when circuit.r1_ohm > 0")
-    if (d["hysteresis_v"] or 0.0) > 0 and d["hysteresis_gamma"] is None:
-        problems.append("circuit.hysteresis_gamma is required when circuit.hysteresis_v > 0")
-    if d["hysteresis_gamma"] is None:
-        d["hysteresis_gamma"] = 0.0
-    d["ocv"] = lipo_ocv
-    if d["ocv_csv"] is not None:
-        csv = Path(d["ocv_csv"])
-        if not csv.is_absolute():
-            csv = Path(base_dir if base_dir is not None else Path(where).parent) / csv
-        try:
-            d["ocv"] = read_ocv_csv(csv)
-        except InputError as exc:
-            problems.append(f"circuit.ocv_csv: {exc}")
-    return d if len(problems) == n_before else None
-
-
-def validate_circuit_block(data: Any, where: str) -> None:
-    """Check a battery file's ``circuit:`` block (capacity and R0 may come from the pack).
-
-    Raises
-    ------
-    InputError
-        Every problem at once, naming ``where`` and the key.
-    """
-    problems: list[str] = []
-    _check_block(data, where, None, problems)
-    if problems:
-        raise InputError(f"{where}: " + "; ".join(problems))
-
-
-def validate_thermal_block(data: Any, where: str) -> None:
-    """Check a battery file's ``thermal:`` block (see :mod:`planner.battery.thermal`)."""
-    ThermalParameters.from_mapping(data, where)
-
 
 # --------------------------------------------------------------------------- simulation
 

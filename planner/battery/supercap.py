@@ -54,31 +54,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 from scipy.linalg import expm
 
-from planner import schema as S
 from planner.errors import InputError, ModelError
-
-SUPERCAP_KEYS = {
-    "c0_f": S.positive(required=True),
-    "cv_f_per_v": S.non_negative(default=0.0),
-    "r_fast_ohm": S.positive(required=True, high=100.0),
-    "r_slow_ohm": S.positive(),
-    "c_slow_f": S.positive(),
-    "r_leak_ohm": S.positive(),
-    "v_rated_v": S.positive(default=2.7, high=10.0),
-    "r_th_k_per_w": S.positive(),
-    "c_th_j_per_k": S.positive(),
-    "mass_kg": S.positive(),
-    "cells_series": S.Key(S.INTEGER, default=1, low=1, high=500),
-    "cells_parallel": S.Key(S.INTEGER, default=1, low=1, high=100),
-    "name": S.Key(S.TEXT, default=""),
-    "source": S.Key(S.TEXT),
-}
-
 
 @dataclass(frozen=True)
 class SupercapParameters:
@@ -203,36 +183,6 @@ class SupercapParameters:
     def bank(self, cells_series: int, cells_parallel: int = 1) -> SupercapParameters:
         """The same cell in another bank layout."""
         return replace(self, cells_series=int(cells_series), cells_parallel=int(cells_parallel))
-
-    # ------------------------------------------------------------ YAML
-    @classmethod
-    def from_mapping(cls, data: Any, where: str) -> SupercapParameters:
-        """Validate a YAML ``supercap:`` block (keys in the module docstring).
-
-        Raises
-        ------
-        InputError
-            Every problem at once, naming ``where`` and the key.
-        """
-        problems: list[str] = []
-        d = S.check_mapping(data, SUPERCAP_KEYS, where, prefix="supercap.", problems=problems)
-        if not problems and (d["r_slow_ohm"] is None) != (d["c_slow_f"] is None):
-            problems.append("supercap.r_slow_ohm and supercap.c_slow_f come together "
-                            "(both or neither)")
-        if problems:
-            raise InputError(f"{where}: " + "; ".join(problems))
-        return cls(**d)
-
-    def to_mapping(self) -> dict[str, Any]:
-        """The YAML ``supercap:`` block."""
-        out: dict[str, Any] = {}
-        for key in SUPERCAP_KEYS:
-            value = getattr(self, key)
-            if value is None or (key in ("name",) and not value):
-                continue
-            out[key] = value if isinstance(value, str) else (
-                int(value) if key.startswith("cells_") else float(value))
-        return out
 
 
 def _bcap1500() -> SupercapParameters:

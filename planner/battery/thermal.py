@@ -36,26 +36,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
-from planner import schema as S
 from planner.errors import InputError, ModelError
 
 #: Temperature range of the battery models (cell temperature). [°C]
 T_RANGE_C = (-20.0, 60.0)
-
-THERMAL_KEYS = {
-    "r_th_k_per_w": S.positive(required=True),
-    "c_th_j_per_k": S.positive(required=True),
-    "t_air_c": S.Key(S.NUMBER, default=25.0, low=T_RANGE_C[0], high=T_RANGE_C[1]),
-    "t0_c": S.Key(S.NUMBER, low=T_RANGE_C[0], high=T_RANGE_C[1]),
-    "source": S.Key(S.TEXT),
-}
-
 
 @dataclass(frozen=True)
 class ThermalParameters:
@@ -103,31 +92,6 @@ class ThermalParameters:
     def with_air(self, t_air_c: float, t0_c: float | None = None) -> ThermalParameters:
         """A copy at another air temperature (e.g. the mission's)."""
         return replace(self, t_air_c=float(t_air_c), t0_c=t0_c)
-
-    @classmethod
-    def from_mapping(cls, data: Any, where: str) -> ThermalParameters:
-        """Validate a YAML ``thermal:`` block (keys in the module docstring).
-
-        Raises
-        ------
-        InputError
-            Every problem at once, naming ``where`` and the key.
-        """
-        d = S.check_mapping(data, THERMAL_KEYS, where, prefix="thermal.")
-        return cls(float(d["r_th_k_per_w"]), float(d["c_th_j_per_k"]),
-                   float(d["t_air_c"]), None if d["t0_c"] is None else float(d["t0_c"]),
-                   d["source"])
-
-    def to_mapping(self) -> dict[str, Any]:
-        """The YAML ``thermal:`` block."""
-        out: dict[str, Any] = {"r_th_k_per_w": float(self.r_th_k_per_w),
-                               "c_th_j_per_k": float(self.c_th_j_per_k),
-                               "t_air_c": float(self.t_air_c)}
-        if self.t0_c is not None:
-            out["t0_c"] = float(self.t0_c)
-        if self.source:
-            out["source"] = self.source
-        return out
 
 
 def check_temperature(temperature_c, what: str = "temperature") -> None:

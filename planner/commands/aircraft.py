@@ -8,7 +8,7 @@ import yaml
 
 from planner.commands.common import fmt, output_path, parse_float, write_json
 from planner.data import load_flight_data
-from planner.definitions import default_battery_path, load_aircraft, load_battery
+from planner.parameters import default_battery_path, load_aircraft, load_battery
 from planner.errors import InputError
 
 

@@ -16,9 +16,10 @@ import yaml
 from planner import schema
 from planner.battery import design, fit, integral, vda
 from planner.commands.common import fmt, output_path, parse_float, parse_int, plot_path, write_json
-from planner.definitions import IntegralModel, battery_from_mapping, load_battery
+from planner.parameters import IntegralModel, battery_from_mapping, load_battery
 from planner.errors import InputError
 from planner.units import AS_PER_MAH
+from planner.parameters.schedule import write_schedule
 
 #: Full-charge cell voltage used to detect the cell count from the data. [V]
 CELL_FULL_V = 4.2
@@ -127,7 +128,7 @@ def _fit_circuit_rates(mapping: dict, experiments, result: dict,
     (:func:`identify.fit_rate_discharges`) and its score on the validation experiments."""
     from planner.battery import identify
     from planner.battery.circuit import CircuitParameters, simulate
-    from planner.battery.ocv import write_ocv_csv
+    from planner.parameters.ocv import write_ocv_csv
 
     ns, npar = int(mapping["cells_series"]), int(mapping.get("cells_parallel", 1))
     by_name = {e.name: e for e in experiments}
@@ -406,7 +407,7 @@ def run_two_step(args) -> int:
     print(f"  step 2: {p2:g} W for t2 = {test.t2_s:.0f} s ({_duration(test.t2_s)})")
     print(f"  total:  {test.total_s:.0f} s ({_duration(test.total_s)})")
     if out:
-        design.write_schedule(test.schedule(), out,
+        write_schedule(test.schedule(), out,
                               comment=f"two-step test P1={p1:g} W, P2={p2:g} W, k={k:g}, "
                                       f"C0={cap:g} mAh; model {what}")
         print(f"wrote {out}")
@@ -443,7 +444,7 @@ def run_aprbs(args) -> int:
     schedule = design.aprbs(levels, (lo, hi), min_duration, seed, resolution_s=resolution)
     total = float(schedule["duration_s"].sum())
     mean_p = float((schedule["duration_s"] * schedule["power_w"]).sum() / total)
-    design.write_schedule(schedule, out, comment=(
+    write_schedule(schedule, out, comment=(
         f"APRBS levels_w={','.join(f'{v:g}' for v in levels)} hold_s={lo:g}..{hi:g} "
         f"min_duration_s={min_duration:g} seed={seed}"))
     print(f"APRBS schedule: {len(schedule)} steps, {total:.0f} s ({_duration(total)}), "

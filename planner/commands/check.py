@@ -15,7 +15,7 @@ from planner.commands.common import (
     plot_path,
     write_json,
 )
-from planner.definitions import load_aircraft_and_battery
+from planner.parameters import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission import load_mission
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import yaml
 
 from planner.commands.common import output_path, parse_float, plot_path, write_json
-from planner.definitions import aircraft_from_mapping, battery_from_mapping
+from planner.parameters import aircraft_from_mapping, battery_from_mapping
 from planner.errors import InputError
 
 
@@ -101,7 +101,7 @@ def write_extended(result, out) -> list[str]:
             battery_from_mapping(mapping, str(path))        # what we write must load back
         else:
             if obj.battery_path and result.aircraft is not None:
-                from planner.definitions import default_battery_path
+                from planner.parameters import default_battery_path
                 target = default_battery_path(result.aircraft).resolve()
                 mapping["battery"] = os.path.relpath(target, path.resolve().parent)
             aircraft_from_mapping(mapping, str(path))

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from planner.commands.common import output_path, parse_float, parse_int, parse_wind, write_json
-from planner.definitions import load_aircraft_and_battery
+from planner.parameters import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission import load_mission
 
@@ -33,7 +33,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from planner.battery.circuit import CircuitParameters
     from planner.battery.hybrid import BCAP1500, matched_bank, simulate_hybrid
     from planner.check import MissionChain
 
@@ -55,7 +54,7 @@ def run(args) -> int:
     t = np.arange(0.0, end[-1], step)
     p = legs.power_w.to_numpy()[np.clip(np.searchsorted(end, t, side="right"), 0,
                                         len(end) - 1)]
-    battery = CircuitParameters.from_pack(pack)
+    battery = pack.circuit_parameters()
     bank = matched_bank(BCAP1500, battery, cells_parallel=n_par)
     run_ = simulate_hybrid(battery, bank, t, power_w=p, temperature_c=temp,
                            v_cutoff_cell=pack.cell_voltage_empty_v)

@@ -13,7 +13,7 @@ from planner.commands.common import (
     write_json,
 )
 from planner.data import load_flight_data
-from planner.definitions import load_aircraft, load_battery
+from planner.parameters import load_aircraft, load_battery
 
 
 def register(sub) -> None:
@@ -48,7 +48,7 @@ def run(args) -> int:
     aircraft = load_aircraft(args.aircraft) if args.aircraft else None
     pack = load_battery(args.battery) if args.battery else None
     if aircraft is not None and pack is None and aircraft.battery_path:
-        from planner.definitions import default_battery_path
+        from planner.parameters import default_battery_path
         pack = load_battery(default_battery_path(aircraft))
     data, metas = load_flight_data(args.logs, column_map=args.map)
     result = replay(data, metas, pack=pack, aircraft=aircraft, payload_kg=payload,

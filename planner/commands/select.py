@@ -19,7 +19,7 @@ from planner.commands.common import (
     plot_path,
     write_json,
 )
-from planner.definitions import default_battery_path, load_aircraft, load_battery, load_catalog
+from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
 from planner.errors import InputError
 from planner.mission import load_mission
 

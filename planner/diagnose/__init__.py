@@ -34,7 +34,7 @@ import pandas as pd
 
 from planner import record as rec
 from planner.battery import integral
-from planner.definitions import Aircraft, BatteryPack, IntegralModel
+from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.diagnose import search as S
 from planner.diagnose.effects import EFFECTS, make_effects
 from planner.errors import FitError, InputError, ModelError
@@ -618,7 +618,7 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
 
 def load_definitions(battery: str | Path | None, aircraft: str | Path | None):
     """Load the pack and aircraft files (the aircraft's default pack when no battery)."""
-    from planner.definitions import default_battery_path, load_aircraft, load_battery
+    from planner.parameters import default_battery_path, load_aircraft, load_battery
 
     ac = load_aircraft(aircraft) if aircraft else None
     if battery is None and ac is not None and ac.battery_path:

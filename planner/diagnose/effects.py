@@ -20,7 +20,7 @@ coefficients in closed form, ``A`` included):
     :math:`\hat C = A \int (1 + k\,h(T))\, dG`, :math:`h = \max(T_{ref} - T, 0)`:
     each increment of charge drawn is scaled by the pack temperature at that
     moment; for a constant temperature this is
-    :meth:`planner.definitions.IntegralModel.charge_scale`. :math:`k` [1/°C];
+    :meth:`planner.parameters.IntegralModel.charge_scale`. :math:`k` [1/°C];
     :math:`T_{ref}` = the highest pack temperature in the data, or 25 °C when
     that is lower (so that the linear law covers every measured temperature).
 ``capacity_fade``
@@ -38,7 +38,7 @@ Combined capacity effects add their columns; the products of two extensions
 Power level
 -----------
 The baseline is the aircraft's physics model
-(:meth:`planner.definitions.Aircraft.battery_power`) driven by the measured
+(:meth:`planner.parameters.Aircraft.battery_power`) driven by the measured
 flight state, written as :math:`P = M(\theta)/\eta + P_S` with :math:`M` the
 mechanical (shaft or required) power; :math:`1/\eta` is solved in closed form
 and the shape parameters θ (multirotor drag area; fixed-wing C_D0 and K) by

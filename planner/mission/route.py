@@ -62,7 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.atmosphere import ALTITUDE_RANGE_M
-from planner.definitions import SPEED_MAX_MS
+from planner.parameters.limits import SPEED_MAX_MS
 from planner.errors import InputError
 from planner.mission.geo import FRAME_ERROR_KM, frame_error, great_circle_distance, latlon_to_aeqd
 from planner.mission.legs import Leg

@@ -329,3 +329,40 @@ def max_range_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravi
     a, b = polar_coefficients(np.asarray(air_density, dtype=float), wing_area, cd0, k,
                               m * gravity, load_factor)
     return _restore((b / a) ** 0.25, air_density, mass, wing_area, cd0, k, load_factor)
+
+
+def min_loiter_radius(loiter_airspeed_ms: float, stall_speed_ms: float | None = None,
+                      bank_max_deg: float = 60.0) -> float:
+    r"""
+    Tightest level loiter circle a fixed-wing can fly at its loiter airspeed. [m]
+
+    Parameters
+    ----------
+    loiter_airspeed_ms : float
+        Airspeed of the loiter. [m/s]
+    stall_speed_ms : float, optional
+        Wings-level stall speed; the stall speed in a turn rises as :math:`\sqrt n`. [m/s]
+    bank_max_deg : float, default 60
+        Steepest bank allowed. [deg]
+
+    Returns
+    -------
+    radius : float
+        ``inf`` when the loiter airspeed is not above the stall speed. [m]
+
+    Notes
+    -----
+    .. math:: r_{min} = \frac{V^2}{g \tan\phi_{max}}, \qquad
+              \cos\phi_{max} = \max\left(\cos\phi_{bank}, (V_s/V)^2\right)
+
+    Level coordinated turn (Anderson, *Aircraft Performance and Design*, ch. 6): the
+    load factor is :math:`n = 1/\cos\phi` and must stay below :math:`(V/V_s)^2` so that
+    the wing does not stall in the turn.
+    """
+    cos_max = np.cos(np.radians(bank_max_deg))
+    if stall_speed_ms is not None:
+        cos_max = max(cos_max, (stall_speed_ms / loiter_airspeed_ms) ** 2)
+    if cos_max >= 1.0:
+        return float("inf")
+    tan_max = np.sqrt(1.0 - cos_max**2) / cos_max
+    return float(loiter_airspeed_ms**2 / (G * tan_max))

@@ -1,0 +1,450 @@
+"""Aircraft definitions: parameters of the power models and their file (DESIGN §8).
+
+:func:`load_aircraft` is the one reader of aircraft files; :func:`load_aircraft_and_battery`
+also reads the pack the aircraft names. Every file is validated when it is loaded and
+every problem is reported at once in one line naming the file and the key. The tables
+``AIRCRAFT_KEYS``, ``FIXED_WING_KEYS`` and ``MULTIROTOR_KEYS`` are the schema, with the
+bounds of :mod:`planner.parameters.limits`; ``POWER_MODEL_KEYS`` lists the keys each
+multirotor power model needs. :class:`Aircraft` methods stay thin: they pass the stored
+parameters to the pure power models of :mod:`planner.power`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planner import schema as S
+from planner.errors import InputError
+from planner.power.fixed_wing import min_loiter_radius
+from planner.parameters.limits import (
+    AIRSPEED_MIN_MS,
+    CP_MIN,
+    CT_MIN,
+    EFFICIENCY_MIN,
+    GROUNDSPEED_MIN_MS,
+    LOITER_BANK_MAX_DEG,
+    LOITER_RADIUS_MAX_M,
+    MASS_MAX_KG,
+    MULTIROTOR_MIN_AIRSPEED_MS,
+    POWER_MAX_W,
+    ROTOR_DIAMETER_MAX_M,
+    ROTOR_DIAMETER_MIN_M,
+    SPEED_MAX_MS,
+    THRUST_MAX_N,
+    TIP_SPEED_MAX_MS,
+    TIP_SPEED_MIN_MS,
+    VERTICAL_SPEED_MAX_MS,
+    WING_AREA_MAX_M2,
+    WING_AREA_MIN_M2,
+)
+from planner.parameters.pack import BatteryPack, load_battery
+
+__all__ = ["AIRCRAFT_KEYS", "FIXED_WING_KEYS", "MULTIROTOR_KEYS", "Aircraft", "FixedWing",
+           "Multirotor", "aircraft_from_mapping", "default_battery_path", "load_aircraft",
+           "load_aircraft_and_battery"]
+
+AIRCRAFT_TYPES = ("fixed_wing", "multirotor")
+
+AIRCRAFT_KEYS = {
+    "name": S.Key(S.TEXT, required=True),
+    "type": S.Key(S.TEXT, required=True, choices=AIRCRAFT_TYPES),
+    "empty_mass_kg": S.positive(required=True, high=MASS_MAX_KG),
+    "battery": S.Key(S.TEXT),
+    "efficiency": S.between(EFFICIENCY_MIN, 1.0, required=True),
+    "system_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
+    "climb_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS),
+    "descent_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS),
+    "max_takeoff_mass_kg": S.positive(high=MASS_MAX_KG),
+    "efficiency_slope": S.Key(S.NUMBER, default=0.0, low=-1.0, high=1.0),
+    "efficiency_reference_power_w": S.between(1.0, POWER_MAX_W),
+    "cells_series_allowed": S.Key(S.LIST),
+    "fixed_wing": S.Key(S.MAPPING),
+    "multirotor": S.Key(S.MAPPING),
+    "source": S.Key(S.TEXT),
+}
+
+FIXED_WING_KEYS = {
+    "wing_area_m2": S.between(WING_AREA_MIN_M2, WING_AREA_MAX_M2, required=True),
+    "cd0": S.Key(S.NUMBER, required=True, low=0.0, low_open=True, high=0.5),
+    "k": S.Key(S.NUMBER, low=0.0, low_open=True, high=1.0),
+    "aspect_ratio": S.Key(S.NUMBER, low=1.0, high=60.0),
+    "oswald_efficiency": S.Key(S.NUMBER, low=0.3, high=1.0),
+    "cruise_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, required=True),
+    "stall_speed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
+    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
+    # at least min_loiter_radius() of the loiter airspeed and stall speed (_fixed_wing);
+    # the default 60 m is widened to it when the aircraft is too fast to turn that tight
+    "loiter_radius_m": S.positive(default=60.0, high=LOITER_RADIUS_MAX_M),
+    "loiter_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
+}
+
+MULTIROTOR_KEYS = {
+    "rotors": S.Key(S.INTEGER, required=True, low=1, high=32),
+    "rotor_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M, required=True),
+    "ct": S.between(CT_MIN, 1.0),
+    "cp": S.between(CP_MIN, 1.0),
+    "drag_area_m2": S.non_negative(default=0.0, high=10.0),
+    "power_model": S.Key(S.TEXT, choices=("propeller", "momentum")),
+    "cruise_speed_ms": S.between(GROUNDSPEED_MIN_MS, SPEED_MAX_MS, default=5.0),
+    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, default=15.0),
+    "induced_factor": S.Key(S.NUMBER, default=1.15, low=1.0, high=2.0),
+    "figure_of_merit": S.Key(S.NUMBER, low=0.2, high=1.0),
+    "tip_speed_ms": S.between(TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS),
+    "max_thrust_n": S.positive(high=THRUST_MAX_N),
+}
+
+#: Keys each multirotor power model needs (besides rotors and diameter).
+POWER_MODEL_KEYS = {"propeller": ("ct", "cp"), "momentum": ()}
+
+#: Default vertical speeds when the aircraft file gives none. [m/s]
+#: Multirotor: ArduCopter WPNAV_SPEED_UP 2.5 m/s and WPNAV_SPEED_DN 1.5 m/s;
+#: fixed-wing: a gentle 2 m/s spiral climb and descent.
+DEFAULT_VERTICAL_SPEEDS = {"multirotor": (2.5, 1.5), "fixed_wing": (2.0, 2.0)}
+
+
+@dataclass(frozen=True)
+class FixedWing:
+    """Fixed-wing parameters: drag polar ``C_D = C_D0 + K C_L²``."""
+
+    wing_area_m2: float
+    cd0: float
+    k: float
+    cruise_airspeed_ms: float
+    stall_speed_ms: float | None = None
+    max_airspeed_ms: float | None = None
+    loiter_radius_m: float = 60.0
+    loiter_airspeed_ms: float | None = None
+
+    @property
+    def top_airspeed_ms(self) -> float:
+        """Highest airspeed the aircraft flies (default 1.5 × cruise). [m/s]"""
+        return self.max_airspeed_ms or 1.5 * self.cruise_airspeed_ms
+
+
+@dataclass(frozen=True)
+class Multirotor:
+    """Multirotor parameters (propeller-coefficient and momentum-theory models)."""
+
+    rotors: int
+    rotor_diameter_m: float
+    power_model: str
+    ct: float | None = None
+    cp: float | None = None
+    drag_area_m2: float = 0.0
+    cruise_speed_ms: float = 5.0
+    max_airspeed_ms: float = 15.0
+    induced_factor: float = 1.15
+    figure_of_merit: float | None = None
+    tip_speed_ms: float | None = None
+    max_thrust_n: float | None = None
+
+
+@dataclass(frozen=True)
+class Aircraft:
+    """An aircraft (DESIGN §8) without its battery and payload.
+
+    Attributes
+    ----------
+    empty_mass_kg : float
+        Everything but battery and payload. [kg]
+    efficiency : float
+        Battery → useful mechanical power, η. [unitless]
+    system_power_w : float
+        Avionics and payload electrical load P_S. [W]
+    climb_rate_ms, descent_rate_ms : float
+        Default vertical speeds. [m/s]
+    battery_path : str or None
+        Default pack file, resolved against the aircraft file.
+    """
+
+    name: str
+    type: str
+    empty_mass_kg: float
+    efficiency: float
+    system_power_w: float = 0.0
+    climb_rate_ms: float = 2.5
+    descent_rate_ms: float = 1.5
+    battery_path: str | None = None
+    max_takeoff_mass_kg: float | None = None
+    efficiency_slope: float = 0.0
+    efficiency_reference_power_w: float | None = None
+    cells_series_allowed: tuple[int, ...] | None = None
+    fixed_wing: FixedWing | None = None
+    multirotor: Multirotor | None = None
+    source: str | None = None
+    path: str | None = None
+
+    @property
+    def is_multirotor(self) -> bool:
+        return self.type == "multirotor"
+
+    @property
+    def cruise_speed_ms(self) -> float:
+        """Default horizontal speed (multirotor: ground speed; fixed-wing: airspeed). [m/s]"""
+        return (self.multirotor.cruise_speed_ms if self.is_multirotor
+                else self.fixed_wing.cruise_airspeed_ms)
+
+    @property
+    def max_airspeed_ms(self) -> float:
+        return (self.multirotor.max_airspeed_ms if self.is_multirotor
+                else self.fixed_wing.top_airspeed_ms)
+
+    @property
+    def min_airspeed_ms(self) -> float:
+        """Least airspeed of steady flight. [m/s]
+
+        Fixed-wing: the stall speed, else half the cruise airspeed. Multirotor:
+        :data:`MULTIROTOR_MIN_AIRSPEED_MS` (it hovers; the bound keeps the best-speed
+        searches away from zero).
+        """
+        if self.is_multirotor:
+            return MULTIROTOR_MIN_AIRSPEED_MS
+        fw = self.fixed_wing
+        return fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
+
+    def battery_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0):
+        """Electric power drawn from the pack in steady flight.
+
+        Thin wrapper: passes the stored parameters to the pure power models
+        (:mod:`planner.power.fixed_wing`, :mod:`planner.power.multirotor`,
+        :mod:`planner.power.momentum`). All arguments broadcast.
+
+        Parameters
+        ----------
+        airspeed : numeric
+            True airspeed (multirotor hovering in wind: the wind speed). [m/s]
+        climb_rate : numeric
+            Vertical speed, up positive. [m/s]
+        air_density : numeric
+            [kg m⁻³]
+        mass : numeric
+            All-up mass. [kg]
+        load_factor : numeric
+            Lift over weight (turns). [unitless]
+
+        Returns
+        -------
+        power : numeric
+            Battery power. [W]
+        """
+        power = self._constant_efficiency_power(airspeed, climb_rate, air_density, mass,
+                                                load_factor)
+        if not self.efficiency_slope or not self.efficiency_reference_power_w:
+            return power
+        # efficiency against load (diagnose's efficiency_curve):
+        # 1/η(M) = 1/η0 − η1/η0² (M/M_ref − 1), M the mechanical power
+        eta0, ps = self.efficiency, self.system_power_w
+        mech = (np.asarray(power, float) - ps) * eta0
+        inv = 1.0 / eta0 - self.efficiency_slope / eta0**2 * (
+            mech / self.efficiency_reference_power_w - 1.0)
+        return mech * np.maximum(inv, 1.0) + ps
+
+    def _constant_efficiency_power(self, airspeed, climb_rate, air_density, mass,
+                                   load_factor=1.0):
+        if self.is_multirotor:
+            m = self.multirotor
+            if m.power_model == "propeller":
+                from planner.power import multirotor
+                return multirotor.propeller_battery_power(
+                    mass * load_factor, air_density, m.rotors, m.rotor_diameter_m, m.ct, m.cp,
+                    self.efficiency, climb_rate=climb_rate, airspeed=airspeed,
+                    drag_area=m.drag_area_m2, system_power=self.system_power_w)
+            from planner.power import momentum
+            return momentum.momentum_battery_power(
+                mass, air_density, m.rotors, m.rotor_diameter_m, self.efficiency,
+                airspeed=airspeed, climb_rate=climb_rate, drag_area=m.drag_area_m2,
+                induced_factor=m.induced_factor, figure_of_merit=m.figure_of_merit,
+                tip_speed=m.tip_speed_ms, system_power=self.system_power_w,
+                load_factor=load_factor)
+        from planner.power import fixed_wing
+        f = self.fixed_wing
+        required = fixed_wing.required_power(airspeed, air_density, mass, f.wing_area_m2, f.cd0,
+                                             f.k, climb_rate=climb_rate,
+                                             load_factor=load_factor)
+        return fixed_wing.battery_power(required, self.efficiency, self.system_power_w)
+
+    def to_mapping(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.name, "type": self.type,
+                               "empty_mass_kg": float(self.empty_mass_kg)}
+        if self.battery_path:
+            out["battery"] = self.battery_path
+        out["efficiency"] = float(self.efficiency)
+        out["system_power_w"] = float(self.system_power_w)
+        out["climb_rate_ms"] = float(self.climb_rate_ms)
+        out["descent_rate_ms"] = float(self.descent_rate_ms)
+        if self.max_takeoff_mass_kg is not None:
+            out["max_takeoff_mass_kg"] = float(self.max_takeoff_mass_kg)
+        if self.efficiency_slope and self.efficiency_reference_power_w:
+            out["efficiency_slope"] = float(self.efficiency_slope)
+            out["efficiency_reference_power_w"] = float(self.efficiency_reference_power_w)
+        if self.cells_series_allowed:
+            out["cells_series_allowed"] = list(self.cells_series_allowed)
+        block = self.multirotor if self.is_multirotor else self.fixed_wing
+        out[self.type] = {k: (float(v) if isinstance(v, float) else v)
+                          for k, v in block.__dict__.items() if v is not None}
+        if self.source:
+            out["source"] = self.source
+        return out
+
+
+def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
+    """Validate an aircraft mapping (DESIGN §8) and build the aircraft."""
+    problems: list[str] = []
+    d = S.check_mapping(data, AIRCRAFT_KEYS, where, problems=problems)
+    kind = d["type"]
+    fw = mr = None
+    if kind in AIRCRAFT_TYPES:
+        other = "multirotor" if kind == "fixed_wing" else "fixed_wing"
+        if d[other] is not None:
+            problems.append(f"'{other}' block given for an aircraft of type '{kind}'")
+        if d[kind] is None:
+            problems.append(f"missing required key '{kind}' (a mapping of the "
+                            f"{kind.replace('_', '-')} parameters)")
+        elif kind == "fixed_wing":
+            fw = _fixed_wing(d[kind], where, problems)
+        else:
+            mr = _multirotor(d[kind], where, problems)
+    allowed = None
+    if d["cells_series_allowed"] is not None:
+        cells = d["cells_series_allowed"]
+        if not cells or not all(isinstance(c, int) and not isinstance(c, bool) and c > 0
+                                for c in cells):
+            problems.append(f"cells_series_allowed must be a list of whole numbers > 0, "
+                            f"got {cells!r}")
+        else:
+            allowed = tuple(cells)
+    if problems:
+        raise InputError(f"{where}: " + "; ".join(problems))
+    climb, descent = DEFAULT_VERTICAL_SPEEDS[kind]
+    return Aircraft(name=d["name"], type=kind, empty_mass_kg=d["empty_mass_kg"],
+                    efficiency=d["efficiency"], system_power_w=d["system_power_w"],
+                    climb_rate_ms=d["climb_rate_ms"] or climb,
+                    descent_rate_ms=d["descent_rate_ms"] or descent,
+                    battery_path=d["battery"], max_takeoff_mass_kg=d["max_takeoff_mass_kg"],
+                    efficiency_slope=d["efficiency_slope"],
+                    efficiency_reference_power_w=d["efficiency_reference_power_w"],
+                    cells_series_allowed=allowed, fixed_wing=fw, multirotor=mr,
+                    source=d["source"], path=where)
+
+
+def _fixed_wing(data: Any, where: str, problems: list[str]) -> FixedWing | None:
+    n = len(problems)
+    bad: set[str] = set()
+    d = S.check_mapping(data, FIXED_WING_KEYS, where, "fixed_wing.", problems, bad)
+
+    def given(key):  # present and valid on its own: usable in checks across keys
+        return d[key] is not None and key not in bad
+
+    k = d["k"]
+    if k is None:
+        if d["aspect_ratio"] is None or d["oswald_efficiency"] is None:
+            problems.append("fixed_wing needs 'k' or both 'aspect_ratio' and "
+                            "'oswald_efficiency' (K = 1/(π e AR))")
+        elif given("aspect_ratio") and given("oswald_efficiency"):
+            from planner.power import fixed_wing
+            k = float(fixed_wing.induced_drag_factor(d["aspect_ratio"], d["oswald_efficiency"]))
+    elif d["aspect_ratio"] is not None:
+        problems.append("fixed_wing: give either 'k' or 'aspect_ratio'/'oswald_efficiency', "
+                        "not both")
+    stall = d["stall_speed_ms"] if given("stall_speed_ms") else None
+    cruise = d["cruise_airspeed_ms"] if given("cruise_airspeed_ms") else None
+    top = d["max_airspeed_ms"] if given("max_airspeed_ms") else None
+    loiter = d["loiter_airspeed_ms"] if given("loiter_airspeed_ms") else None
+    if stall is not None and cruise is not None and cruise <= stall:
+        problems.append(f"fixed_wing.cruise_airspeed_ms ({cruise}) must be above "
+                        f"stall_speed_ms ({stall})")
+    if top is not None and stall is not None and top <= stall:
+        problems.append(f"fixed_wing.max_airspeed_ms must be above the stall speed "
+                        f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {top!r}")
+    elif top is not None and cruise is not None and top < cruise:
+        problems.append(f"fixed_wing.max_airspeed_ms must be at least the cruise airspeed "
+                        f"(fixed_wing.cruise_airspeed_ms {cruise:g} m/s), got {top!r}")
+    if loiter is not None and stall is not None and loiter <= stall:
+        problems.append(f"fixed_wing.loiter_airspeed_ms must be above the stall speed "
+                        f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {loiter!r}")
+    elif loiter is not None and top is not None and loiter > top:
+        problems.append(f"fixed_wing.loiter_airspeed_ms must be at most the maximum airspeed "
+                        f"(fixed_wing.max_airspeed_ms {top:g} m/s), got {loiter!r}")
+    if len(problems) > n:
+        return None
+    v_loiter = loiter or cruise
+    radius = d["loiter_radius_m"]
+    r_min = min_loiter_radius(v_loiter, stall)
+    if data.get("loiter_radius_m") is None:  # the default circle, widened for a fast aircraft
+        radius = max(radius, float(np.ceil(r_min * 10.0)) / 10.0)
+    elif radius < r_min:
+        above = f", above the stall speed {stall:g} m/s" if stall is not None else ""
+        problems.append(f"fixed_wing.loiter_radius_m must be at least {r_min:.1f} m (a level "
+                        f"turn at the loiter airspeed {v_loiter:g} m/s with at most "
+                        f"{LOITER_BANK_MAX_DEG:g}° of bank{above}), got {radius!r}")
+        return None
+    return FixedWing(wing_area_m2=d["wing_area_m2"], cd0=d["cd0"], k=k,
+                     cruise_airspeed_ms=cruise, stall_speed_ms=stall,
+                     max_airspeed_ms=top, loiter_radius_m=radius,
+                     loiter_airspeed_ms=loiter)
+
+
+def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None:
+    n = len(problems)
+    bad: set[str] = set()
+    d = S.check_mapping(data, MULTIROTOR_KEYS, where, "multirotor.", problems, bad)
+    model = d["power_model"]
+    if model is None:  # "infer", as ModelChain.infer_dc_model
+        model = "propeller" if d["ct"] is not None and d["cp"] is not None else "momentum"
+    missing = [key for key in POWER_MODEL_KEYS.get(model, ()) if d[key] is None]
+    if missing:
+        problems.append(f"multirotor.power_model '{model}' needs "
+                        + " and ".join(f"'multirotor.{m}'" for m in missing))
+    if (d["ct"] is None) != (d["cp"] is None):
+        problems.append("multirotor: give both 'ct' and 'cp' or neither")
+    cruise, top = d["cruise_speed_ms"], d["max_airspeed_ms"]
+    if not bad & {"cruise_speed_ms", "max_airspeed_ms"} and cruise > top:
+        problems.append(f"multirotor.cruise_speed_ms must be at most the maximum airspeed "
+                        f"(multirotor.max_airspeed_ms {top:g} m/s), got {cruise!r}")
+    if model == "momentum" and not bad & {"figure_of_merit", "induced_factor"}:
+        # momentum theory: profile power P0/P_ideal = 1/FM − κ must not be negative
+        from planner.power.momentum import DEFAULT_FIGURE_OF_MERIT
+        fm, kappa = d["figure_of_merit"], d["induced_factor"]
+        if fm is None and kappa * DEFAULT_FIGURE_OF_MERIT > 1.0:
+            problems.append(f"multirotor.induced_factor must be at most "
+                            f"{1.0 / DEFAULT_FIGURE_OF_MERIT:.3g} with the default "
+                            f"figure of merit {DEFAULT_FIGURE_OF_MERIT:g} (profile power "
+                            f">= 0), got {kappa!r}")
+        elif fm is not None and kappa * fm > 1.0:
+            problems.append(f"multirotor.figure_of_merit must be at most 1/induced_factor "
+                            f"= {1.0 / kappa:.3g} (profile power >= 0), got {fm!r}")
+    if len(problems) > n:
+        return None
+    return Multirotor(rotors=d["rotors"], rotor_diameter_m=d["rotor_diameter_m"],
+                      power_model=model, ct=d["ct"], cp=d["cp"],
+                      drag_area_m2=d["drag_area_m2"], cruise_speed_ms=d["cruise_speed_ms"],
+                      max_airspeed_ms=d["max_airspeed_ms"], induced_factor=d["induced_factor"],
+                      figure_of_merit=d["figure_of_merit"], tip_speed_ms=d["tip_speed_ms"],
+                      max_thrust_n=d["max_thrust_n"])
+
+
+def load_aircraft(path: str | Path) -> Aircraft:
+    """Load and validate an aircraft YAML file."""
+    return aircraft_from_mapping(S.load_yaml(path), str(path))
+
+
+def default_battery_path(aircraft: Aircraft) -> Path | None:
+    """The aircraft's default pack file, resolved against the aircraft file's folder."""
+    if not aircraft.battery_path:
+        return None
+    base = Path(aircraft.path).parent if aircraft.path else Path(".")
+    return base / aircraft.battery_path
+
+
+def load_aircraft_and_battery(aircraft_path, battery_path=None) -> tuple[Aircraft, BatteryPack]:
+    """Load an aircraft and its pack (``battery_path`` or the aircraft's default)."""
+    aircraft = load_aircraft(aircraft_path)
+    path = battery_path or default_battery_path(aircraft)
+    if path is None:
+        raise InputError(f"{aircraft_path}: no 'battery' key and no --battery given "
+                         "(expected a battery-pack YAML)")
+    return aircraft, load_battery(path)
