@@ -156,8 +156,9 @@ class ChainResult:
     violated : ndarray of bool, shape (packs, len(CHECK_CONSTRAINTS))
     detail : dict of ndarray or None
         Per-leg arrays (packs × legs) when the run kept them: ``power_w``,
-        ``current_a``, ``voltage_v``, ``charge_mah``, ``remaining_fraction``,
-        ``rtl_margin_mah``, and plot series.
+        ``current_a``, ``voltage_v``, ``charge_mah``, ``charge_end_mah``,
+        ``rtl_margin_mah``, ``stress_end`` (the integral model's stress at the end of
+        each leg, without the extensions' scale), and plot series.
     """
 
     packs: list[BatteryPack]
@@ -612,7 +613,7 @@ class MissionChain:
         undeliverable = np.full(k, -1, dtype=int)
         det = {name: np.empty((k, n)) for name in (
             "power_w", "current_a", "voltage_v", "charge_mah", "charge_end_mah",
-            "rtl_margin_mah")} if keep else None
+            "rtl_margin_mah", "stress_end")} if keep else None
         if keep:
             det["rtl_point_margin_mah"] = np.empty((k, npts))
         block = max(1, int(block_elements // max(npts, len(ptable.states), 1)))
@@ -680,6 +681,7 @@ class MissionChain:
                 det["voltage_v"][sl] = np.where(np.isnan(cur_end), np.nan, v_end)
                 det["charge_mah"][sl] = (c_end - c_start) / AS_PER_MAH
                 det["charge_end_mah"][sl] = c_end / AS_PER_MAH
+                det["stress_end"][sl] = s_end
                 with np.errstate(invalid="ignore"):
                     point = lim[:, None] - sc * integral.charge_from_stress(total, beta)
                 point = np.where(np.isfinite(total), point, -np.inf)

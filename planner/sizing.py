@@ -554,7 +554,7 @@ def sortie_mission(mission: Mission, start: float, end: float, number: int = 1) 
     return replace(mission, name=f"{mission.name} — {tag}", legs=out)
 
 
-def sortie_lower_bound(charge_used_mah: float, pack: BatteryPack, reserve: float) -> int:
+def sortie_lower_bound(charge_used_mah: float, limit_mah: float, beta: float) -> int:
     r"""
     Fewest sorties any split can need: :math:`\lceil (C_{used}/C_{limit})^\beta \rceil`.
 
@@ -563,13 +563,13 @@ def sortie_lower_bound(charge_used_mah: float, pack: BatteryPack, reserve: float
     stresses add up to the whole mission's; every sortie adds transit, and must keep
     its total stress at or below :math:`(C_{limit}/s)^\beta`. Hence
     :math:`n \ge S_{mission}/S_{limit} = (C_{used}/C_{limit})^\beta` (the charge
-    scale :math:`s` cancels).
+    scale :math:`s` cancels). :math:`C_{limit}` is the usable charge less the reserve, as
+    the mission chain gives it (lowered by the circuit model's cut-off where the pack
+    has one). [mAh]
     """
-    limit = pack.usable_as - reserve * pack.capacity_as
-    if limit <= 0:
+    if limit_mah <= 0:
         return 10**9
-    used = charge_used_mah * AS_PER_MAH
-    return max(1, math.ceil((used / limit) ** pack.model.beta - 1e-12))
+    return max(1, math.ceil((charge_used_mah / limit_mah) ** beta - 1e-12))
 
 
 def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
@@ -600,18 +600,16 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
     if n == 0:
         raise InputError(f"{mission.source or mission.name}: the mission has no legs")
     chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature_c)
-    whole = chain.check(mission, env)
-    temp = temperature_c if temperature_c is not None else env.temperature_c
-    table = prof.leg_table(mission, aircraft, env, temperature_c=temp)
-    mass = aircraft.empty_mass_kg + pack.total_mass_kg + mission.payload_kg
-    power = np.asarray(prof.leg_power(table, aircraft, mass), float)
-    model = pack.model
-    leg_stress = table.duration_s * np.asarray(
-        integral.stress_rate(power, model.delta, model.epsilon), float)
-    cum = np.concatenate([[0.0], np.cumsum(leg_stress)])
-    scale = model.charge_scale(temp)
-    limit = pack.usable_as - reserve * pack.capacity_as
-    s_lim = integral.stress_from_charge(max(limit, 0.0) / scale, model.beta)
+    flown = chain.run(mission, env, detail=True)
+    whole = flown.mission_result(0)
+    legs = whole.legs
+    # the chain's integral-model stress per leg: additive, so a route's share is a sum
+    cum = np.concatenate([[0.0], flown.detail["stress_end"][0]])
+    leg_stress = np.diff(cum)
+    scale = float(np.asarray(pack.model.charge_scale(flown.environment.temperature_c)))
+    limit_mah = whole.usable_mah - whole.reserve_mah
+    s_lim = integral.stress_from_charge(max(limit_mah, 0.0) * AS_PER_MAH / scale,
+                                        pack.model.beta)
 
     def route_stress(a, b):
         """Stress of the route between positions a and b (legs at constant power)."""
@@ -664,10 +662,11 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
         f = pos - i
         e, nn, h = _point(mission.legs, pos)
         splits.append(SplitPoint(position=pos, leg=i, fraction=f,
-                                 time_s=float(table.start_time_s[i] + f * table.duration_s[i]),
+                                 time_s=float(legs.start_time_s.iloc[i]
+                                              + f * legs.duration_s.iloc[i]),
                                  east_m=e, north_m=nn, altitude_m=h,
                                  origin=mission.legs[i].origin or f"leg {i + 1}"))
-    lb = sortie_lower_bound(whole.charge_used_mah, pack, reserve)
+    lb = sortie_lower_bound(whole.charge_used_mah, limit_mah, pack.model.beta)
     notes = []
     if len(sorties) > lb:
         notes.append(f"{len(sorties)} sorties; the charge bound allows {lb}: transit to "
@@ -706,8 +705,9 @@ def plan_long_mission(mission: Mission, aircraft: Aircraft, packs: list[BatteryP
         raise InputError("no pack of the catalog meets the pack constraints (cells, "
                          "take-off mass, thrust, power, C rating): splitting cannot help")
     idx = np.flatnonzero(usable)
-    bounds = np.array([sortie_lower_bound(e.charge_used_mah[i], e.packs[i], reserve)
-                       for i in idx])
+    bounds = np.array([sortie_lower_bound(e.charge_used_mah[i],
+                                          e.usable_mah[i] - e.reserve_mah[i],
+                                          e.packs[i].model.beta) for i in idx])
     order = idx[np.lexsort((e.pack_mass_kg[idx], bounds))]
     bound_of = dict(zip(idx.tolist(), bounds.tolist()))
     best: SortiePlan | None = None

@@ -125,11 +125,12 @@ def small_catalog():
     packs = {p.name: p for p in load_catalog(REPO / "aircraft/packs/catalog.yaml")}
     return [packs[n] for n in ("DJI TB47D 4500 mAh 6S", "Molicel P42A 4S2P 8.4 Ah Li-ion",
                                "3DR Solo Smart Battery 5200 mAh 4S",
-                               "Generic 3S 2200 mAh 25C LiPo")]
+                               "Generic 3S 2200 mAh LiPo")]
 
 
 def test_too_long_survey_is_split_into_the_fewest_sorties_that_each_pass_check():
-    ac = load_aircraft(REPO / "aircraft/solo_survey.yaml")
+    # the Solo's airframe, open to any cell count: the small catalog mixes 3S to 6S packs
+    ac = replace(load_aircraft(REPO / "aircraft/solo_survey.yaml"), cells_series_allowed=None)
     mission = long_survey()
     packs = small_catalog()
     ev = sel.evaluate_packs(mission, ac, packs)
@@ -153,8 +154,8 @@ def test_too_long_survey_is_split_into_the_fewest_sorties_that_each_pass_check()
     # minimal: the count meets the charge bound, so one fewer sortie cannot work —
     # (n − 1) sorties hold less integral-model stress than the route alone needs
     whole = chain.check(mission)
-    limit = plan.pack.usable_as - 0.2 * plan.pack.capacity_as
-    needed = (whole.charge_used_mah * MAH / limit) ** plan.pack.model.beta
+    limit = whole.usable_mah - whole.reserve_mah   # the chain's, cut-off included
+    needed = (whole.charge_used_mah / limit) ** plan.pack.model.beta
     assert plan.count - 1 < needed <= plan.count
     assert plan.minimal and plan.count == plan.lower_bound >= 2
     # and no other pack of the catalog flies it in fewer sorties (ties: not lighter)
@@ -217,10 +218,12 @@ def test_sortie_mission_flies_out_to_the_cut_and_home_from_it():
 def test_lower_bound_is_the_stress_ratio():
     pack = load_battery(REPO / "aircraft/batteries/multistar_10ah_4s.yaml")
     limit_mah = (pack.usable_as - 0.2 * pack.capacity_as) / MAH
-    assert sizing.sortie_lower_bound(0.5 * limit_mah, pack, 0.2) == 1
-    assert sizing.sortie_lower_bound(limit_mah, pack, 0.2) == 1
+    beta = pack.model.beta
+    assert sizing.sortie_lower_bound(0.5 * limit_mah, limit_mah, beta) == 1
+    assert sizing.sortie_lower_bound(limit_mah, limit_mah, beta) == 1
     used = 2.5 ** (1 / pack.model.beta) * limit_mah
-    assert sizing.sortie_lower_bound(used, pack, 0.2) == 3
+    assert sizing.sortie_lower_bound(used, limit_mah, beta) == 3
+    assert sizing.sortie_lower_bound(used, 0.0, beta) > 10**6      # nothing usable
     assert math.isclose((used / limit_mah) ** pack.model.beta, 2.5)
 
 
