@@ -277,3 +277,25 @@ def site_density(altitude_amsl_m, site_altitude_m=0.0, site_temperature_c=None,
         if t is None:
             t = temperature(h) - KELVIN
     return _restore(density(h, temperature_c=t, pressure_pa=p), altitude_amsl_m)
+
+
+def pressure_altitude(pressure_pa):
+    r"""
+    ISA altitude of a static pressure (the inverse of :func:`pressure`), clipped to the
+    model's range.
+
+    .. math:: h = \frac{T_0}{L}\left(1 - (p/p_0)^{R L/g}\right)
+
+    Parameters
+    ----------
+    pressure_pa : numeric
+        Static pressure, > 0. [Pa]
+
+    Returns
+    -------
+    altitude : numeric
+        Geopotential altitude in [-500, 11000]. [m]
+    """
+    p = _require(pressure_pa, "pressure_pa", gt=0.0, unit="Pa")
+    h = T0 / LAPSE_RATE * (1.0 - (p / P0) ** (1.0 / _EXPONENT))
+    return _restore(np.clip(h, ALTITUDE_RANGE_M[0], ALTITUDE_RANGE_M[1]), pressure_pa)

@@ -457,8 +457,9 @@ class MissionChain:
     Parameters
     ----------
     aircraft : Aircraft
-    packs : BatteryPack or sequence of BatteryPack
-        One pack (the pre-flight check) or many (a catalog; the pack axis).
+    packs : BatteryPack or sequence of BatteryPack or None
+        One pack (the pre-flight check) or many (a catalog; the pack axis); None for a
+        chain that only runs the power model from measured flight states.
     battery_model : {"infer", "integral", "circuit"}
         ``"infer"``: the circuit model for packs whose file has a ``circuit:`` or
         ``thermal:`` block, else the integral model.
@@ -484,9 +485,8 @@ class MissionChain:
         if not 0.0 <= reserve < 1.0:
             raise InputError(f"reserve must be in [0, 1), got {reserve}")
         self.aircraft = aircraft
-        self.packs = [packs] if isinstance(packs, BatteryPack) else list(packs)
-        if not self.packs:
-            raise InputError("the chain needs at least one pack (the catalog is empty)")
+        self.packs = ([] if packs is None else [packs] if isinstance(packs, BatteryPack)
+                      else list(packs))
         self.battery_model = battery_model
         self.reserve = float(reserve)
         self.temperature_c = temperature_c
@@ -553,6 +553,8 @@ class MissionChain:
         temp = self.temperature_c if self.temperature_c is not None else env.temperature_c
         flown_env = replace(env, temperature_c=temp)
         payload = mission.payload_kg if payload_kg is None else float(payload_kg)
+        if not self.packs:
+            raise InputError("the chain needs at least one pack to fly a mission")
         if not mission.legs:
             raise InputError(f"{mission.source or mission.name}: the mission has no legs")
         packs, ac = self.packs, self.aircraft
@@ -863,12 +865,22 @@ class MissionChain:
             Battery power. On the ground (phase ``ground``) the rotors or propeller are
             idle: only the system load ``system_power_w`` is drawn. [W]
         """
+        return self.power_at(state.airspeed_ms, state.climb_rate_ms, state.air_density,
+                             mass_kg, on_ground=state.phase == "ground")
+
+    def power_at(self, airspeed_ms, climb_rate_ms, air_density, mass_kg, *,
+                 on_ground=False) -> np.ndarray:
+        """The aircraft's battery power at measured flight states (all broadcast).
+
+        A fixed-wing aircraft's airspeed is held at its minimum airspeed
+        (:attr:`planner.parameters.Aircraft.min_airspeed_ms`): below it the polar's
+        induced term has no meaning. On the ground only ``system_power_w`` is drawn. [W]
+        """
         ac = self.aircraft
-        v = np.maximum(state.airspeed_ms, ac.min_airspeed_ms) if not ac.is_multirotor \
-            else state.airspeed_ms
-        power = np.asarray(ac.battery_power(v, state.climb_rate_ms, state.air_density,
-                                            mass_kg), float)
-        return np.where(state.phase == "ground", ac.system_power_w, power)
+        v = (np.asarray(airspeed_ms, float) if ac.is_multirotor
+             else np.maximum(airspeed_ms, ac.min_airspeed_ms))
+        power = np.asarray(ac.battery_power(v, climb_rate_ms, air_density, mass_kg), float)
+        return np.where(on_ground, ac.system_power_w, power)
 
 
 # --------------------------------------------------------------------------- helpers

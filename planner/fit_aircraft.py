@@ -1,7 +1,8 @@
 """Identify an aircraft's power parameters from flights.
 
-The physics model (:meth:`planner.parameters.Aircraft.battery_power`) driven
-by the measured flight state (:func:`planner.replay.flight_state`) is fitted
+The physics model driven by the measured flight state (the mission chain's
+:meth:`~planner.chain.MissionChain.power_at` with the state of
+:func:`planner.flightstate.from_record`) is fitted
 to the measured electric power of the airborne samples by least squares
 (:func:`scipy.optimize.least_squares`):
 
@@ -33,7 +34,8 @@ from scipy.optimize import least_squares
 from planner import record
 from planner.parameters import Aircraft
 from planner.errors import FitError, InputError
-from planner.replay import flight_phases, flight_state
+from planner import flightstate
+from planner.chain import MissionChain
 
 #: Parameters fitted, start-value source, bounds, per aircraft type.
 PARAMETERS = {
@@ -89,9 +91,9 @@ def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0) -> Sample
                              "(climb_rate_ms, groundspeed_ms or airspeed_ms) to fit an aircraft")
         t = exp["time_s"].to_numpy(float)
         p = exp["power_w"].to_numpy(float)
-        v, climb, rho, _, _ = flight_state(exp, site_altitude_m)
-        phase = flight_phases(p, exp.get("climb_rate_ms"), exp.get("groundspeed_ms"), t,
-                              exp.get("altitude_m"))
+        state = flightstate.from_record(exp, site_altitude_m)
+        v, climb, rho, phase = (state.airspeed_ms, state.climb_rate_ms, state.air_density,
+                                state.phase)
         ok = (phase != "ground") & (phase != "takeoff") & np.isfinite(p) & np.isfinite(v)
         dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
         parts.append((np.full(ok.sum(), str(exp_id), dtype=object), t[ok], v[ok], climb[ok],
@@ -104,11 +106,7 @@ def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0) -> Sample
 
 
 def _predict(aircraft: Aircraft, s: Samples, mass: np.ndarray) -> np.ndarray:
-    v = s.airspeed
-    if not aircraft.is_multirotor:
-        fw = aircraft.fixed_wing
-        v = np.maximum(v, fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms)
-    return np.asarray(aircraft.battery_power(v, s.climb_rate, s.air_density, mass), float)
+    return MissionChain(aircraft, None).power_at(s.airspeed, s.climb_rate, s.air_density, mass)
 
 
 def _subset(s: Samples, mask: np.ndarray) -> Samples:

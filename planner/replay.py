@@ -38,14 +38,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from planner import atmosphere, record
+from planner import flightstate, record
 from planner.battery import integral
-from planner.chain import filled_temperature
+from planner.chain import MissionChain
 from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.units import AS_PER_MAH
-
-R_AIR = 287.05287
-PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent")
 
 
 def detect_cells(voltage_v) -> int | None:
@@ -153,40 +150,6 @@ class ReplayResult:
 
 
 # ---------------------------------------------------------------------- pieces
-def flight_phases(power_w, climb_rate_ms=None, groundspeed_ms=None, time_s=None,
-                  altitude_m=None):
-    """Label every sample with a flight phase (see the module docstring).
-
-    A record whose altitude never changes by 1 m (or is not known) and whose
-    ground speed never exceeds 1 m/s is a ground test: every sample is ``ground``.
-    """
-    p = np.asarray(power_w, float)
-    n = p.size
-    if n == 0:
-        return np.array([], dtype=object)
-    finite = p[np.isfinite(p)]
-    p90 = np.percentile(finite, 90) if finite.size else np.nan
-    airborne = p > 0.3 * p90
-    if altitude_m is not None and groundspeed_ms is not None:
-        alt = np.asarray(altitude_m, float)
-        gsp = np.asarray(groundspeed_ms, float)
-        still_alt = not np.isfinite(alt).any() or np.nanmax(alt) - np.nanmin(alt) < 1.0
-        if still_alt and np.isfinite(gsp).any() and np.nanmax(gsp) < 1.0:
-            return np.full(n, "ground", dtype=object)
-    vz = np.zeros(n) if climb_rate_ms is None else np.nan_to_num(np.asarray(climb_rate_ms,
-                                                                            float))
-    gs = np.zeros(n) if groundspeed_ms is None else np.nan_to_num(np.asarray(groundspeed_ms,
-                                                                             float))
-    phase = np.where(vz > 0.5, "climb", np.where(vz < -0.5, "descent",
-                                                 np.where(gs > 2.0, "cruise", "hover")))
-    phase = np.where(airborne, phase, "ground").astype(object)
-    if time_s is not None and airborne.any():
-        t = np.asarray(time_s, float)
-        t0 = t[np.argmax(airborne)]
-        phase[airborne & (t >= t0) & (t < t0 + 10.0)] = "takeoff"
-    return phase
-
-
 def _rolling_mean(t, y, window_s):
     """Mean of ``y`` over the trailing ``window_s`` seconds (trapezoid, vectorised)."""
     cum = record.cumulative_trapezoid(y, t)
@@ -197,10 +160,13 @@ def _rolling_mean(t, y, window_s):
     return np.where(span > 0, m, y)
 
 
-def _pack_model(pack: BatteryPack | None, meta: dict, voltage) -> tuple[IntegralModel, str]:
+def _replay_pack(pack: BatteryPack | None, meta: dict, voltage) -> tuple[BatteryPack | None,
+                                                                          str]:
+    """The pack the replay flies: the pack file, else the literature model of the log's
+    cell count (its capacity from the log; unknown: β = 1, Peukert's form)."""
     if pack is not None:
         what = "literature" if pack.model.literature else "fitted"
-        return pack.model, f"{what} ({pack.name})"
+        return pack, f"{what} ({pack.name})"
     cells, how = meta.get("battery_cells"), "log parameter"
     if not cells:
         cells, how = detect_cells(voltage), "detected from voltage"
@@ -209,22 +175,27 @@ def _pack_model(pack: BatteryPack | None, meta: dict, voltage) -> tuple[Integral
     cap = meta.get("battery_capacity_mah")
     model = IntegralModel.from_literature(cells, cap * AS_PER_MAH if cap else None)
     size = f", {cap:.0f} mAh from the log" if cap else ", capacity unknown: β = 1"
-    return model, f"literature {cells}S ({how}{size})"
+    label = f"literature {cells}S ({how}{size})"
+    # the capacity enters only the reserve of the pilot's view, given apart (None here)
+    return BatteryPack(name=label, cells_series=cells, capacity_mah=cap or 1.0, mass_kg=1.0,
+                       model=model), label
 
 
-def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
+def battery_replay(exp: pd.DataFrame, chain: MissionChain, label: str,
                    capacity_mah: float | None, reserve: float = 0.2
                    ) -> tuple[BatteryReplay, dict[str, np.ndarray]]:
-    """Integral model driven by the measured power of one experiment."""
+    """The chain's battery model driven by the measured power of one experiment
+    (:meth:`planner.chain.MissionChain.battery_from_power`)."""
     t = exp["time_s"].to_numpy(float)
     p = exp["power_w"].to_numpy(float)
-    temp = (filled_temperature(exp["temperature_c"].to_numpy(float))
-            if "temperature_c" in exp and model.temperature_coefficient_per_c else None)
-    base = integral.charge(t, np.nan_to_num(p), model.delta, model.epsilon, model.beta)
+    trace = chain.battery_from_power(
+        t, p, temperature_c=exp["temperature_c"].to_numpy(float)
+        if "temperature_c" in exp else None)
+    model, base = trace.model, trace.base_charge_as
     # the model's charge, with the pack's temperature and fade extensions sample by sample
-    predicted = model.extend_charge(base, temp) / AS_PER_MAH
+    predicted = trace.charge_as / AS_PER_MAH
     # forward predictions hold the present extension factor: C = C_now + s·(C_0 − C_0,now)
-    scale = model.charge_scale(temp) * np.ones_like(t)
+    scale = trace.scale
     measured = exp["consumed_mah"].to_numpy(float)
     measured = measured - measured[np.isfinite(measured)][0] if np.isfinite(measured).any() \
         else measured
@@ -242,7 +213,7 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
 
     rmse, final_err = metrics(measured)
     rmse_i, final_i = metrics(integrated)
-    stress = integral.stress_from_charge(base, model.beta)
+    stress = trace.stress
 
     def base_target(k, charge_as):
         return base[k] + (charge_as - predicted[k] * AS_PER_MAH) / scale[k]
@@ -281,59 +252,14 @@ def battery_replay(exp: pd.DataFrame, model: IntegralModel, label: str,
     return result, series
 
 
-def flight_state(exp: pd.DataFrame, site_altitude_m: float = 0.0):
-    """Airspeed, climb rate and air density the power model needs, from the record.
-
-    Returns ``(airspeed, climb_rate, density, airspeed_source, density_source)``.
-    """
-    n = len(exp)
-    col = (lambda name: exp[name].to_numpy(float) if name in exp.columns
-           else np.full(n, np.nan))
-    airspeed, gs = col("airspeed_ms"), col("groundspeed_ms")
-    course = col("course_deg")
-    wn, we = col("wind_n_ms"), col("wind_e_ms")
-    have_wind = np.isfinite(wn) & np.isfinite(we) & ((np.abs(wn) + np.abs(we)) > 0)
-    # hovering, the track is undefined (and often not logged): any course will do
-    course = np.where(np.isfinite(course) | ~(np.nan_to_num(gs, nan=1.0) < 0.2), course, 0.0)
-    a = np.radians(course)
-    from_wind = np.hypot(gs * np.sin(a) - we, gs * np.cos(a) - wn)
-    if np.isfinite(airspeed).mean() > 0.5:
-        source = "measured airspeed"
-        v = np.where(np.isfinite(airspeed), airspeed, gs)
-    elif have_wind.mean() > 0.5:
-        source = "ground speed corrected with the logged wind"
-        v = np.where(have_wind & np.isfinite(course), from_wind, gs)
-    else:
-        source = "ground speed (no airspeed or wind in the log: still air assumed)"
-        v = gs
-    v = np.abs(np.nan_to_num(v))
-    climb = np.nan_to_num(col("climb_rate_ms"))
-    p, temp = col("pressure_pa"), col("ambient_temperature_c")
-    if np.isfinite(p).mean() > 0.5 and np.isfinite(temp).mean() > 0.5:
-        p = pd.Series(p).interpolate(limit_direction="both").to_numpy()
-        temp = pd.Series(temp).interpolate(limit_direction="both").to_numpy()
-        rho = p / (R_AIR * (temp + 273.15))
-        dsource = "measured pressure and temperature"
-    else:
-        rho = np.full(n, float(atmosphere.density(site_altitude_m)))
-        dsource = f"ISA at {site_altitude_m:.0f} m"
-    return v, climb, rho, source, dsource
-
-
-def power_replay(exp: pd.DataFrame, aircraft: Aircraft, mass_kg: float,
+def power_replay(exp: pd.DataFrame, chain: MissionChain, mass_kg: float,
                  site_altitude_m: float = 0.0) -> tuple[PowerReplay, dict[str, np.ndarray]]:
-    """Physics model driven by the measured flight state of one experiment."""
-    t = exp["time_s"].to_numpy(float)
-    measured = exp["power_w"].to_numpy(float)
-    v, climb, rho, vsource, dsource = flight_state(exp, site_altitude_m)
-    if not aircraft.is_multirotor:
-        fw = aircraft.fixed_wing
-        v = np.maximum(v, fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms)
-    predicted = np.asarray(aircraft.battery_power(v, climb, rho, mass_kg), float)
-    phase = flight_phases(measured, exp.get("climb_rate_ms"), exp.get("groundspeed_ms"), t,
-                          exp.get("altitude_m"))
-    # on the ground the motors are idle or off: only the system load remains
-    predicted = np.where(phase == "ground", aircraft.system_power_w, predicted)
+    """The chain's power model driven by the measured flight state of one experiment
+    (:meth:`planner.chain.MissionChain.power_from_state`)."""
+    state = flightstate.from_record(exp, site_altitude_m)
+    t, measured, phase = state.time_s, state.measured_power_w, state.phase
+    vsource, dsource = state.airspeed_source, state.density_source
+    predicted = chain.power_from_state(state, mass_kg)
     air = (phase != "ground") & np.isfinite(measured) & np.isfinite(predicted)
     dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
     if air.sum() < 2:
@@ -344,7 +270,7 @@ def power_replay(exp: pd.DataFrame, aircraft: Aircraft, mass_kg: float,
     e_meas = float(np.sum(measured[air] * dt[air])) / 3600.0
     e_pred = float(np.sum(predicted[air] * dt[air])) / 3600.0
     phases = {}
-    for name in PHASES:
+    for name in flightstate.PHASES:
         m = phase == name
         if m.sum() >= 2:
             pm, pp = float(np.nanmean(measured[m])), float(np.nanmean(predicted[m]))
@@ -374,7 +300,7 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
         meta = _meta_for(exp_id, metas)
         notes: list[str] = []
         t = exp["time_s"].to_numpy(float)
-        model, label = _pack_model(pack, meta, exp.get("voltage_v", pd.Series(dtype=float)))
+        flown, label = _replay_pack(pack, meta, exp.get("voltage_v", pd.Series(dtype=float)))
         if pack is not None and "voltage_v" in exp:
             cells = meta.get("battery_cells") or detect_cells(exp["voltage_v"])
             if cells and cells != pack.cells_series:
@@ -383,11 +309,12 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
         capacity = (pack.total_capacity_mah if pack is not None
                     else meta.get("battery_capacity_mah"))
         series = {"time_s": t, "measured_w": exp["power_w"].to_numpy(float)}
+        chain = MissionChain(aircraft, flown) if flown is not None else None
         bat = None
-        if model is not None and "power_w" in exp:
-            bat, s = battery_replay(exp, model, label, capacity, reserve)
+        if chain is not None and "power_w" in exp:
+            bat, s = battery_replay(exp, chain, label, capacity, reserve)
             series.update(s)
-            if model.literature:
+            if flown.model.literature:
                 notes.append(f"battery model: {label}")
         pw = None
         if aircraft is not None:
@@ -398,7 +325,8 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
             if not {"climb_rate_ms", "groundspeed_ms"} & set(exp.columns):
                 notes.append("no flight state (speed, climb) in the data: power level skipped")
             else:
-                pw, s = power_replay(exp, aircraft, mass, site_altitude_m)
+                pw, s = power_replay(exp, chain or MissionChain(aircraft, None), mass,
+                                     site_altitude_m)
                 series.update(s)
         out.append(ExperimentReplay(str(exp_id), float(t[-1] - t[0]) if len(t) else 0.0,
                                     len(exp), bat, pw, notes, series))

@@ -13,7 +13,8 @@ from planner.parameters import IntegralModel, load_aircraft_and_battery
 from planner.fit_aircraft import fit_aircraft, with_params
 from planner.mission import load_mission
 from planner.mission.legs import Environment
-from planner.replay import detect_cells, flight_phases, replay
+from planner.flightstate import flight_phases
+from planner.replay import detect_cells, replay
 from testkit.flight import simulate_flight
 
 REPO = Path(__file__).resolve().parents[1]

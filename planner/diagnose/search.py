@@ -30,7 +30,7 @@ least :data:`FIT_BETA_MIN_DEPTH` of the nominal charge, else held at the pack's
 value). Held-out error: the cumulative residual :math:`C - \hat C` from the
 start of each held-out segment (experiment or block) [mAh].
 
-Power level: the airborne samples (phases of :func:`planner.replay.flight_phases`
+Power level: the airborne samples (phases of :func:`planner.flightstate.flight_phases`
 other than ground and take-off) averaged over bins of B seconds (at least 1 s;
 longer when there are more than :data:`MAX_BINS` bins; at most 10 s), within
 the test units. The baseline's free parameters are the efficiency η and the
@@ -100,7 +100,7 @@ from scipy.stats import chi2
 from planner import atmosphere
 from planner.errors import FitError, ModelError
 from planner.fit_aircraft import with_params
-from planner.replay import flight_phases
+from planner.flightstate import flight_phases
 from planner.units import AS_PER_MAH
 
 #: Folds of the cross-validation. [unitless]
@@ -669,7 +669,7 @@ class PowerLevel:
             if self.has_air_temperature:
                 rho = atmosphere.density(temperature_c=_fill(temp), pressure_pa=pres)
             else:
-                h = _pressure_altitude(pres)
+                h = atmosphere.pressure_altitude(pres)
                 rho = atmosphere.density(h, pressure_pa=pres)
             self.rho_meas = np.asarray(rho, float)
         else:
@@ -1055,13 +1055,6 @@ def _fill(x: np.ndarray) -> np.ndarray:
         return x
     idx = np.arange(len(x))
     return np.interp(idx, idx[ok], x[ok])
-
-
-def _pressure_altitude(p: np.ndarray) -> np.ndarray:
-    """ISA altitude of a pressure, clipped to the model's range. [m]"""
-    h = atmosphere.T0 / atmosphere.LAPSE_RATE * (1 - (p / atmosphere.P0) ** (
-        1 / atmosphere._EXPONENT))
-    return np.clip(h, atmosphere.ALTITUDE_RANGE_M[0], atmosphere.ALTITUDE_RANGE_M[1])
 
 
 # ============================================================================ scoring

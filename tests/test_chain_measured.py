@@ -1,0 +1,87 @@
+"""The chain's measured-data entry points are the one code path of replay and the fits.
+
+``replay`` predicts the battery from the measured power
+(:meth:`MissionChain.battery_from_power`) and the power from the measured flight state
+(:meth:`MissionChain.power_from_state` on :func:`planner.flightstate.from_record`); these
+tests hold replay's per-sample predictions to the entry points' own results.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from planner import flightstate, record
+from planner.chain import MissionChain
+from planner.data import load_flight_data
+from planner.fit_aircraft import _predict, airborne_samples
+from planner.parameters import load_aircraft_and_battery
+from planner.replay import replay
+from planner.units import AS_PER_MAH
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def flight():
+    data, metas = load_flight_data([REPO / "logs/sim_solo_windy.ulg"])
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    return data, metas, aircraft, pack
+
+
+def test_replay_predictions_are_the_chain_entry_points(flight):
+    data, metas, aircraft, pack = flight
+    result = replay(data, metas, pack=pack, aircraft=aircraft, payload_kg=0.35)
+    chain = MissionChain(aircraft, pack)
+    (exp_id, exp), = record.experiments(data)
+    exp = exp.reset_index(drop=True)
+    series = result.experiments[0].series
+    state = flightstate.from_record(exp)
+    mass = aircraft.empty_mass_kg + pack.total_mass_kg + 0.35
+    np.testing.assert_array_equal(series["predicted_w"], chain.power_from_state(state, mass))
+    trace = chain.battery_from_power(exp["time_s"], exp["power_w"],
+                                     temperature_c=exp["temperature_c"])
+    np.testing.assert_allclose(series["predicted_mah"], trace.charge_as / AS_PER_MAH,
+                               rtol=0, atol=1e-12)
+    # and they are not trivial: they follow the flight (the simulated log was flown with
+    # other "true" parameters than the shipped aircraft file's, logs/README.md)
+    air = state.airborne
+    assert np.corrcoef(series["predicted_w"][air], state.measured_power_w[air])[0, 1] > 0.7
+    assert series["predicted_mah"][-1] == pytest.approx(series["measured_mah"][-1], rel=0.05)
+
+
+def test_fit_aircraft_predicts_with_the_chain(flight):
+    data, _, aircraft, pack = flight
+    s = airborne_samples(data)
+    mass = np.full(len(s.time_s), 1.85)
+    want = MissionChain(aircraft, None).power_at(s.airspeed, s.climb_rate, s.air_density,
+                                                 mass)
+    np.testing.assert_array_equal(_predict(aircraft, s, mass), want)
+
+
+def test_power_from_state_draws_only_the_system_load_on_the_ground(flight):
+    _, _, aircraft, _ = flight
+    n = 6
+    state = flightstate.FlightState(
+        time_s=np.arange(n, dtype=float), airspeed_ms=np.full(n, 5.0),
+        climb_rate_ms=np.zeros(n), air_density=np.full(n, 1.2),
+        phase=np.array(["ground"] * 3 + ["cruise"] * 3, dtype=object),
+        measured_power_w=np.full(n, np.nan), airspeed_source="", density_source="")
+    p = MissionChain(aircraft, None).power_from_state(state, 1.85)
+    assert np.all(p[:3] == aircraft.system_power_w)
+    assert np.all(p[3:] > 10 * aircraft.system_power_w)
+
+
+def test_flight_state_takes_the_airspeed_from_the_logged_wind():
+    """Ground velocity 10 m/s north in a 4 m/s wind towards the north: 6 m/s through the
+    air (the wind triangle of planner.wind)."""
+    exp = pd.DataFrame({"time_s": np.arange(20.0), "power_w": 200.0,
+                        "groundspeed_ms": 10.0, "course_deg": 0.0, "climb_rate_ms": 0.0,
+                        "wind_n_ms": 4.0, "wind_e_ms": 0.0})
+    state = flightstate.from_record(exp)
+    assert "wind" in state.airspeed_source
+    np.testing.assert_allclose(state.airspeed_ms, 6.0)
+    exp["pressure_pa"], exp["ambient_temperature_c"] = 90000.0, 5.0
+    rho = flightstate.from_record(exp).air_density
+    np.testing.assert_allclose(rho, 90000.0 / (287.05287 * 278.15), rtol=1e-9)
