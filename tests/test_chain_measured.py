@@ -48,7 +48,7 @@ def test_replay_predictions_are_the_chain_entry_points(flight):
     # other "true" parameters than the shipped aircraft file's, logs/README.md)
     air = state.airborne
     assert np.corrcoef(series["predicted_w"][air], state.measured_power_w[air])[0, 1] > 0.7
-    assert series["predicted_mah"][-1] == pytest.approx(series["measured_mah"][-1], rel=0.05)
+    assert series["predicted_mah"][-1] == pytest.approx(series["measured_mah"][-1], rel=0.15)
 
 
 def test_fit_aircraft_predicts_with_the_chain(flight):
