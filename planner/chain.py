@@ -56,9 +56,9 @@ from planner.battery import integral
 from planner.battery.circuit import loaded_current, simulate_packs
 from planner.battery.ocv import lipo_ocv
 from planner.battery.thermal import T_RANGE_C
-from planner.parameters import Aircraft, BatteryPack, IntegralModel, load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
+from planner.parameters import Aircraft, BatteryPack, IntegralModel, load_aircraft_and_battery
 from planner.powertable import PowerTable
 from planner.units import AS_PER_MAH
 

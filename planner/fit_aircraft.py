@@ -14,7 +14,8 @@ to the measured electric power of the airborne samples by least squares
 
 Standard errors come from the Jacobian, inflated for the autocorrelation of
 neighbouring samples: the covariance is multiplied by (1 + ρ₁)/(1 − ρ₁), with
-ρ₁ the lag-1 autocorrelation of the residuals (AR(1) effective sample size).
+ρ₁ the lag-1 autocorrelation of the residuals (AR(1) effective sample size,
+:func:`planner.stats.covariance`).
 
 Validation never uses samples the fit saw: whole flights are held out where
 there are several (``validate``), else the last 30 % of the single flight's
@@ -31,11 +32,11 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from planner import record
-from planner.parameters import Aircraft
-from planner.errors import FitError, InputError
-from planner import flightstate
+from planner import flightstate, record
 from planner.chain import MissionChain
+from planner.errors import FitError, InputError
+from planner.parameters import Aircraft
+from planner.stats import covariance
 
 #: Parameters fitted, start-value source, bounds, per aircraft type.
 PARAMETERS = {
@@ -246,24 +247,10 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
 
 
 def _stderr(sol, names):
-    r = sol.fun
-    n, p = len(r), len(names)
-    J = sol.jac
-    rho = 0.0
-    if n > 3:
-        rc = r - r.mean()
-        denom = float(np.dot(rc, rc))
-        rho = float(np.dot(rc[1:], rc[:-1]) / denom) if denom > 0 else 0.0
-        rho = min(max(rho, 0.0), 0.99)
-    inflation = (1 + rho) / (1 - rho)
-    s2 = float(np.dot(r, r)) / max(n - p, 1)
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2 * inflation
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
-    except np.linalg.LinAlgError:
+    cov = covariance(sol.jac, sol.fun)
+    if cov.singular:
         warnings.warn("covariance of the aircraft fit is indeterminate (singular Jacobian)")
-        se = np.full(p, np.inf)
-    stderr = dict(zip(names, map(float, se)))
+    stderr = dict(zip(names, map(float, cov.stderr)))
     poor = [k for k, v in zip(names, sol.x) if not np.isfinite(stderr[k])
             or stderr[k] > POOR_RELATIVE_STDERR * max(abs(v), 1e-12)]
     if poor:

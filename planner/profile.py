@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner import atmosphere
-from planner.wind import capped_groundspeed, wind_triangle, wind_vector
-from planner.parameters import Aircraft
 from planner.mission.legs import LEG_KINDS, Environment, Mission
+from planner.parameters import Aircraft
+from planner.wind import capped_groundspeed, wind_triangle, wind_vector
 
 #: Points per leg at which the return-home reserve is checked.
 RTL_POINTS_PER_LEG = 5

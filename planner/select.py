@@ -24,9 +24,9 @@ import pandas as pd
 
 from planner.atmosphere import G
 from planner.chain import CHECK_CONSTRAINTS, ChainResult, MissionChain
-from planner.parameters import Aircraft, BatteryPack
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
+from planner.parameters import Aircraft, BatteryPack
 
 __all__ = ["CONSTRAINTS", "DEFAULT_MIN_THRUST_TO_WEIGHT", "OBJECTIVES", "PackEvaluation",
            "Selection", "evaluate_packs", "rank_packs", "select_pack"]

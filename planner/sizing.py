@@ -33,9 +33,9 @@ from scipy.optimize import minimize_scalar
 from planner import profile as prof
 from planner.battery import integral
 from planner.check import MissionChain, MissionResult
-from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.errors import InputError
 from planner.mission.legs import Environment, Leg, Mission
+from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.units import AS_PER_MAH
 
 __all__ = ["CHEMISTRIES", "EnduranceSweep", "RangeSweep", "Sortie", "SortiePlan", "SplitPoint",

@@ -96,6 +96,7 @@ from scipy.optimize import OptimizeWarning, least_squares
 from planner import record as rec
 from planner.battery import integral
 from planner.errors import FitError, InputError
+from planner.stats import jacobian_covariance
 from planner.units import AS_PER_MAH
 
 __all__ = [
@@ -494,25 +495,6 @@ class _Stack:
         return np.asarray(integral.stress_rate(self.p, delta, epsilon), float)
 
 
-def _covariance(jac: np.ndarray) -> tuple[np.ndarray, float, bool]:
-    """(JᵀJ)⁻¹ via SVD of the column-normalised Jacobian, as ``curve_fit`` does.
-
-    Returns the matrix (inf where indeterminate), the condition number of the
-    normalised Jacobian, and whether it is singular.
-    """
-    norms = np.linalg.norm(jac, axis=0)
-    p = jac.shape[1]
-    if np.any(norms == 0) or not np.all(np.isfinite(jac)):
-        return np.full((p, p), np.inf), np.inf, True
-    jn = jac / norms
-    _, s, vt = np.linalg.svd(jn, full_matrices=False)
-    threshold = np.finfo(float).eps * max(jn.shape) * s[0]
-    if np.sum(s > threshold) < p:
-        return np.full((p, p), np.inf), np.inf, True
-    cov_n = (vt.T / s**2) @ vt
-    return cov_n / np.outer(norms, norms), float(s[0] / s[-1]), False
-
-
 def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | None = None,
                  validate: Sequence[str] | None = None, source: str | None = None,
                  **kwargs) -> dict[str, Any]:
@@ -643,7 +625,8 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
     r = res.fun * y_scale
     n, p = r.size, len(names)
     jac = jacobian(res.x) * y_scale
-    bread, cond, singular = _covariance(jac)
+    base = jacobian_covariance(jac)
+    bread, cond, singular = base.matrix, base.condition, base.singular
     rss = float(np.dot(r, r))
     meat = np.zeros((p, p))
     num = den = 0.0

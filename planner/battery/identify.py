@@ -43,6 +43,7 @@ from planner.battery.circuit import CircuitParameters, simulate
 from planner.battery.ocv import OcvTable, ocv_table
 from planner.battery.thermal import lumped_temperature
 from planner.errors import FitError, InputError
+from planner.stats import jacobian_covariance
 
 
 @dataclass
@@ -97,17 +98,13 @@ def _charge_as(t, i):
 
 
 def _cov(jac, rss, n, p):
-    dof = max(n - p, 1)
-    s2 = rss / dof
-    jtj = jac.T @ jac
-    try:
-        cov = np.linalg.inv(jtj) * s2
-    except np.linalg.LinAlgError:
-        warnings.warn("covariance of the fit is indeterminate", RuntimeWarning, stacklevel=3)
-        cov = np.full((p, p), np.inf)
-    if not np.all(np.isfinite(cov)):
-        warnings.warn("covariance of the fit is indeterminate", RuntimeWarning, stacklevel=3)
-    return cov
+    """s² (JᵀJ)⁻¹ with s² = RSS/(n − p) (:func:`planner.stats.jacobian_covariance`);
+    warns when the data cannot determine the parameters."""
+    base = jacobian_covariance(jac)
+    if base.singular:
+        warnings.warn("covariance of the fit is indeterminate (singular Jacobian)",
+                      RuntimeWarning, stacklevel=3)
+    return base.matrix * (rss / max(n - p, 1))
 
 
 # --------------------------------------------------------------------------- profile

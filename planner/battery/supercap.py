@@ -60,6 +60,7 @@ from scipy.linalg import expm
 
 from planner.errors import InputError, ModelError
 
+
 @dataclass(frozen=True)
 class SupercapParameters:
     """Per-cell parameters of the two-branch supercapacitor, and the bank layout.

@@ -8,8 +8,8 @@ import yaml
 
 from planner.commands.common import fmt, output_path, parse_float, write_json
 from planner.data import load_flight_data
-from planner.parameters import default_battery_path, load_aircraft, load_battery
 from planner.errors import InputError
+from planner.parameters import default_battery_path, load_aircraft, load_battery
 
 
 def register(sub) -> None:

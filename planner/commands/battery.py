@@ -16,10 +16,10 @@ import yaml
 from planner import schema
 from planner.battery import design, fit, integral, vda
 from planner.commands.common import fmt, output_path, parse_float, parse_int, plot_path, write_json
-from planner.parameters import IntegralModel, battery_from_mapping, load_battery
 from planner.errors import InputError
-from planner.units import AS_PER_MAH
+from planner.parameters import IntegralModel, battery_from_mapping, load_battery
 from planner.parameters.schedule import write_schedule
+from planner.units import AS_PER_MAH
 
 #: Full-charge cell voltage used to detect the cell count from the data. [V]
 CELL_FULL_V = 4.2

@@ -15,9 +15,9 @@ from planner.commands.common import (
     plot_path,
     write_json,
 )
-from planner.parameters import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission import load_mission
+from planner.parameters import load_aircraft_and_battery
 
 
 def register(sub) -> None:

@@ -11,8 +11,8 @@ from pathlib import Path
 import yaml
 
 from planner.commands.common import output_path, parse_float, plot_path, write_json
-from planner.parameters import aircraft_from_mapping, battery_from_mapping
 from planner.errors import InputError
+from planner.parameters import aircraft_from_mapping, battery_from_mapping
 
 
 def register(sub) -> None:

@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 
 from planner.commands.common import output_path, parse_float, parse_int, parse_wind, write_json
-from planner.parameters import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.mission import load_mission
+from planner.parameters import load_aircraft_and_battery
 
 
 def register(sub) -> None:

@@ -19,9 +19,9 @@ from planner.commands.common import (
     plot_path,
     write_json,
 )
-from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
 from planner.errors import InputError
 from planner.mission import load_mission
+from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
 
 
 def register(sub) -> None:

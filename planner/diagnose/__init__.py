@@ -33,11 +33,12 @@ import numpy as np
 import pandas as pd
 
 from planner import record as rec
+from planner import stats
 from planner.battery import integral
-from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.diagnose import search as S
 from planner.diagnose.effects import EFFECTS, make_effects
 from planner.errors import FitError, InputError, ModelError
+from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.units import AS_PER_MAH
 
 __all__ = ["EFFECTS", "DiagnoseResult", "diagnose"]
@@ -124,7 +125,7 @@ class DiagnoseResult:
             rows = final.heldout_rows
             resid = final.heldout_row_resid
             order = np.argsort(rows, kind="stable")
-            rho = S._ar1(resid[order], level.row_group[rows[order]])
+            rho = stats.lag1_autocorrelation(resid[order], level.row_group[rows[order]])
             if rho > 0.5:
                 what = (f"{level.window_s:.0f}-s windows" if name == "capacity"
                         else f"{level.bin_s:.1f}-s bins")

@@ -97,7 +97,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import chi2
 
-from planner import atmosphere
+from planner import atmosphere, stats
 from planner.errors import FitError, ModelError
 from planner.fit_aircraft import with_params
 from planner.flightstate import flight_phases
@@ -196,19 +196,6 @@ def make_split(spans: list[tuple[float, float]]) -> Split:
 
 # ============================================================================ helpers
 
-def _ar1(resid: np.ndarray, groups: np.ndarray) -> float:
-    """Lag-1 autocorrelation of residuals within groups (consecutive rows), in [0, 0.95]."""
-    if len(resid) < 4:
-        return 0.0
-    r = resid - resid.mean()
-    same = groups[1:] == groups[:-1]
-    den = float(np.dot(r, r))
-    if den <= 0:
-        return 0.0
-    rho = float(np.dot(r[1:][same], r[:-1][same]) / den)
-    return min(max(rho, 0.0), 0.95)
-
-
 def _long_run_variance(r: np.ndarray) -> float:
     """Long-run variance σ²(1+ρ)/(1−ρ) of a residual series, robust to a step in it.
 
@@ -225,28 +212,8 @@ def _long_run_variance(r: np.ndarray) -> float:
     return s2 * (1 + rho) / (1 - rho)
 
 
-def _delta_method(func, x: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Values and standard errors of ``func(x)`` (vector) for ``x`` with covariance ``cov``."""
-    f0 = np.asarray(func(x), float)
-    grad = np.zeros((f0.size, x.size))
-    for j in range(x.size):
-        h = 1e-6 * max(abs(x[j]), 1e-3)
-        xp = x.copy()
-        xp[j] += h
-        grad[:, j] = (np.asarray(func(xp), float) - f0) / h
-    var = np.einsum("ij,jk,ik->i", grad, cov, grad)
-    return f0, np.sqrt(np.clip(var, 0.0, None))
-
-
 def _covariance(jac: np.ndarray, resid: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    n, p = jac.shape
-    s2 = float(np.dot(resid, resid)) / max(n - p, 1)
-    rho = _ar1(resid, groups)
-    try:
-        cov = np.linalg.pinv(jac.T @ jac) * s2 * (1 + rho) / (1 - rho)
-    except np.linalg.LinAlgError:  # pragma: no cover
-        cov = np.full((p, p), np.inf)
-    return cov
+    return stats.covariance(jac, resid, groups).matrix
 
 
 def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -523,7 +490,7 @@ class CapacityLevel:
             return [delta, eps, beta] + [v[k + 1 + i] / (A if e.relative else 1.0)
                                          for i, e in enumerate(effects)]
 
-        vals, se = _delta_method(conv, x, cov)
+        vals, se = stats.delta_method(conv, x, cov)
         if not self.fit_beta:
             se[2] = 0.0
         return dict(zip(names, map(float, vals))), dict(zip(names, map(float, se)))
@@ -1031,7 +998,7 @@ class PowerLevel:
         for n in extra:
             names += (["efficiency_at_reference", "efficiency_slope"]
                       if n == "efficiency_slope_coefficient" else [n])
-        vals, se = _delta_method(conv, x, cov)
+        vals, se = stats.delta_method(conv, x, cov)
         values = dict(zip(names, map(float, vals)))
         stderr = dict(zip(names, map(float, se)))
         if eff_curve:
@@ -1114,7 +1081,7 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
         has[h["loss_units"]] = True
         rss.append(fit.rss)
         nn.append(int(train.sum()))
-        rho.append(_ar1(fit.train_resid, level.row_group[train]))
+        rho.append(stats.lag1_autocorrelation(fit.train_resid, level.row_group[train]))
     sr = np.concatenate(sr_all)
     scale = AS_PER_MAH if level.name == "capacity" else 1.0
     unit_loss[~has] = np.nan

@@ -62,10 +62,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.atmosphere import ALTITUDE_RANGE_M
-from planner.parameters.limits import SPEED_MAX_MS
 from planner.errors import InputError
 from planner.mission.geo import FRAME_ERROR_KM, frame_error, great_circle_distance, latlon_to_aeqd
 from planner.mission.legs import Leg
+from planner.parameters.limits import SPEED_MAX_MS
 
 #: Horizontal distance below which a waypoint is a vertical move. [m]
 MIN_CRUISE_M = 0.5

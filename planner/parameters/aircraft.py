@@ -19,7 +19,6 @@ import numpy as np
 
 from planner import schema as S
 from planner.errors import InputError
-from planner.power.fixed_wing import min_loiter_radius
 from planner.parameters.limits import (
     AIRSPEED_MIN_MS,
     CP_MIN,
@@ -42,6 +41,7 @@ from planner.parameters.limits import (
     WING_AREA_MIN_M2,
 )
 from planner.parameters.pack import BatteryPack, load_battery
+from planner.power.fixed_wing import min_loiter_radius
 
 __all__ = ["AIRCRAFT_KEYS", "FIXED_WING_KEYS", "MULTIROTOR_KEYS", "Aircraft", "FixedWing",
            "Multirotor", "aircraft_from_mapping", "default_battery_path", "load_aircraft",

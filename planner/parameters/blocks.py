@@ -20,7 +20,6 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-
 from planner import schema as S
 from planner.battery.circuit import (
     DEFAULT_CAPACITY_TEMP_COEFF,
