@@ -135,7 +135,7 @@ import numpy as np
 import pandas as pd
 
 from planner.battery.ocv import lipo_ocv
-from planner.battery.thermal import T_RANGE_C, ThermalParameters, check_temperature
+from planner.battery.thermal import T_RANGE_C, ThermalParameters, check_temperature, lumped_step
 from planner.errors import InputError, ModelError
 
 #: Universal gas constant. [J/(mol K)]
@@ -685,8 +685,7 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
             if tau1[i] > 0.0:
                 v1[i] = a_rc[i] * v1[i] + r1[i] * (1.0 - a_rc[i]) * icell
             if thermal[i]:
-                target = t_air[i] + r_th[i] * heat
-                temp[i] = target + (temp[i] - target) * a_th[i]
+                temp[i] = lumped_step(temp[i], t_air[i], heat, r_th[i], a_th[i])
             q[i] += cur * d
             e[i] += volt * cur * d
         if ending:

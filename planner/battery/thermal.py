@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
@@ -105,6 +106,38 @@ def check_temperature(temperature_c, what: str = "temperature") -> None:
         value = float(t.ravel()[np.flatnonzero(bad.ravel())[0]])
         raise ModelError(f"{what} {value:.1f} °C is outside the battery model's range "
                          f"[{T_RANGE_C[0]:g} °C, {T_RANGE_C[1]:g} °C]")
+
+
+@numba.njit(cache=True)
+def lumped_step(temperature_c, t_air_c, heat_w, r_th, a):
+    r"""
+    One step of the lumped thermal model ([HESS] eq. 11) with the heat held over it.
+
+    .. math:: T_{k+1} = T_{air} + R_{th} Q_k + (T_k - T_{air} - R_{th} Q_k)\, a,
+              \qquad a = e^{-\Delta t_k/(R_{th} C_{th})}
+
+    The exact solution of :math:`C_{th}\dot T + (T - T_{air})/R_{th} = Q` for a constant
+    :math:`Q`; the one thermal step of the planner, used by :func:`lumped_temperature` and
+    by the circuit model's time loop (:func:`planner.battery.circuit.simulate`).
+
+    Parameters
+    ----------
+    temperature_c, t_air_c : float
+        Body and air temperature at the start of the step. [°C]
+    heat_w : float
+        Heat generated over the step. [W]
+    r_th : float
+        Thermal resistance to the air. [K/W]
+    a : float
+        :math:`e^{-\Delta t/\tau}`, the step's decay factor. [unitless]
+
+    Returns
+    -------
+    temperature : float
+        At the end of the step. [°C]
+    """
+    target = t_air_c + r_th * heat_w
+    return target + (temperature_c - target) * a
 
 
 def heat_generation(current_a, r0_ohm, rc_voltage_v=0.0, r1_ohm=None):
@@ -206,7 +239,7 @@ def lumped_temperature(time_s, heat_w, t_air_c, r_th, c_th, t0_c=None):
             a = np.exp(-dt / tau)
             temp = t0
             for k in range(n - 1):
-                temp = a[k] * temp + (1.0 - a[k]) * target[k]
+                temp = lumped_step(temp, air[k], q[k], r_th, a[k])
                 out[k + 1] = temp
     if isinstance(heat_w, pd.Series):
         return pd.Series(out, index=heat_w.index)
