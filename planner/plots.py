@@ -1,14 +1,12 @@
 """Plots. Functions draw on a given Axes (or make one) and return it; the
-library never calls ``plt.show()``. Only the ``save_*`` helpers write files."""
+library never calls ``plt.show()`` and never touches pyplot's global state or backend
+(figures are :class:`matplotlib.figure.Figure` objects). Only the ``save_*`` helpers write
+files."""
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from planner.errors import InputError
 
@@ -16,9 +14,21 @@ _LEG_COLOURS = {"climb": "#fde0c5", "cruise": "#e5f0fa", "hover": "#e8f5e0",
                 "loiter": "#e8f5e0", "descend": "#f2e6f7"}
 
 
+def figure(nrows=1, ncols=1, *, figsize=None, **kwargs):
+    """A new figure and its axes (``Figure.subplots``), outside pyplot: no global state,
+    no backend to choose; :func:`save` writes it."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **kwargs)
+
+
+def new_axes():
+    """Axes on a new figure, for a ``plot_*`` function called without ``ax``."""
+    return figure()[1]
+
+
 def plot_power(result, ax=None):
     """Battery power against time, legs shaded by kind. Returns the Axes."""
-    ax = ax or plt.gca()
+    ax = ax or new_axes()
     s = result.series
     ax.plot(s["time_s"] / 60.0, s["power_w"], color="C3", lw=1.5, label="battery power")
     _shade_legs(ax, result)
@@ -30,7 +40,7 @@ def plot_power(result, ax=None):
 
 def plot_remaining(result, ax=None):
     """Remaining charge (% of nominal) against time, with the reserve line."""
-    ax = ax or plt.gca()
+    ax = ax or new_axes()
     s = result.series
     ax.plot(s["time_s"] / 60.0, 100 * s["remaining_fraction"], color="C0", lw=1.8,
             label="remaining charge (integral model)")
@@ -63,7 +73,7 @@ def _shade_legs(ax, result):
 
 def save_mission_plot(result, path, title=None):
     """Two panels: power and remaining charge against time; legs marked."""
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    fig, (ax1, ax2) = figure(2, 1, figsize=(10, 7), sharex=True)
     plot_power(result, ax1)
     plot_remaining(result, ax2)
     ax1.set_title(title or f"{result.aircraft}: {result.verdict}")
@@ -78,8 +88,6 @@ def save(fig, path):
         fig.savefig(path, dpi=110)
     except OSError as exc:
         raise InputError(f"{path}: cannot write the plot ({exc.strerror})") from None
-    finally:
-        plt.close(fig)
 
 
 _PHASE_COLOURS = {"ground": "#eeeeee", "takeoff": "#fde0c5", "climb": "#fbe3d6",
@@ -129,7 +137,7 @@ def plot_replay_experiment(exp, axes):
 
 def save_replay_plot(result, path):
     n = len(result.experiments)
-    fig, axes = plt.subplots(2, n, figsize=(6 * n, 7), squeeze=False)
+    fig, axes = figure(2, n, figsize=(6 * n, 7), squeeze=False)
     for j, exp in enumerate(result.experiments):
         plot_replay_experiment(exp, axes[:, j])
     fig.suptitle("Replay: measured vs predicted")

@@ -3,14 +3,9 @@ return it; the library never calls ``plt.show()``. Only the ``save_*`` helpers w
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt
 import numpy as np
 
-from planner.plots import save
+from planner.plots import figure, new_axes, save
 
 
 def pareto_front(mass, margin, feasible):
@@ -36,7 +31,7 @@ def plot_pareto(selection, ax=None):
     The Pareto front of the feasible packs (lightest pack for each margin) is joined
     by a line and the chosen pack is labelled. Returns the Axes.
     """
-    ax = ax or plt.gca()
+    ax = ax or new_axes()
     e = selection.evaluation
     what = "hover" if e.aircraft_type == "multirotor" else "loiter"
     mass = e.pack_mass_kg
@@ -66,7 +61,7 @@ def plot_pareto(selection, ax=None):
 
 
 def save_pareto_plot(selection, path, title=None):
-    fig, ax = plt.subplots(figsize=(9, 6))
+    fig, ax = figure(figsize=(9, 6))
     plot_pareto(selection, ax)
     e = selection.evaluation
     ax.set_title(title or f"{e.mission_name}: {e.aircraft_name}, {len(e)} packs")
@@ -77,7 +72,7 @@ def save_pareto_plot(selection, path, title=None):
 
 def plot_endurance_sweep(sweep, ax=None):
     """Endurance against battery mass with the optimum marked. Returns the Axes."""
-    ax = ax or plt.gca()
+    ax = ax or new_axes()
     m, t = sweep.battery_mass_kg, sweep.endurance_s / 60.0
     ax.plot(m, t, color="C0", lw=1.8, label=f"{sweep.hold} time to the "
                                             f"{100 * sweep.reserve_fraction:.0f} % reserve")
@@ -99,7 +94,7 @@ def plot_endurance_sweep(sweep, ax=None):
 
 
 def save_endurance_plot(sweep, path, title=None):
-    fig, ax = plt.subplots(figsize=(9, 5.5))
+    fig, ax = figure(figsize=(9, 5.5))
     plot_endurance_sweep(sweep, ax)
     ax.set_title(title or f"{sweep.aircraft}: {sweep.specific_energy_wh_per_kg:.0f} Wh/kg, "
                           f"{sweep.cells_series}S, payload {sweep.payload_kg:g} kg")
@@ -110,7 +105,7 @@ def save_endurance_plot(sweep, path, title=None):
 
 def plot_range_sweep(sweep, ax=None):
     """Range against payload (cruise and best-range speed). Returns the Axes."""
-    ax = ax or plt.gca()
+    ax = ax or new_axes()
     p = sweep.payload_kg
     ax.plot(p, sweep.range_m / 1000.0, color="C0", lw=1.8,
             label=f"at cruise speed {sweep.cruise_speed_ms:.1f} m/s")
@@ -126,7 +121,7 @@ def plot_range_sweep(sweep, ax=None):
 
 
 def save_range_plot(sweep, path, title=None):
-    fig, ax = plt.subplots(figsize=(9, 5.5))
+    fig, ax = figure(figsize=(9, 5.5))
     plot_range_sweep(sweep, ax)
     ax.set_title(title or f"{sweep.aircraft} with {sweep.pack}: range against payload")
     ax.legend(loc="best", fontsize=8)

@@ -289,13 +289,11 @@ def render_fit(result: dict) -> str:
 
 def save_fit_plot(experiments, result: dict, path) -> None:
     """Measured vs predicted C^β and residual C − Ĉ per experiment (seed Fig. 8–11 kind)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from planner.plots import figure, save
 
     by_name = {m.experiment: m for m in result["metrics"]}
     n = len(experiments)
-    fig, axes = plt.subplots(n, 2, figsize=(11, 2.8 * n), squeeze=False)
+    fig, axes = figure(n, 2, figsize=(11, 2.8 * n), squeeze=False)
     params = {k: result[k] for k in ("delta", "epsilon", "beta")}
     for row, e in zip(axes, experiments):
         m = by_name[e.name]
@@ -323,12 +321,7 @@ def save_fit_plot(experiments, result: dict, path) -> None:
     fig.suptitle(f"integral model δ = {params['delta']:.4g}, ε = {params['epsilon']:.4g}, "
                  f"β = {params['beta']:.4g}")
     fig.tight_layout()
-    try:
-        fig.savefig(path, dpi=110)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
-    finally:
-        plt.close(fig)
+    save(fig, path)
 
 
 # --------------------------------------------------------------------------- design

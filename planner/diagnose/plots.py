@@ -9,15 +9,10 @@ from __future__ import annotations
 
 import math
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt
 import numpy as np
 
 from planner.diagnose.effects import EFFECTS
-from planner.plots import save
+from planner.plots import figure, new_axes, save
 from planner.units import AS_PER_MAH
 
 BEFORE = {"color": "0.55", "label": "before: calibrated baseline"}
@@ -31,7 +26,7 @@ def _ordered(score):
 
 def plot_residual_time(report, ax=None):
     """Held-out residual against time since the start of each experiment."""
-    ax = ax or plt.gca()
+    ax = ax or new_axes()
     res = report.result
     level = res.level
     changed = bool(res.selected)
@@ -73,7 +68,7 @@ def _driver(level, effect, state):
 
 def plot_residual_driver(report, effect, ax=None, after=True):
     """Held-out residual against the driver of ``effect`` (binned means as lines)."""
-    ax = ax or plt.gca()
+    ax = ax or new_axes()
     res = report.result
     level = res.level
     state = res.final_fit.state if res.final_fit is not None else {}
@@ -126,7 +121,7 @@ def save_diagnose_plot(result, path) -> None:
             panels += [("driver", report, e, False) for e in tested
                        if e.name not in report.result.skipped]
     if not panels:
-        fig, ax = plt.subplots(figsize=(7, 3))
+        fig, ax = figure(figsize=(7, 3))
         ax.text(0.5, 0.5, "no level could run:\n" + "\n".join(result.notes[:6]),
                 ha="center", va="center", fontsize=8, wrap=True)
         ax.set_axis_off()
@@ -134,7 +129,7 @@ def save_diagnose_plot(result, path) -> None:
         return
     ncol = 2 if len(panels) > 1 else 1
     nrow = math.ceil(len(panels) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(6.2 * ncol, 3.6 * nrow), squeeze=False)
+    fig, axes = figure(nrow, ncol, figsize=(6.2 * ncol, 3.6 * nrow), squeeze=False)
     for ax, (kind, report, effect, after) in zip(axes.flat, panels):
         if kind == "time":
             plot_residual_time(report, ax)
