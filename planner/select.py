@@ -288,7 +288,7 @@ def rank_packs(evaluation: PackEvaluation, objective: str = "mass") -> np.ndarra
     the same order.
     """
     if objective not in OBJECTIVES:
-        raise InputError(f"--objective must be one of {', '.join(OBJECTIVES)}, "
+        raise InputError(f"objective must be one of {', '.join(OBJECTIVES)}, "
                          f"got {objective!r}")
     e = evaluation
     mt = np.where(np.isfinite(e.margin_time_s), e.margin_time_s,
@@ -353,7 +353,7 @@ def select_pack(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack],
                 **kwargs) -> Selection:
     """Evaluate a catalog on a mission and rank it (see :func:`evaluate_packs`)."""
     if objective not in OBJECTIVES:
-        raise InputError(f"--objective must be one of {', '.join(OBJECTIVES)}, "
+        raise InputError(f"objective must be one of {', '.join(OBJECTIVES)}, "
                          f"got {objective!r}")
     evaluation = evaluate_packs(mission, aircraft, packs, environment, **kwargs)
     return Selection(evaluation, objective, rank_packs(evaluation, objective))

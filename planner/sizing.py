@@ -183,7 +183,7 @@ def endurance_sweep(aircraft: Aircraft, battery_mass_kg, *, specific_energy_wh_p
     if not specific_energy_wh_per_kg > 0 or not cell_voltage_v > 0:
         raise InputError("specific energy and cell voltage must be > 0")
     if not 0.0 <= reserve < usable_fraction:
-        raise InputError(f"--reserve must be in [0, usable fraction {usable_fraction:g}), "
+        raise InputError(f"reserve must be in [0, usable fraction {usable_fraction:g}), "
                          f"got {reserve}")
     env, temp, rho = _site_density(aircraft, environment, altitude_m, temperature_c)
     notes = []
@@ -339,7 +339,7 @@ def range_sweep(aircraft: Aircraft, pack: BatteryPack, payload_kg, *, reserve: f
     if pl.ndim != 1 or pl.size < 2 or np.any(~(pl >= 0)):
         raise InputError("payloads must be at least 2 values >= 0 kg")
     if not 0.0 <= reserve < pack.usable_fraction:
-        raise InputError(f"--reserve must be in [0, {pack.usable_fraction:g}), got {reserve}")
+        raise InputError(f"reserve must be in [0, {pack.usable_fraction:g}), got {reserve}")
     env = replace(environment or Environment(), wind_speed_ms=0.0)
     env, temp, rho = _site_density(aircraft, env, altitude_m, temperature_c)
     model = pack.model

@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from planner import schema
 from planner.battery import design, fit, integral, vda
 from planner.commands.common import fmt, output_path, parse_float, parse_int, plot_path, write_json
 from planner.errors import InputError
-from planner.parameters import IntegralModel, battery_from_mapping, load_battery
+from planner.parameters import IntegralModel, battery_from_mapping, load_battery, read_definition
 from planner.parameters.schedule import write_schedule
 from planner.units import AS_PER_MAH
 
@@ -192,7 +191,7 @@ def run_fit(args) -> int:
     base_raw = None
     if args.battery:
         load_battery(args.battery)  # validate first: bad base file -> one-line error
-        base_raw = dict(schema.load_yaml(args.battery))
+        base_raw = dict(read_definition(args.battery))
     else:
         missing = [o for o, v in (("--name", args.name), ("--mass-kg", args.mass_kg)) if v is None]
         if missing:
@@ -505,7 +504,7 @@ def run_pulse(args) -> int:
         write_json(res.to_dict() | {"data": str(args.data)}, json_out)
     if out:
         load_battery(args.battery)
-        mapping = dict(schema.load_yaml(args.battery))
+        mapping = dict(read_definition(args.battery))
         mapping["internal_resistance_ohm"] = round(float(res.mean_ohm), 6)
         battery_from_mapping(mapping, str(out))
         try:

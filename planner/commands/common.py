@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from contextlib import contextmanager
 import math
 from pathlib import Path
 from typing import Any
@@ -11,6 +12,24 @@ import numpy as np
 
 from planner.atmosphere import MAX_WIND_MS
 from planner.errors import InputError
+
+
+@contextmanager
+def flags_for(**flags: str):
+    """Name the command-line flags in the library's errors.
+
+    The library's errors name its own parameters (``reserve must be in [0, 1)``); inside
+    this context an :class:`InputError` that starts with one of the given parameter names
+    is raised again with the flag instead (``--reserve must be in [0, 1)``).
+    """
+    try:
+        yield
+    except InputError as exc:
+        text = str(exc)
+        for name, flag in flags.items():
+            if text.startswith(f"{name} "):
+                raise InputError(flag + text[len(name):]) from None
+        raise
 
 
 def parse_wind(text: str, max_speed_ms: float = MAX_WIND_MS) -> tuple[float, float]:

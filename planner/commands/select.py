@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from planner.commands.common import (
+    flags_for,
     fmt,
     output_path,
     parse_float,
@@ -289,12 +290,13 @@ def run_sweep(args) -> int:
         lo, hi = _parse_range(args.sweep_range, (0.05 * m0, 4.0 * m0))
         lo = max(lo, 1e-3)
         n = 200 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
-        sweep = sizing.endurance_sweep(
-            aircraft, np.linspace(lo, hi, n), specific_energy_wh_per_kg=e_spec,
-            cells_series=cells, cell_voltage_v=cell_v, model=model,
-            usable_fraction=pack.usable_fraction if pack is not None else 1.0,
-            payload_kg=payload, reserve=reserve, environment=env, altitude_m=altitude,
-            temperature_c=temperature)
+        with flags_for(reserve="--reserve"):
+            sweep = sizing.endurance_sweep(
+                aircraft, np.linspace(lo, hi, n), specific_energy_wh_per_kg=e_spec,
+                cells_series=cells, cell_voltage_v=cell_v, model=model,
+                usable_fraction=pack.usable_fraction if pack is not None else 1.0,
+                payload_kg=payload, reserve=reserve, environment=env, altitude_m=altitude,
+                temperature_c=temperature)
         print(render_endurance(sweep, source))
         if csv_out:
             _write_csv(sweep.to_frame(), csv_out)
@@ -311,9 +313,10 @@ def run_sweep(args) -> int:
             if aircraft.max_takeoff_mass_kg is not None else aircraft.empty_mass_kg)
     lo, hi = _parse_range(args.sweep_range, (0.0, max(free, 0.1 * aircraft.empty_mass_kg)))
     n = 41 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
-    sweep = sizing.range_sweep(aircraft, pack, np.linspace(lo, hi, n), reserve=reserve,
-                               environment=env, altitude_m=altitude,
-                               temperature_c=temperature)
+    with flags_for(reserve="--reserve"):
+        sweep = sizing.range_sweep(aircraft, pack, np.linspace(lo, hi, n), reserve=reserve,
+                                   environment=env, altitude_m=altitude,
+                                   temperature_c=temperature)
     print(render_range(sweep))
     if csv_out:
         _write_csv(sweep.to_frame(), csv_out)

@@ -6,6 +6,7 @@ objects; nothing else in the planner opens a definition file. The physics (layer
 these objects or plain numbers; the mission chain (layer 3) composes them.
 """
 
+from planner import schema as _schema
 from planner.parameters.aircraft import (
     Aircraft,
     FixedWing,
@@ -19,7 +20,15 @@ from planner.parameters.blocks import CircuitBlock
 from planner.parameters.catalog import catalog_from_mapping, load_catalog
 from planner.parameters.pack import BatteryPack, IntegralModel, battery_from_mapping, load_battery
 
-__all__ = ["Aircraft", "BatteryPack", "CircuitBlock", "FixedWing", "IntegralModel",
+
+
+def read_definition(path):
+    """A definition file's mapping as written (validated YAML syntax only), for a command
+    that extends a file and writes it again (``fit-battery --battery``)."""
+    return _schema.load_yaml(path)
+
+
+__all__ = ["read_definition", "Aircraft", "BatteryPack", "CircuitBlock", "FixedWing", "IntegralModel",
            "Multirotor", "aircraft_from_mapping", "battery_from_mapping",
            "catalog_from_mapping", "default_battery_path", "load_aircraft",
            "load_aircraft_and_battery", "load_battery", "load_catalog"]
