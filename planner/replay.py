@@ -5,7 +5,7 @@ Two levels, per experiment (flight or discharge):
 * **battery** — the integral model driven by the *measured* power predicts the
   charge drawn; it is compared with the logger's own consumed-charge counter and
   with the trapezoid integral of the measured current (RMSE in mAh, final
-  normalized error in %, seed eq. 29–30). Without a pack file the literature
+  normalized error in %, [UAV23] eq. 29–30). Without a pack file the literature
   model δ₀(N), ε₀(N), β = 0.9648 is used for the cell count N from the log
   (``BATT_*``/``BAT1_N_CELLS``) or, failing that, N = ⌈V_max / 4.25 V⌉. A
   pack that carries diagnose's extensions (``temperature_coefficient_per_c``,
@@ -65,7 +65,7 @@ class BatteryReplay:
     rmse_mah : float
         RMSE of predicted vs logged charge drawn. [mAh]
     final_error_pct : float
-        (measured − predicted) / measured at the end, seed eq. 30. [%]
+        (measured − predicted) / measured at the end, [UAV23] eq. 30. [%]
     rmse_vs_integrated_mah, final_error_vs_integrated_pct : float
         The same against the integral of the measured current. [mAh], [%]
     measured_final_mah, predicted_final_mah : float

@@ -137,13 +137,13 @@ RECORD_COLUMNS = ("experiment", "time_s", "voltage_v", "current_a", "power_w", "
 SEED_CELLS_SERIES = 4
 #: ... nominal capacity. [mAh]
 SEED_CAPACITY_MAH = 10_000.0
-#: ... pack internal resistance, seed Table 2. [Ω]
+#: ... pack internal resistance, [UAV23] Table 2. [Ω]
 SEED_R_PACK_OHM = 0.02068
 #: ... RC branch per cell (assumed, τ = 30 s). [Ω], [F]
 SEED_R1_OHM, SEED_C1_F = 0.003, 10_000.0
 #: ... loaded cut-off per cell. [V]
 SEED_CUTOFF_CELL_V = 3.5
-#: ... integral model m_const, seed Table 5 (used to design two-step tests).
+#: ... integral model m_const, [UAV23] Table 5 (used to design two-step tests).
 SEED_MODEL = {"delta": 23.6482, "epsilon": -1.0209, "beta": 0.9648}
 
 
@@ -539,7 +539,7 @@ def two_step_discharge(pack: BenchPack, p1_w: float, p2_w: float, k: float,
     """A two-step test designed with :func:`planner.battery.design.two_step` and run on the bench.
 
     The durations are those that draw ``capacity_mah`` under the pack's design
-    model (``pack.model``, the seed's m_const by default, seed eq. 25–28); the
+    model (``pack.model``, the seed's m_const by default, [UAV23] eq. 25–28); the
     bench runs them until the end or the cut-off.
 
     Parameters

@@ -367,9 +367,9 @@ def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = 
                          f"ε = {r['epsilon']:.4f} ± {se['epsilon']:.2g}, {beta_text}; "
                          f"trained on {', '.join(r['train'])}")
         t = report.table[report.table.beta_mode == mode]
-        for column, label, digits in (("rmse_mah", "RMSE [mAh] (seed eq. 29)", 1),
+        for column, label, digits in (("rmse_mah", "RMSE [mAh] ([UAV23] eq. 29)", 1),
                                       ("final_error_pct",
-                                       "final normalised error [%] (seed eq. 30)", 3)):
+                                       "final normalised error [%] ([UAV23] eq. 30)", 3)):
             lines += ["", label]
             lines.append(f"{'experiment':<24}{'kind':<10}{'mean P [W]':>11}"
                          + "".join(m.rjust(width) for m in models))

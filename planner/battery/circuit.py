@@ -2,8 +2,8 @@ r"""First-order equivalent-circuit (Thevenin/Randles) model of a LiPo cell and p
 
 The cell is an open-circuit voltage source OCV(SoC) with a one-state dynamic
 hysteresis voltage ``h``, an ohmic resistance R0(SoC, T) and one RC branch
-(R1 ∥ C1), as in the seed paper on the hybridized energy storage system
-(its first-order Randles circuit with a dynamic hysteresis state, eq. 4) and
+(R1 ∥ C1), as in [HESS] (its first-order Randles circuit: state of charge eq. 1,
+terminal voltage eq. 2, dynamic hysteresis state eq. 4, RC branch eq. 5, heat eq. 10) and
 in Plett's "enhanced self-correcting" cell model [1]_ (ch. 2). Discharge
 current is positive.
 
@@ -18,7 +18,7 @@ current is positive.
 hysteresis voltage (bounded by ±M), ``η`` the coulombic efficiency (1 on
 discharge). The hysteresis equation is Plett's one-state model ([1]_, ch. 2)
 written for the hysteresis *voltage* ``h = M·h_Plett`` (``M`` constant here,
-where the seed allows ``M(SoC, sgn i)``): under a steady
+where [HESS] eq. 4 allows ``M(SoC, sgn i)``): under a steady
 discharge ``h → −M`` (the loaded curve lies below the OCV), under charge
 ``h → +M``, and the approach is exponential in the *charge* passed, with the
 charge constant ``Q/γ``. For a current held over a step the exact solution is

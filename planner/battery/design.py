@@ -2,7 +2,7 @@ r"""Design of discharge tests for identifying the integral capacity model.
 
 Two kinds of test signal from the seed paper [1]_:
 
-* **Two-step tests** (seed eq. 25–28): constant power :math:`P_1` for
+* **Two-step tests** ([UAV23] eq. 25–28): constant power :math:`P_1` for
   :math:`t_1`, then :math:`P_2` for :math:`t_2 = k t_1`, sized so that the
   model draws exactly the charge :math:`C_0` by the end:
 
@@ -52,7 +52,7 @@ SCHEDULE_COLUMNS = ("start_s", "duration_s", "power_w")
 
 @dataclass(frozen=True)
 class TwoStepTest:
-    """A two-step constant-power test (seed eq. 25–28)."""
+    """A two-step constant-power test ([UAV23] eq. 25–28)."""
 
     p1_w: float
     """Power of the first step. [W]"""

@@ -65,7 +65,7 @@ Poorly determined
     parameter that ends on a bound: a warning, and the parameter is listed in
     ``result["poorly_determined"]``.
 Metrics (per experiment, every split)
-    RMSE of :math:`r = C - \hat C` [mAh] (seed eq. 29); final normalised error
+    RMSE of :math:`r = C - \hat C` [mAh] ([UAV23] eq. 29); final normalised error
     :math:`R = r_{final} / C_{final} \cdot 100` [%] (eq. 30); time error
     [s] (eq. 20): predicted minus measured time to draw the measured final
     charge. Where the model has not drawn that charge by the end of the record,
@@ -401,7 +401,7 @@ def _resolve_split(experiments, train, validate) -> tuple[list[str], list[str]]:
 
 @dataclass(frozen=True)
 class ExperimentMetrics:
-    """How well the model predicts one experiment (seed eq. 20, 29, 30)."""
+    """How well the model predicts one experiment ([UAV23] eq. 20, 29, 30)."""
 
     experiment: str
     """Experiment id."""
@@ -447,7 +447,7 @@ def _time_error(exp: Experiment, stress: np.ndarray, beta: float) -> float:
 
 def experiment_metrics(exp: Experiment, delta: float, epsilon: float, beta: float,
                        split: str = "unused") -> ExperimentMetrics:
-    """Score the model δ, ε, β on one experiment (seed eq. 20, 29, 30)."""
+    """Score the model δ, ε, β on one experiment ([UAV23] eq. 20, 29, 30)."""
     c_hat = integral.charge(exp.time_s, exp.power_w, delta, epsilon, beta)
     r = exp.charge_as - c_hat
     stress = integral.stress_from_charge(c_hat, beta)
@@ -499,7 +499,7 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
                  validate: Sequence[str] | None = None, source: str | None = None,
                  **kwargs) -> dict[str, Any]:
     r"""
-    Fit the integral capacity model to measured discharges (seed eq. 18).
+    Fit the integral capacity model to measured discharges ([UAV23] eq. 18).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-r"""Passive battery ∥ supercapacitor hybrid pack (seed paper on the HESS, eq. 12–14).
+r"""Passive battery ∥ supercapacitor hybrid pack ([HESS] eq. 12–14).
 
 The battery (equivalent circuit of :mod:`planner.battery.circuit`) and a
 supercapacitor bank (:mod:`planner.battery.supercap`) are wired directly in

@@ -6,7 +6,7 @@ pack — and return the fitted values with standard errors. Conversions to per
 cell values are done by :func:`fit_pulse_test`.
 
 * R0 from the voltage step at each current edge (:func:`fit_r0_pulse_edges`,
-  the seed paper's eq. 3 and the amended VDA rule ``R = ΔV/ΔI`` of DESIGN §5).
+  [HESS] eq. 3 and the amended VDA rule ``R = ΔV/ΔI`` of DESIGN §5).
 * R1, C1 from the voltage during and after each short pulse, mainly the
   relaxation (:func:`fit_rc_relaxation`, least squares).
 * OCV(SoC) from a low-rate discharge, and a low-rate charge when available
@@ -240,7 +240,7 @@ def fit_r0_pulse_edges(time_s, voltage_v, current_a, *, min_step_a: float | None
     -----
     .. math:: R_0 = -\frac{\hat v(t_k^+) - \hat v(t_k^-)}{i_k - i_{k-1}}
 
-    (seed eq. 3; DESIGN §5 ``R = ΔV/ΔI`` at the switching instant). The
+    ([UAV23] eq. 3; DESIGN §5 ``R = ΔV/ΔI`` at the switching instant). The
     voltages just before and just after the edge are the values at the edge
     instant of straight lines fitted to ``edge_window_s`` of samples on each
     side (same current as the sample next to the edge): this removes the

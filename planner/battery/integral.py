@@ -1,11 +1,12 @@
-r"""Empirical integral capacity model of the seed paper.
+r"""Empirical integral capacity model of [UAV23] (:mod:`planner.references`).
 
 .. math:: \hat C(t)^\beta = \int_0^t \frac{dt}{\delta\, P(t)^\varepsilon}
 
 with charge :math:`\hat C` in A·s, time in s and electric power :math:`P` in W
-(seed paper "Battery Testing and Discharge Model Validation for Electric UAV",
-eq. 15–17). For a constant power it reduces to :math:`t = \delta P^\varepsilon
-C^\beta` (Peukert's law written for power). A power of zero or less is a rest:
+([UAV23] eq. 14; :func:`stress_rate`, :func:`charge`, :func:`charge_from_stress`). For a
+constant power it reduces to :math:`t = \delta P^\varepsilon C^\beta` ([UAV23] eq. 15,
+:func:`discharge_time`; Peukert's law written for power), with the literature start
+values of eq. 16–17 (:func:`literature_delta`, :func:`literature_epsilon`). A power of zero or less is a rest:
 the load is off and the model draws no charge.
 
 The running integral :math:`S(t) = \int_0^t dt / (\delta P^\varepsilon)` is
@@ -20,7 +21,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from planner.errors import ModelError
 
-#: β of the seed paper (held fixed in its fits). [unitless]
+#: β of [UAV23] (held fixed in its fits, Table 5). [unitless]
 LITERATURE_BETA = 0.9648
 
 
@@ -31,7 +32,7 @@ def literature_delta(cells_series):
 
     .. math:: \delta_0(N) = -0.1067 N^3 + 0.8960 N^2 + 2.488 N + 0.6299
 
-    Seed paper, start values of the integral model (DESIGN §5).
+    [UAV23] eq. 16, the start value of the integral model's δ (DESIGN §5).
 
     Parameters
     ----------
@@ -49,6 +50,8 @@ def literature_epsilon(cells_series):
 
     .. math:: \varepsilon_0(N) = 2.917\cdot10^{-4} N^3 - 1.375\cdot10^{-3} N^2
               + 3.083\cdot10^{-3} N - 1.041
+
+    [UAV23] eq. 17.
     """
     n = np.asarray(cells_series, dtype=float)
     out = 2.917e-4 * n**3 - 1.375e-3 * n**2 + 3.083e-3 * n - 1.041
@@ -159,7 +162,7 @@ def charge(time_s, power_w, delta, epsilon, beta=LITERATURE_BETA):
 
     Notes
     -----
-    Trapezoidal cumulative integration of :math:`1/(\delta P^\varepsilon)`
+    [UAV23] eq. 14 by trapezoidal cumulative integration of :math:`1/(\delta P^\varepsilon)`
     (vectorised, no per-sample loop), then :math:`\hat C = S^{1/\beta}`.
     """
     _check(delta, beta)
@@ -173,7 +176,8 @@ def charge(time_s, power_w, delta, epsilon, beta=LITERATURE_BETA):
 
 def discharge_time(power_w, charge_as, delta, epsilon, beta=LITERATURE_BETA):
     r"""
-    Time to draw ``charge_as`` at constant power: :math:`t = \delta P^\varepsilon C^\beta`.
+    Time to draw ``charge_as`` at constant power: :math:`t = \delta P^\varepsilon C^\beta`
+    ([UAV23] eq. 15).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 r"""Two-branch supercapacitor (electric double-layer capacitor) model.
 
 The cell is two RC branches and a leakage resistance in parallel at its
-terminals (seed paper on the hybridized energy storage system, eq. 6–9; the
+terminals ([HESS] eq. 6–9; the
 two-branch form of Faranda, Gallina and Son [2]_, a reduction of Zubieta and
 Bonert's three-branch model [1]_):
 

@@ -1,7 +1,7 @@
 r"""Lumped thermal model of a battery pack (or a supercapacitor cell).
 
 One heat capacity exchanging heat with the air through one thermal resistance
-(seed paper on the hybridized energy storage system, eq. 11):
+([HESS] eq. 11):
 
 .. math:: C_{th} \frac{dT}{dt} + \frac{T - T_{air}}{R_{th}} = Q_{gen}
 

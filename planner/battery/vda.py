@@ -12,7 +12,7 @@ decays slowly afterwards), so
 
 with the samples just before and just after the switch-off. This holds for a
 discharge pulse (the voltage jumps up) and a charge pulse (it drops) alike.
-The seed paper's Table 2 lists R at 2, 4, 6 and 8 A (20.48, 21.24, 20.46 and
+[UAV23] Table 2 lists R at 2, 4, 6 and 8 A (20.48, 21.24, 20.46 and
 20.51 mΩ) and reports their mean, 20.68 mΩ, with the 95 % confidence interval
 20.07–21.29 mΩ.
 
@@ -193,7 +193,7 @@ def pulse_resistance(time_s, voltage_v, current_a, *, threshold_a: float = ON_TH
         Current magnitude that counts as "on". [A]
     by : {"level", "pulse"}, default "level"
         Statistics over one value per pulse current (the mean of its discharge
-        and charge pulses), as the seed's Table 2 lists them, or over every
+        and charge pulses), as the [UAV23] Table 2 lists them, or over every
         pulse.
     confidence : float, default 0.95
         Level of the Student-t confidence interval of the mean.
@@ -267,7 +267,7 @@ def pulse_profile(currents_a=(2.0, 4.0, 6.0, 8.0), resistance_ohm=0.02068, *,
                   dt_s: float = 0.1, polarisation_ohm: float = 0.0, tau_s: float = 30.0,
                   noise_v: float = 0.0, noise_a: float = 0.0, rng=None) -> pd.DataFrame:
     r"""
-    The seed's Table 1 pulse profile and the voltage response of a simple pack.
+    The [UAV23] Table 1 pulse profile and the voltage response of a simple pack.
 
     Per pulse current: relaxation ``rest_s[0]``, discharge pulse of
     ``pulse_s``, relaxation ``rest_s[1]``, charge pulse of ``pulse_s``,
@@ -276,7 +276,7 @@ def pulse_profile(currents_a=(2.0, 4.0, 6.0, 8.0), resistance_ohm=0.02068, *,
     Parameters
     ----------
     currents_a : sequence of float, default (2, 4, 6, 8)
-        Pulse current magnitudes, in order (seed Table 2). [A]
+        Pulse current magnitudes, in order ([UAV23] Table 2). [A]
     resistance_ohm : float or sequence of float, default 0.02068
         Ohmic resistance R0 of the pack, one for all or one per current. [Ω]
     ocv_v : float, default 16.0

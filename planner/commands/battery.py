@@ -287,7 +287,7 @@ def render_fit(result: dict) -> str:
 
 
 def save_fit_plot(experiments, result: dict, path) -> None:
-    """Measured vs predicted C^β and residual C − Ĉ per experiment (seed Fig. 8–11 kind)."""
+    """Measured vs predicted C^β and residual C − Ĉ per experiment ([UAV23] Fig. 8–11 kind)."""
     from planner.plots import figure, save
 
     by_name = {m.experiment: m for m in result["metrics"]}
@@ -328,7 +328,7 @@ def save_fit_plot(experiments, result: dict, path) -> None:
 def _register_design(sub) -> None:
     p = sub.add_parser("design", help="design discharge tests: two-step or APRBS",
                        description="Design discharge tests for identifying the integral "
-                                   "model (seed eq. 25–28 two-step tests; APRBS signals).")
+                                   "model ([UAV23] eq. 25–28 two-step tests; APRBS signals).")
     kinds = p.add_subparsers(dest="design_kind", metavar="KIND", parser_class=type(p),
                              required=True)
     t = kinds.add_parser("two-step", help="durations of a two-step constant-power test",

@@ -1,4 +1,4 @@
-r"""Fixed-wing power required from the parabolic drag polar (seed eq. 2–6).
+r"""Fixed-wing power required from the parabolic drag polar ([UAV23] eq. 2–6).
 
 Layer 1: pure, vectorised functions in SI units (m, s, kg, N, W, kg m⁻³, angles in
 radians). Every function takes floats, ndarrays or pandas Series (broadcasting) and returns
@@ -81,7 +81,7 @@ def polar_coefficients(air_density, wing_area, cd0, k, weight, load_factor=1.0):
 
         A = \tfrac12 \rho S C_{D0}, \qquad B = \frac{2 K (n W)^2}{\rho S}
 
-    Seed [1]_, eqs. (3)–(4), extended with the load factor :math:`n` (lift = :math:`nW`).
+    [UAV23] eq. 3–4, extended with the load factor :math:`n` (lift = :math:`nW`).
     """
     rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
     s = _require(wing_area, "wing_area", gt=0.0, unit="m²")
@@ -138,7 +138,7 @@ def required_power(airspeed, air_density, mass, wing_area, cd0, k, climb_rate=0.
     -----
     .. math:: P_R = A V^3 + \frac{B}{V} + W \dot h
 
-    Seed [1]_, eq. (2), with :math:`A`, :math:`B` from :func:`polar_coefficients`.
+    [UAV23] eq. 2, with :math:`A`, :math:`B` from :func:`polar_coefficients`.
     Small flight-path angles: lift is taken as :math:`nW`, not :math:`nW\cos\gamma`.
     """
     v = _require(airspeed, "airspeed", ge=0.0, unit="m/s")
@@ -278,7 +278,7 @@ def min_power_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravi
     -----
     .. math:: V_{mp} = \left(\frac{B}{3A}\right)^{1/4}
 
-    From :math:`dP_R/dV = 3AV^2 - B/V^2 = 0` with the seed's polar [1]_ eq. (2);
+    From :math:`dP_R/dV = 3AV^2 - B/V^2 = 0` with the polar of [UAV23] eq. 2;
     [2]_, ch. 5. Equivalent to :math:`C_L = \sqrt{3 C_{D0}/K}`.
     """
     m = _require(mass, "mass", gt=0.0, unit="kg")
@@ -320,7 +320,7 @@ def max_range_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravi
     -----
     .. math:: V_{mr} = \left(\frac{B}{A}\right)^{1/4}
 
-    From :math:`d(P_R/V)/dV = 2AV - 2B/V^3 = 0` with [1]_ eq. (2); [2]_, ch. 5. With a
+    From :math:`d(P_R/V)/dV = 2AV - 2B/V^3 = 0` with [UAV23] eq. 2; [2]_, ch. 5. With a
     constant efficiency and :math:`P_S = 0` this also maximises range per battery energy;
     for wind or a system load use :func:`planner.power.speeds.best_speeds`.
     """

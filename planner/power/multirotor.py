@@ -1,4 +1,4 @@
-r"""Multirotor power from static propeller coefficients (seed eq. 9–10, 22–24).
+r"""Multirotor power from static propeller coefficients ([UAV23] eq. 9–10, 22–24).
 
 Layer 1: pure, vectorised functions in SI units. **Rotor speed is in revolutions per
 second** (rev/s, not rad/s), as in the seed paper and in propeller data sheets
@@ -57,7 +57,7 @@ def rotor_speed(thrust, air_density, diameter, ct):
     -----
     .. math:: T = C_T \rho n^2 D^4 \quad\Rightarrow\quad n = \sqrt{\frac{T}{C_T \rho D^4}}
 
-    Seed [1]_, eq. (9); coefficient convention as in [2]_.
+    [UAV23] eq. 9; coefficient convention as in [2]_.
     """
     t = _require(thrust, "thrust", ge=0.0, unit="N")
     rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
@@ -90,7 +90,7 @@ def rotor_power(rotor_speed, air_density, diameter, cp):
     -----
     .. math:: P = C_P \rho n^3 D^5
 
-    Seed [1]_, eq. (10); coefficient convention as in [2]_.
+    [UAV23] eq. 10; coefficient convention as in [2]_.
     """
     n = _require(rotor_speed, "rotor_speed", ge=0.0, unit="rev/s")
     rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
@@ -140,7 +140,7 @@ def propeller_battery_power(mass, air_density, rotors, diameter, ct, cp, efficie
 
     Notes
     -----
-    Vertical flight, exactly the seed [1]_ eqs. (22)–(24): each rotor carries
+    Vertical flight, exactly [UAV23] eq. 22–24: each rotor carries
     :math:`T = W/N`, turns at :math:`n` from :func:`rotor_speed` and needs
     :func:`rotor_power`; the climb adds :math:`W\dot h`:
 
