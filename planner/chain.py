@@ -84,6 +84,9 @@ CIRCUIT_EXTEND_S = 7200.0
 #: Air (and starting pack) temperature of the circuit model when none is given. [°C]
 DEFAULT_PACK_TEMPERATURE_C = 25.0
 
+#: Legs the aircraft cannot fly that a reason names one by one; the rest are counted.
+MAX_LISTED_PROBLEMS = 3
+
 #: Figures of the circuit model per pack (see :class:`ChainResult`).
 CIRCUIT_FIGURES = ("min_voltage_v", "voltage_margin_v", "worst_leg", "cutoff_time_s",
                    "charge_to_cutoff_mah", "charge_used_mah", "max_temperature_c",
@@ -95,6 +98,18 @@ def _leg_name(table, i: int) -> str:
     """How messages name leg ``i`` (0-based): its origin in the mission file, else its
     number counted from 1 like the check's table."""
     return table.origin[i] or f"leg {i + 1}"
+
+
+def _ranges(numbers) -> str:
+    """``[3, 4, 5, 9]`` → ``"3–5, 9"``."""
+    out, start = [], None
+    for k, n in enumerate(numbers):
+        if start is None:
+            start = n
+        if k + 1 == len(numbers) or numbers[k + 1] != n + 1:
+            out.append(f"{start}" if start == n else f"{start}–{n}")
+            start = None
+    return ", ".join(out)
 
 
 def _leg_at(table, time_s) -> np.ndarray:
@@ -229,8 +244,15 @@ class ChainResult:
         return out
 
     def reasons(self, i: int) -> list[str]:
-        """Why pack ``i`` is grounded, one message per violated constraint."""
-        return [text for code in self.constraints(i) for text in self.reason(i, code)]
+        """Why pack ``i`` is grounded, one message per violated constraint.
+
+        When the aircraft cannot fly the mission as planned (``mission``), only that is
+        said: every later figure assumes legs it cannot fly.
+        """
+        codes = self.constraints(i)
+        if "mission" in codes:
+            codes = ["mission"]
+        return [text for code in codes for text in self.reason(i, code)]
 
     def reason(self, i: int, code: str) -> list[str]:
         """The message(s) of check constraint ``code`` for pack ``i``."""
@@ -238,7 +260,14 @@ class ChainResult:
         c = {k: v[i] for k, v in self.circuit.items()}
         out: list[str] = []
         if code == "mission":
-            out.extend(f"{_leg_name(table, j)}: {why}" for j, why in table.problems)
+            listed = sorted(table.problems)
+            problems = [f"{_leg_name(table, j)}: {why}" for j, why in listed]
+            if len(problems) > MAX_LISTED_PROBLEMS:
+                rest = sorted({j + 1 for j, _ in listed[MAX_LISTED_PROBLEMS - 1:]})
+                problems = problems[:MAX_LISTED_PROBLEMS - 1] + [
+                    f"and {len(rest)} more legs the aircraft cannot fly: legs "
+                    f"{_ranges(rest)}"]
+            out.extend(problems)
         elif code == "power":
             j = int(self.undeliverable_leg[i])
             out.append(f"{_leg_name(table, j)}: the pack cannot deliver "
@@ -389,7 +418,9 @@ class ChainResult:
             series={k: d["series_" + k][i] for k in ("time_s", "power_w",
                                                       "remaining_fraction", "leg")},
             aircraft_type=self.aircraft.type, circuit=circuit, best_speeds=best,
-            environment=self.environment, binding=self.binding(i))
+            environment=self.environment, binding=self.binding(i),
+            cutoff_limited=self.cutoff_limited(i),
+            unflyable_legs=[j + 1 for j, _ in self.table.problems])
 
     def binding(self, i: int) -> str | None:
         """The first violated check constraint of pack ``i`` (None: GO)."""

@@ -7,6 +7,7 @@ verdict, reasons, margins, the per-leg table and the series for the plot.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -66,6 +67,11 @@ class MissionResult:
     binding : str or None
         The first violated check constraint (:data:`planner.chain.CHECK_CONSTRAINTS`);
         None for GO.
+    cutoff_limited : bool
+        The circuit model's voltage cut-off, not the nominal charge, sets the usable
+        charge.
+    unflyable_legs : list of int
+        Legs (counted from 1) the aircraft cannot fly; their figures mean nothing.
     series : dict of ndarray
         ``time_s``, ``power_w``, ``remaining_fraction`` sampled along the mission
         for plots.
@@ -100,10 +106,48 @@ class MissionResult:
     best_speeds: dict | None = None
     environment: Environment | None = None
     binding: str | None = None
+    cutoff_limited: bool = False
+    unflyable_legs: list[int] = field(default_factory=list)
 
     @property
     def go(self) -> bool:
         return self.verdict == "GO"
+
+    @property
+    def landing_charge_mah(self) -> float:
+        """Charge still usable on landing: usable − drawn (the reserve is part of it). [mAh]"""
+        return self.usable_mah - self.charge_used_mah
+
+    def verdict_line(self) -> str:
+        """One line: the verdict, the limit that binds, by how much (agreeing with the
+        margins printed beside it)."""
+        what = "hover" if self.aircraft_type == "multirotor" else "loiter"
+        extra = (f" = {self.margin_time_s / 60:+.1f} min of {what} at "
+                 f"{self.hold_power_w:.0f} W" if math.isfinite(self.margin_time_s) else "")
+        reserve = f"reserve {self.reserve_mah:.0f} mAh ({100 * self.reserve_fraction:.0f} %)"
+        if self.cutoff_limited:
+            limit = (f"the pack gives {self.usable_mah:.0f} mAh before its loaded voltage "
+                     f"reaches the cut-off, {reserve}")
+        else:
+            limit = f"lands with {100 * self.remaining_fraction:.1f} % ({reserve})"
+        if self.go:
+            return f"GO: {limit}, margin {self.margin_mah:+.0f} mAh{extra}"
+        more = len(self.reasons) - 1
+        tail = f" (+{more} more reason{'s' if more > 1 else ''} above)" if more > 0 else ""
+        b = self.binding
+        if b == "landing_reserve":
+            return (f"NO-GO: {limit}: short by {-self.margin_mah:.0f} mAh{extra}{tail}")
+        if b == "runs_out":
+            return (f"NO-GO: needs {self.charge_used_mah:.0f} mAh, the pack gives "
+                    f"{self.usable_mah:.0f} mAh: it runs out before landing, short by "
+                    f"{-self.margin_mah:.0f} mAh of the {reserve}{tail}")
+        if b == "return_home" and self.point_of_no_return:
+            p = self.point_of_no_return
+            return (f"NO-GO: point of no return at t = {p['time_s']:.0f} s "
+                    f"({p['leg_origin']}, {p['distance_home_m']:.0f} m from home): from "
+                    f"there home with the {reserve} is out of reach (smallest return "
+                    f"margin {self.rtl_min_margin_mah:+.0f} mAh){tail}")
+        return f"NO-GO: {self.reasons[0]}{tail}" if self.reasons else "NO-GO"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (units in the key names)."""
@@ -126,6 +170,9 @@ class MissionResult:
             "circuit": self.circuit,
             "best_speeds": self.best_speeds,
             "binding": self.binding,
+            "cutoff_limited": self.cutoff_limited,
+            "unflyable_legs": list(self.unflyable_legs),
+            "summary": self.verdict_line(),
             "legs": legs,
         }
 

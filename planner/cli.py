@@ -35,6 +35,9 @@ COMMAND_MODULES = (
 )
 
 EXIT_OK, EXIT_NOGO, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+#: Exit status when standard output is closed under us: 128 + SIGPIPE, as the shell
+#: reports a process the signal ended.
+EXIT_BROKEN_PIPE = 141
 
 
 class _Parser(argparse.ArgumentParser):
@@ -116,6 +119,12 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:
+        # the reader of the output went away (``endurance … | head``): end quietly, as a
+        # process killed by SIGPIPE would, without a second error while flushing stdout
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except Exception:  # pragma: no cover - the last line of defence
         traceback.print_exc()
         print("error: internal error (a bug): please report it with the input files",

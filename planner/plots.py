@@ -39,16 +39,25 @@ def plot_power(result, ax=None):
 
 
 def plot_remaining(result, ax=None):
-    """Remaining charge (% of nominal) against time, with the reserve line."""
+    """Remaining charge (% of nominal) against time, with the landing limit that decides
+    the verdict (the reserve above the charge the pack cannot give) and the point of no
+    return."""
     ax = ax or new_axes()
     s = result.series
     ax.plot(s["time_s"] / 60.0, 100 * s["remaining_fraction"], color="C0", lw=1.8,
             label="remaining charge (integral model)")
-    ax.axhline(100 * result.reserve_fraction, color="k", ls="--", lw=1,
-               label=f"landing reserve {100 * result.reserve_fraction:.0f} %")
-    usable = 100 * (1 - result.usable_mah / result.capacity_mah)
-    if usable > 0:
-        ax.axhline(usable, color="0.5", ls=":", lw=1, label="unusable charge")
+    # the limit the landing is judged against: the reserve above the charge the pack
+    # cannot give (its usable fraction, or the circuit model's voltage cut-off)
+    unusable = 100 * (1 - result.usable_mah / result.capacity_mah)
+    limit = unusable + 100 * result.reserve_fraction
+    if result.cutoff_limited:
+        ax.axhline(unusable, color="C1", ls=":", lw=1.2,
+                   label=f"loaded-voltage cut-off ({result.usable_mah:.0f} mAh drawn)")
+    elif unusable > 0:
+        ax.axhline(unusable, color="0.5", ls=":", lw=1, label="unusable charge")
+    ax.axhline(limit, color="k", ls="--", lw=1.2,
+               label=f"landing limit: reserve {result.reserve_mah:.0f} mAh above that"
+               if unusable > 0 else f"landing reserve {100 * result.reserve_fraction:.0f} %")
     if result.point_of_no_return:
         t = result.point_of_no_return["time_s"] / 60.0
         ax.axvline(t, color="C3", ls="-.", lw=1.2, label="point of no return")

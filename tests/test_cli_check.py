@@ -57,11 +57,19 @@ def test_reserve_option():
     assert main(["check", ROUTE, "--aircraft", SOLO, "--quiet", "--reserve", "90%"]) == 1
 
 
+@pytest.mark.parametrize("text", ["0.3", "30%", "30"])
+def test_reserve_as_fraction_or_percentage(text, capsys):
+    """``--reserve 30`` is 30 % (a fraction cannot exceed 1), as 0.3 and 30% are."""
+    main(["check", ROUTE, "--aircraft", SOLO, "--quiet", "--reserve", text])
+    assert "(30 %)" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("args, needle", [
     (["check", "missing.yaml", "--aircraft", SOLO], "missing.yaml"),
     (["check", ROUTE, "--aircraft", "nope.yaml"], "nope.yaml"),
     (["check", ROUTE, "--aircraft", SOLO, "--wind", "fast"], "--wind"),
-    (["check", ROUTE, "--aircraft", SOLO, "--reserve", "2"], "--reserve"),
+    (["check", ROUTE, "--aircraft", SOLO, "--reserve", "100"], "--reserve"),
+    (["check", ROUTE, "--aircraft", SOLO, "--reserve", "-5"], "--reserve"),
     (["check", ROUTE, "--aircraft", SOLO, "--temperature", "hot"], "--temperature"),
     (["check", ROUTE, "--aircraft", SOLO, "--json", "/no/such/dir/r.json"], "--json"),
     (["check", ROUTE], "--aircraft"),

@@ -105,7 +105,7 @@ def test_bad_catalog_exits_2_with_one_line_naming_file_and_key(tmp_path, content
     (["select", SURVEY, "--aircraft", SOLO, "--packs", CATALOG, "--objective", "cost"],
      "--objective"),
     (["select", SURVEY, "--aircraft", SOLO, "--packs", CATALOG, "--top", "0"], "--top"),
-    (["select", SURVEY, "--aircraft", SOLO, "--packs", CATALOG, "--reserve", "1.5"],
+    (["select", SURVEY, "--aircraft", SOLO, "--packs", CATALOG, "--reserve", "150"],
      "--reserve"),
     (["select", SURVEY, "--aircraft", SOLO, "--packs", CATALOG, "--json", "/no/dir/x.json"],
      "--json"),

@@ -61,13 +61,13 @@ def run(args) -> int:
     chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature)
     result = chain.check(mission, env)
     if not args.quiet:
-        print(render(result, mission.name, env))
+        print(render(result, mission.name))
     else:
-        print(verdict_line(result))
+        print(result.verdict_line())
     if json_out:
         data = result.to_dict()
         data["mission"] = mission.name
-        data["environment"] = dataclasses.asdict(env)
+        data["environment"] = dataclasses.asdict(result.environment)
         write_json(data, json_out)
     if plot_out:
         from planner import plots
@@ -75,38 +75,35 @@ def run(args) -> int:
     return 0 if result.go else 1
 
 
-def verdict_line(r: MissionResult) -> str:
-    what = "hover" if r.aircraft_type == "multirotor" else "loiter"
-    extra = (f" = {r.margin_time_s / 60:+.1f} min of {what} at {r.hold_power_w:.0f} W"
-             if math.isfinite(r.margin_time_s) else "")
-    if r.charge_used_mah > r.usable_mah:
-        return (f"{r.verdict}: needs {r.charge_used_mah:.0f} mAh but the pack gives "
-                f"{r.usable_mah:.0f} mAh (reserve {100 * r.reserve_fraction:.0f} %), margin "
-                f"{r.margin_mah:+.0f} mAh{extra}")
-    return (f"{r.verdict}: lands with {100 * r.remaining_fraction:.1f} % "
-            f"(reserve {100 * r.reserve_fraction:.0f} %), margin {r.margin_mah:+.0f} mAh{extra}")
-
-
-def render(r: MissionResult, name: str, env) -> str:
+def render(r: MissionResult, name: str) -> str:
     """The per-leg table and summary a pilot reads in the terminal."""
+    env = r.environment
     lines = [f"Mission   {name}",
              f"Aircraft  {r.aircraft}, take-off mass {r.takeoff_mass_kg:.3f} kg",
              f"Battery   {r.battery}: {r.capacity_mah:.0f} mAh nominal, "
              f"{r.usable_mah:.0f} mAh usable ({r.battery_model} integral model)",
              f"Weather   wind {env.wind_speed_ms:.1f} m/s from {env.wind_from_deg:.0f}°"
-             + (f", {env.temperature_c:.0f} °C" if env.temperature_c is not None else ", ISA")
+             + (f", air {env.temperature_c:.0f} °C" if env.temperature_c is not None
+               else ", ISA air")
              + f", site {env.site_altitude_m:.0f} m AMSL", ""]
     head = (f"{'#':>3} {'leg':<8} {'time s':>7} {'dist m':>7} {'TAS m/s':>7} {'GS m/s':>6} "
             f"{'vz m/s':>6} {'power W':>8} {'curr A':>7} {'volt V':>7} {'mAh':>7} "
             f"{'left %':>6} {'RTL mAh':>8}")
     lines += [head, "-" * len(head)]
+    unflyable = set(r.unflyable_legs)
     for i, row in enumerate(r.legs.itertuples(index=False), 1):
+        if i in unflyable:  # the aircraft cannot fly it: its figures mean nothing
+            lines.append(f"{i:>3} {row.kind:<8} {'–':>7} {fmt(row.distance_m, 0, 7)} "
+                         f"{'cannot be flown (see NO-GO below)':>56}")
+            continue
+        left = ("empty" if row.remaining_fraction < 0 else
+                fmt(100 * row.remaining_fraction, 1, 6))
         lines.append(
             f"{i:>3} {row.kind:<8} {fmt(row.duration_s, 0, 7)} {fmt(row.distance_m, 0, 7)} "
             f"{fmt(row.airspeed_ms, 1, 7)} {fmt(row.groundspeed_ms, 1, 6)} "
             f"{fmt(row.climb_rate_ms, 1, 6)} {fmt(row.power_w, 1, 8)} "
             f"{fmt(row.current_a, 1, 7)} {fmt(row.voltage_v, 2, 7)} "
-            f"{fmt(row.charge_mah, 0, 7)} {fmt(100 * row.remaining_fraction, 1, 6)} "
+            f"{fmt(row.charge_mah, 0, 7)} {left:>6} "
             f"{fmt(row.rtl_margin_mah, 0, 8)}")
     lines.append("-" * len(head))
     lines.append(f"Total     {r.duration_s / 60:.1f} min, {r.energy_wh:.1f} Wh, "
@@ -136,5 +133,5 @@ def render(r: MissionResult, name: str, env) -> str:
     for why in r.reasons:
         lines.append(f"NO-GO     {why}")
     lines.append("")
-    lines.append(verdict_line(r))
+    lines.append(r.verdict_line())
     return "\n".join(lines)

@@ -57,15 +57,18 @@ def parse_wind(text: str, max_speed_ms: float = MAX_WIND_MS) -> tuple[float, flo
 
 
 def parse_fraction(text: str, option: str) -> float:
-    """``0.2`` or ``20%`` → 0.2."""
+    """``0.2``, ``20%`` or ``20`` → 0.2: a number above 1 is read as per cent."""
     t = text.strip()
     try:
         value = float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
     except ValueError:
-        raise InputError(f"{option}: expected a fraction such as 0.2 or 20%, got {text!r}") \
-            from None
+        raise InputError(f"{option}: expected a fraction such as 0.2 or a percentage such as "
+                         f"20 or 20%, got {text!r}") from None
+    if not t.endswith("%") and 1.0 < value < 100.0:
+        value /= 100.0
     if not 0.0 <= value < 1.0:
-        raise InputError(f"{option}: must be in [0, 1) (or 0–99 %), got {text!r}")
+        raise InputError(f"{option}: must be a fraction in [0, 1) or a percentage below 100, "
+                         f"got {text!r}")
     return value
 
 
