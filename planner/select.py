@@ -355,6 +355,14 @@ def select_pack(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack],
     if objective not in OBJECTIVES:
         raise InputError(f"objective must be one of {', '.join(OBJECTIVES)}, "
                          f"got {objective!r}")
+    if objective == "price" and all(p.price is None for p in packs):
+        raise InputError("objective price: no pack of the catalog has a price (give "
+                         "'price:' in the pack entries, or rank by mass or margin)")
     evaluation = evaluate_packs(mission, aircraft, packs, environment, **kwargs)
+    if objective == "price":
+        unpriced = sum(p.price is None for p in packs)
+        if unpriced:
+            evaluation.notes.append(f"{unpriced} pack(s) without a price are ranked after "
+                                    "the priced ones")
     return Selection(evaluation, objective, rank_packs(evaluation, objective))
 

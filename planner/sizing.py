@@ -185,33 +185,29 @@ def endurance_sweep(aircraft: Aircraft, battery_mass_kg, *, specific_energy_wh_p
     if not 0.0 <= reserve < usable_fraction:
         raise InputError(f"reserve must be in [0, usable fraction {usable_fraction:g}), "
                          f"got {reserve}")
-    env, temp, rho = _site_density(aircraft, environment, altitude_m, temperature_c)
+    env = environment or Environment()
     notes = []
     if model is None:
         notes.append(f"battery model: literature δ₀({cells_series}), ε₀({cells_series}), "
                      f"β = {integral.LITERATURE_BETA}, δ rescaled to each capacity as for a "
                      "pack file without a fitted model")
-    scale = 1.0 if model is None else model.charge_scale(temp)
     m0 = aircraft.empty_mass_kg + payload_kg
     volts = cells_series * cell_voltage_v
-
-    def parameters(cap_as):
-        if model is not None:
-            return model.delta, model.epsilon, model.beta
-        lit = [IntegralModel.from_literature(cells_series, float(c))
-               for c in np.ravel(cap_as)]
-        delta = np.array([m.delta for m in lit]).reshape(np.shape(cap_as))
-        return delta, lit[0].epsilon, lit[0].beta
+    # a hold of zero length: the chain's margin as hold time is then the endurance from
+    # full to the reserve, at the hold power of each take-off mass
+    hold = Mission("hold", [Leg("hover", (0.0, 0.0), (0.0, 0.0), altitude_m, altitude_m,
+                                duration_s=0.0, origin="hold")], env, payload_kg=payload_kg)
 
     def evaluate(mb):
-        mb = np.asarray(mb, float)
-        cap_as = mb * specific_energy_wh_per_kg * 3600.0 / volts
-        mass = m0 + mb
-        p = np.asarray(prof.hold_power(aircraft, mass, rho, env.wind_speed_ms), float)
-        limit = (usable_fraction - reserve) * cap_as / scale
-        delta, eps, beta = parameters(cap_as)
-        t = integral.time_to_charge(0.0, p, limit, delta, eps, beta)
-        return cap_as, mass, p, np.asarray(t, float)
+        mb = np.atleast_1d(np.asarray(mb, float))
+        cap_mah = mb * specific_energy_wh_per_kg / volts * 1000.0
+        packs = [BatteryPack(name=f"{m:.4g} kg", cells_series=int(cells_series),
+                             capacity_mah=float(c), mass_kg=float(m),
+                             usable_fraction=float(usable_fraction), model=model)
+                 for m, c in zip(mb, cap_mah)]
+        r = MissionChain(aircraft, packs, battery_model="integral", reserve=reserve,
+                         temperature_c=temperature_c).run(hold, env, detail=False)
+        return cap_mah * AS_PER_MAH, r.takeoff_mass_kg, r.hold_power_w, r.margin_time_s
 
     cap_as, mass, p, t = evaluate(m_b)
     ok, tw = _constraints(aircraft, mass, min_thrust_to_weight)
@@ -225,7 +221,7 @@ def endurance_sweep(aircraft: Aircraft, battery_mass_kg, *, specific_energy_wh_p
         hi = m_b[min(i + 1, m_b.size - 1)]
         x, tx = float(m_b[i]), float(t[i])
         if hi > lo:
-            res = minimize_scalar(lambda v: -float(evaluate(v)[3]), bounds=(lo, hi),
+            res = minimize_scalar(lambda v: -float(evaluate(v)[3][0]), bounds=(lo, hi),
                                   method="bounded", options={"xatol": 1e-7 * hi})
             feasible_here = bool(_constraints(aircraft, m0 + res.x, min_thrust_to_weight)[0])
             if res.success and -res.fun >= tx and (feasible_here or mask.all()):

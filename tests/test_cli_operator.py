@@ -122,3 +122,63 @@ def test_the_plot_draws_the_limit_that_grounded_the_flight():
     limit = 100 * (1 - r.usable_mah / r.capacity_mah + r.reserve_fraction)
     assert round(limit, 3) in levels and 35 < limit < 45
     assert 100 * r.remaining_fraction < limit
+
+
+def test_price_ranking_needs_prices(tmp_path, capsys):
+    code = main(["select", SURVEY, "--aircraft", SOLO, "--packs",
+                 str(REPO / "aircraft/packs/catalog.yaml"), "--objective", "price"])
+    err = capsys.readouterr().err
+    assert code == 2 and "no pack of the catalog has a price" in err
+
+
+def test_a_4s_aircraft_does_not_rank_a_6s_pack(tmp_path):
+    out = tmp_path / "s.json"
+    main(["select", SURVEY, "--aircraft", SOLO, "--packs",
+          str(REPO / "aircraft/packs/catalog.yaml"), "--json", str(out)])
+    packs = json.loads(out.read_text())["packs"]
+    for p in packs:
+        if p["cells_series"] != 4:
+            assert not p["feasible"] and p["binding"] == "cells"
+    assert all(p["cells_series"] == 4 for p in packs if p["feasible"])
+
+
+def test_the_sweep_headlines_an_optimum_within_the_take_off_mass(capsys):
+    """7.7 kg of battery on a 4.2 kg X8 is not an answer: the headline optimum is the best
+    battery mass within the limits; the unlimited one is named as beyond them."""
+    from planner.parameters import load_aircraft
+
+    x8 = str(REPO / "aircraft/x8_mapper.yaml")
+    main(["sweep", "battery-mass", "--aircraft", x8])
+    out = capsys.readouterr().out
+    optimum = next(line for line in out.splitlines() if line.startswith("Optimum"))
+    mb = float(optimum.split()[1])
+    ac = load_aircraft(x8)
+    assert mb + ac.empty_mass_kg <= ac.max_takeoff_mass_kg
+    assert "Unlimited" in out and "beyond the aircraft's limits" in out
+
+
+def test_hybrid_says_when_the_bank_is_over_the_take_off_mass(tmp_path, capsys):
+    out = tmp_path / "h.json"
+    main(["hybrid", SURVEY, "--aircraft", SOLO, "--json", str(out)])
+    text = capsys.readouterr().out
+    data = json.loads(out.read_text())
+    assert data["over_max_takeoff_mass"] and data["takeoff_mass_with_bank_kg"] > 2.0
+    assert "over its maximum take-off mass" in text
+
+
+def test_fit_aircraft_out_elsewhere_still_finds_its_pack(tmp_path):
+    """``fit-aircraft --out elsewhere/A.yaml`` writes the pack path relative to the new
+    file, so ``check --aircraft elsewhere/A.yaml`` works."""
+    out = tmp_path / "elsewhere" / "A.yaml"
+    out.parent.mkdir()
+    assert main(["fit-aircraft", str(REPO / "logs/sim_solo_calm.bin"), "--aircraft", SOLO,
+                 "--payload", "0.35", "--out", str(out)]) == 0
+    assert main(["check", SURVEY, "--aircraft", str(out), "--quiet"]) in (0, 1)
+
+
+def test_a_missing_pack_file_says_where_its_path_came_from(tmp_path, capsys):
+    bad = tmp_path / "A.yaml"
+    bad.write_text((REPO / "aircraft/solo_survey.yaml").read_text())
+    assert main(["check", SURVEY, "--aircraft", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "battery: batteries/solo_5200_4s.yaml" in err and "relative to the aircraft" in err

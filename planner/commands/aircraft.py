@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import yaml
 
@@ -64,7 +65,7 @@ def run(args) -> int:
         print(f"warning: {w.message}")
     print(render(result, mass))
     fitted = result["aircraft"]
-    mapping = fitted.to_mapping()
+    mapping = fitted.to_mapping(folder=Path(args.out).parent)
     src = ", ".join(str(d) for d in args.data)
     mapping["source"] = (f"fit-aircraft on {src} ({result['split']}; "
                          f"{result['samples']['train']} airborne samples; mass {mass:.3f} kg); "

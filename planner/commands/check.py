@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 
 from planner.check import MissionChain, MissionResult
 from planner.commands.common import (

@@ -5,7 +5,6 @@ Argparse and printing only; the work is done by :func:`planner.diagnose.diagnose
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import yaml
@@ -95,15 +94,12 @@ def write_extended(result, out) -> list[str]:
     written = []
     names = ", ".join(f["effect"] for f in result.findings) or "no effect found"
     for kind, obj, path in targets:
-        mapping = obj.to_mapping()
         if kind == "battery":
+            mapping = obj.to_mapping()
             mapping["source"] = obj.model.source
             battery_from_mapping(mapping, str(path))        # what we write must load back
         else:
-            if obj.battery_path and result.aircraft is not None:
-                from planner.parameters import default_battery_path
-                target = default_battery_path(result.aircraft).resolve()
-                mapping["battery"] = os.path.relpath(target, path.resolve().parent)
+            mapping = obj.to_mapping(folder=path.parent)
             aircraft_from_mapping(mapping, str(path))
         header = (f"# written by endurance diagnose ({names}); "
                   f"{kind} parameters calibrated and extended on {', '.join(result.sources)}\n")

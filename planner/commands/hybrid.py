@@ -46,6 +46,10 @@ def run(args) -> int:
     temp = parse_float(args.temperature, "--temperature", -20, 60) if args.temperature else 25.0
     step = parse_float(args.step, "--step", 0.01, 10.0)
     n_par = parse_int(args.supercap_parallel, "--supercap-parallel", 1, 100)
+    battery = pack.circuit_parameters()
+    bank = matched_bank(BCAP1500, battery, cells_parallel=n_par)
+    bank_mass = bank.bank_mass_kg or 0.0
+    # the load both packs are compared on: the mission's power without the bank's mass
     result = MissionChain(aircraft, pack, temperature_c=temp).check(mission, env)
     legs = result.legs
     end = np.cumsum(legs.duration_s.to_numpy())
@@ -54,8 +58,6 @@ def run(args) -> int:
     t = np.arange(0.0, end[-1], step)
     p = legs.power_w.to_numpy()[np.clip(np.searchsorted(end, t, side="right"), 0,
                                         len(end) - 1)]
-    battery = pack.circuit_parameters()
-    bank = matched_bank(BCAP1500, battery, cells_parallel=n_par)
     run_ = simulate_hybrid(battery, bank, t, power_w=p, temperature_c=temp,
                            v_cutoff_cell=pack.cell_voltage_empty_v)
     s = run_.summary()
@@ -71,7 +73,20 @@ def run(args) -> int:
     print(f"{'sag margin to cut-off [V]':<28}{s.sag_margin_alone_v:15.2f}{s.sag_margin_v:15.2f}")
     print(f"J1 (battery charge throughput, hybrid / alone) = {s.j1:.3f}; "
           f"J2 (battery ohmic loss, hybrid / alone) = {s.j2:.3f}")
+    mtow = aircraft.max_takeoff_mass_kg
+    with_bank = result.takeoff_mass_kg + bank_mass
+    over = mtow is not None and with_bank > mtow
+    print(f"Mass      take-off {result.takeoff_mass_kg:.2f} kg, {with_bank:.2f} kg with the "
+          f"{bank_mass:.2f} kg bank" + (f" (maximum {mtow:.2f} kg)" if mtow is not None else "")
+          + "; both columns fly the mission's power without the bank's mass")
+    if over:
+        print(f"Warning   the bank puts the aircraft {with_bank - mtow:.2f} kg over its maximum "
+              "take-off mass: this hybrid cannot fly this mission")
     if json_out:
         write_json(dataclasses.asdict(s) | {"bank": f"{bank.cells_series}S{n_par}P BCAP1500",
-                                           "temperature_c": temp}, json_out)
+                                           "temperature_c": temp,
+                                           "takeoff_mass_kg": result.takeoff_mass_kg,
+                                           "takeoff_mass_with_bank_kg": with_bank,
+                                           "max_takeoff_mass_kg": mtow,
+                                           "over_max_takeoff_mass": bool(over)}, json_out)
     return 0

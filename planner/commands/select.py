@@ -353,16 +353,21 @@ def render_endurance(sweep, source) -> str:
                      f"{r.takeoff_mass_kg:>7.2f} {r.capacity_mah:>7.0f} {r.hold_power_w:>8.1f} "
                      f"{r.endurance_min:>11.1f}  {'ok' if r.feasible else 'exceeded'}")
     lines.append("-" * len(head))
-    lines.append(f"Optimum   {o['battery_mass_kg']:.3f} kg of battery (mass fraction "
-                 f"{o['mass_fraction']:.2f}): {o['endurance_s'] / 60:.1f} min of {sweep.hold}")
-    if o.get("constrained_battery_mass_kg") is not None and abs(
-            o["constrained_battery_mass_kg"] - o["battery_mass_kg"]) > 1e-6:
-        lines.append(f"Limits    best within the take-off mass/thrust limits: "
-                     f"{o['constrained_battery_mass_kg']:.3f} kg, "
-                     f"{o['constrained_endurance_s'] / 60:.1f} min")
-    elif o.get("constrained_battery_mass_kg") is None:
-        lines.append("Limits    no swept battery mass is within the take-off mass/thrust "
-                     "limits")
+    free = (f"{o['battery_mass_kg']:.3f} kg of battery (mass fraction "
+            f"{o['mass_fraction']:.2f}): {o['endurance_s'] / 60:.1f} min of {sweep.hold}")
+    if o.get("constrained_battery_mass_kg") is None:
+        lines.append("Optimum   none: no swept battery mass is within the take-off mass and "
+                     "thrust limits")
+        lines.append(f"Unlimited {free}, beyond the aircraft's limits")
+    elif abs(o["constrained_battery_mass_kg"] - o["battery_mass_kg"]) > 1e-6:
+        mb = o["constrained_battery_mass_kg"]
+        lines.append(f"Optimum   {mb:.3f} kg of battery (mass fraction "
+                     f"{mb / (mb + sweep.takeoff_mass_kg[0] - sweep.battery_mass_kg[0]):.2f}): "
+                     f"{o['constrained_endurance_s'] / 60:.1f} min of {sweep.hold}, "
+                     "the most within the take-off mass and thrust limits")
+        lines.append(f"Unlimited {free}, beyond the aircraft's limits")
+    else:
+        lines.append(f"Optimum   {free}, within the take-off mass and thrust limits")
     for note in sweep.notes:
         lines.append(f"Note      {note}")
     return "\n".join(lines)

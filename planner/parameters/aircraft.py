@@ -11,6 +11,7 @@ parameters to the pure power models of :mod:`planner.power`.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -267,11 +268,20 @@ class Aircraft:
                                              load_factor=load_factor)
         return fixed_wing.battery_power(required, self.efficiency, self.system_power_w)
 
-    def to_mapping(self) -> dict[str, Any]:
+    def to_mapping(self, folder: str | Path | None = None) -> dict[str, Any]:
+        """The aircraft as a YAML-ready mapping (DESIGN §8).
+
+        ``folder``: where the mapping will be written; the ``battery`` path, relative to
+        this aircraft's own file, is rewritten relative to it so that the pack is found
+        from the new file.
+        """
         out: dict[str, Any] = {"name": self.name, "type": self.type,
                                "empty_mass_kg": float(self.empty_mass_kg)}
         if self.battery_path:
             out["battery"] = self.battery_path
+            if folder is not None and not Path(self.battery_path).is_absolute():
+                pack = default_battery_path(self).resolve()
+                out["battery"] = os.path.relpath(pack, Path(folder).resolve())
         out["efficiency"] = float(self.efficiency)
         out["system_power_w"] = float(self.system_power_w)
         out["climb_rate_ms"] = float(self.climb_rate_ms)
@@ -441,10 +451,20 @@ def default_battery_path(aircraft: Aircraft) -> Path | None:
 
 
 def load_aircraft_and_battery(aircraft_path, battery_path=None) -> tuple[Aircraft, BatteryPack]:
-    """Load an aircraft and its pack (``battery_path`` or the aircraft's default)."""
+    """Load an aircraft and its pack (``battery_path`` or the aircraft's default).
+
+    A pack the aircraft file names that cannot be found is reported with where its path
+    came from: ``A.yaml: battery: batteries/x.yaml (resolved to /…/batteries/x.yaml):
+    file not found``.
+    """
     aircraft = load_aircraft(aircraft_path)
-    path = battery_path or default_battery_path(aircraft)
+    if battery_path is not None:
+        return aircraft, load_battery(battery_path)
+    path = default_battery_path(aircraft)
     if path is None:
         raise InputError(f"{aircraft_path}: no 'battery' key and no --battery given "
                          "(expected a battery-pack YAML)")
+    if not path.exists():
+        raise InputError(f"{aircraft_path}: battery: {aircraft.battery_path} (resolved to "
+                         f"{path.resolve()}, relative to the aircraft file): file not found")
     return aircraft, load_battery(path)
