@@ -78,6 +78,11 @@ class DiagnoseResult:
         The definitions given (start values).
     sources : list of str
         The data files, where known.
+    withheld : list of dict
+        Effects that passed the held-out tests but are not causes: physically impossible
+        parameters (``kind`` ``implausible``), a driver the data cannot tell from time,
+        depth of discharge or another effect (``confounded``), or an impossible baseline
+        (``baseline``); each with ``why`` and ``where`` the misfit shows.
     """
 
     levels: dict[str, LevelReport]
@@ -87,6 +92,7 @@ class DiagnoseResult:
     pack: BatteryPack | None
     aircraft: Aircraft | None
     sources: list[str] = field(default_factory=list)
+    withheld: list[dict[str, Any]] = field(default_factory=list)
 
     # ------------------------------------------------------------------ JSON
     def baseline(self, name: str) -> dict[str, Any]:
@@ -134,6 +140,17 @@ class DiagnoseResult:
                              f"remains with slow structure (lag-1 autocorrelation {rho:.2f} "
                              f"between {what}), largest in experiment {worst}; none of the "
                              "tested effects explains it")
+        for w in self.withheld:
+            if w["kind"] == "confounded":
+                parts.append(f"{w['level']} level: a misfit that {w['effect']} would absorb, "
+                             f"not named: {w['why']} (candidates: "
+                             f"{', '.join(w['candidates'])})")
+            else:
+                parts.append(f"{w['level']} level: a misfit of the model's form against "
+                             f"{w['where']}, not a cause: {w['effect']} would need "
+                             f"parameters that are physically impossible ({w['why']})"
+                             if w["kind"] == "implausible" else
+                             f"{w['level']} level: {w['effect']} not named: {w['why']}")
         return "; ".join(parts) if parts else None
 
     def extended(self) -> dict[str, Any]:
@@ -169,6 +186,7 @@ class DiagnoseResult:
             "baseline": self.baseline(primary) if primary else None,
             "findings": self.findings,
             "unexplained": self.unexplained(),
+            "withheld": [{k: v for k, v in w.items()} for w in self.withheld],
             "baselines": [self.baseline(n) for n in self.levels],
             "extended": self.extended(),
             "candidates": candidates,
@@ -208,7 +226,8 @@ class DiagnoseResult:
         if not self.levels:
             lines.append("No level could run: " + "; ".join(self.notes))
         if self.findings:
-            lines.append("Findings (held-out, ranked by gain):")
+            lines.append("Findings (held-out; ranked by the gain in the error of the charge or "
+                         "energy at the end of the held-out segments):")
             for i, f in enumerate(self.findings, 1):
                 h = f["heldout"]
                 lines.append(f"  {i}. {f['headline']}; held-out error {_num(h['rmse_before'])} → "
@@ -301,7 +320,8 @@ def _with_stderr(values: dict[str, float], stderr: dict[str, float]) -> dict[str
 def _heldout(cmp: S.Comparison) -> dict[str, float]:
     return {"rmse_before": cmp.rmse_before, "rmse_after": cmp.rmse_after,
             "gain_pct": cmp.gain_pct, "final_error_pct_before": cmp.final_error_pct_before,
-            "final_error_pct_after": cmp.final_error_pct_after}
+            "final_error_pct_after": cmp.final_error_pct_after,
+            "final_gain_pp": cmp.final_error_pct_before - cmp.final_error_pct_after}
 
 
 def _worst_experiment(level, rows, resid) -> str:
@@ -374,7 +394,11 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
             cy = sub["cycle"].to_numpy(float)
             if np.isfinite(cy).any():
                 cycle = float(cy[np.isfinite(cy)][0])
-        out.append({"name": name, "t": t, "p": p, "c": c, "temperature": temp, "cycle": cycle})
+        current = None
+        if "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).mean() > 0.5:
+            current = S._interp_nan(t, sub["current_a"].to_numpy(float))
+        out.append({"name": name, "t": t, "p": p, "c": c, "temperature": temp, "cycle": cycle,
+                    "current": current})
     return out
 
 
@@ -405,11 +429,77 @@ def _literature_pack(df: pd.DataFrame, metas: list[dict], notes: list[str]) -> B
 #: A selected effect whose key parameter lies closer than this many standard errors to
 #: "no effect" in the all-data fit is dropped (its held-out gain came from elsewhere).
 MIN_Z = 2.0
+#: Multiple correlation of an effect's driver with time and depth of discharge (or with
+#: another effect's driver) at or above which the data cannot tell them apart: the driver
+#: then has less than 1 − 0.9² = 19 % of its variation of its own. [unitless]
+CONFOUND_R = 0.9
+#: Range of a calibrated propulsion efficiency (battery to useful power). [unitless]
+EFFICIENCY_RANGE = (0.05, 1.0)
+
+
+def _explained(x: np.ndarray, columns: list[np.ndarray]) -> float:
+    """Share of the variance of ``x`` that a linear fit on ``columns`` explains (R²)."""
+    x = np.asarray(x, float)
+    ok = np.isfinite(x)
+    for c in columns:
+        ok &= np.isfinite(c)
+    if ok.sum() < len(columns) + 3:
+        return 0.0
+    X = np.column_stack([np.ones(ok.sum())] + [np.asarray(c, float)[ok] for c in columns])
+    xo = x[ok]
+    var = float(np.var(xo))
+    if var <= 0:
+        return 1.0
+    coef, *_ = np.linalg.lstsq(X, xo, rcond=None)
+    return float(1.0 - np.var(xo - X @ coef) / var)
+
+
+def _driver(level, effect, state) -> np.ndarray | None:
+    if effect.driver_is_time:
+        return None
+    if level.name == "capacity":
+        return np.asarray(effect.window_driver(level), float)
+    return np.asarray(effect.bin_driver(level, state), float)
+
+
+def _confound(level, effect, state, others) -> tuple[str, list[str]] | None:
+    """Why ``effect`` cannot be told apart from time, depth of discharge or another
+    selected effect in these data (module notes), and the candidates; None if it can."""
+    x = _driver(level, effect, state)
+    if x is None:
+        return None
+    confounders = level.confounders()
+    r2 = _explained(x, [y for _, y in confounders])
+    if r2 >= CONFOUND_R**2:
+        labels = " and ".join(label for label, _ in confounders)
+        return (f"{100 * r2:.0f} % of the variation of its driver ({effect.driver_label}) "
+                f"follows {labels}: the data cannot tell {effect.name} from a misfit that "
+                f"grows with them", [effect.name] + [label for label, _ in confounders])
+    for other in others:
+        y = _driver(level, other, state)
+        if y is None or other.name == effect.name:
+            continue
+        r2 = _explained(x, [y])
+        if r2 >= CONFOUND_R**2:
+            return (f"{100 * r2:.0f} % of the variation of its driver follows the driver of "
+                    f"{other.name}: the data cannot tell the two apart",
+                    [effect.name, other.name])
+    return None
 
 
 def _run_level(level, effects, notes) -> S.LevelResult | None:
+    """Search, then hold the selected effects to the honesty rules on all the data.
+
+    After the search, the selected model is fitted on all the data and an effect is
+    withheld (never named as a cause) when its key parameter is within :data:`MIN_Z`
+    standard errors of no effect, when its parameters are physically impossible
+    (:meth:`planner.diagnose.effects.Effect.implausible`), or when its driver cannot be
+    told apart from time, depth of discharge or another selected effect's driver
+    (:data:`CONFOUND_R`); the model is refitted without it until what remains holds.
+    """
     try:
         res = S.search(level, effects)
+        res.withheld = []
         all_rows = np.ones(level.n_rows, bool)
         res.base_fit = level.fit([], all_rows)
         while True:
@@ -419,18 +509,32 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
             if not chosen:
                 break
             values, stderr = level.physical(res.final_fit, chosen)
-            weak = []
+            drop = {}
             for e in chosen:
-                z = e.z_score(e.parameters(values, stderr, level, res.final_fit.state))
+                params = e.parameters(values, stderr, level, res.final_fit.state)
+                z = e.z_score(params)
                 if math.isfinite(z) and z < MIN_Z:
-                    weak.append((e, z))
-            if not weak:
+                    notes.append(f"{level.name} level: {e.name} passed the held-out tests but "
+                                 f"its parameter is only {z:.1f} standard errors from no "
+                                 "effect in the fit on all the data: not reported")
+                    drop[e.name] = None
+                    continue
+                why = e.implausible(params, level)
+                if why:
+                    drop[e.name] = {"effect": e.name, "level": level.name,
+                                    "kind": "implausible", "why": why,
+                                    "where": e.driver_label, "parameters": params}
+                    continue
+                conf = _confound(level, e, res.final_fit.state,
+                                 [o for o in chosen if o.name != e.name])
+                if conf:
+                    drop[e.name] = {"effect": e.name, "level": level.name,
+                                    "kind": "confounded", "why": conf[0],
+                                    "candidates": conf[1], "where": e.driver_label,
+                                    "parameters": params}
+            if not drop:
                 break
-            for e, z in weak:
-                notes.append(f"{level.name} level: {e.name} passed the held-out tests but its "
-                             f"parameter is only {z:.1f} standard errors from no effect in the "
-                             "fit on all the data: not reported")
-            drop = {e.name for e, _ in weak}
+            res.withheld += [w for w in drop.values() if w is not None]
             res.selected = [(e, c) for e, c in res.selected if e.name not in drop]
         return res
     except (FitError, ModelError, np.linalg.LinAlgError) as exc:
@@ -595,6 +699,20 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
         res = _run_level(pw_level, pw_effects, notes)
         if res is not None:
             bv, bs = pw_level.physical(res.base_fit, [])
+            eta = bv.get("efficiency", float("nan"))
+            if not (EFFICIENCY_RANGE[0] < eta <= EFFICIENCY_RANGE[1]):
+                # the calibration itself is impossible: what the effects would absorb is
+                # the misfit of the model's form, not a cause
+                res.withheld += [{"effect": e.name, "level": "power", "kind": "baseline",
+                                  "why": "the calibrated power model is physically impossible",
+                                  "where": e.driver_label, "parameters": {}}
+                                 for e, _ in res.selected]
+                res.selected = []
+                res.final_fit = res.base_fit
+                notes.append(f"power level: the calibrated baseline needs an efficiency of "
+                             f"{eta:.2f}, outside ({EFFICIENCY_RANGE[0]:g}, "
+                             f"{EFFICIENCY_RANGE[1]:g}]: the power model's form does not fit "
+                             "these flights; no cause is named at this level")
             fv, fs = pw_level.physical(res.final_fit, [e for e, _ in res.selected])
             rg, fg = _as_given_power(pw_level, aircraft)
             rep = LevelReport("power", res, bv, bs, fv, fs, rg, fg, [])
@@ -605,16 +723,19 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     else:
         skipped += [{"effect": e.name, "level": "power", "reason": why} for e in pw_effects]
 
-    # ranked by held-out gain: within a level in the order the greedy search added them
-    # (each one's gain is over the model before it); levels merged by their gains
+    # one currency for both levels: the held-out error of the charge (capacity) or energy
+    # (power) at the end of each held-out segment, in % of what was drawn; within a level
+    # the order the greedy search added them is kept (each one's gain is over the model
+    # before it), and the levels are merged by that common gain
     findings = sorted((f for lv in levels.values() for f in lv.findings),
-                      key=lambda f: -f["heldout"]["gain_pct"])
+                      key=lambda f: -f["heldout"]["final_gain_pp"])
     for lv in levels.values():
         order = [f["effect"] for f in lv.findings]
         pos = [i for i, f in enumerate(findings) if f["level"] == lv.name]
         for i, eff in zip(pos, order):
             findings[i] = next(f for f in lv.findings if f["effect"] == eff)
-    return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources)
+    withheld = [w for lv in levels.values() for w in lv.result.withheld]
+    return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources, withheld)
 
 
 def load_definitions(battery: str | Path | None, aircraft: str | Path | None):

@@ -110,6 +110,30 @@ MAX_COURSE_CONCENTRATION = 0.8
 #: Shortest share of the airborne bins that must be moving (≥ 2 m/s) to see the wind.
 MIN_MOVING_SHARE = 0.2
 
+# Physical bounds of the effects' parameters: a fit beyond them is an unexplained misfit of
+# the model's form, never a cause (see :meth:`Effect.implausible`).
+#: Largest rise of the charge drawn per °C of cold: lithium cells lose some 0.5–1 % of
+#: capacity per °C below room temperature (Zhang, Xu and Jow 2003: about 35 % of the
+#: energy at −20 °C); 3 %/°C leaves room for the added resistance. [1/°C]
+MAX_TEMPERATURE_COEFF = 0.03
+#: Largest fade over the data: a pack past 30 % more charge per Wh is retired (the usual
+#: end of life is 80 % of the capacity, i.e. 25 % more charge). [unitless]
+MAX_FADE_SPAN = 0.3
+#: Largest current-sensor zero error, as a share of the median current. [unitless]
+MAX_OFFSET_SHARE = 0.1
+#: Largest steady wind, as a share of the maximum airspeed (it must still make way). [unitless]
+MAX_WIND_SHARE = 0.8
+#: Range of the density exponent of the power (momentum theory: induced power ∝ ρ^-1/2 at
+#: constant thrust; profile power ∝ ρ). [unitless]
+DENSITY_EXPONENT_RANGE = (0.0, 2.0)
+#: Largest payload drop as a share of the all-up mass. [unitless]
+MAX_DROP_SHARE = 0.5
+#: Largest constant load as a share of the lowest airborne power (the rotors need the
+#: rest). [unitless]
+MAX_SYSTEM_SHARE = 0.5
+#: Allowance above the ground power for a constant load (sensor noise, heaters). [W]
+GROUND_POWER_MARGIN_W = 5.0
+
 
 def _compass(deg: float) -> str:
     names = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
@@ -154,6 +178,17 @@ class Effect:
 
     def practical(self, fits, level) -> str | None:
         """Why the fitted extension is too small to matter physically (None = it is not)."""
+        return None
+
+    #: The effect's driver is time itself (a drift, a step in time): it is not tested for
+    #: confounding with time (its form — a linear drift through rests, a step — is what
+    #: tells it apart).
+    driver_is_time: ClassVar[bool] = False
+
+    def implausible(self, p: dict[str, float], level) -> str | None:
+        """Why the fitted parameters (of :meth:`parameters`) are physically impossible or
+        have the wrong sign; None when they are plausible. An implausible fit is never
+        reported as a cause (module notes of :mod:`planner.diagnose`)."""
         return None
 
     #: The parameter (of :meth:`parameters`) that is 0 (or ``null_key``) without the effect.
@@ -247,6 +282,17 @@ class Temperature(CapacityEffect):
                 "percent_per_c": 100.0 * k,
                 "percent_per_c_stderr": 100.0 * stderr[self.coefficient]}
 
+    def implausible(self, p, cap):
+        k = p["temperature_coefficient_per_c"]
+        if k <= 0:
+            return (f"the fit has a cold pack drawing less charge per Wh ({100 * k:+.2f} %/°C "
+                    "below the reference): cold lithium cells give less charge for the same "
+                    "energy, never more")
+        if k > MAX_TEMPERATURE_COEFF:
+            return (f"{100 * k:.1f} %/°C is beyond any lithium cell "
+                    f"(at most {100 * MAX_TEMPERATURE_COEFF:g} %/°C)")
+        return None
+
     def cause(self, p, cap):
         k = p["percent_per_c"]
         t_lo = float(np.nanmin(cap.temperature))
@@ -299,6 +345,17 @@ class CapacityFade(CapacityEffect):
                 "cycle": float(np.max(self.cycles)),
                 "cycle_from_experiment_order": float(self.source != "cycle")}
 
+    def implausible(self, p, cap):
+        f = p["fade_per_cycle"]
+        if f <= 0:
+            return (f"the fit has the pack drawing less charge as it ages ({100 * f:+.3f} % per "
+                    "cycle): an ageing pack gives less charge for the same energy, never more")
+        span = f * (float(np.max(self.cycles)) - float(np.min(self.cycles)))
+        if span > MAX_FADE_SPAN:
+            return (f"{100 * span:.0f} % more charge over the data is beyond a pack still in "
+                    f"use (at most {100 * MAX_FADE_SPAN:g} %)")
+        return None
+
     def cause(self, p, cap):
         f = 100 * p["fade_per_cycle"]
         se = 100 * p["fade_per_cycle_stderr"]
@@ -325,6 +382,23 @@ class CurrentOffset(CapacityEffect):
     coefficient = "current_offset_a"
     relative = False
     driver_label = "time since start [s]"
+    driver_is_time = True
+
+    def implausible(self, p, cap):
+        b, se = p["current_offset_a"], p["current_offset_a_stderr"]
+        if abs(b) > MAX_OFFSET_SHARE * cap.median_current_a:
+            return (f"a bias of {b:+.2f} A is {100 * abs(b) / cap.median_current_a:.0f} % of the "
+                    f"median current ({cap.median_current_a:.1f} A): beyond a sensor's zero "
+                    f"error (at most {100 * MAX_OFFSET_SHARE:g} %)")
+        rest = cap.rest_current
+        if rest is not None:
+            # direct evidence first: the logged current while the load is off
+            mean, sem = rest
+            z = abs(b - mean) / math.hypot(se if math.isfinite(se) else 0.0, sem)
+            if z > 3.0:
+                return (f"the logged current at rest is {mean:+.3f} ± {sem:.3f} A, not the "
+                        f"fitted bias {b:+.3f} A: the drift is not a sensor zero error")
+        return None
 
     def skip_reason(self, cap) -> str | None:
         share = cap.low_load_fraction
@@ -435,6 +509,14 @@ class Wind(PowerEffect):
                 "wind_from_deg": frm, "wind_from_deg_stderr": min(s_dir, 180.0),
                 "logged_wind_added": float(pw.has_logged_wind)}
 
+    def implausible(self, p, pw):
+        vmax = pw.aircraft.max_airspeed_ms
+        if p["wind_speed_ms"] > MAX_WIND_SHARE * vmax:
+            return (f"a steady wind of {p['wind_speed_ms']:.1f} m/s is more than "
+                    f"{100 * MAX_WIND_SHARE:g} % of the aircraft's maximum airspeed "
+                    f"({vmax:.0f} m/s): it could not have flown the record")
+        return None
+
     def cause(self, p, pw):
         extra = " beyond the autopilot's own wind estimate" if pw.has_logged_wind else ""
         return (f"Steady wind{extra}: {_pm(p['wind_speed_ms'], p['wind_speed_ms_stderr'], 1)} "
@@ -482,6 +564,14 @@ class AirDensity(PowerEffect):
                 "standard_density_kg_m3": float(np.mean(pw.rho_std)),
                 "temperature_logged": float(pw.has_air_temperature)}
 
+    def implausible(self, p, pw):
+        a = p["density_exponent"]
+        if not DENSITY_EXPONENT_RANGE[0] <= a <= DENSITY_EXPONENT_RANGE[1]:
+            return (f"the power follows the density with exponent {a:.2f}, outside "
+                    f"[{DENSITY_EXPONENT_RANGE[0]:g}, {DENSITY_EXPONENT_RANGE[1]:g}] (momentum "
+                    "theory: rotor power falls as the density rises, exponent near 0.5–1)")
+        return None
+
     def cause(self, p, pw):
         how = "pressure and temperature" if pw.has_air_temperature else \
             "pressure (ISA temperature)"
@@ -503,6 +593,20 @@ class PayloadChange(PowerEffect):
     nonlinear = ("mass_step_kg",)
     bounds: ClassVar[dict] = {"mass_step_kg": (0.0, -10.0, 10.0, 0.05)}
     driver_label = "time since start [s]"
+    driver_is_time = True
+
+    def implausible(self, p, pw):
+        if p.get("flights_with_change", 0) < 1:
+            return "no flight has a change time: the step is never applied"
+        dm = p["mass_step_kg"]
+        if dm < 0 and -dm > MAX_DROP_SHARE * pw.mass0:
+            return (f"a drop of {-dm:.2f} kg is more than {100 * MAX_DROP_SHARE:g} % of the "
+                    f"all-up mass ({pw.mass0:.2f} kg)")
+        mtow = pw.aircraft.max_takeoff_mass_kg
+        if dm > 0 and mtow is not None and pw.mass0 + dm > mtow:
+            return (f"a pick-up of {dm:.2f} kg takes the aircraft to "
+                    f"{pw.mass0 + dm:.2f} kg, above its maximum take-off mass {mtow:.2f} kg")
+        return None
 
     def start(self, pw):
         m0 = float(np.median(pw.mass))
@@ -601,6 +705,25 @@ class SystemPower(PowerEffect):
                 "file_system_power_w": pw.file_system_power_w,
                 "missing_w": ps - pw.file_system_power_w}
 
+    def implausible(self, p, pw):
+        ps, se = p["system_power_w"], p["system_power_w_stderr"]
+        if ps < 0:
+            return f"a constant load of {ps:.1f} W is negative"
+        air = float(np.percentile(pw.measured, 5))
+        if ps > MAX_SYSTEM_SHARE * air:
+            return (f"a constant load of {ps:.0f} W would be {100 * ps / air:.0f} % of the "
+                    f"lowest airborne power ({air:.0f} W, 5th percentile): the rotors' own "
+                    "power cannot be that small")
+        ground = pw.ground_power_w
+        if ground is not None:
+            high = ground[1] + 3.0 * (se if math.isfinite(se) else 0.0) + GROUND_POWER_MARGIN_W
+            if ps > high:
+                return (f"a constant load of {ps:.0f} W where the aircraft draws "
+                        f"{ground[0]:.0f}–{ground[1]:.0f} W on the ground (rotors stopped or "
+                        "idle): what is missing is drawn only while the rotors turn, not a "
+                        "constant load")
+        return None
+
     def cause(self, p, pw):
         miss = p["missing_w"]
         return (f"A constant electrical load of {_pm(p['system_power_w'], p['system_power_w_stderr'], 1)}"
@@ -655,6 +778,14 @@ class EfficiencyCurve(PowerEffect):
                 "reference_mechanical_power_w": ref,
                 "mechanical_power_low_w": p_lo, "mechanical_power_high_w": p_hi,
                 "efficiency_at_low": eta(p_lo), "efficiency_at_high": eta(p_hi)}
+
+    def implausible(self, p, pw):
+        for k in ("efficiency_at_low", "efficiency_at_reference", "efficiency_at_high"):
+            e = p[k]
+            if not (math.isfinite(e) and 0.0 < e <= 1.0):
+                return (f"the efficiency curve reaches {e:.2f} over the flown range, outside "
+                        "(0, 1]")
+        return None
 
     def cause(self, p, pw):
         word = "falls" if p["efficiency_slope"] < 0 else "rises"
