@@ -19,7 +19,7 @@ import sys
 import traceback
 import warnings
 
-from planner import __version__
+from planner import __version__, files
 from planner.errors import InputError, ModelError, PlannerError
 
 #: Modules that each register one or more sub-commands, in help order.
@@ -66,34 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: Argument names (``dest``) that name files a command reads, and files it writes.
-INPUT_ARGS = ("mission", "aircraft", "battery", "packs", "data", "logs", "log", "map",
-              "circuit")
-OUTPUT_ARGS = ("out", "json", "plot", "csv")
-
-
-def _paths(value) -> list[str]:
-    if isinstance(value, str):
-        return [value]
-    if isinstance(value, (list, tuple)):
-        return [v for v in value if isinstance(v, str)]
-    return []
-
-
-def check_outputs_are_not_inputs(args) -> None:
-    """Input files are never modified: refuse an output path that names an input file."""
-    inputs = {}
-    for name in INPUT_ARGS:
-        for path in _paths(getattr(args, name, None)):
-            if os.path.isfile(path):
-                inputs[os.path.realpath(path)] = path
-    for name in OUTPUT_ARGS:
-        for path in _paths(getattr(args, name, None)):
-            real = os.path.realpath(path)
-            if real in inputs:
-                raise InputError(f"--{name} {path}: is also an input of this command "
-                                 f"({inputs[real]}); input files are never overwritten, "
-                                 "expected another path")
+#: Options (``dest``) that name output files: all checked against every file the command
+#: read before its first write (:mod:`planner.files`).
+OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out")
 
 
 def _format_warning(message, category, filename, lineno, line=None):
@@ -108,8 +83,15 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
+    outputs = {f"--{name.replace('_', '-')}": getattr(args, name, None)
+               for name in OUTPUT_ARGS}
+    to_stdout = "-" in outputs.values()
+    saved = sys.stdout
     try:
-        check_outputs_are_not_inputs(args)
+        files.reset(outputs)
+        if to_stdout:
+            # standard output carries that output alone; the command's text goes to stderr
+            files.STDOUT, sys.stdout = saved, sys.stderr
         return int(args.func(args))
     except (InputError, ModelError) as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -130,6 +112,9 @@ def main(argv: list[str] | None = None) -> int:
         print("error: internal error (a bug): please report it with the input files",
               file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        if to_stdout:
+            sys.stdout, files.STDOUT = saved, None
 
 
 if __name__ == "__main__":  # pragma: no cover

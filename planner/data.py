@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from planner import files
 from planner import record as rec
 from planner.errors import InputError
 
@@ -23,7 +24,7 @@ def _is_record_csv(path: Path) -> bool:
     if not (name.endswith(".csv") or name.endswith(".csv.gz")):
         return False
     try:
-        head = pd.read_csv(path, nrows=0)
+        head = pd.read_csv(files.input_path(path, "table", "flight-record CSV"), nrows=0)
     except Exception:  # unreadable: let the reader name the problem
         return False
     return "time_s" in head.columns

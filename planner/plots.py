@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from planner.errors import InputError
+from planner import files
 
 _LEG_COLOURS = {"climb": "#fde0c5", "cruise": "#e5f0fa", "hover": "#e8f5e0",
                 "loiter": "#e8f5e0", "descend": "#f2e6f7"}
@@ -92,11 +92,9 @@ def save_mission_plot(result, path, title=None):
     save(fig, path)
 
 
-def save(fig, path):
-    try:
-        fig.savefig(path, dpi=110)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write the plot ({exc.strerror})") from None
+def save(fig, path, option: str = "--plot"):
+    """Write a figure (atomically, never over an input file: :mod:`planner.files`)."""
+    files.save_figure(fig, path, option, dpi=110)
 
 
 _PHASE_COLOURS = {"ground": "#eeeeee", "takeoff": "#fde0c5", "climb": "#fbe3d6",

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from planner import files
 from planner.errors import InputError
 from planner.units import AS_PER_MAH
 
@@ -396,7 +397,7 @@ def read_record(path: str | os.PathLike, *, derive: bool = True,
     InputError
         The file is missing, empty or not CSV, or fails :func:`validate_record`.
     """
-    path = Path(path)
+    path = files.input_path(path, "table", "flight-record CSV")
     try:
         df = pd.read_csv(path, dtype={"experiment": str, "mode": str}, low_memory=False)
     except FileNotFoundError:
@@ -424,10 +425,7 @@ def write_record(df: pd.DataFrame, path: str | os.PathLike, *,
     """
     path = Path(path)
     out = _ordered(validate_record(df, path, require_power=require_power, csv_lines=False))
-    try:
-        out.to_csv(path, index=False, float_format=None)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    files.write_text(path, out.to_csv(index=False, float_format=None), "--csv")
     return path
 
 

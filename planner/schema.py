@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
 
 from planner.errors import InputError
 
@@ -200,22 +199,10 @@ def _check_value(value: Any, k: Key, name: str, problems: list[str]) -> Any:
 
 def load_yaml(path: str | Path) -> Any:
     """Read a YAML file with the safe loader; bad files raise :class:`InputError`."""
+    from planner import files
+
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a directory, expected a YAML file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read ({exc})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        at = f"line {mark.line + 1}" if mark is not None else "somewhere"
-        problem = getattr(exc, "problem", None) or "invalid YAML"
-        raise InputError(f"{path}: not valid YAML at {at}: {problem}") from None
+    data = files.load_yaml(path, "definition")
     if data is None:
         raise InputError(f"{path}: the file is empty, expected a mapping of keys")
     return data

@@ -11,6 +11,7 @@ from planner.commands.common import fmt, output_path, parse_float, write_json
 from planner.data import load_flight_data
 from planner.errors import InputError
 from planner.parameters import default_battery_path, load_aircraft, load_battery
+from planner import files
 
 
 def register(sub) -> None:
@@ -70,11 +71,8 @@ def run(args) -> int:
     mapping["source"] = (f"fit-aircraft on {src} ({result['split']}; "
                          f"{result['samples']['train']} airborne samples; mass {mass:.3f} kg); "
                          f"start values from {args.aircraft}")
-    try:
-        with open(args.out, "w", encoding="utf-8") as fh:
-            yaml.safe_dump(mapping, fh, sort_keys=False, allow_unicode=True)
-    except OSError as exc:
-        raise InputError(f"{args.out}: cannot write ({exc.strerror})") from None
+    files.write_text(args.out, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
+                     "--out")
     if json_out:
         report = {k: v for k, v in result.items() if k != "aircraft"}
         report["mass_kg"] = mass

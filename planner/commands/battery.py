@@ -19,6 +19,7 @@ from planner.errors import InputError
 from planner.parameters import IntegralModel, battery_from_mapping, load_battery, read_definition
 from planner.parameters.schedule import write_schedule
 from planner.units import AS_PER_MAH
+from planner import files
 
 #: Full-charge cell voltage used to detect the cell count from the data. [V]
 CELL_FULL_V = 4.2
@@ -191,7 +192,7 @@ def run_fit(args) -> int:
     base_raw = None
     if args.battery:
         load_battery(args.battery)  # validate first: bad base file -> one-line error
-        base_raw = dict(read_definition(args.battery))
+        base_raw = dict(read_definition(args.battery, to_folder=Path(out).parent))
     else:
         missing = [o for o, v in (("--name", args.name), ("--mass-kg", args.mass_kg)) if v is None]
         if missing:
@@ -202,8 +203,8 @@ def run_fit(args) -> int:
     experiments = fit.prepare_experiments(fit.load_records(args.data), only=chosen)
     result = fit.fit_integral(experiments, beta=beta, train=train, validate=validate)
 
-    files = ", ".join(str(d) for d in args.data)
-    source = (f"fit-battery on {files}; train: {', '.join(result['train'])}; validate: "
+    data_names = ", ".join(str(d) for d in args.data)
+    source = (f"fit-battery on {data_names}; train: {', '.join(result['train'])}; validate: "
               f"{', '.join(result['validate']) or 'none'}"
               + (f"; beta held at {beta:g}" if beta is not None else ""))
     model = IntegralModel(result["delta"], result["epsilon"], result["beta"])
@@ -232,14 +233,11 @@ def run_fit(args) -> int:
         mapping["circuit"], circuit_scores = _fit_circuit_rates(mapping, experiments, result,
                                                                 Path(out))
     battery_from_mapping(mapping, str(out))  # what we write must load back
-    header = (f"# written by endurance fit-battery: integral model fitted to {files}\n"
+    header = (f"# written by endurance fit-battery: integral model fitted to {data_names}\n"
               f"# stderr: delta ±{result['stderr']['delta']:.4g}, epsilon "
               f"±{result['stderr']['epsilon']:.3g}, beta ±{result['stderr']['beta']:.3g}\n")
-    try:
-        Path(out).write_text(header + yaml.safe_dump(mapping, sort_keys=False,
-                                                     allow_unicode=True))
-    except OSError as exc:
-        raise InputError(f"{out}: cannot write ({exc.strerror})") from None
+    files.write_text(out, header + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
+                     "--out")
 
     print(render_fit(result))
     if dropped:
@@ -504,15 +502,12 @@ def run_pulse(args) -> int:
         write_json(res.to_dict() | {"data": str(args.data)}, json_out)
     if out:
         load_battery(args.battery)
-        mapping = dict(read_definition(args.battery))
+        mapping = dict(read_definition(args.battery, to_folder=Path(out).parent))
         mapping["internal_resistance_ohm"] = round(float(res.mean_ohm), 6)
         battery_from_mapping(mapping, str(out))
-        try:
-            Path(out).write_text(f"# internal_resistance_ohm from endurance pulse-resistance "
-                                 f"on {args.data}\n"
-                                 + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True))
-        except OSError as exc:
-            raise InputError(f"{out}: cannot write ({exc.strerror})") from None
+        files.write_text(out, f"# internal_resistance_ohm from endurance pulse-resistance on "
+                              f"{args.data}\n"
+                         + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True), "--out")
         print(f"wrote {out}")
     return 0
 

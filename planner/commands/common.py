@@ -12,6 +12,7 @@ import numpy as np
 
 from planner.atmosphere import MAX_WIND_MS
 from planner.errors import InputError
+from planner import files
 
 
 @contextmanager
@@ -116,17 +117,16 @@ def _clean(obj: Any):
     return obj
 
 
-def write_json(data: dict, path: str | Path) -> None:
-    try:
-        Path(path).write_text(json.dumps(_clean(data), indent=2, default=_default) + "\n")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror})") from None
+def write_json(data: dict, path: str | Path, option: str = "--json") -> None:
+    """Write JSON (``-``: standard output), never over an input (:mod:`planner.files`)."""
+    files.write_text(path, json.dumps(_clean(data), indent=2, default=_default) + "\n", option)
 
 
 def output_path(path: str | None, option: str) -> str | None:
-    """Check that an output file's folder exists before any work is done."""
-    if path is None:
-        return None
+    """Check that an output file's folder exists before any work is done (``-`` is
+    standard output)."""
+    if path is None or path == "-":
+        return path
     parent = Path(path).resolve().parent
     if not parent.is_dir():
         raise InputError(f"{option} {path}: folder {parent} does not exist")

@@ -12,6 +12,7 @@ import yaml
 from planner.commands.common import output_path, parse_float, plot_path, write_json
 from planner.errors import InputError
 from planner.parameters import aircraft_from_mapping, battery_from_mapping
+from planner import files
 
 
 def register(sub) -> None:
@@ -32,7 +33,8 @@ def register(sub) -> None:
     p.add_argument("--aircraft", help="aircraft YAML: enables the power-level effects")
     p.add_argument("--map", help="column map for CSV data that is not a flight record "
                                  "(e.g. dji_m100)")
-    p.add_argument("--json", required=True, help="write the findings as JSON (DESIGN §6)")
+    p.add_argument("--json", help="write the findings as JSON (DESIGN §6); - for standard "
+                                  "output")
     p.add_argument("--plot", help="write a PNG: residuals against time and against each "
                                   "finding's driver, before and after")
     p.add_argument("--out", help="write the extended battery YAML (capacity-level findings; "
@@ -64,8 +66,9 @@ def run(args) -> int:
     result = diagnose(list(args.data), pack, aircraft, payload_kg=payload, mass_kg=mass,
                       site_altitude_m=site, effects=effects, column_map=args.map)
     print(result.summary())
-    write_json(result.to_dict(), json_out)
-    print(f"wrote {json_out}")
+    if json_out:
+        write_json(result.to_dict(), json_out)
+        print(f"wrote {json_out}")
     if plot_out:
         from planner.diagnose.plots import save_diagnose_plot
         save_diagnose_plot(result, plot_out)
@@ -95,7 +98,7 @@ def write_extended(result, out) -> list[str]:
     names = ", ".join(f["effect"] for f in result.findings) or "no effect found"
     for kind, obj, path in targets:
         if kind == "battery":
-            mapping = obj.to_mapping()
+            mapping = obj.to_mapping(folder=path.parent)
             mapping["source"] = obj.model.source
             battery_from_mapping(mapping, str(path))        # what we write must load back
         else:
@@ -106,11 +109,8 @@ def write_extended(result, out) -> list[str]:
         extra = _unstored(result, kind)
         if extra:
             header += "".join(f"# not stored in the schema: {line}\n" for line in extra)
-        try:
-            path.write_text(header + yaml.safe_dump(mapping, sort_keys=False,
-                                                    allow_unicode=True))
-        except OSError as exc:
-            raise InputError(f"{path}: cannot write ({exc.strerror})") from None
+        files.write_text(path, header + yaml.safe_dump(mapping, sort_keys=False,
+                                                       allow_unicode=True), "--out")
         written.append(str(path))
     return written
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +22,7 @@ from planner.commands.common import (
 from planner.errors import InputError
 from planner.mission import load_mission
 from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
+from planner import files
 
 
 def register(sub) -> None:
@@ -327,10 +327,7 @@ def run_sweep(args) -> int:
 
 
 def _write_csv(frame, path):
-    try:
-        frame.to_csv(Path(path), index=False, float_format="%.6g")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror})") from None
+    files.write_text(path, frame.to_csv(index=False, float_format="%.6g"), "--csv")
 
 
 def _rows(n, shown=15):

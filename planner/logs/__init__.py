@@ -42,7 +42,6 @@ Metadata keys (all readers): ``source``, ``format``, ``vehicle_type``
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import pandas as pd
 
@@ -89,14 +88,12 @@ def detect_format(path: str | os.PathLike, *, csv_ok: bool = False) -> str:
     InputError
         Missing or empty file, or content that matches no supported format.
     """
-    path = Path(path)
+    from planner import files
+
+    path = files.input_path(path, "log", "log file")
     try:
         with open(path, "rb") as fh:
             head = fh.read(4096)
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a directory, expected a log file") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
     if not head:

@@ -40,201 +40,23 @@ order; time must not go backwards within an experiment (checked by
 from __future__ import annotations
 
 import difflib
-import math
 import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 
+from planner import files
 from planner.errors import InputError
 from planner.logs._common import Meta
+from planner.parameters.columnmap import MAPS_DIR, load_map
 from planner.record import COLUMNS, add_consumed, drop_truncated_last_line, validate_record
 
 __all__ = ["FIELD_MAP", "MAPS_DIR", "load_map", "read_csv_log"]
 
-#: Where the maps shipped with the planner live.
-MAPS_DIR = Path(__file__).with_name("maps")
-
 #: Default (identity) map: a flight-record CSV, every column under its own name.
 FIELD_MAP: dict[str, dict] = {name: {"column": name, "scale": 1.0, "offset": 0.0}
                               for name in COLUMNS if name not in ("experiment", "time_s")}
-
-_TOP_KEYS = {"name", "source", "experiment", "time", "columns", "derived", "extra", "meta",
-             "license", "notes"}
-_COL_KEYS = {"column", "scale", "offset", "relative", "missing", "note"}
-_TIME_KEYS = {"column", "scale", "offset", "zero", "note"}
-_DERIVED_KEYS = {"op", "of", "scale", "offset", "note"}
-_OPS = {"hypot", "product", "course", "sum", "difference"}
-_META_KEYS = {"vehicle_type", "vehicle", "firmware", "battery_capacity_mah", "battery_cells",
-              "aircraft", "battery"}
-
-
-def _unknown(where: str, key: str, allowed: set) -> InputError:
-    close = difflib.get_close_matches(str(key), sorted(allowed), n=3)
-    hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else \
-        f"; expected one of {', '.join(sorted(allowed))}"
-    return InputError(f"{where}: unknown key '{key}'{hint}")
-
-
-def _number(where: str, key: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}: {key} must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: {key} must be a finite number, got {value!r}")
-    return float(value)
-
-
-def load_map(source: str | os.PathLike | dict) -> dict:
-    """Load and validate a column map (a YAML file, a shipped map name, or a dict).
-
-    ``source`` may be a path, or the name of a map in :data:`MAPS_DIR`
-    (``"dji_m100"``). Returns the normalised map; every problem raises
-    :class:`InputError` naming the file and the key.
-    """
-    if isinstance(source, dict):
-        raw, where = source, "<column map>"
-    else:
-        path = Path(source)
-        if not path.exists() and (MAPS_DIR / f"{path.name}.yaml").exists():
-            path = MAPS_DIR / f"{path.name}.yaml"
-        where = str(path)
-        try:
-            raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError(f"{path}: column map not found") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(f"{path}: cannot read column map ({exc})") from None
-        except yaml.YAMLError as exc:
-            raise InputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if not isinstance(raw, dict):
-        raise InputError(f"{where}: a column map must be a mapping with 'time' and 'columns'")
-    for key in raw:
-        if key not in _TOP_KEYS:
-            raise _unknown(where, key, _TOP_KEYS)
-    out: dict = {"name": raw.get("name"), "source": raw.get("source"), "where": where}
-
-    exp = raw.get("experiment")
-    if isinstance(exp, dict):
-        if set(exp) - {"column", "note"}:
-            raise _unknown(f"{where}: experiment", next(iter(set(exp) - {"column", "note"})),
-                           {"column"})
-        exp = exp.get("column")
-    if exp is not None and not isinstance(exp, str):
-        raise InputError(f"{where}: experiment must be a column name, got {exp!r}")
-    out["experiment"] = exp
-
-    t = raw.get("time")
-    if t is None:
-        raise InputError(f"{where}: missing required key 'time' (the CSV time column)")
-    if isinstance(t, str):
-        t = {"column": t}
-    if not isinstance(t, dict) or "column" not in t:
-        raise InputError(f"{where}: time must be a column name or {{column: ..., scale: ...}}")
-    for key in t:
-        if key not in _TIME_KEYS:
-            raise _unknown(f"{where}: time", key, _TIME_KEYS)
-    out["time"] = {"column": str(t["column"]),
-                   "scale": _number(where, "time.scale", t.get("scale", 1.0)),
-                   "offset": _number(where, "time.offset", t.get("offset", 0.0)),
-                   "zero": bool(t.get("zero", True))}
-    if not out["time"]["scale"] > 0:
-        raise InputError(f"{where}: time.scale must be > 0, got {out['time']['scale']}")
-
-    cols = raw.get("columns") or {}
-    if not isinstance(cols, dict):
-        raise InputError(f"{where}: columns must be a mapping record_column: {{column: ...}}")
-    out["columns"] = {}
-    for ours, spec in cols.items():
-        if ours not in COLUMNS or ours in ("experiment", "time_s"):
-            raise _unknown(f"{where}: columns", ours,
-                           set(COLUMNS) - {"experiment", "time_s"})
-        if isinstance(spec, str):
-            spec = {"column": spec}
-        if not isinstance(spec, dict) or "column" not in spec:
-            raise InputError(f"{where}: columns.{ours} must be {{column: <csv column>, ...}}")
-        for key in spec:
-            if key not in _COL_KEYS:
-                raise _unknown(f"{where}: columns.{ours}", key, _COL_KEYS)
-        missing = spec.get("missing", [])
-        if not isinstance(missing, list):
-            missing = [missing]
-        out["columns"][ours] = {
-            "column": str(spec["column"]),
-            "scale": _number(where, f"columns.{ours}.scale", spec.get("scale", 1.0)),
-            "offset": _number(where, f"columns.{ours}.offset", spec.get("offset", 0.0)),
-            "relative": bool(spec.get("relative", False)),
-            "missing": [_number(where, f"columns.{ours}.missing", m) for m in missing],
-        }
-
-    der = raw.get("derived") or {}
-    if not isinstance(der, dict):
-        raise InputError(f"{where}: derived must be a mapping record_column: {{op: ..., of: ...}}")
-    out["derived"] = {}
-    for ours, spec in der.items():
-        if ours not in COLUMNS or ours in ("experiment", "time_s"):
-            raise _unknown(f"{where}: derived", ours, set(COLUMNS) - {"experiment", "time_s"})
-        if not isinstance(spec, dict):
-            raise InputError(f"{where}: derived.{ours} must be {{op: ..., of: [...]}}")
-        for key in spec:
-            if key not in _DERIVED_KEYS:
-                raise _unknown(f"{where}: derived.{ours}", key, _DERIVED_KEYS)
-        op = spec.get("op")
-        if op not in _OPS:
-            raise InputError(f"{where}: derived.{ours}.op must be one of "
-                             f"{', '.join(sorted(_OPS))}, got {op!r}")
-        of = spec.get("of")
-        if not isinstance(of, list) or len(of) != 2 or not all(isinstance(c, str) for c in of):
-            raise InputError(f"{where}: derived.{ours}.of must list two CSV columns, got {of!r}")
-        out["derived"][ours] = {
-            "op": op, "of": of,
-            "scale": _number(where, f"derived.{ours}.scale", spec.get("scale", 1.0)),
-            "offset": _number(where, f"derived.{ours}.offset", spec.get("offset", 0.0)),
-        }
-
-    extra = raw.get("extra") or {}
-    if not isinstance(extra, dict):
-        raise InputError(f"{where}: extra must be a mapping new_name: {{column: ...}}")
-    out["extra"] = {}
-    for name, spec in extra.items():
-        if name in COLUMNS:
-            raise InputError(f"{where}: extra.{name} is a flight-record column; "
-                             "map it under 'columns'")
-        if isinstance(spec, str):
-            spec = {"column": spec}
-        if not isinstance(spec, dict) or "column" not in spec:
-            raise InputError(f"{where}: extra.{name} must be {{column: <csv column>}}")
-        for key in spec:
-            if key not in _COL_KEYS:
-                raise _unknown(f"{where}: extra.{name}", key, _COL_KEYS)
-        out["extra"][name] = {
-            "column": str(spec["column"]),
-            "scale": _number(where, f"extra.{name}.scale", spec.get("scale", 1.0)),
-            "offset": _number(where, f"extra.{name}.offset", spec.get("offset", 0.0)),
-            "relative": False, "missing": [],
-        }
-
-    meta = raw.get("meta") or {}
-    if not isinstance(meta, dict):
-        raise InputError(f"{where}: meta must be a mapping")
-    for key in meta:
-        if key not in _META_KEYS:
-            raise _unknown(f"{where}: meta", key, _META_KEYS)
-    for key, (low, high) in (("battery_cells", (1, 40)),
-                             ("battery_capacity_mah", (1.0, 1e7))):
-        if key in meta:
-            value = meta[key]
-            if (isinstance(value, bool) or not isinstance(value, (int, float))
-                    or not low <= value <= high
-                    or (key == "battery_cells" and not float(value).is_integer())):
-                raise InputError(f"{where}: meta.{key}: expected a "
-                                 f"{'whole ' if key == 'battery_cells' else ''}number in "
-                                 f"[{low:g}, {high:g}], got {value!r}")
-    out["meta"] = dict(meta)
-    if not out["columns"] and not out["derived"]:
-        raise InputError(f"{where}: the map has no 'columns'")
-    return out
 
 
 def _per_experiment_first(values: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
@@ -272,7 +94,7 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     meta = Meta(str(path), "csv")
     cmap = load_map(map) if map is not None else None
     try:
-        raw = pd.read_csv(path, low_memory=False)
+        raw = pd.read_csv(files.input_path(path, "log", "CSV log"), low_memory=False)
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except pd.errors.EmptyDataError:

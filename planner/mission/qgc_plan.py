@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.atmosphere import ALTITUDE_RANGE_M
+from planner import files
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
 from planner.mission.route import MAX_SPEED_MS, MavItem, mav_items_to_steps, route_to_legs
@@ -107,9 +108,8 @@ def read_plan(path: str | Path) -> tuple[dict, list[MavItem]]:
     """
     path = Path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8-sig"))
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
+        data = json.loads(files.read_text(path, "mission", "mission file",
+                                          encoding="utf-8-sig"))
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: not valid JSON (line {exc.lineno} column {exc.colno}: "
                          f"{exc.msg}); expected a QGroundControl plan") from None

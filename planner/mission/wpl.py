@@ -20,6 +20,7 @@ import math
 from pathlib import Path
 
 from planner.atmosphere import ALTITUDE_RANGE_M
+from planner import files
 from planner.errors import InputError
 from planner.mission.legs import Environment, Mission
 from planner.mission.route import MavItem, mav_items_to_steps, route_to_legs
@@ -31,12 +32,7 @@ _INT_FIELDS = {"index", "current", "frame", "command", "autocontinue"}
 
 
 def _read_text(path: Path) -> str:
-    try:
-        return path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read the file ({exc})") from None
+    return files.read_text(path, "mission", "mission file", encoding="utf-8-sig")
 
 
 def _parse_line(text: str, lineno: int, where: Path) -> MavItem:

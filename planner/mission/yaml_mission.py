@@ -59,6 +59,7 @@ from typing import Any
 import yaml
 
 from planner.atmosphere import ALTITUDE_RANGE_M, MAX_WIND_MS
+from planner import files
 from planner.errors import InputError
 from planner.mission.geo import EARTH_RADIUS_M
 from planner.mission.legs import LEG_KINDS, Environment, Leg, Mission
@@ -456,9 +457,7 @@ def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None) -> M
     path = Path(path)
     where = str(path)
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{where}: file not found") from None
+        data = files.load_yaml(path, "mission", "mission file")
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         at = f" at line {mark.line + 1} column {mark.column + 1}" if mark else ""

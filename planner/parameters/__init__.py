@@ -22,10 +22,33 @@ from planner.parameters.pack import BatteryPack, IntegralModel, battery_from_map
 
 
 
-def read_definition(path):
+def read_definition(path, to_folder=None):
     """A definition file's mapping as written (validated YAML syntax only), for a command
-    that extends a file and writes it again (``fit-battery --battery``)."""
-    return _schema.load_yaml(path)
+    that extends a file and writes it again (``fit-battery --battery``).
+
+    ``to_folder``: where the mapping will be written; the paths it holds relative to its
+    own file (an aircraft's ``battery``, a pack's ``circuit.ocv_csv``) are rewritten
+    relative to that folder, so that the new file finds them.
+    """
+    import os
+    from pathlib import Path
+
+    data = _schema.load_yaml(path)
+    if to_folder is None or not isinstance(data, dict):
+        return data
+    data = dict(data)
+    here = Path(path).resolve().parent
+
+    def moved(value):
+        if not isinstance(value, str) or Path(value).is_absolute():
+            return value
+        return os.path.relpath(here / value, Path(to_folder).resolve())
+
+    if "battery" in data:
+        data["battery"] = moved(data["battery"])
+    if isinstance(data.get("circuit"), dict) and "ocv_csv" in data["circuit"]:
+        data["circuit"] = dict(data["circuit"], ocv_csv=moved(data["circuit"]["ocv_csv"]))
+    return data
 
 
 __all__ = ["read_definition", "Aircraft", "BatteryPack", "CircuitBlock", "FixedWing", "IntegralModel",

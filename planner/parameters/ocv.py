@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 from planner.battery.ocv import OcvTable, ocv_table
+from planner import files
 from planner.errors import InputError
 
 __all__ = ["read_ocv_csv", "write_ocv_csv"]
@@ -51,12 +52,9 @@ def read_ocv_csv(path) -> OcvTable:
         the row), or a table that is not monotonic.
     """
     path = Path(path)
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except FileNotFoundError:
-        raise InputError(f"{path}: OCV file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read the OCV file ({exc})") from None
+    if not path.exists():
+        raise InputError(f"{path}: OCV file not found")
+    lines = files.read_text(path, "definition", "OCV table").splitlines()
     rows = [(n + 1, line) for n, line in enumerate(lines) if line.strip()]
     if not rows:
         raise InputError(f"{path}: the OCV file is empty, expected a header 'soc [1], ocv [V]'")
@@ -96,6 +94,5 @@ def read_ocv_csv(path) -> OcvTable:
 
 def write_ocv_csv(path, table: OcvTable) -> None:
     """Write an :class:`OcvTable` as CSV with the header ``soc [1],ocv [V]``."""
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write("soc [1],ocv [V]\n")
-        fh.writelines(f"{s:.6g},{v:.6f}\n" for s, v in zip(table.soc, table.ocv_v))
+    files.write_text(path, "soc [1],ocv [V]\n" + "".join(
+        f"{s:.6g},{v:.6f}\n" for s, v in zip(table.soc, table.ocv_v)), "OCV table")

@@ -9,6 +9,7 @@ are the schema, with the bounds of :mod:`planner.parameters.limits`.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -302,8 +303,12 @@ class BatteryPack:
         """The lumped thermal parameters of the ``thermal:`` block (None without one)."""
         return self.thermal
 
-    def to_mapping(self) -> dict[str, Any]:
-        """The pack as a YAML-ready mapping (keys of DESIGN §8)."""
+    def to_mapping(self, folder: str | Path | None = None) -> dict[str, Any]:
+        """The pack as a YAML-ready mapping (keys of DESIGN §8).
+
+        ``folder``: where the mapping will be written; the ``circuit.ocv_csv`` path,
+        relative to this pack's own file, is rewritten relative to it.
+        """
         out: dict[str, Any] = {"name": self.name, "cells_series": self.cells_series,
                                "cells_parallel": self.cells_parallel,
                                "capacity_mah": float(self.capacity_mah),
@@ -321,6 +326,10 @@ class BatteryPack:
             out["model"] = self.model.to_mapping()
         if self.circuit is not None:
             out["circuit"] = circuit_to_mapping(self.circuit)
+            csv = self.circuit.ocv_csv
+            if folder is not None and csv and not Path(csv).is_absolute() and self.path:
+                table = (Path(self.path).parent / csv).resolve()
+                out["circuit"]["ocv_csv"] = os.path.relpath(table, Path(folder).resolve())
         if self.thermal is not None:
             out["thermal"] = thermal_to_mapping(self.thermal)
         if self.source:

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from planner.battery.design import SCHEDULE_COLUMNS
+from planner import files
 from planner.errors import InputError
 
 __all__ = ["read_schedule", "write_schedule"]
@@ -38,10 +39,7 @@ def write_schedule(schedule: pd.DataFrame, path: str | os.PathLike,
     lines.append("time_s,power_w")
     lines += [f"{t:g},{p:g}" for t, p in zip(starts, schedule["power_w"].to_numpy(float))]
     lines.append(f"{end:g},0")
-    try:
-        path.write_text("\n".join(lines) + "\n")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    files.write_text(path, "\n".join(lines) + "\n", "--out")
     return path
 
 
@@ -49,7 +47,7 @@ def read_schedule(path: str | os.PathLike) -> pd.DataFrame:
     """Read a CSV written by :func:`write_schedule` back into a schedule table."""
     path = Path(path)
     try:
-        df = pd.read_csv(path, comment="#")
+        df = pd.read_csv(files.input_path(path, "table", "power schedule"), comment="#")
     except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(f"{path}: not a readable power schedule ({exc})") from None
     if list(df.columns) != ["time_s", "power_w"]:

@@ -1,0 +1,278 @@
+"""Every file a command reads or writes passes through here.
+
+Inputs
+------
+:func:`input_path` (and :func:`read_text`, :func:`read_bytes`, :func:`load_yaml` on top of
+it) is the one door for reading: it refuses what is not a regular file (a directory, a
+FIFO, ``/dev/zero``, a socket) and a file larger than the bound of its kind
+(:data:`SIZE_LIMITS`), each with an :class:`~planner.errors.InputError` naming the file,
+and it records the file's identity — device and inode, and the resolved path — in the
+registry of the running command. Files read *through* other files (the pack an aircraft
+names, the OCV table of a ``circuit:`` block, the pack files of a catalog, a column map)
+are recorded the same way.
+
+Outputs
+-------
+Every output is checked against that registry before it is written: the same file,
+whatever the spelling (``..``, a symbolic link, a hard link: same device and inode), is
+refused with exit 2 naming both paths — input files are never overwritten. Outputs are
+written to a temporary file in the target folder and renamed into place
+(:func:`os.replace`), so an interrupted run never leaves a half-written file where a good
+one was. An output given as ``-`` goes to standard output.
+
+YAML
+----
+:func:`load_yaml` reads YAML 1.1 with PyYAML's safe loader, bounded: at most
+:data:`YAML_MAX_ALIASES` aliases (a "billion laughs" document expands exponentially
+through them), nesting at most :data:`YAML_MAX_DEPTH` deep and at most
+:data:`YAML_MAX_NODES` nodes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import stat
+import sys
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from planner.errors import InputError
+
+__all__ = ["SIZE_LIMITS", "check_output", "check_outputs", "input_path", "inputs",
+           "load_yaml", "read_bytes", "read_text", "reset", "save_figure", "write_bytes",
+           "write_text"]
+
+#: Largest file of each kind. [bytes] Definition files (aircraft, pack, catalog, column
+#: map, OCV table) hold a few kB; missions of 20 000 waypoints fit in a few MB; logs of
+#: long flights reach hundreds of MB.
+SIZE_LIMITS = {"definition": 10 * 2**20, "mission": 50 * 2**20, "table": 2 * 2**30,
+               "log": 4 * 2**30}
+#: Most aliases in a YAML document (definition files need none).
+YAML_MAX_ALIASES = 100
+#: Deepest nesting of a YAML document.
+YAML_MAX_DEPTH = 50
+#: Most nodes in a YAML document.
+YAML_MAX_NODES = 200_000
+
+#: Identity (device, inode) → the path as the command named it, for the running command.
+_INPUTS: dict[tuple[int, int], str] = {}
+#: Resolved path → the path as named (for files that vanish, and for spelling checks).
+_INPUT_PATHS: dict[str, str] = {}
+#: The running command's outputs (option → path), all checked at the first write.
+_DECLARED: dict[str, Any] = {}
+#: Where an output named ``-`` goes: the standard output the command started with (the
+#: CLI sends the command's own text to standard error then, so that standard output holds
+#: that output and nothing else).
+STDOUT = None
+
+
+def reset(outputs: dict[str, Any] | None = None) -> None:
+    """Forget the previous command's files and declare this one's outputs (the CLI calls
+    it at the start): at its first write the command's every output is checked against
+    its inputs, so that nothing is written when any output names an input."""
+    _INPUTS.clear()
+    _INPUT_PATHS.clear()
+    _DECLARED.clear()
+    _DECLARED.update({k: v for k, v in (outputs or {}).items() if v is not None})
+
+
+def _first_write() -> None:
+    if _DECLARED:
+        declared = dict(_DECLARED)
+        _DECLARED.clear()
+        check_outputs(declared)
+
+
+def inputs() -> list[str]:
+    """The input files recorded so far, as named."""
+    return list(dict.fromkeys(_INPUT_PATHS.values()))
+
+
+def _kind_limit(kind: str) -> int:
+    if kind not in SIZE_LIMITS:
+        raise ValueError(f"kind must be one of {', '.join(SIZE_LIMITS)}, got {kind!r}")
+    return SIZE_LIMITS[kind]
+
+
+def input_path(path: str | os.PathLike, kind: str, what: str = "file") -> Path:
+    """Check an input file and record it (module notes); return it as a Path.
+
+    Raises
+    ------
+    InputError
+        Missing, not a regular file, unreadable, or larger than the bound of ``kind``.
+    """
+    p = Path(path)
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        raise InputError(f"{p}: file not found") from None
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{p}: is a directory, expected a {what}")
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{p}: not a regular file (a device, a pipe or a socket), expected "
+                         f"a {what}")
+    limit = _kind_limit(kind)
+    if st.st_size > limit:
+        raise InputError(f"{p}: {st.st_size / 2**20:.0f} MB is larger than a {what} can be "
+                         f"(at most {limit / 2**20:.0f} MB)")
+    _INPUTS[(st.st_dev, st.st_ino)] = str(path)
+    _INPUT_PATHS[os.path.realpath(p)] = str(path)
+    return p
+
+
+def read_bytes(path: str | os.PathLike, kind: str, what: str = "file") -> bytes:
+    """The bytes of an input file (:func:`input_path` first)."""
+    p = input_path(path, kind, what)
+    try:
+        return p.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read ({exc.strerror or exc})") from None
+
+
+def read_text(path: str | os.PathLike, kind: str, what: str = "file",
+              encoding: str = "utf-8") -> str:
+    """The text of an input file (:func:`input_path` first); not UTF-8 is bad input."""
+    data = read_bytes(path, kind, what)
+    try:
+        return data.decode(encoding)
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte {exc.start}), expected a {what}") \
+            from None
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """PyYAML's safe loader with bounds on aliases, nesting and size (module notes)."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._aliases = 0
+        self._nodes = 0
+        self._depth = 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            self._aliases += 1
+            if self._aliases > YAML_MAX_ALIASES:
+                raise _YamlBound(f"more than {YAML_MAX_ALIASES} aliases (a YAML alias bomb?)")
+        self._nodes += 1
+        if self._nodes > YAML_MAX_NODES:
+            raise _YamlBound(f"more than {YAML_MAX_NODES} nodes")
+        self._depth += 1
+        if self._depth > YAML_MAX_DEPTH:
+            raise _YamlBound(f"nested more than {YAML_MAX_DEPTH} levels deep")
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+class _YamlBound(Exception):
+    pass
+
+
+def load_yaml(path: str | os.PathLike, kind: str = "definition",
+              what: str = "YAML file") -> Any:
+    """Read a YAML file with the bounded safe loader; bad files raise :class:`InputError`."""
+    text = read_text(path, kind, what)
+    try:
+        return yaml.load(text, Loader=_BoundedLoader)  # noqa: S506 - a SafeLoader subclass
+    except _YamlBound as exc:
+        raise InputError(f"{path}: refused: {exc}") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f"line {mark.line + 1}" if mark is not None else "somewhere"
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise InputError(f"{path}: not valid YAML at {at}: {problem}") from None
+    except RecursionError:
+        raise InputError(f"{path}: refused: nested too deeply") from None
+
+
+# --------------------------------------------------------------------------- outputs
+
+def check_output(path: str | os.PathLike | None, option: str = "output") -> None:
+    """Refuse an output that is one of the command's input files (module notes)."""
+    if path is None or str(path) == "-":
+        return
+    p = Path(path)
+    real = os.path.realpath(p)
+    same = _INPUT_PATHS.get(real)
+    if same is None:
+        try:
+            st = os.stat(p)
+            same = _INPUTS.get((st.st_dev, st.st_ino))
+        except OSError:
+            same = None
+    if same is not None:
+        raise InputError(f"{option} {path}: is the input file {same} of this command (the "
+                         "same file by another name, a link or a copy of its path); input "
+                         "files are never overwritten, expected another path")
+
+
+def check_outputs(outputs: dict[str, Any]) -> None:
+    """:func:`check_output` for every ``{option: path}`` at once, before anything is
+    written."""
+    for option, path in outputs.items():
+        check_output(path, option)
+
+
+@contextlib.contextmanager
+def _atomic(path: Path, mode: str) -> Iterator[Any]:
+    folder = path.resolve().parent
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    try:
+        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as fh:
+            yield fh
+        os.replace(tmp, path)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+        raise
+
+
+def write_text(path: str | os.PathLike, text: str, option: str = "output") -> None:
+    """Write text atomically (``-``: standard output), after :func:`check_output`."""
+    _first_write()
+    if str(path) == "-":
+        out = STDOUT or sys.stdout
+        out.write(text)
+        out.flush()
+        return
+    check_output(path, option)
+    with _atomic(Path(path), "w") as fh:
+        fh.write(text)
+
+
+def write_bytes(path: str | os.PathLike, data: bytes, option: str = "output") -> None:
+    """Write bytes atomically (``-``: standard output), after :func:`check_output`."""
+    _first_write()
+    if str(path) == "-":
+        out = STDOUT or sys.stdout
+        out.buffer.write(data)
+        out.flush()
+        return
+    check_output(path, option)
+    with _atomic(Path(path), "wb") as fh:
+        fh.write(data)
+
+
+def save_figure(fig, path: str | os.PathLike, option: str = "--plot", **kwargs) -> None:
+    """Save a matplotlib figure atomically, in the format of the file's extension."""
+    _first_write()
+    p = Path(path)
+    check_output(p, option)
+    fmt = p.suffix.lstrip(".").lower() or "png"
+    with _atomic(p, "wb") as fh:
+        fig.savefig(fh, format=fmt, **kwargs)
