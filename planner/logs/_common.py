@@ -170,11 +170,14 @@ def capacity_or_none(value) -> float | None:
 
 
 def cells_or_none(value) -> int | None:
+    """Series cell count parameter; missing, non-finite or outside 1–40 means unset."""
     try:
-        v = round(float(value))
+        v = float(value)
     except (TypeError, ValueError):
         return None
-    return v if v > 0 else None
+    if not math.isfinite(v) or not 1 <= round(v) <= 40:
+        return None
+    return round(v)
 
 
 def _apply(f: Field, msg: Message) -> np.ndarray:

@@ -371,9 +371,11 @@ class DataFlashLog:
         # resync after damage: the next header that is itself followed by a header
         bad = np.flatnonzero(~hit)
         del hit
-        if len(bad):
+        if len(bad) and len(good):
             j = np.searchsorted(good, succ[bad])
             succ[bad] = np.where(j < len(good), good[np.minimum(j, len(good) - 1)], m)
+        elif len(bad):
+            succ[bad] = m                   # no header is chain-confirmed: no resync point
         del bad
         # walk the chain; runs where succ == k + 1 are taken whole
         breaks = np.flatnonzero(succ != np.arange(1, m + 1, dtype=it))

@@ -1,7 +1,9 @@
-"""PX4 ULog ``.ulg`` logs → flight record, through pyulog.
+"""PX4 ULog ``.ulg`` logs → flight record.
 
-Only the topics named in :data:`FIELD_MAP` are parsed
-(``ULog(path, message_name_filter_list)``). Field names changed across PX4
+Only the topics named in :data:`FIELD_MAP` are decoded, by the project's own vectorised
+and bounded decoder (:mod:`planner.logs._ulog_decode`), which gives pyulog's arrays field
+for field in a fraction of its time and recovers from damage as pyulog does, within
+bounds on time and memory whatever the bytes. Field names changed across PX4
 versions (``voltage_filtered_v`` up to v1.11, ``voltage_v`` after; ``wind_estimate``
 before the ``wind`` topic; ``baro_temp_celcius`` before ``ambient_temperature``);
 the ``FIELD_MAP`` lists the alternatives in order of preference.
@@ -18,16 +20,13 @@ bridging of dropouts longer than max(2 s, 10 sample periods).
 
 Several batteries: instance 0 is kept when it measures current (else the
 first instance that does); the others are listed in ``meta["battery_instances"]``
-and in a warning. A damaged file is read as far as pyulog can recover; what
-pyulog reports (it prints to stdout) becomes a warning.
+and in a warning. A damaged file is read as far as it can be recovered; what was
+skipped becomes a warning.
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
 import os
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +42,7 @@ from planner.logs._common import (
     cells_or_none,
     resolve_channels,
 )
+from planner.logs._ulog_decode import ULogError, decode
 from planner.logs.dataflash import MAV_TYPE_CLASS, mav_type_name
 
 __all__ = ["FIELD_MAP", "NAV_STATE_NAMES", "read_ulog"]
@@ -138,98 +138,6 @@ def _firmware(info: dict) -> str | None:
     return text
 
 
-_SYNC = bytes([0x2F, 0x73, 0x13, 0x20, 0x25, 0x0C, 0xBB, 0x12])
-_SYNC_HEAD = b"\x08\x00S"          # msg_size 8, msg_type 'S'
-_MSG_TYPES = frozenset(b"BFIMPQARDLCSO")
-_MSG_TYPE_CODES = np.frombuffer(b"BFIMPQARDLCSO", np.uint8)
-_U16 = struct.Struct("<H").unpack_from
-_TAIL_WINDOW = 4096
-
-
-def _walk(buf: bytes, o: int) -> tuple[int, int]:
-    """Follow the ULog framing (u16 size, u8 type, payload) from ``o`` to the end.
-
-    Returns (where the walk stopped, start of the last message)."""
-    n, last = len(buf), o
-    while o + 3 <= n:
-        last = o
-        o += _U16(buf, o)[0] + 3
-    return o, last
-
-
-def _partial(n: int, end: int, last: int) -> int:
-    """Bytes of a partial last message, from a walk that stopped at ``end``."""
-    return 0 if end == n else n - (last if end > n else end)
-
-
-def _tail_window(buf: bytes) -> int | None:
-    """Partial-message bytes judged from the last bytes alone (no known boundary).
-
-    Every offset whose type byte is a ULog message type starts a walk (memoised);
-    a chain of at least 4 messages that ends exactly at the end of the file means
-    a clean end; if none does but one runs past it, the file is truncated.
-    ``None`` when the window holds no such chain.
-    """
-    n = len(buf)
-    memo: dict[int, tuple | None] = {}
-
-    def follow(c: int):
-        path, o = [], c
-        while True:
-            if o in memo:
-                res = memo[o]
-                break
-            if o + 3 > n:
-                res = (o, None, 0)
-                break
-            if buf[o + 2] not in _MSG_TYPES:
-                res = None
-                break
-            path.append(o)
-            o += _U16(buf, o)[0] + 3
-        for p in reversed(path):
-            if res is not None:
-                res = (res[0], p if res[1] is None else res[1], res[2] + 1)
-            memo[p] = res
-        return memo.get(c, res)
-
-    start = max(0, n - _TAIL_WINDOW)
-    types = np.frombuffer(buf, np.uint8, offset=start + 2) if n - start > 2 else np.zeros(0)
-    cands = (np.flatnonzero(np.isin(types, _MSG_TYPE_CODES)) + start).tolist()
-    chains = [r for c in cands if (r := follow(c)) is not None and r[2] >= 4]
-    if not chains:
-        return None
-    if any(r[0] == n for r in chains):
-        return 0
-    end, last, _ = chains[0]
-    return _partial(n, end, last)
-
-
-def _truncated_tail(path: Path) -> int:
-    """Bytes of a partial last message (0 for a clean end of file).
-
-    Walks the ULog framing forward from the last sync message (PX4 writes one
-    every few hundred ms since v1.13); in older logs judges from the last 4 kB
-    (:func:`_tail_window`), and only if that is inconclusive walks from the first
-    message (offset 16).
-    """
-    size = path.stat().st_size
-    with open(path, "rb") as fh:
-        fh.seek(max(0, size - (1 << 20)))
-        buf = fh.read()
-        i = buf.rfind(_SYNC)
-        while i >= 3 and buf[i - 3:i] != _SYNC_HEAD:
-            i = buf.rfind(_SYNC, 0, i)
-        if i >= 3:
-            return _partial(len(buf), *_walk(buf, i - 3))
-        judged = _tail_window(buf[-_TAIL_WINDOW - 3:])
-        if judged is not None:
-            return judged
-        fh.seek(0)
-        buf = fh.read()
-    return _partial(len(buf), *_walk(buf, 16))
-
-
 def _has_current(d) -> bool:
     for name in ("current_a", "current_filtered_a"):
         if name in d.data:
@@ -256,40 +164,29 @@ def read_ulog(path: str | os.PathLike, *, require_battery: bool = True
         The flight record (one row per ``battery_status`` sample of the kept
         instance) and the metadata (see :func:`planner.logs.read_log`).
     """
-    from pyulog import ULog
-    from pyulog.core import ULogException
+    from planner import files
 
     path = Path(path)
     meta = Meta(str(path), "ulog")
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
-    if path.stat().st_size == 0:
+    buf = files.read_bytes(path, "log", "log file")
+    if not buf:
         raise InputError(f"{path}: empty file")
-    out = io.StringIO()
     try:
-        with contextlib.redirect_stdout(out):
-            ulog = ULog(str(path), _TOPICS)
-    except ULogException as exc:
+        ulog = decode(buf, _TOPICS)
+    except ULogError as exc:
         raise InputError(f"{path}: not a readable ULog file ({exc})") from None
-    except (ValueError, KeyError, IndexError, TypeError, OverflowError, MemoryError,
-            UnicodeDecodeError, struct.error) as exc:
-        raise InputError(f"{path}: damaged ULog file, pyulog failed: "
-                         f"{type(exc).__name__}: {exc}") from None
-    said = [line.strip() for line in out.getvalue().splitlines() if line.strip()]
-    damaged = bool(ulog.file_corruption or said)
+    damaged = ulog.file_corruption
     if damaged:
-        detail = "; ".join(dict.fromkeys(said))[:300] or "file corruption detected"
-        meta.warn(f"{path}: damaged ULog, read what pyulog could recover ({detail})")
-    else:
-        tail = _truncated_tail(path)
-        if tail:
-            damaged = True
-            meta.warn(f"{path}: truncated ULog: the file ends inside a message, "
-                      f"skipped the last {tail} byte(s)")
-    if ulog.dropouts:
-        lost = sum(d.duration for d in ulog.dropouts)
-        meta["dropouts"] = len(ulog.dropouts)
-        meta["notes"] = [f"{len(ulog.dropouts)} logging dropout(s), {lost} ms in total"]
+        detail = "; ".join(dict.fromkeys(ulog.problems))[:300] or "file corruption detected"
+        meta.warn(f"{path}: damaged ULog, read what could be recovered ({detail})")
+    if ulog.truncated_bytes:
+        damaged = True
+        meta.warn(f"{path}: truncated ULog: the file ends inside a message, "
+                  f"skipped the last {ulog.truncated_bytes} byte(s)")
+    if ulog.dropouts_ms:
+        lost = sum(ulog.dropouts_ms)
+        meta["dropouts"] = len(ulog.dropouts_ms)
+        meta["notes"] = [f"{len(ulog.dropouts_ms)} logging dropout(s), {lost} ms in total"]
 
     params = dict(ulog.initial_parameters)
     info = ulog.msg_info_dict
