@@ -21,7 +21,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner import atmosphere
-from planner.mission.legs import LEG_KINDS, Environment, Mission
+from planner.errors import InputError
+from planner.mission.legs import LEG_KINDS, MAX_FLIGHT_S, Environment, Mission
 from planner.parameters import Aircraft
 from planner.wind import capped_groundspeed, wind_triangle, wind_vector
 
@@ -241,6 +242,11 @@ def leg_table(mission: Mission, aircraft: Aircraft, environment: Environment | N
             problems.append((int(wind_max[0]), f"wind {wind:.1f} m/s is not below the "
                                                "loiter airspeed: the aircraft drifts away"))
 
+    total = float(np.nansum(duration))
+    if total > MAX_FLIGHT_S:
+        raise InputError(f"{mission.source or mission.name}: the legs take {total / 3600:.1f} h "
+                         f"at their planned speeds, longer than the planner simulates (at most "
+                         f"{MAX_FLIGHT_S / 3600:.0f} h of flight)")
     amsl = env.site_altitude_m + 0.5 * (alt0 + alt1)
     rho = np.broadcast_to(np.asarray(air_density_at(amsl, env, temperature_c), float), (n,))
     return LegTable(kind=np.asarray(kind), origin=[leg.origin for leg in legs],

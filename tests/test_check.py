@@ -103,7 +103,7 @@ def test_crosswind_triangle_fixed_wing():
 
 def test_wind_stronger_than_aircraft_is_nogo_with_reason():
     c = chain("phoenix_s.yaml")
-    leg = [Leg("cruise", (0, 0), (2000, 0), 50, 50, origin="legs[0]")]
+    leg = [Leg("cruise", (0, 0), (2000, 0), 50, 50, origin="legs[1]")]
     r = c.check(Mission("m", leg, Environment(30, 90)))
     assert r.verdict == "NO-GO"
     assert any("stronger than the aircraft can fly" in why for why in r.reasons)

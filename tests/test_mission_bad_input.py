@@ -109,7 +109,7 @@ def test_plan_loiter_time_of_1e9_exits_2_without_hanging(tmp_path):
         m["items"][3]["command"] = 19
         m["items"][3]["params"][0] = 1e9
     path = edit_plan(tmp_path, change)
-    check_exits_2(path, "mission.items[3] (item 4)", "NAV_LOITER_TIME", "1e+09", "86400")
+    check_exits_2(path, "mission.items[4]", "NAV_LOITER_TIME", "1e+09", "86400")
 
 
 def test_yaml_hover_of_1e308_exits_2(tmp_path):
@@ -118,15 +118,15 @@ def test_yaml_hover_of_1e308_exits_2(tmp_path):
           - climb: {altitude_m: 30}
           - hover: {duration_s: 1e308}
         """)
-    check_exits_2(path, "legs[1].hover.duration_s must be <= 86400 (24 h)")
+    check_exits_2(path, "legs[2].hover.duration_s must be <= 86400 (24 h)")
 
 
 @pytest.mark.parametrize("leg, needle", [
-    ("loiter: {duration_s: 1e6}", "legs[1].loiter.duration_s must be <= 86400 (24 h)"),
+    ("loiter: {duration_s: 1e6}", "legs[2].loiter.duration_s must be <= 86400 (24 h)"),
     ("loiter: {turns: 1000, radius_m: 50, airspeed_ms: 12}",
-     "legs[1].loiter.turns must be <= 255"),
+     "legs[2].loiter.turns must be <= 255"),
     ("loiter: {turns: 250, radius_m: 500, airspeed_ms: 5}",
-     "legs[1].loiter 250 turns of 500 m at 5 m/s: loiter time 157080 s is out of range"),
+     "legs[2].loiter 250 turns of 500 m at 5 m/s: loiter time 157080 s is out of range"),
 ])
 def test_yaml_loiters_are_bounded(tmp_path, leg, needle):
     path = yaml_file(tmp_path, f"legs:\n  - climb: {{altitude_m: 30}}\n  - {leg}\n")
@@ -141,7 +141,7 @@ def test_yaml_waypoint_hold_is_bounded(tmp_path):
         waypoints:
           - {lat: 48.001, lon: 10.0, alt_m: 30, hold_s: 1e6}
         """)
-    with pytest.raises(InputError, match=r"m\.yaml: waypoints\[0\]\.hold_s must be <= 86400"):
+    with pytest.raises(InputError, match=r"m\.yaml: waypoints\[1\]\.hold_s must be <= 86400"):
         load_mission(path)
 
 
@@ -151,7 +151,7 @@ def test_yaml_cruise_longer_than_half_the_earth_exits_2(tmp_path):
           - climb: {altitude_m: 30}
           - cruise: {distance_m: 1e308, course_deg: 0}
         """)
-    check_exits_2(path, "legs[1].cruise.distance_m must be <=", "half the Earth")
+    check_exits_2(path, "legs[2].cruise.distance_m must be <=", "half the Earth")
 
 
 def test_loiter_turns_are_bounded_in_waypoints(tmp_path):
@@ -198,7 +198,7 @@ def test_negative_hold_in_waypoints_exits_2(tmp_path):
 def test_negative_hold_in_plan_is_refused(tmp_path):
     def change(m):
         m["items"][3]["params"][0] = -5
-    with pytest.raises(InputError, match=r"m\.plan: mission\.items\[3\] \(item 4\): "
+    with pytest.raises(InputError, match=r"m\.plan: mission\.items\[4\]: "
                                          r"MAV_CMD_NAV_WAYPOINT \(16\) param1 \(hold time\) "
                                          r"-5 s is out of range"):
         load_mission(edit_plan(tmp_path, change))
@@ -208,7 +208,7 @@ def test_null_hold_in_plan_is_no_hold(tmp_path):
     def change(m):
         m["items"][3]["params"][0] = None
     mission = load_mission(edit_plan(tmp_path, change))
-    assert all(leg.origin != "mission.items[3]" or leg.kind == "cruise"
+    assert all(leg.origin != "mission.items[4]" or leg.kind == "cruise"
                for leg in mission.legs)
 
 
@@ -225,7 +225,7 @@ def test_plan_home_nan_exits_2_instead_of_a_wrong_go(tmp_path):
 def test_plan_item_nan_or_inf_is_refused(tmp_path, index, value):
     def change(m):
         m["items"][3]["params"][index] = value
-    with pytest.raises(InputError, match=rf"m\.plan: mission\.items\[3\]\.params\[{index}\] "
+    with pytest.raises(InputError, match=rf"m\.plan: mission\.items\[4\]\.param{index + 1} "
                                          r"must be a finite number or null"):
         load_mission(edit_plan(tmp_path, change))
 
@@ -267,7 +267,7 @@ def test_yaml_nan_latitude_is_refused(tmp_path):
         load_mission(path)
     msg = str(info.value)
     assert "home.lat must be a finite number" in msg
-    assert "waypoints[0].lon must be a finite number" in msg
+    assert "waypoints[1].lon must be a finite number" in msg
 
 
 # ------------------------------------------------- 4. altitudes within the atmosphere model
@@ -306,7 +306,7 @@ def test_plan_takeoff_altitude_out_of_range_exits_2(tmp_path):
     def change(m):
         m["items"][0]["params"][6] = 15000
     path = edit_plan(tmp_path, change)
-    check_exits_2(path, "mission.items[0] (item 1)", "NAV_TAKEOFF", "altitude 15000 m",
+    check_exits_2(path, "mission.items[1]", "NAV_TAKEOFF", "altitude 15000 m",
                   "15598 m above mean sea level")
 
 
@@ -315,7 +315,7 @@ def test_plan_takeoff_altitude_out_of_range_exits_2(tmp_path):
      home: {lat: 48.0, lon: 10.0, alt_m: 598}
      waypoints:
        - {lat: 48.001, lon: 10.0, alt_m: 20000}
-     """, "waypoints[0].alt_m 20000 m puts the aircraft at 20598 m above mean sea level"),
+     """, "waypoints[1].alt_m 20000 m puts the aircraft at 20598 m above mean sea level"),
     ("""
      home: {lat: 48.0, lon: 10.0, alt_m: 598}
      takeoff_alt_m: 10500
@@ -326,18 +326,18 @@ def test_plan_takeoff_altitude_out_of_range_exits_2(tmp_path):
      environment: {site_altitude_m: 2000}
      legs:
        - climb: {altitude_m: 9500}
-     """, "legs[0].climb.altitude_m 9500 m puts the aircraft at 11500 m"),
+     """, "legs[1].climb.altitude_m 9500 m puts the aircraft at 11500 m"),
     ("""
      environment: {site_altitude_m: 2000}
      legs:
        - climb: {altitude_m: 100}
        - climb: {height_m: 9000}
-     """, "legs[1].climb.height_m 9000 m (to 9100 m above home) puts the aircraft at 11100 m"),
+     """, "legs[2].climb.height_m 9000 m (to 9100 m above home) puts the aircraft at 11100 m"),
     ("""
      legs:
        - climb: {altitude_m: 100}
        - cruise: {distance_m: 100, course_deg: 0, altitude_m: -700}
-     """, "legs[1].cruise.altitude_m -700 m puts the aircraft at -700 m"),
+     """, "legs[2].cruise.altitude_m -700 m puts the aircraft at -700 m"),
     ("""
      environment: {site_altitude_m: 12000}
      legs:
@@ -396,13 +396,13 @@ def test_long_legs_from_home_have_great_circle_length_and_bearing(tmp_path, home
 
 def test_long_leg_away_from_home_is_refused(tmp_path):
     path = _route(tmp_path, (48.0, 10.0), [(0.0, 10.0), (0.0, 50.0)])
-    with pytest.raises(InputError, match=r"far\.yaml: waypoints\[1\]: the 4453 km leg from "
-                                         r"waypoints\[0\] reaches \d+ km from home without "
+    with pytest.raises(InputError, match=r"far\.yaml: waypoints\[2\]: the 4453 km leg from "
+                                         r"waypoints\[1\] reaches \d+ km from home without "
                                          r"passing through it.*expected legs within about "
                                          r"490 km of home"):
         load_mission(path)
     p = run("check", path, "--aircraft", SOLO)
-    assert p.returncode == 2 and "waypoints[1]" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 2 and "waypoints[2]" in p.stderr and "Traceback" not in p.stderr
 
 
 def test_route_within_some_hundred_km_is_accepted(tmp_path):

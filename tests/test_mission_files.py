@@ -45,9 +45,9 @@ def test_survey_route_shape(route_missions):
     assert 8 <= len(yaml_wps) <= 12
     assert all((leg.speed_ms, leg.speed_is_airspeed) == (6, False)
                for leg in legs if leg.kind == "cruise")
-    assert [leg.origin for leg in legs[:2]] == ["mission.items[0]", "mission.items[2]"]
+    assert [leg.origin for leg in legs[:2]] == ["mission.items[1]", "mission.items[3]"]
     assert route_missions[2].legs[1].origin == "line 5"
-    assert route_missions[0].legs[1].origin == "waypoints[0]"
+    assert route_missions[0].legs[1].origin == "waypoints[1]"
 
 
 # ---------------------------------------------------------------- .plan
@@ -89,10 +89,10 @@ def test_plan_survey_complex_item_is_expanded(tmp_path):
               "TransectStyleComplexItem": {"Items": transect, "CameraCalc": {}}}
     path = plan(tmp_path, [TAKEOFF, survey, RTL], vehicleType=2)
     with pytest.warns(UserWarning, match=r"DO_SET_CAM_TRIGG_DIST \(206\) ignored .*"
-                                         r"mission\.items\[1\]\.TransectStyleComplexItem\.Items\[1\]"):
+                                         r"mission\.items\[2\]\.TransectStyleComplexItem\.Items\[2\]"):
         m = load_mission(path)
     assert [leg.kind for leg in m.legs] == ["climb", "cruise", "cruise", "cruise", "descend"]
-    assert m.legs[2].origin == "mission.items[1].TransectStyleComplexItem.Items[2]"
+    assert m.legs[2].origin == "mission.items[2].TransectStyleComplexItem.Items[3]"
     assert m.legs[2].end_en_m[1] == pytest.approx(222.4, rel=1e-2)
 
 
@@ -102,8 +102,8 @@ def test_plan_do_jump_uses_do_jump_ids(tmp_path):
              simple(177, [2, 1, 0, 0, 0, 0, 0], frame=2, doJumpId=4), dict(RTL, doJumpId=5)]
     m = load_mission(plan(tmp_path, items))
     assert [leg.origin for leg in m.legs if leg.kind == "cruise"] == [
-        "mission.items[1]", "mission.items[2]", "mission.items[1]", "mission.items[2]",
-        "mission.items[4]"]
+        "mission.items[2]", "mission.items[3]", "mission.items[2]", "mission.items[3]",
+        "mission.items[5]"]
 
 
 def test_plan_amsl_and_terrain_frames(tmp_path):
@@ -123,22 +123,22 @@ PLAN_ERRORS = [
      r"p\.plan: mission\.items must be a non-empty list"),
     ("bad params", json.dumps({"mission": {"plannedHomePosition": [48, 10, 0], "items": [
         TAKEOFF, simple(16, [0, 0, 0, 48.0, 10.0, 30])]}}),
-     r"p\.plan: mission\.items\[1\]\.params must be a list of 7"),
+     r"p\.plan: mission\.items\[2\]\.params must be a list of 7"),
     ("text param", json.dumps({"mission": {"plannedHomePosition": [48, 10, 0], "items": [
         simple(16, [0, 0, 0, None, "48.0", 10.0, 30])]}}),
-     r"p\.plan: mission\.items\[0\]\.params\[4\] must be a number or null"),
+     r"p\.plan: mission\.items\[1\]\.param5 must be a number or null"),
     ("complex without items", json.dumps({"mission": {
         "plannedHomePosition": [48, 10, 0], "items": [
             TAKEOFF, {"type": "ComplexItem", "complexItemType": "StructureScan"}]}}),
-     r"p\.plan: mission\.items\[1\]: StructureScan item has no TransectStyleComplexItem\.Items"),
+     r"p\.plan: mission\.items\[2\]: StructureScan item has no TransectStyleComplexItem\.Items"),
     ("landing pattern", json.dumps({"mission": {
         "plannedHomePosition": [48, 10, 0], "items": [
             TAKEOFF, {"type": "ComplexItem", "complexItemType": "fwLandingPattern"}]}}),
-     r"p\.plan: mission\.items\[1\]: complex item 'fwLandingPattern' not supported"),
+     r"p\.plan: mission\.items\[2\]: complex item 'fwLandingPattern' not supported"),
     ("loiter unlimited", json.dumps({"mission": {
         "plannedHomePosition": [48, 10, 0], "items": [
             TAKEOFF, simple(17, [0, 0, 0, None, 48.001, 10.0, 30])]}}),
-     r"p\.plan: mission\.items\[1\]: MAV_CMD_NAV_LOITER_UNLIM"),
+     r"p\.plan: mission\.items\[2\]: MAV_CMD_NAV_LOITER_UNLIM"),
 ]
 
 

@@ -55,7 +55,7 @@ def test_legs_form_geometry_is_dead_reckoned(tmp_path):
     assert (south.speed_ms, south.speed_is_airspeed) == (8.0, False)
     assert (down.start_alt_m, down.end_alt_m, down.climb_rate_ms) == (40.0, 0.0, None)
     assert down.end_en_m == south.end_en_m
-    assert [leg.origin for leg in m.legs] == [f"legs[{i}]" for i in range(5)]
+    assert [leg.origin for leg in m.legs] == [f"legs[{i}]" for i in range(1, 6)]
     assert m.name == "m" and m.payload_kg == 0.0 and m.home is None
     assert m.source == str(path)
 
@@ -137,7 +137,7 @@ def test_waypoints_form(tmp_path):
     assert m.legs[3].duration_s == 20
     assert (m.legs[4].speed_ms, m.legs[4].speed_is_airspeed) == (12, True)
     assert m.legs[5].end_en_m == m.legs[4].end_en_m                    # land where it is
-    assert m.legs[5].origin == "land" and m.legs[2].origin == "waypoints[1]"
+    assert m.legs[5].origin == "land" and m.legs[2].origin == "waypoints[2]"
     assert m.home == (48.0, 10.0, 500) and m.environment.site_altitude_m == 500
 
 
@@ -160,49 +160,49 @@ BAD = [
      r"m\.yaml: payload_kgs is not a known key \(did you mean 'payload_kg'\?\)"),
     ("unknown leg key",
      "legs:\n  - cruise: {distnce_m: 5, course_deg: 0}\n",
-     (r"m\.yaml: legs\[0\]\.cruise\.distnce_m is not a known key "
+     (r"m\.yaml: legs\[1\]\.cruise\.distnce_m is not a known key "
       r"\(did you mean 'distance_m'\?\)")),
     ("unknown environment key",
      "environment: {wind_sped_ms: 3}\nlegs: [{hover: {duration_s: 5}}]\n",
      r"environment\.wind_sped_ms is not a known key \(did you mean 'wind_speed_ms'\?\)"),
     ("wrong type",
      "legs:\n  - hover: {duration_s: 5}\n  - cruise: {distance_m: far, course_deg: 0}\n",
-     r"m\.yaml: legs\[1\]\.cruise\.distance_m must be a number, got 'far'"),
+     r"m\.yaml: legs\[2\]\.cruise\.distance_m must be a number, got 'far'"),
     ("bool is not a number",
      "legs:\n  - hover: {duration_s: true}\n",
-     r"legs\[0\]\.hover\.duration_s must be a number"),
+     r"legs\[1\]\.hover\.duration_s must be a number"),
     ("negative distance",
      ("legs:\n  - climb: {altitude_m: 10}\n  - hover: {duration_s: 1}\n"
       "  - cruise: {distance_m: -5, course_deg: 0}\n"),
-     r"m\.yaml: legs\[2\]\.cruise\.distance_m must be >= 0, got -5"),
+     r"m\.yaml: legs\[3\]\.cruise\.distance_m must be >= 0, got -5"),
     ("negative duration",
-     "legs: [{hover: {duration_s: -1}}]\n", r"legs\[0\]\.hover\.duration_s must be >= 0"),
+     "legs: [{hover: {duration_s: -1}}]\n", r"legs\[1\]\.hover\.duration_s must be >= 0"),
     ("zero speed",
      "legs: [{cruise: {distance_m: 5, course_deg: 0, airspeed_ms: 0}}]\n",
-     r"legs\[0\]\.cruise\.airspeed_ms must be > 0, got 0"),
+     r"legs\[1\]\.cruise\.airspeed_ms must be > 0, got 0"),
     ("zero radius",
      "legs: [{loiter: {duration_s: 5, radius_m: 0}}]\n",
-     r"legs\[0\]\.loiter\.radius_m must be > 0, got 0"),
+     r"legs\[1\]\.loiter\.radius_m must be > 0, got 0"),
     ("empty legs", "legs: []\n", r"m\.yaml: legs is empty"),
     ("no legs at all", "name: x\n", r"m\.yaml: no legs: or waypoints:"),
     ("empty file", "", r"m\.yaml: empty file"),
     ("unknown leg kind",
      "legs:\n  - climb: {altitude_m: 10}\n  - crusie: {distance_m: 5, course_deg: 0}\n",
-     r"m\.yaml: legs\[1\] has unknown leg kind 'crusie' \(did you mean 'cruise'\?"),
+     r"m\.yaml: legs\[2\] has unknown leg kind 'crusie' \(did you mean 'cruise'\?"),
     ("leg not a one-key mapping",
      "legs:\n  - {climb: {altitude_m: 10}, hover: {duration_s: 5}}\n",
-     r"legs\[0\] must be a one-key mapping"),
+     r"legs\[1\] must be a one-key mapping"),
     ("both speeds",
      "legs: [{cruise: {distance_m: 5, course_deg: 0, airspeed_ms: 5, groundspeed_ms: 5}}]\n",
-     r"legs\[0\]\.cruise give only one of airspeed_ms or groundspeed_ms"),
+     r"legs\[1\]\.cruise give only one of airspeed_ms or groundspeed_ms"),
     ("turns without a speed",
      "legs: [{loiter: {turns: 2, radius_m: 50}}]\n",
-     r"legs\[0\]\.loiter turns needs radius_m and airspeed_ms"),
+     r"legs\[1\]\.loiter turns needs radius_m and airspeed_ms"),
     ("climb that goes down",
      "legs:\n  - climb: {altitude_m: 50}\n  - climb: {altitude_m: 20}\n",
-     r"legs\[1\]\.climb goes from 50 m to 20 m"),
+     r"legs\[2\]\.climb goes from 50 m to 20 m"),
     ("missing course",
-     "legs: [{cruise: {distance_m: 5}}]\n", r"legs\[0\]\.cruise\.course_deg is required"),
+     "legs: [{cruise: {distance_m: 5}}]\n", r"legs\[1\]\.cruise\.course_deg is required"),
     ("waypoint-only key in legs form",
      "takeoff_alt_m: 20\nlegs: [{hover: {duration_s: 5}}]\n",
      r"takeoff_alt_m is only used with waypoints:"),
@@ -210,7 +210,7 @@ BAD = [
      "waypoints: [{lat: 48, lon: 10, alt_m: 20}]\n", r"m\.yaml: home is required"),
     ("waypoint latitude out of range",
      "home: {lat: 48, lon: 10, alt_m: 0}\nwaypoints: [{lat: 98, lon: 10, alt_m: 20}]\n",
-     r"waypoints\[0\]\.lat must be <= 90, got 98"),
+     r"waypoints\[1\]\.lat must be <= 90, got 98"),
     ("empty waypoints",
      "home: {lat: 48, lon: 10, alt_m: 0}\nwaypoints: []\n", r"m\.yaml: waypoints is empty"),
     ("broken YAML",
@@ -239,9 +239,9 @@ def test_every_problem_is_reported_at_once(tmp_path):
     with pytest.raises(InputError) as info:
         load_mission(path)
     message = str(info.value)
-    for key in ("payload_kg must be >= 0", "legs[0].cruise.distance_m",
-                "legs[1].hover.duration is not a known key (did you mean 'duration_s'?)",
-                "legs[1].hover.duration_s is required"):
+    for key in ("payload_kg must be >= 0", "legs[1].cruise.distance_m",
+                "legs[2].hover.duration is not a known key (did you mean 'duration_s'?)",
+                "legs[2].hover.duration_s is required"):
         assert key in message
 
 

@@ -305,6 +305,9 @@ def run_sweep(args) -> int:
             plots_select.save_endurance_plot(sweep, plot_out)
         return 0
 
+    if args.payload is not None:
+        raise InputError(f"--payload {args.payload}: the payload sweep varies the payload "
+                         "over --range LO:HI (--payload is for the battery-mass sweep)")
     if pack is None:
         raise InputError(f"{args.aircraft}: no 'battery' key and no --battery given "
                          "(the payload sweep needs a pack)")

@@ -17,13 +17,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from planner.errors import InputError
-from planner.mission.legs import LEG_KINDS, Environment, Leg, Mission
+from planner.mission.legs import LEG_KINDS, MAX_ITEMS, Environment, Leg, Mission
 from planner.mission.qgc_plan import load_plan
 from planner.mission.wpl import load_wpl
 from planner.mission.yaml_mission import load_yaml_mission
 
 __all__ = ["LEG_KINDS", "VEHICLE_TYPES", "Environment", "Leg", "Mission", "load_mission",
            "load_plan", "load_wpl", "load_yaml_mission"]
+
+#: Legs a mission item may become (a waypoint: a climb and a cruise; a jump repeats some).
+LEGS_PER_ITEM = 3
 
 #: Values of the ``vehicle_type`` argument (the aircraft ``type:`` key).
 VEHICLE_TYPES = ("multirotor", "fixed_wing")
@@ -65,4 +68,9 @@ def load_mission(path: str | Path, *, vehicle_type: str | None = None) -> Missio
                          f"{', '.join(_LOADERS)})")
     if not path.is_file():
         raise InputError(f"{path}: file not found")
-    return loader(path, vehicle_type=vehicle_type)
+    mission = loader(path, vehicle_type=vehicle_type)
+    if len(mission.legs) > LEGS_PER_ITEM * MAX_ITEMS:
+        raise InputError(f"{path}: {len(mission.legs)} legs once its jumps and waypoints are "
+                         f"flown, more than the planner flies (at most "
+                         f"{LEGS_PER_ITEM * MAX_ITEMS})")
+    return mission

@@ -24,6 +24,24 @@ import numpy as np
 
 LEG_KINDS = ("climb", "cruise", "hover", "loiter", "descend")
 
+#: Most legs, waypoints or mission items a mission file may hold: a survey of a few
+#: square kilometres has some hundreds; far more is an accident or hostile input, and
+#: bounds the work of every command. Key paths in messages count from 1, as the
+#: tables' rows do.
+MAX_ITEMS = 10_000
+#: Longest total flight time the planner simulates (the legs at their planned speeds);
+#: beyond it a mission is refused, which bounds the memory of the time-stepped battery
+#: models. [s]
+MAX_FLIGHT_S = 24 * 3600.0
+
+
+def too_many(where: str, what: str, n: int) -> str | None:
+    """The message refusing ``n`` ``what`` (legs, waypoints, items), or None."""
+    if n > MAX_ITEMS:
+        return (f"{where}: {n} {what}, more than a mission file may hold (at most "
+                f"{MAX_ITEMS})")
+    return None
+
 
 @dataclass(frozen=True)
 class Leg:

@@ -34,10 +34,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-from planner.atmosphere import ALTITUDE_RANGE_M
 from planner import files
+from planner.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
-from planner.mission.legs import Environment, Mission
+from planner.mission.legs import Environment, Mission, too_many
 from planner.mission.route import MAX_SPEED_MS, MavItem, mav_items_to_steps, route_to_legs
 
 #: MAV_TYPE values flown as fixed-wing (fixed wing and the VTOL types).
@@ -82,10 +82,10 @@ def _simple_item(item: Any, key: str, seq: int, where: Path) -> MavItem:
         elif _is_finite(v):
             values.append(float(v))
         elif _is_number(v):
-            raise InputError(f"{where}: {key}.params[{j}] must be a finite number or null, "
+            raise InputError(f"{where}: {key}.param{j + 1} must be a finite number or null, "
                              f"got {v!r}")
         else:
-            raise InputError(f"{where}: {key}.params[{j}] must be a number or null, got {v!r}")
+            raise InputError(f"{where}: {key}.param{j + 1} must be a number or null, got {v!r}")
     terrain = item.get("AMSLAltAboveTerrain")
     if terrain is not None and not _is_finite(terrain):
         raise InputError(f"{where}: {key}.AMSLAltAboveTerrain must be a finite number or "
@@ -143,9 +143,11 @@ def read_plan(path: str | Path) -> tuple[dict, list[MavItem]]:
     items = mission.get("items")
     if not isinstance(items, list) or not items:
         raise InputError(f"{path}: mission.items must be a non-empty list of mission items")
+    if (msg := too_many(str(path), "mission items", len(items))) is not None:
+        raise InputError(msg)
     flat: list[MavItem] = []
     for i, item in enumerate(items):
-        key = f"mission.items[{i}]"
+        key = f"mission.items[{i + 1}]"
         kind = item.get("type") if isinstance(item, dict) else None
         if kind == "SimpleItem":
             flat.append(_simple_item(item, key, len(flat) + 1, path))
@@ -161,8 +163,11 @@ def read_plan(path: str | Path) -> tuple[dict, list[MavItem]]:
                                  "TransectStyleComplexItem.Items to fly (expected the list of "
                                  "simple items QGroundControl saves; re-save the plan)")
             for j, s in enumerate(sub):
-                flat.append(_simple_item(s, f"{key}.TransectStyleComplexItem.Items[{j}]",
+                flat.append(_simple_item(s, f"{key}.TransectStyleComplexItem.Items[{j + 1}]",
                                          len(flat) + 1, path))
+            if (msg := too_many(str(path), "mission items with the survey's",
+                                len(flat))) is not None:
+                raise InputError(msg)
         else:
             raise InputError(f"{path}: {key}.type must be 'SimpleItem' or 'ComplexItem', "
                              f"got {kind!r}")

@@ -470,6 +470,8 @@ def _finite(x: float) -> bool:
 
 def _label(item: MavItem) -> str:
     """Where an item is, for messages: ``"line 15 (item 13)"``."""
+    if item.origin.endswith(f"[{item.seq}]"):
+        return item.origin
     return f"{item.origin} (item {item.seq})"
 
 

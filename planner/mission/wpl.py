@@ -19,10 +19,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from planner.atmosphere import ALTITUDE_RANGE_M
 from planner import files
+from planner.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
-from planner.mission.legs import Environment, Mission
+from planner.mission.legs import Environment, Mission, too_many
 from planner.mission.route import MavItem, mav_items_to_steps, route_to_legs
 
 HEADER = "QGC WPL 110"
@@ -76,6 +76,8 @@ def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
     numbered = [(n, line) for n, line in enumerate(lines, start=1) if line.strip()]
     if not numbered:
         raise InputError(f"{path}: empty file (expected the header {HEADER!r})")
+    if (msg := too_many(str(path), "mission items", len(numbered) - 2)) is not None:
+        raise InputError(msg)
     n0, first = numbered[0]
     if first.split() != HEADER.split():
         raise InputError(f"{path}: line {n0}: expected the header {HEADER!r}, "

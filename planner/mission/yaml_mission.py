@@ -58,11 +58,11 @@ from typing import Any
 
 import yaml
 
-from planner.atmosphere import ALTITUDE_RANGE_M, MAX_WIND_MS
 from planner import files
+from planner.atmosphere import ALTITUDE_RANGE_M, MAX_WIND_MS
 from planner.errors import InputError
 from planner.mission.geo import EARTH_RADIUS_M
-from planner.mission.legs import LEG_KINDS, Environment, Leg, Mission
+from planner.mission.legs import LEG_KINDS, Environment, Leg, Mission, too_many
 from planner.mission.route import (
     MAX_HOLD_S,
     MAX_LOITER_TURNS,
@@ -106,7 +106,7 @@ _MISSING = object()
 
 def _join(path: str, key: str | int) -> str:
     if isinstance(key, int):
-        return f"{path}[{key}]"
+        return f"{path}[{key + 1}]"
     return f"{path}.{key}" if path else key
 
 
@@ -282,11 +282,13 @@ def _legs_form(chk: _Checker, raw: Any, site: float) -> list[Leg]:
         chk.add("legs", "is empty (expected at least one leg: "
                 f"{', '.join(LEG_KINDS)})")
         return []
+    if (msg := too_many(chk.where, "legs", len(raw))) is not None:
+        raise InputError(msg)
     legs: list[Leg] = []
     pos = (0.0, 0.0)
     alt = 0.0
     for i, item in enumerate(raw):
-        path = f"legs[{i}]"
+        path = f"legs[{i + 1}]"
         if not isinstance(item, dict) or len(item) != 1:
             chk.add(path, "must be a one-key mapping {kind: {parameters}} with kind one of "
                     f"{', '.join(LEG_KINDS)}, got {_describe(item)}")
@@ -303,7 +305,7 @@ def _legs_form(chk: _Checker, raw: Any, site: float) -> list[Leg]:
         p = chk.mapping(params, path, allowed=LEG_KEYS[kind])
         if p is None:
             continue
-        origin = f"legs[{i}]"
+        origin = f"legs[{i + 1}]"
         if kind in ("climb", "descend"):
             key = chk.one_of(p, ("altitude_m", "height_m"), path)
             rate = chk.number(p, "rate_ms", path, positive=True)
@@ -396,6 +398,8 @@ def _waypoints_form(chk: _Checker, data: dict,
     if not raw:
         chk.add("waypoints", "is empty (expected at least one {lat, lon, alt_m})")
         return []
+    if (msg := too_many(chk.where, "waypoints", len(raw))) is not None:
+        raise InputError(msg)
     steps: list[RouteStep] = []
     takeoff = chk.number(data, "takeoff_alt_m", "", positive=True)
     if takeoff is not None and not _altitude(chk, "takeoff_alt_m", takeoff, takeoff, site):
@@ -404,7 +408,7 @@ def _waypoints_form(chk: _Checker, data: dict,
         steps.append(RouteStep("takeoff", alt_m=takeoff, origin="takeoff_alt_m"))
     speed, is_air = _speed(chk, data, "", keys=tuple(SPEED_KEYS))
     for i, item in enumerate(raw):
-        path = f"waypoints[{i}]"
+        path = f"waypoints[{i + 1}]"
         wp = chk.mapping(item, path, allowed=WAYPOINT_KEYS, empty_ok=False)
         if wp is None:
             continue
