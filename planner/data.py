@@ -30,8 +30,23 @@ def _is_record_csv(path: Path) -> bool:
     return "time_s" in head.columns
 
 
-def load_flight_data(paths, *, column_map=None, require_battery: bool = True
-                     ) -> tuple[pd.DataFrame, list[dict]]:
+def _read_one(p: Path, column_map, require_battery: bool):
+    if not p.exists():
+        raise InputError(f"{p}: file not found")
+    if column_map is None and _is_record_csv(p):
+        df = rec.read_record(p)
+        return df, {"source": str(p), "format": "flight-record CSV", "warnings": []}
+    from planner.logs import read_log
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        opts = {"require_battery": require_battery}
+        if column_map is not None:
+            opts["map"] = column_map
+        return read_log(p, **opts)
+
+
+def load_flight_data(paths, *, column_map=None, require_battery: bool = True,
+                     failed: list[str] | None = None) -> tuple[pd.DataFrame, list[dict]]:
     """Read one or more data files into one flight record.
 
     Parameters
@@ -43,6 +58,10 @@ def load_flight_data(paths, *, column_map=None, require_battery: bool = True
         (:mod:`planner.logs.csvmap`).
     require_battery : bool
         Logs without battery voltage and current are an error.
+    failed : list, optional
+        A batch: a file that cannot be read appends its one-line error to this list and
+        the others are read (an error only when none can be). Without it the first bad
+        file raises.
 
     Returns
     -------
@@ -52,21 +71,18 @@ def load_flight_data(paths, *, column_map=None, require_battery: bool = True
     """
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
-    frames, metas = [], []
+    frames, metas, read = [], [], []
+    first_error: InputError | None = None
     for p in map(Path, paths):
-        if not p.exists():
-            raise InputError(f"{p}: file not found")
-        if column_map is None and _is_record_csv(p):
-            df = rec.read_record(p)
-            meta = {"source": str(p), "format": "flight-record CSV", "warnings": []}
-        else:
-            from planner.logs import read_log
-            with warnings.catch_warnings():
-                warnings.simplefilter("default")
-                opts = {"require_battery": require_battery}
-                if column_map is not None:
-                    opts["map"] = column_map
-                df, meta = read_log(p, **opts)
+        try:
+            df, meta = _read_one(p, column_map, require_battery)
+        except InputError as exc:
+            if failed is None:
+                raise
+            failed.append(str(exc))
+            first_error = first_error or exc
+            continue
+        read.append(p)
         stem = p.name.split(".")[0]
         if "experiment" not in df.columns:
             df = df.assign(experiment=stem)
@@ -74,7 +90,11 @@ def load_flight_data(paths, *, column_map=None, require_battery: bool = True
         frames.append(rec.complete_record(df))
         metas.append(meta)
     if not frames:
+        if first_error is not None:
+            raise first_error if len(paths) == 1 else InputError(
+                f"none of the {len(paths)} files could be read (the first: {first_error})")
         raise InputError("no data files given")
+    paths = read
     seen: set[str] = set()
     for i, (frame, path) in enumerate(zip(frames, paths)):
         ids = set(frame["experiment"].unique())

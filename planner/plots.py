@@ -21,6 +21,58 @@ def figure(nrows=1, ncols=1, *, figsize=None, **kwargs):
     return fig, fig.subplots(nrows, ncols, **kwargs)
 
 
+#: Most logs or experiments drawn on one page; more go to further pages
+#: (``replay.png``, ``replay_page2.png``, ...).
+PER_PAGE = 8
+
+
+def pages(n: int, per_page: int = PER_PAGE) -> list[range]:
+    """The items of each page."""
+    return [range(i, min(i + per_page, n)) for i in range(0, n, per_page)] or [range(0)]
+
+
+def page_path(path, k: int):
+    """The file of page ``k`` (0-based): the path itself, then ``<stem>_page<k+1><ext>``."""
+    if k == 0:
+        return path
+    from pathlib import Path
+    p = Path(path)
+    return str(p.with_name(f"{p.stem}_page{k + 1}{p.suffix}"))
+
+
+def item_grid(n_items: int, panels: int, *, stack: str = "vertical", items_per_row=None,
+              panel_size=(5.2, 2.7)):
+    """A figure laid out as a grid of items (a log, an experiment), each of ``panels``
+    axes stacked ``"vertical"``ly or side by side (``"horizontal"``); unused cells are
+    hidden. Constrained layout keeps the figure's title clear of the panels.
+
+    Returns ``(fig, [axes of item 0, axes of item 1, ...])``."""
+    import math
+    per_row = items_per_row or min(n_items, 3 if stack == "vertical" else 2)
+    per_row = max(per_row, 1)
+    item_rows = max(math.ceil(n_items / per_row), 1)
+    if stack == "vertical":
+        nrows, ncols = item_rows * panels, per_row
+    else:
+        nrows, ncols = item_rows, per_row * panels
+    fig = Figure(figsize=(panel_size[0] * ncols, panel_size[1] * nrows + 0.6),
+                 layout="constrained")
+    axes = np.atleast_2d(fig.subplots(nrows, ncols, squeeze=False))
+    out = []
+    for k in range(item_rows * per_row):
+        r, c = divmod(k, per_row)
+        if stack == "vertical":
+            cell = list(axes[r * panels:(r + 1) * panels, c])
+        else:
+            cell = list(axes[r, c * panels:(c + 1) * panels])
+        if k < n_items:
+            out.append(cell)
+        else:
+            for ax in cell:
+                ax.set_visible(False)
+    return fig, out
+
+
 def new_axes():
     """Axes on a new figure, for a ``plot_*`` function called without ``ax``."""
     return figure()[1]
@@ -142,11 +194,18 @@ def plot_replay_experiment(exp, axes):
         ax.grid(alpha=0.3)
 
 
-def save_replay_plot(result, path):
-    n = len(result.experiments)
-    fig, axes = figure(2, n, figsize=(6 * n, 7), squeeze=False)
-    for j, exp in enumerate(result.experiments):
-        plot_replay_experiment(exp, axes[:, j])
-    fig.suptitle("Replay: measured vs predicted")
-    fig.tight_layout()
-    save(fig, path)
+def save_replay_plot(result, path) -> list[str]:
+    """Measured vs predicted power and charge, one grid cell per log, at most
+    :data:`PER_PAGE` logs a page. Returns the files written."""
+    exps = result.experiments
+    chunks = pages(len(exps))
+    written = []
+    for k, chunk in enumerate(chunks):
+        fig, cells = item_grid(len(chunk), 2)
+        for j, axes in zip(chunk, cells):
+            plot_replay_experiment(exps[j], axes)
+        more = f" (page {k + 1} of {len(chunks)})" if len(chunks) > 1 else ""
+        fig.suptitle(f"Replay: measured vs predicted{more}")
+        written.append(page_path(path, k))
+        save(fig, written[-1])
+    return written

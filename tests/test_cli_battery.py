@@ -375,3 +375,25 @@ def test_bench_on_a_pack_the_campaign_cannot_test_exits_2(tmp_path, capsys):
                               for line in text.splitlines()))
     rc, _, err = run(capsys, "bench", "--campaign", "seed", "--report", "--battery", tiny)
     assert rc == 2 and f"{tiny}: cannot run the 'seed' campaign" in err
+
+
+def test_fit_battery_plot_of_many_experiments_is_a_paged_grid(tmp_path, capsys):
+    """Operator's-view point 10: 19 experiments were a 5852 px strip with the title over the
+    first row; now a grid of at most 8 experiments a page, the title above the panels."""
+    from PIL import Image
+
+    rng = np.random.default_rng(3)
+    powers = np.linspace(40, 130, 19)
+    data = pd.concat([constant(f"run{k:02d}", p, 2.0e5 / p, rng=rng)
+                      for k, p in enumerate(powers)])
+    path = tmp_path / "many.csv"
+    data.to_csv(path, index=False)
+    png = tmp_path / "fit.png"
+    rc, _, err = run(capsys, "fit-battery", path, "--out", tmp_path / "p.yaml", "--name", "x",
+                     "--cells", "4", "--mass-kg", "0.8", "--plot", png)
+    assert rc == 0, err
+    pages = [png, tmp_path / "fit_page2.png", tmp_path / "fit_page3.png"]
+    assert all(p.exists() for p in pages) and not (tmp_path / "fit_page4.png").exists()
+    for p in pages:
+        w, h = Image.open(p).size
+        assert w <= 2600 and h <= 1800, (p.name, w, h)

@@ -182,3 +182,43 @@ def test_a_missing_pack_file_says_where_its_path_came_from(tmp_path, capsys):
     assert main(["check", SURVEY, "--aircraft", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "battery: batteries/solo_5200_4s.yaml" in err and "relative to the aircraft" in err
+
+
+def test_a_replay_batch_names_each_bad_file_and_replays_the_rest(tmp_path, capsys):
+    """Operator's-view point 8: one unreadable log no longer aborts a whole replay batch."""
+    bad = tmp_path / "damaged.bin"
+    bad.write_bytes(b"\xa3\x95" + bytes(200))
+    code = main(["replay", str(REPO / "logs/sim_solo_calm.bin"), str(bad),
+                 str(REPO / "logs/sim_solo_windy.ulg"), "--aircraft", SOLO])
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert "sim_solo_calm" in out and "sim_solo_windy" in out
+    assert str(bad) in err and "1 of 3 files could not be read" in err
+
+
+def test_replay_shows_long_log_names_whole(tmp_path, capsys):
+    """Two logs whose names differ only after the 34th character are told apart."""
+    stem = "survey_block_north_field_2026-11-25_flight"
+    a, b = tmp_path / f"{stem}_0001.bin", tmp_path / f"{stem}_0002.bin"
+    for p in (a, b):
+        p.write_bytes((REPO / "logs/sim_solo_calm.bin").read_bytes())
+    assert main(["replay", str(a), str(b)]) == 0
+    out = capsys.readouterr().out
+    assert f"{stem}_0001 " in out and f"{stem}_0002 " in out
+
+
+def test_replay_plot_of_nine_logs_is_a_paged_grid(tmp_path, capsys):
+    """Operator's-view point 10: a 9-log replay was one 5940 × 770 px row."""
+    from PIL import Image
+
+    logs = []
+    for k in range(9):
+        p = tmp_path / f"flight{k}.bin"
+        p.write_bytes((REPO / "logs/sim_solo_calm.bin").read_bytes())
+        logs.append(str(p))
+    png = tmp_path / "replay.png"
+    assert main(["replay", *logs, "--aircraft", SOLO, "--plot", str(png)]) == 0
+    second = tmp_path / "replay_page2.png"
+    assert png.exists() and second.exists()
+    w, h = Image.open(png).size
+    assert w <= 2000 and h <= 2200 and h > 0.5 * w, (w, h)     # 3 columns × 3 rows of logs

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import yaml
 
+from planner import files
 from planner.commands.common import fmt, output_path, parse_float, write_json
 from planner.data import load_flight_data
 from planner.errors import InputError
 from planner.parameters import default_battery_path, load_aircraft, load_battery
-from planner import files
 
 
 def register(sub) -> None:

@@ -13,13 +13,21 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from planner import files
 from planner.battery import design, fit, integral, vda
-from planner.commands.common import fmt, output_path, parse_float, parse_int, plot_path, write_json
+from planner.commands.common import (
+    fmt,
+    name_width,
+    output_path,
+    parse_float,
+    parse_int,
+    plot_path,
+    write_json,
+)
 from planner.errors import InputError
 from planner.parameters import IntegralModel, battery_from_mapping, load_battery, read_definition
 from planner.parameters.schedule import write_schedule
 from planner.units import AS_PER_MAH
-from planner import files
 
 #: Full-charge cell voltage used to detect the cell count from the data. [V]
 CELL_FULL_V = 4.2
@@ -175,10 +183,11 @@ def _fit_circuit_rates(mapping: dict, experiments, result: dict,
             (simulate(baseline, t, current_a=i).voltage_v - v) ** 2)))
         scores.append(row)
     if scores:
-        print(f"{'validation (circuit)':<20} {'current [A]':>11} {'voltage RMSE [mV]':>17} "
+        w = name_width([row["experiment"] for row in scores], "validation (circuit)")
+        print(f"{'validation (circuit)':<{w}} {'current [A]':>11} {'voltage RMSE [mV]':>17} "
               f"{'with the LiPo OCV [mV]':>22}")
         for row in scores:
-            print(f"{row['experiment'][:20]:<20} {row['current_a']:>11.3g} "
+            print(f"{row['experiment']:<{w}} {row['current_a']:>11.3g} "
                   f"{row['voltage_rmse_mv']:>17.1f} {row['lipo_ocv_voltage_rmse_mv']:>22.1f}")
     return block, scores
 
@@ -259,10 +268,11 @@ def run_fit(args) -> int:
 
 def render_fit(result: dict) -> str:
     """Per-experiment table and the parameters with their standard errors."""
-    lines = [(f"{'experiment':<20} {'split':<9} {'mean P [W]':>10} {'duration [s]':>12} "
+    w = name_width([m.experiment for m in result["metrics"]], "experiment")
+    lines = [(f"{'experiment':<{w}} {'split':<9} {'mean P [W]':>10} {'duration [s]':>12} "
              f"{'RMSE [mAh]':>10} {'final error [%]':>15} {'time error [s]':>14}")]
     for m in result["metrics"]:
-        lines.append(f"{m.experiment[:20]:<20} {m.split:<9} {fmt(m.mean_power_w, 1, 10)} "
+        lines.append(f"{m.experiment:<{w}} {m.split:<9} {fmt(m.mean_power_w, 1, 10)} "
                      f"{fmt(m.duration_s, 0, 12)} {fmt(m.rmse_mah, 2, 10)} "
                      f"{fmt(m.final_error_pct, 3, 15)} {fmt(m.time_error_s, 1, 14)}")
     lines.append("")
@@ -286,13 +296,22 @@ def render_fit(result: dict) -> str:
 
 def save_fit_plot(experiments, result: dict, path) -> None:
     """Measured vs predicted C^β and residual C − Ĉ per experiment ([UAV23] Fig. 8–11 kind)."""
-    from planner.plots import figure, save
+    from planner.plots import item_grid, page_path, pages, save
 
     by_name = {m.experiment: m for m in result["metrics"]}
-    n = len(experiments)
-    fig, axes = figure(n, 2, figsize=(11, 2.8 * n), squeeze=False)
     params = {k: result[k] for k in ("delta", "epsilon", "beta")}
-    for row, e in zip(axes, experiments):
+    chunks = pages(len(experiments))
+    for k, chunk in enumerate(chunks):
+        fig, cells = item_grid(len(chunk), 2, stack="horizontal")
+        _draw_fit_page(fig, [experiments[j] for j in chunk], cells, by_name, params)
+        more = f" (page {k + 1} of {len(chunks)})" if len(chunks) > 1 else ""
+        fig.suptitle(f"integral model δ = {params['delta']:.4g}, ε = {params['epsilon']:.4g}, "
+                     f"β = {params['beta']:.4g}{more}")
+        save(fig, page_path(path, k))
+
+
+def _draw_fit_page(fig, experiments, cells, by_name, params) -> None:
+    for row, e in zip(cells, experiments):
         m = by_name[e.name]
         c_hat = integral.charge(e.time_s, e.power_w, **params)
         t_min = e.time_s / 60.0
@@ -315,10 +334,6 @@ def save_fit_plot(experiments, result: dict, path) -> None:
         row[1].set_ylabel("residual [mAh]")
         row[1].legend(loc="upper left", fontsize=8)
         row[1].grid(alpha=0.3)
-    fig.suptitle(f"integral model δ = {params['delta']:.4g}, ε = {params['epsilon']:.4g}, "
-                 f"β = {params['beta']:.4g}")
-    fig.tight_layout()
-    save(fig, path)
 
 
 # --------------------------------------------------------------------------- design

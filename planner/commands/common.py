@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import json
-from contextlib import contextmanager
 import math
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from planner import files
 from planner.atmosphere import MAX_WIND_MS
 from planner.errors import InputError
-from planner import files
 
 
 @contextmanager
@@ -151,3 +151,9 @@ def fmt(value: float, digits: int = 1, width: int = 0) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-".rjust(width)
     return f"{value:{width}.{digits}f}"
+
+
+def name_width(names, header: str = "", minimum: int = 10) -> int:
+    """Width of a table's name column: every name shown whole (two logs whose names
+    differ only at the end must not look the same)."""
+    return max([minimum, len(header)] + [len(str(n)) for n in names])

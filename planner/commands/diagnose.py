@@ -9,10 +9,10 @@ from pathlib import Path
 
 import yaml
 
+from planner import files
 from planner.commands.common import output_path, parse_float, plot_path, write_json
 from planner.errors import InputError
 from planner.parameters import aircraft_from_mapping, battery_from_mapping
-from planner import files
 
 
 def register(sub) -> None:

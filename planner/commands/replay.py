@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+import sys
 
 from planner.commands.common import (
     fmt,
+    name_width,
     output_path,
     parse_float,
     parse_fraction,
@@ -50,7 +52,10 @@ def run(args) -> int:
     if aircraft is not None and pack is None and aircraft.battery_path:
         from planner.parameters import default_battery_path
         pack = load_battery(default_battery_path(aircraft))
-    data, metas = load_flight_data(args.logs, column_map=args.map)
+    failed: list[str] = []
+    data, metas = load_flight_data(args.logs, column_map=args.map, failed=failed)
+    for message in failed:  # a batch: each bad file named, the others replayed
+        print(f"error: {message}", file=sys.stderr)
     result = replay(data, metas, pack=pack, aircraft=aircraft, payload_kg=payload,
                     reserve=reserve, site_altitude_m=site)
     print(render(result))
@@ -59,18 +64,23 @@ def run(args) -> int:
     if plot_out:
         from planner import plots
         plots.save_replay_plot(result, plot_out)
+    if failed:
+        print(f"error: {len(failed)} of {len(args.logs)} files could not be read (named "
+              "above); the others were replayed", file=sys.stderr)
+        return 2
     return 0
 
 
 def render(result) -> str:
     lines = []
-    head = (f"{'experiment':<34} {'dur s':>6} {'meas mAh':>9} {'pred mAh':>9} "
+    w = name_width([e.experiment for e in result.experiments], "experiment")
+    head = (f"{'experiment':<{w}} {'dur s':>6} {'meas mAh':>9} {'pred mAh':>9} "
             f"{'RMSE mAh':>9} {'final %':>8} {'P RMSE W':>9} {'E err %':>8}")
     lines += [head, "-" * len(head)]
     for e in result.experiments:
         b, p = e.battery, e.power
         lines.append(
-            f"{e.experiment[:34]:<34} {fmt(e.duration_s, 0, 6)} "
+            f"{e.experiment:<{w}} {fmt(e.duration_s, 0, 6)} "
             f"{fmt(b.measured_final_mah if b else math.nan, 0, 9)} "
             f"{fmt(b.predicted_final_mah if b else math.nan, 0, 9)} "
             f"{fmt(b.rmse_mah if b else math.nan, 1, 9)} "

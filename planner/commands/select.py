@@ -8,9 +8,11 @@ import math
 
 import numpy as np
 
+from planner import files
 from planner.commands.common import (
     flags_for,
     fmt,
+    name_width,
     output_path,
     parse_float,
     parse_fraction,
@@ -22,7 +24,6 @@ from planner.commands.common import (
 from planner.errors import InputError
 from planner.mission import load_mission
 from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
-from planner import files
 
 
 def register(sub) -> None:
@@ -159,14 +160,16 @@ def render_selection(selection, catalog, env, top=None) -> str:
              f"Weather   wind {env.wind_speed_ms:.1f} m/s from {env.wind_from_deg:.0f}°"
              + (f", {env.temperature_c:.0f} °C" if env.temperature_c is not None else ", ISA")
              + f"; reserve {100 * e.reserve_fraction:.0f} %", ""]
-    head = (f"{'#':>3} {'pack':<34} {'S':>2} {'mAh':>6} {'pack kg':>7} {'TOW kg':>6} "
+    order = selection.order if top is None else selection.order[:top]
+    names = [e.packs[i].name + (f" x{e.packs[i].count}" if e.packs[i].count > 1 else "")
+             for i in order]
+    w = name_width(names, "pack", 20)
+    head = (f"{'#':>3} {'pack':<{w}} {'S':>2} {'mAh':>6} {'pack kg':>7} {'TOW kg':>6} "
             f"{'used mAh':>8} {'margin mAh':>10} {'margin min':>10} {'peak A':>6} "
             f"{'max A':>6}  status")
     lines += [head, "-" * len(head)]
-    order = selection.order if top is None else selection.order[:top]
-    for r, i in enumerate(order, 1):
+    for r, (i, name) in enumerate(zip(order, names), 1):
         p = e.packs[i]
-        name = p.name + (f" x{p.count}" if p.count > 1 else "")
         if e.feasible[i]:
             status = "OK"
         else:
@@ -175,7 +178,7 @@ def render_selection(selection, catalog, env, top=None) -> str:
             if len(status) > 70:
                 status = status[:67] + "..."
         lines.append(
-            f"{r:>3} {name[:34]:<34} {p.cells_series:>2} {fmt(e.capacity_mah[i], 0, 6)} "
+            f"{r:>3} {name:<{w}} {p.cells_series:>2} {fmt(e.capacity_mah[i], 0, 6)} "
             f"{fmt(e.pack_mass_kg[i], 3, 7)} {fmt(e.takeoff_mass_kg[i], 2, 6)} "
             f"{fmt(e.charge_used_mah[i], 0, 8)} {fmt(e.margin_mah[i], 0, 10)} "
             f"{fmt(e.margin_time_s[i] / 60, 1, 10)} {fmt(e.peak_current_a[i], 1, 6)} "
