@@ -7,6 +7,47 @@ import numpy as np
 
 from planner.plots import figure, new_axes, save
 
+#: The binding constraint of a rejected pack, in the legend's words.
+REJECT_WORDS = {
+    "mission": "mission cannot be flown", "cells": "cell count not allowed",
+    "thrust": "thrust-to-weight too low", "power": "power above the aircraft's maximum",
+    "c_rating": "current above the pack's C rating",
+    "takeoff_mass": "over the maximum take-off mass", "temperature": "pack overheats",
+    "voltage": "loaded voltage below the cut-off", "runs_out": "runs out of charge",
+    "landing_reserve": "lands below the reserve", "return_home": "cannot return home",
+}
+
+
+def plot_sorties(plan, ax=None):
+    """The sortie plan (when no single pack flies the mission): remaining charge of each
+    sortie against mission time, one after the other, each ending above its landing limit,
+    with the swaps marked. Returns the Axes."""
+    ax = ax or new_axes()
+    offset = 0.0
+    limit = None
+    for s in plan.sorties:
+        r = s.result
+        t = np.asarray(r.series["time_s"], float)
+        frac = 100 * np.asarray(r.series["remaining_fraction"], float)
+        ax.plot((offset + t) / 60.0, frac, lw=1.6, color=f"C{(s.number - 1) % 10}",
+                label=f"sortie {s.number}: {r.duration_s / 60:.1f} min, lands with "
+                      f"{r.landing_charge_mah:.0f} mAh")
+        unusable = 100 * (1 - r.usable_mah / r.capacity_mah)
+        limit = unusable + 100 * r.reserve_fraction
+        offset += t[-1] if t.size else 0.0
+        if s.number < plan.count:
+            ax.axvline(offset / 60.0, color="0.3", ls=":", lw=1.0,
+                       label="land and swap the pack" if s.number == 1 else None)
+    if limit is not None:
+        ax.axhline(limit, color="k", ls="--", lw=1.2, label="landing limit (reserve)")
+    ax.set_xlabel("flight time, sorties in sequence [min]")
+    ax.set_ylabel("remaining charge [% of nominal]")
+    ax.set_ylim(0, 105)
+    ax.set_title(f"{plan.count} sorties with {plan.pack.name}"
+                 + (" (provably the fewest)" if plan.minimal else ""))
+    ax.grid(alpha=0.3)
+    return ax
+
 
 def pareto_front(mass, margin, feasible):
     """Indices of the feasible packs no other feasible pack beats on both mass and margin.
@@ -39,8 +80,15 @@ def plot_pareto(selection, ax=None):
     ok = e.feasible
     floor = np.nanmin(margin) if np.any(np.isfinite(margin)) else 0.0
     shown = np.where(np.isfinite(margin), margin, floor)
-    ax.scatter(mass[~ok], shown[~ok], marker="x", color="0.55", s=28,
-               label=f"rejected ({int((~ok).sum())})")
+    # rejected packs, one marker per binding constraint, named in the legend
+    binding = np.array([e.binding(i) or "" for i in range(len(mass))], dtype=object)
+    markers = "xv^<>sPD1234"
+    for k, code in enumerate(sorted({b for b in binding[~ok]},
+                                    key=lambda c: REJECT_WORDS.get(c, c))):
+        sel = ~ok & (binding == code)
+        ax.scatter(mass[sel], shown[sel], marker=markers[k % len(markers)],
+                   color=f"C{(k + 4) % 10}", s=30,
+                   label=f"rejected: {REJECT_WORDS.get(code, code)} ({int(sel.sum())})")
     ax.scatter(mass[ok], shown[ok], marker="o", color="C0", s=30, edgecolor="k",
                linewidth=0.4, label=f"feasible ({int(ok.sum())})")
     front = pareto_front(mass, margin, ok)
@@ -60,8 +108,14 @@ def plot_pareto(selection, ax=None):
     return ax
 
 
-def save_pareto_plot(selection, path, title=None):
-    fig, ax = figure(figsize=(9, 6))
+def save_pareto_plot(selection, path, title=None, plan=None):
+    """The Pareto plot; beside it the sortie plan when there is one (no pack suffices)."""
+    if plan is None:
+        fig, ax = figure(figsize=(9, 6))
+    else:
+        fig, (ax, ax2) = figure(1, 2, figsize=(16, 6))
+        plot_sorties(plan, ax2)
+        ax2.legend(loc="lower left", fontsize=8)
     plot_pareto(selection, ax)
     e = selection.evaluation
     ax.set_title(title or f"{e.mission_name}: {e.aircraft_name}, {len(e)} packs")

@@ -273,3 +273,22 @@ def test_false_positive_rate_on_100_clean_data_sets():
                                  seed=1000 + i)
         hits += bool(diagnose(df, battery()).findings)
     assert hits <= 5
+
+
+def test_diagnose_plot_gives_panels_only_to_significant_findings():
+    """Operator's-view point 10: effects that were not significant get no panel; every
+    time axis is in minutes."""
+    from planner.diagnose.plots import diagnose_figure
+
+    df, _ = capacity_dataset(None, profile="aprbs", seed=10)
+    clean = diagnose(df, battery())
+    assert clean.findings == []
+    shown = [ax for ax in diagnose_figure(clean).axes if ax.get_visible() and ax.axison]
+    assert len(shown) == len(clean.levels)           # the residual against time, per level
+    df, _ = capacity_dataset("capacity_fade", 1e-3, profile="steps", seed=2)
+    found = diagnose(df, battery())
+    shown = [ax for ax in diagnose_figure(found).axes if ax.get_visible() and ax.axison]
+    assert len(shown) == len(found.levels) + len(found.findings)
+    for ax in shown:
+        if "time" in ax.get_xlabel():
+            assert "[min]" in ax.get_xlabel()

@@ -235,3 +235,32 @@ def test_a_pack_that_cannot_reach_the_route_is_refused():
                           Leg("cruise", (6000, 0), (0, 0), 40, 40), Leg("descend", start_alt_m=40)])
     with pytest.raises(InputError, match="cannot fly any part"):
         sizing.plan_sorties(far, ac, tiny)
+
+
+def test_the_plot_draws_the_sortie_plan_and_names_why_packs_were_rejected():
+    """Operator's-view point 10: the sortie plan (the answer when no pack suffices) is
+    drawn, each sortie ending above the landing limit, and the rejected packs of the Pareto
+    plot carry their binding constraint."""
+    from planner import plots_select
+
+    ac = replace(load_aircraft(REPO / "aircraft/solo_survey.yaml"), cells_series_allowed=None)
+    mission = long_survey()
+    packs = small_catalog()
+    selection = sel.select_pack(mission, ac, packs, mission.environment)
+    assert selection.best is None
+    plan = sizing.plan_long_mission(mission, ac, packs, selection.evaluation)
+    ax = plots_select.plot_sorties(plan)
+    labels = [line.get_label() for line in ax.get_lines()]
+    sorties = [lab for lab in labels if lab.startswith("sortie ")]
+    assert len(sorties) == plan.count
+    limit = next(line for line in ax.get_lines() if "landing limit" in line.get_label())
+    level = limit.get_ydata()[0]
+    for line in ax.get_lines():
+        if line.get_label().startswith("sortie "):
+            assert line.get_ydata()[-1] >= level - 1e-6     # each lands above the limit
+    ax2 = plots_select.plot_pareto(selection)
+    names = [c.get_label() for c in ax2.collections]
+    rejected = [n for n in names if n.startswith("rejected: ")]
+    e = selection.evaluation
+    words = {plots_select.REJECT_WORDS[e.binding(i)] for i in range(len(e))}
+    assert {n.split(": ", 1)[1].rsplit(" (", 1)[0] for n in rejected} == words

@@ -568,9 +568,12 @@ def run_cases(cases: list[Case], work: Path, jobs: int = 2,
         results.append(Outcome(case, code, seconds, max(peak - base_rss, 0), stderr,
                                failures))
         done += 1
-        if progress and done % 100 == 0:
-            bad = sum(bool(r.failures) for r in results)
-            print(f"  {done}/{len(cases)} cases, {bad} failing", file=sys.stderr)
+        if results[-1].failures and progress:
+            r = results[-1]
+            print(f"  FAIL {r.case.name}: {'; '.join(r.failures)} :: "
+                  f"{' '.join(r.case.argv)[:200]}", file=sys.stderr, flush=True)
+        if progress and done % 500 == 0:
+            print(f"  {done}/{len(cases)}: {summary(results)}", file=sys.stderr, flush=True)
     return results
 
 

@@ -141,7 +141,7 @@ def run_select(args) -> int:
         plots_select.save_pareto_plot(
             selection, plot_out,
             title=f"{mission.name}: {aircraft.name}, {len(e)} packs "
-                  f"({int(e.feasible.sum())} feasible)")
+                  f"({int(e.feasible.sum())} feasible)", plan=plan)
     return 0 if selection.best is not None else 1
 
 

@@ -11,7 +11,6 @@ import math
 
 import numpy as np
 
-from planner.diagnose.effects import EFFECTS
 from planner.plots import figure, new_axes, save
 from planner.units import AS_PER_MAH
 
@@ -73,6 +72,12 @@ def plot_residual_driver(report, effect, ax=None, after=True):
     level = res.level
     state = res.final_fit.state if res.final_fit is not None else {}
     x_all = np.asarray(_driver(level, effect, state), float)
+    label = effect.driver_label if not (
+        level.name == "power" and effect.name in ("system_power", "efficiency_curve")) \
+        else "measured battery power [W]"
+    if label.startswith("time") and label.endswith("[s]"):   # every time axis in minutes
+        x_all = x_all / 60.0
+        label = label[:-3] + "[min]"
     scores = [(res.baseline, BEFORE)] + ([(res.final, AFTER)] if after else [])
     for score, style in scores:
         rows, r = _ordered(score)
@@ -90,9 +95,7 @@ def plot_residual_driver(report, effect, ax=None, after=True):
                 ax.plot(mx, my, "-o", ms=3, lw=1.5, color=style["color"],
                         label=style["label"] + " (binned mean)")
     ax.axhline(0.0, color="k", lw=0.6)
-    ax.set_xlabel(effect.driver_label if not (
-        level.name == "power" and effect.name in ("system_power", "efficiency_curve"))
-        else "measured battery power [W]")
+    ax.set_xlabel(label)
     ax.set_ylabel("excess current, measured − model [mA]" if level.name == "capacity"
                   else "power residual, measured − model [W]")
     found = any(e.name == effect.name for e, _ in res.selected)
@@ -103,30 +106,20 @@ def plot_residual_driver(report, effect, ax=None, after=True):
     return ax
 
 
-def save_diagnose_plot(result, path) -> None:
-    """Residual against time per level, then against the driver of each finding (or, with
-    no finding, of each tested effect), before and after."""
+def diagnose_figure(result):
+    """Residual against time per level, then against the driver of each significant
+    finding, before and after. Effects that were not significant get no panel (the text
+    output and the JSON list what was tested)."""
     panels = []
     for report in result.levels.values():
         panels.append(("time", report, None, True))
-        found = [e for e, _ in report.result.selected]
-        if found:
-            panels += [("driver", report, e, True) for e in found]
-        else:
-            tested = [EFFECTS[c.effect]() for c in report.result.candidates.values()
-                      if not c.against]
-            for e in tested:
-                if hasattr(e, "prepare"):
-                    e.prepare(report.result.level)
-            panels += [("driver", report, e, False) for e in tested
-                       if e.name not in report.result.skipped]
+        panels += [("driver", report, e, True) for e, _ in report.result.selected]
     if not panels:
         fig, ax = figure(figsize=(7, 3))
         ax.text(0.5, 0.5, "no level could run:\n" + "\n".join(result.notes[:6]),
                 ha="center", va="center", fontsize=8, wrap=True)
         ax.set_axis_off()
-        save(fig, path)
-        return
+        return fig
     ncol = 2 if len(panels) > 1 else 1
     nrow = math.ceil(len(panels) / ncol)
     fig, axes = figure(nrow, ncol, figsize=(6.2 * ncol, 3.6 * nrow), squeeze=False)
@@ -140,4 +133,9 @@ def save_diagnose_plot(result, path) -> None:
     names = ", ".join(f["effect"] for f in result.findings) or "no significant effect"
     fig.suptitle(f"diagnose: {names}", fontsize=11)
     fig.tight_layout()
-    save(fig, path)
+    return fig
+
+
+def save_diagnose_plot(result, path) -> None:
+    """Write :func:`diagnose_figure` as a PNG."""
+    save(diagnose_figure(result), path)
