@@ -191,9 +191,9 @@ def test_fixed_wing_flights_with_measured_airspeed():
     calibrated; a wind cannot matter when the airspeed is measured, and diagnose says so."""
     import pandas as pd
 
-    from planner.parameters import load_aircraft_and_battery
     from planner.mission import load_mission
     from planner.mission.legs import Environment
+    from planner.parameters import load_aircraft_and_battery
     from testkit.flight import simulate_flight
 
     repo = Path(__file__).resolve().parents[1]

@@ -10,6 +10,8 @@ import pytest
 from planner import select as sel
 from planner import sizing
 from planner.check import MissionChain
+from planner.errors import InputError
+from planner.mission.legs import Environment, Leg, Mission
 from planner.parameters import (
     IntegralModel,
     aircraft_from_mapping,
@@ -17,8 +19,6 @@ from planner.parameters import (
     load_battery,
     load_catalog,
 )
-from planner.errors import InputError
-from planner.mission.legs import Environment, Leg, Mission
 from planner.units import AS_PER_MAH as MAH
 
 REPO = Path(__file__).resolve().parents[1]

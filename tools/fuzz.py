@@ -36,6 +36,7 @@ import json
 import os
 import random
 import resource
+import shutil
 import signal
 import stat
 import struct
@@ -572,8 +573,6 @@ def run_cases(cases: list[Case], work: Path, jobs: int = 2,
             r = results[-1]
             print(f"  FAIL {r.case.name}: {'; '.join(r.failures)} :: "
                   f"{' '.join(r.case.argv)[:200]}", file=sys.stderr, flush=True)
-        if progress and done % 500 == 0:
-            print(f"  {done}/{len(cases)}: {summary(results)}", file=sys.stderr, flush=True)
     return results
 
 
@@ -641,14 +640,42 @@ def summary(results: list[Outcome]) -> str:
             f"peak {worst_m:.0f} MB above start")
 
 
+#: Cases made and run at a time by :func:`campaign`.
+BATCH = 500
+
+
 def campaign(n_logs: int, n_defs: int, seed: int = 0, jobs: int = 2,
              progress: bool = False) -> list[Outcome]:
+    """Run ``n_logs`` + ``n_defs`` cases in batches of :data:`BATCH` (each batch's files
+    are made, run and deleted in turn, so the disk holds one batch)."""
     rng = random.Random(seed)
+    results: list[Outcome] = []
+    total = n_logs + n_defs
     with tempfile.TemporaryDirectory(prefix="fuzz-") as tmp:
-        work = Path(tmp)
-        cases = log_cases(n_logs, rng, work) + def_cases(n_defs, rng, work)
-        rng.shuffle(cases)
-        return run_cases(cases, work, jobs=jobs, progress=progress)
+        root = Path(tmp)
+        seed_csv = root / "seed_record.csv"
+        done_logs = done_defs = 0
+        batch = 0
+        while done_logs < n_logs or done_defs < n_defs:
+            work = root / f"batch{batch:03d}"
+            work.mkdir()
+            if seed_csv.exists():
+                shutil.copy(seed_csv, work / "seed_record.csv")
+            k_logs = min(BATCH * n_logs // max(total, 1) or 1, n_logs - done_logs)
+            k_defs = min(BATCH * n_defs // max(total, 1) or 1, n_defs - done_defs)
+            cases = log_cases(k_logs, rng, work) + def_cases(k_defs, rng, work)
+            if not seed_csv.exists() and (work / "seed_record.csv").exists():
+                shutil.copy(work / "seed_record.csv", seed_csv)
+            rng.shuffle(cases)
+            results += run_cases(cases, work, jobs=jobs, progress=progress)
+            shutil.rmtree(work, ignore_errors=True)
+            done_logs += k_logs
+            done_defs += k_defs
+            batch += 1
+            if progress:
+                print(f"  {len(results)}/{total}: {summary(results)}", file=sys.stderr,
+                      flush=True)
+    return results
 
 
 def main(argv=None) -> int:
