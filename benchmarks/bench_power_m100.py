@@ -21,7 +21,9 @@ airborne samples (ISA density at the 300 m site):
 * rotor losses, plan inputs — ``power_model: rotor_losses`` driven only by what a
   mission plan knows (speed, climb rate, density, mass: the trim thrust);
 * rotor losses, measured thrust — the same with thrust = mass × |specific force| of the
-  accelerometer (``specific_force_ms2``).
+  accelerometer (``specific_force_ms2``);
+* the measured-thrust fit flown on plan inputs — its parameters with the trim thrust, as
+  ``check`` uses an aircraft file written by ``fit-aircraft`` on these flights.
 
 Also the ground phase: the rotors-stopped samples of the test flights (within 1 m of the
 start height, ground speed below 0.3 m/s, under 5 % of the median airborne power),
@@ -166,16 +168,23 @@ def main(argv=None) -> int:
         for w in r["warnings"]:
             print(f"  warning: {w}")
 
+    # what a mission plan gets from the measured-thrust fit: the same parameters, the
+    # trim thrust of the plan inputs
+    thrust_fit = results["rotor losses, measured thrust"][0]
+    results["measured-thrust fit, flown on plan inputs"] = (
+        thrust_fit, score(thrust_fit["aircraft"], plan, test))
     labels = list(results)
     width = max(len(x) for x in labels)
     print("\nPer-flight power MAPE over airborne samples (> 7 m above the first sample), %")
-    head = f"{'flight':>8} " + " ".join(f"{x[:26]:>27}" for x in labels)
+    print("  " + "; ".join(f"({i + 1}) {x}" for i, x in enumerate(labels)))
+    head = f"{'flight':>8} " + " ".join(f"{'(' + str(i + 1) + ')':>10}" for i in
+                                         range(len(labels)))
     print(head)
     for exp_id in test:
-        print(f"{exp_id:>8} " + " ".join(f"{results[x][1]['per_flight'][exp_id]:>27.2f}"
+        print(f"{exp_id:>8} " + " ".join(f"{results[x][1]['per_flight'][exp_id]:>10.2f}"
                                           for x in labels))
-    print(f"{'mean':>8} " + " ".join(f"{results[x][1]['mean']:>27.2f}" for x in labels))
-    print(f"{'pooled':>8} " + " ".join(f"{results[x][1]['pooled']:>27.2f}" for x in labels))
+    print(f"{'mean':>8} " + " ".join(f"{results[x][1]['mean']:>10.2f}" for x in labels))
+    print(f"{'pooled':>8} " + " ".join(f"{results[x][1]['pooled']:>10.2f}" for x in labels))
     print("\nGround phase (rotors stopped) of the test flights, mean power:")
     for x in labels:
         s = results[x][1]
