@@ -17,7 +17,10 @@ from planner import files
 def register(sub) -> None:
     p = sub.add_parser("fit-aircraft", help="fit efficiency, drag and system load to flights",
                        description="Fit the aircraft's power parameters (multirotor: η, drag "
-                                   "area, P_S; fixed-wing: C_D0, K, η, P_S) to the measured "
+                                   "area, P_S; multirotor with power_model rotor_losses: "
+                                   "P_stop measured on the ground, motor no-load and copper "
+                                   "losses, figure of merit, drag area, power lead; "
+                                   "fixed-wing: C_D0, K, η, P_S) to the measured "
                                    "power of logged flights, and validate on flights (or the "
                                    "last 30 %% of one flight) the fit never saw.")
     p.add_argument("data", nargs="+", metavar="DATA", help="logs or flight-record CSV files")
