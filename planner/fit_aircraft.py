@@ -56,6 +56,11 @@ from planner import flightstate, record
 from planner.chain import MissionChain
 from planner.errors import FitError, InputError
 from planner.parameters import Aircraft
+from planner.power.rotor_losses import (
+    RotorLossesPower,
+    battery_power_from_unit_terms,
+    rotor_losses_components,
+)
 from planner.stats import cluster_covariance, covariance
 
 #: Parameters fitted, start-value source, bounds, per aircraft type.
@@ -402,6 +407,32 @@ def stopped_power(states, airborne_power_w: float) -> tuple[float | None, int]:
     return max(float(np.median(values)), 0.0), int(values.size)
 
 
+def _unit_terms(aircraft: Aircraft, s: Samples, mass: np.ndarray, drag_area: float):
+    """:func:`planner.power.rotor_losses.rotor_losses_components` of the samples at unit
+    r₀, P_nl and P_cu (for :func:`~planner.power.rotor_losses.battery_power_from_unit_terms`),
+    with the arguments :meth:`Aircraft.rotor_losses_power` passes and the measured thrust
+    where the samples have a specific force, as :func:`_predict`."""
+    m = aircraft.multirotor
+
+    def at(thrust):
+        return rotor_losses_components(
+            mass, s.air_density, m.rotors, m.rotor_diameter_m, 1.0, airspeed=s.airspeed,
+            climb_rate=s.climb_rate, drag_area=drag_area, induced_factor=m.induced_factor,
+            profile_power_ratio=1.0, tip_speed=m.tip_speed_ms, no_load_power=1.0,
+            copper_loss_power=1.0, reference_mass=m.reference_mass_kg, thrust=thrust)
+
+    force = s.specific_force
+    if force is None or not np.isfinite(force).any():
+        return at(None)
+    ok = np.isfinite(force)
+    measured = at(mass * np.where(ok, force, 9.80665))
+    if ok.all():
+        return measured
+    trim = at(None)
+    return RotorLossesPower(**{k: np.where(ok, getattr(measured, k), getattr(trim, k))
+                               for k in RotorLossesPower.__dataclass_fields__})
+
+
 def _rotor_losses_aircraft(aircraft: Aircraft, values: dict[str, float]) -> Aircraft:
     values = dict(values)
     if "profile_power_ratio" in values:
@@ -484,9 +515,23 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         m_trn = np.full(len(s_trn.time_s), mass)
         ref = with_params(base, {"reference_mass_kg": mass, "power_lead_s": lead})
 
-        def residual(x, s_trn=s_trn, m_trn=m_trn, ref=ref):
-            ac = _rotor_losses_aircraft(ref, dict(zip(names, x)))
-            return _predict(ac, s_trn, m_trn) - s_trn.measured_w
+        cache: dict[float, Any] = {}
+
+        def residual(x, s_trn=s_trn, m_trn=m_trn, ref=ref, cache=cache):
+            # the aerodynamics depend on f alone: one evaluation per drag area tried
+            v = dict(zip(names, x))
+            mr = ref.multirotor
+            f = float(v.get("drag_area_m2", mr.drag_area_m2))
+            if f not in cache:
+                if len(cache) > 4:
+                    cache.clear()
+                cache[f] = _unit_terms(ref, s_trn, m_trn, f)
+            pred = battery_power_from_unit_terms(
+                cache[f], v.get("profile_power_ratio", _profile_ratio(ref)),
+                v.get("no_load_power_w", mr.no_load_power_w),
+                v.get("copper_loss_power_w", mr.copper_loss_power_w), mr.drive_efficiency,
+                ref.system_power_w)
+            return pred - s_trn.measured_w
 
         try:
             sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, **kwargs)

@@ -187,6 +187,9 @@ def test_m100_rotor_losses_beat_todays_model_below_10_percent(m100_split):
     assert 0.0 <= new["stopped_power"]["value_w"] < 15.0
     assert today["parameters"]["system_power_w"] > 50.0
     assert new["lead_s"] in (0.0, 0.15, 0.3)
+    # the fit's recombined terms and the aircraft's own power call agree
+    assert new["train"]["after"]["rmse_w"] == pytest.approx(
+        new["lead_train_rmse_w"][f"{new['lead_s']:g}"], rel=1e-9)
     se = new["stderr"]
     assert all(np.isfinite(se[k]) and se[k] > 0 for k in se)
 

@@ -64,8 +64,8 @@ from planner.power.momentum import (
     _induced_from_components,
 )
 
-__all__ = ["REFERENCE_DENSITY", "RotorLossesPower", "rotor_losses_battery_power",
-           "rotor_losses_components"]
+__all__ = ["REFERENCE_DENSITY", "RotorLossesPower", "battery_power_from_unit_terms",
+           "rotor_losses_battery_power", "rotor_losses_components"]
 
 REFERENCE_DENSITY = 1.225
 """Air density of the reference hover at which :math:`\\hat\\Omega = \\hat Q = 1`:
@@ -244,9 +244,7 @@ def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficienc
     torque = t / t_ref
     no_load = p_nl * speed
     copper = p_cu * torque**2
-    turning = np.asarray(rotors_turning, dtype=bool)
-    drive = (np.maximum(shaft, floor) + no_load + copper) / eta
-    battery = p_stop + np.where(turning, drive, 0.0)
+    battery = _battery(shaft, floor, no_load, copper, eta, p_stop, rotors_turning)
 
     inputs = (mass, air_density, rotors, diameter, drive_efficiency, airspeed, climb_rate,
               drag_area, induced_factor, stopped_power, no_load_power, copper_loss_power,
@@ -261,6 +259,46 @@ def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficienc
         induced=kind(induced), profile=kind(profile), parasite=kind(parasite),
         climb=kind(climb), shaft=kind(shaft), no_load=kind(no_load), copper=kind(copper),
         battery=kind(battery), thrust=kind(t), rotor_speed_ratio=kind(speed))
+
+
+def _battery(shaft, floor, no_load, copper, eta, p_stop, turning):
+    """P_stop + s (max(P_shaft, P_floor) + no-load + copper loss)/η_d (module notes)."""
+    drive = (np.maximum(shaft, floor) + no_load + copper) / eta
+    return p_stop + np.where(np.asarray(turning, dtype=bool), drive, 0.0)
+
+
+def battery_power_from_unit_terms(unit: RotorLossesPower, profile_power_ratio, no_load_power,
+                                  copper_loss_power, drive_efficiency, stopped_power=0.0):
+    r"""
+    Battery power of rotors turning from the terms of a unit evaluation.
+
+    The induced, parasite and climb power, thrust and rotor speed do not depend on
+    :math:`r_0`, :math:`P_{nl}`, :math:`P_{cu}`, :math:`\eta_d` or :math:`P_{stop}`;
+    the profile power and the two losses are proportional to :math:`r_0`,
+    :math:`P_{nl}` and :math:`P_{cu}`. A fit that varies only these reuses one
+    evaluation of the aerodynamics.
+
+    Parameters
+    ----------
+    unit : RotorLossesPower
+        :func:`rotor_losses_components` with ``profile_power_ratio=1``,
+        ``no_load_power=1``, ``copper_loss_power=1`` and the shaft floored at zero
+        (``min_rotor_speed_ratio=0``), rotors turning.
+    profile_power_ratio, no_load_power, copper_loss_power, drive_efficiency, \
+stopped_power : numeric
+        :math:`r_0` [unitless], :math:`P_{nl}` [W], :math:`P_{cu}` [W],
+        :math:`\eta_d` [unitless], :math:`P_{stop}` [W].
+
+    Returns
+    -------
+    power : ndarray
+        The same as :func:`rotor_losses_battery_power` with these parameters. [W]
+    """
+    shaft = (np.asarray(unit.induced) + profile_power_ratio * np.asarray(unit.profile)
+             + np.asarray(unit.parasite) + np.asarray(unit.climb))
+    return _battery(shaft, 0.0, no_load_power * np.asarray(unit.no_load),
+                    copper_loss_power * np.asarray(unit.copper), drive_efficiency,
+                    stopped_power, True)
 
 
 def rotor_losses_battery_power(mass, air_density, rotors, diameter, drive_efficiency=0.95,
