@@ -31,8 +31,8 @@ measured against predicted mean power.
 
 The target (issue 12): physics below 10 % mean per-flight MAPE.
 
-Run: ``python benchmarks/bench_power_m100.py`` (about 2–4 min on 2 cores) or
-``--quick`` (every third training flight, under a minute).
+Run: ``python benchmarks/bench_power_m100.py`` (about 2 min on 2 shared cores) or
+``--quick`` (every third training flight, about 30 s).
 """
 
 from __future__ import annotations
