@@ -245,3 +245,74 @@ def test_fit_aircraft_writes_a_rotor_losses_file_check_accepts(tmp_path, shared_
     code = main(["check", str(REPO / "missions/survey_route.yaml"), "--aircraft", str(out),
                  "--quiet"])
     assert code in (0, 1)
+
+
+# ---------------------------------------------------------------------------- the fit
+def _synthetic_flights(truth, lead_s, n_flights=6, seed=7, negative_no_load_w=0.0):
+    """Flights whose power is the rotor_losses model itself at ``truth`` (the state read
+    ``lead_s`` after each power sample), 5 Hz, 20 s on the ground with the rotors stopped
+    then 160 s airborne with varying speed, climb and specific force, 3 W noise; minus
+    ``negative_no_load_w`` × Ω̂ in the air (a term of the wrong sign for the model)."""
+    from planner import flightstate
+    from planner.chain import MissionChain
+    rng = np.random.default_rng(seed)
+    ac = aircraft_from_mapping(m100_mapping(**truth["multirotor"], power_lead_s=lead_s),
+                               "truth")
+    ac = ac.__class__(**{**ac.__dict__, "system_power_w": truth["system_power_w"]})
+    frames = []
+    for k in range(n_flights):
+        t = np.arange(0, 180, 0.2)
+        air = t >= 20
+        smooth = lambda x: np.convolve(x, np.ones(25) / 25, mode="same")  # noqa: E731
+        speed = np.where(air, np.clip(6 + 5 * smooth(rng.normal(0, 3, t.size)), 0, 13), 0)
+        climb = np.where(air, smooth(rng.normal(0, 4, t.size)), 0)
+        climb[air & (t < 30)] = 2.5
+        alt = np.cumsum(climb) * 0.2
+        force = np.where(air, 9.81 * (1 + 0.06 * smooth(rng.normal(0, 4, t.size))), 9.81)
+        exp = pd.DataFrame({"experiment": f"f{k}", "time_s": t, "altitude_m": alt,
+                            "climb_rate_ms": climb, "groundspeed_ms": speed,
+                            "specific_force_ms2": force, "power_w": np.full(t.size, 300.0)})
+        state = flightstate.from_record(exp, 300.0)
+        state.phase = np.where(air, "cruise", "ground").astype(object)
+        power = MissionChain(ac, None).power_from_state(state, 2.605)
+        speed_ratio = np.sqrt(force / G * REFERENCE_DENSITY / state.air_density)
+        power = power - np.where(air, negative_no_load_w * speed_ratio, 0.0)
+        exp["power_w"] = power + rng.normal(0, 3.0, t.size)
+        frames.append(exp)
+    return pd.concat(frames, ignore_index=True)
+
+
+def test_fit_recovers_the_parameters_the_lead_and_the_stopped_power():
+    from planner.fit_aircraft import fit_aircraft
+    truth = {"system_power_w": 8.0,
+             "multirotor": {"no_load_power_w": 60.0, "copper_loss_power_w": 140.0,
+                            "figure_of_merit": 0.55, "drag_area_m2": 0.03,
+                            "reference_mass_kg": 2.605}}
+    data = _synthetic_flights(truth, lead_s=0.3)
+    start = aircraft_from_mapping(m100_mapping(), "start")
+    r = fit_aircraft(data, start, mass_kg=2.605, site_altitude_m=300.0,
+                     airborne_height_m=3.0, validate=["f5"])
+    assert r["lead_s"] == 0.3
+    assert r["stopped_power"]["value_w"] == pytest.approx(8.0, abs=0.5)
+    assert not r["at_bound"]
+    for key, value in r["parameters"].items():
+        assert abs(value - truth["multirotor"][key]) < 3 * r["stderr"][key] + 1e-3 * abs(
+            truth["multirotor"][key]), key
+    assert r["validation"]["after"]["rmse_w"] < 4.0
+
+
+def test_a_loss_the_data_do_not_have_ends_on_its_bound_and_is_not_a_value(capsys, tmp_path):
+    truth = {"system_power_w": 8.0,
+             "multirotor": {"no_load_power_w": 0.0, "copper_loss_power_w": 140.0,
+                            "figure_of_merit": 0.55, "drag_area_m2": 0.03,
+                            "reference_mass_kg": 2.605}}
+    csv = tmp_path / "flights.csv"
+    _synthetic_flights(truth, lead_s=0.0, negative_no_load_w=40.0).to_csv(csv, index=False)
+    start = write(tmp_path, m100_mapping(), "start.yaml")
+    code = main(["fit-aircraft", str(csv), "--aircraft", str(start), "--mass", "2.605",
+                 "--site-altitude", "300", "--airborne-height", "3", "--out",
+                 str(tmp_path / "fitted.yaml")])
+    out = capsys.readouterr().out
+    assert code == 0
+    line = next(x for x in out.splitlines() if x.startswith("no_load_power_w"))
+    assert "ended on its bound" in line and "misfit of the model's form" in line
