@@ -171,9 +171,12 @@ class Aircraft:
     empty_mass_kg : float
         Everything but battery and payload. [kg]
     efficiency : float
-        Battery → useful mechanical power, η. [unitless]
+        Battery → useful mechanical power, η (not read by the multirotor
+        ``power_model: rotor_losses``, whose ``drive_efficiency`` and motor losses take
+        its place). [unitless]
     system_power_w : float
-        Avionics and payload electrical load P_S. [W]
+        Avionics and payload electrical load P_S; for ``rotor_losses`` the power drawn
+        with the rotors stopped, P_stop. [W]
     climb_rate_ms, descent_rate_ms : float
         Default vertical speeds. [m/s]
     battery_path : str or None
