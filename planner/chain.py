@@ -895,22 +895,49 @@ class MissionChain:
         power : ndarray
             Battery power. On the ground (phase ``ground``) the rotors or propeller are
             idle: only the system load ``system_power_w`` is drawn. [W]
+
+        Notes
+        -----
+        A multirotor with ``power_model: rotor_losses`` reads the flight state
+        ``power_lead_s`` after each power sample (the log's power channel leads its
+        state channels; linear interpolation, held at the ends) and, where the state has
+        a specific force, flies the measured thrust ``mass × specific_force_ms2``
+        instead of the trim thrust.
         """
-        return self.power_at(state.airspeed_ms, state.climb_rate_ms, state.air_density,
-                             mass_kg, on_ground=state.phase == "ground")
+        ac = self.aircraft
+        on_ground = state.phase == "ground"
+        if not (ac.is_multirotor and ac.multirotor.power_model == "rotor_losses"):
+            return self.power_at(state.airspeed_ms, state.climb_rate_ms, state.air_density,
+                                 mass_kg, on_ground=on_ground)
+        lead = float(ac.multirotor.power_lead_s or 0.0)
+        t = np.asarray(state.time_s, float)
+
+        def later(x):
+            x = np.asarray(x, float)
+            return x if lead == 0.0 or t.size < 2 else np.interp(t + lead, t, x)
+
+        mass = np.asarray(mass_kg, float)
+        force = state.specific_force_ms2
+        thrust = None if force is None else mass * later(force)
+        return self.power_at(later(state.airspeed_ms), later(state.climb_rate_ms),
+                             later(state.air_density), mass, on_ground=on_ground,
+                             thrust=thrust)
 
     def power_at(self, airspeed_ms, climb_rate_ms, air_density, mass_kg, *,
-                 on_ground=False) -> np.ndarray:
+                 on_ground=False, thrust=None) -> np.ndarray:
         """The aircraft's battery power at measured flight states (all broadcast).
 
         A fixed-wing aircraft's airspeed is held at its minimum airspeed
         (:attr:`planner.parameters.Aircraft.min_airspeed_ms`): below it the polar's
-        induced term has no meaning. On the ground only ``system_power_w`` is drawn. [W]
+        induced term has no meaning. On the ground only ``system_power_w`` is drawn.
+        ``thrust`` (measured, N) is read by the ``rotor_losses`` model only. [W]
         """
         ac = self.aircraft
         v = (np.asarray(airspeed_ms, float) if ac.is_multirotor
              else np.maximum(airspeed_ms, ac.min_airspeed_ms))
-        power = np.asarray(ac.battery_power(v, climb_rate_ms, air_density, mass_kg), float)
+        extra = {} if thrust is None else {"thrust": thrust}
+        power = np.asarray(ac.battery_power(v, climb_rate_ms, air_density, mass_kg, **extra),
+                           float)
         return np.where(on_ground, ac.system_power_w, power)
 
 

@@ -12,6 +12,8 @@ command that drives the power model with a log (``replay``, ``fit-aircraft``,
 * **air density** — from the measured static pressure and outside air temperature
   (:func:`planner.atmosphere.density`); from the pressure alone with the ISA temperature
   at the pressure altitude; else the ISA density at the site altitude;
+* **specific force** — the magnitude of the accelerometer's specific force
+  (``specific_force_ms2``) where the record has it: the measured thrust over mass;
 * **flight phases** (:func:`flight_phases`) — *ground* where the power is below 30 % of
   the flight's 90th-percentile power; among airborne samples *climb* (vz > 0.5 m/s),
   *descent* (vz < −0.5 m/s), *cruise* (ground speed > 2 m/s) and *hover* (the rest);
@@ -103,6 +105,9 @@ class FlightState:
         The record's electric power (NaN where missing). [W]
     airspeed_source, density_source : str
         Which channels gave the airspeed and the density, in words.
+    specific_force_ms2 : ndarray or None
+        Magnitude of the accelerometer's specific force where the record has it (gaps
+        filled from neighbours), else None; thrust = mass × specific force. [m/s²]
     """
 
     time_s: np.ndarray
@@ -113,6 +118,7 @@ class FlightState:
     measured_power_w: np.ndarray
     airspeed_source: str
     density_source: str
+    specific_force_ms2: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -179,7 +185,9 @@ def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
     power = col("power_w")
     phase = flight_phases(power, exp.get("climb_rate_ms"), exp.get("groundspeed_ms"), t,
                           exp.get("altitude_m"))
+    force = col("specific_force_ms2")
+    force = _filled(force) if np.isfinite(force).mean() > CHANNEL_COVERAGE else None
     return FlightState(time_s=t, airspeed_ms=v, climb_rate_ms=climb,
                        air_density=np.asarray(rho, float), phase=phase,
                        measured_power_w=power, airspeed_source=source,
-                       density_source=dsource)
+                       density_source=dsource, specific_force_ms2=force)

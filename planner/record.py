@@ -77,6 +77,8 @@ COLUMNS: dict[str, Column] = {c.name: c for c in (
     Column("wind_n_ms", "m/s", "float", "wind velocity towards north"),
     Column("wind_e_ms", "m/s", "float", "wind velocity towards east"),
     Column("throttle", "0..1", "float", "throttle demand"),
+    Column("specific_force_ms2", "m/s²", "float",
+           "magnitude of the accelerometer's specific force (about 9.81 in hover)"),
     Column("mode", "text", "text", "flight mode name"),
 )}
 
@@ -101,6 +103,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "course_deg": (-360.0, 720.0),
     "wind_n_ms": (-150.0, 150.0),
     "wind_e_ms": (-150.0, 150.0),
+    "specific_force_ms2": (0.0, 1000.0),  # IMUs of small UAVs saturate at 16 g (157 m/s²)
 }
 
 _BATTERY = {"voltage_v", "current_a", "power_w", "consumed_mah"}

@@ -328,9 +328,48 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
                 pw, s = power_replay(exp, chain or MissionChain(aircraft, None), mass,
                                      site_altitude_m)
                 series.update(s)
+                if chain is not None:
+                    # the whole chain: measured state → power model → battery model
+                    trace = chain.battery_from_power(
+                        t, s["predicted_w"], temperature_c=exp["temperature_c"].to_numpy(float)
+                        if "temperature_c" in exp else None)
+                    series["predicted_power_mah"] = trace.charge_as / AS_PER_MAH
         out.append(ExperimentReplay(str(exp_id), float(t[-1] - t[0]) if len(t) else 0.0,
                                     len(exp), bat, pw, notes, series))
     return ReplayResult(out, _overall(out))
+
+
+#: Columns ``replay --csv`` adds to the flight record, with their meaning.
+TABLE_COLUMNS = {
+    "predicted_power_w": "power model at the measured flight state [W]",
+    "predicted_charge_mah": "charge drawn since the start, battery model driven by "
+                            "predicted_power_w [mAh]",
+    "battery_model_charge_mah": "charge drawn since the start, battery model driven by "
+                                "the measured power_w [mAh]",
+    "measured_charge_mah": "charge drawn since the start, from the logger's counter "
+                           "(else the integral of current_a) [mAh]",
+    "flight_phase": "flight phase of the power comparison (planner.flightstate)",
+}
+
+
+def replay_table(data: pd.DataFrame, result: ReplayResult) -> pd.DataFrame:
+    """The flight record with the replay's per-sample values beside the measured ones
+    (:data:`TABLE_COLUMNS`; NaN where a level was not replayed), experiment by
+    experiment in the order of :func:`replay`."""
+    frames = []
+    by_id = {e.experiment: e for e in result.experiments}
+    for exp_id, exp in record.experiments(data):
+        exp = exp.reset_index(drop=True).copy()
+        series = by_id[str(exp_id)].series
+        n = len(exp)
+        nan = np.full(n, np.nan)
+        exp["predicted_power_w"] = series.get("predicted_w", nan)
+        exp["predicted_charge_mah"] = series.get("predicted_power_mah", nan)
+        exp["battery_model_charge_mah"] = series.get("predicted_mah", nan)
+        exp["measured_charge_mah"] = series.get("measured_mah", nan)
+        exp["flight_phase"] = series.get("phase", np.full(n, "", dtype=object))
+        frames.append(exp)
+    return pd.concat(frames, ignore_index=True)
 
 
 def _meta_for(exp_id, metas):

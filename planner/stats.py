@@ -16,12 +16,18 @@ from here.
   autocorrelation :math:`\rho` of an AR(1) process the effective sample size is
   :math:`n (1 - \rho)/(1 + \rho)` [1]_, and the i.i.d. covariance is inflated by
   :math:`(1 + \rho)/(1 - \rho)`. :math:`\rho` is clipped to :data:`RHO_MAX`.
+* :func:`cluster_covariance` — the cluster-robust (sandwich) covariance with one
+  cluster per flight [2]_: residuals may be correlated in any way within a flight (a
+  payload, a wind, a pack of that flight), only flights are taken as independent.
 
 References
 ----------
 .. [1] G. E. P. Box, G. M. Jenkins, G. C. Reinsel and G. M. Ljung, *Time Series
    Analysis: Forecasting and Control*, 5th ed. Hoboken, NJ, USA: Wiley, 2015, sec. 2.1
    (variance of the mean of an autocorrelated series).
+.. [2] A. C. Cameron and D. L. Miller, "A practitioner's guide to cluster-robust
+   inference," Journal of Human Resources 50(2), 317–372, 2015 (eq. 11 and the
+   small-sample factor :math:`\frac{G}{G-1}\frac{n-1}{n-p}`).
 """
 
 from __future__ import annotations
@@ -30,7 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RHO_MAX", "Covariance", "ar1_inflation", "covariance", "delta_method",
+__all__ = ["RHO_MAX", "Covariance", "ar1_inflation", "cluster_covariance", "covariance",
+           "delta_method",
            "jacobian_covariance", "lag1_autocorrelation"]
 
 #: Largest lag-1 autocorrelation taken: beyond it the AR(1) inflation (39× at 0.95)
@@ -112,6 +119,35 @@ def covariance(jac, resid, groups=None, *, autocorrelated: bool = True) -> Covar
     s2 = float(np.dot(resid, resid)) / max(n - p, 1)
     k = ar1_inflation(lag1_autocorrelation(resid, groups)) if autocorrelated else 1.0
     return Covariance(base.matrix * s2 * k, base.condition, base.singular)
+
+
+def cluster_covariance(jac, resid, groups) -> Covariance:
+    r"""Cluster-robust covariance of a least-squares fit, one cluster per group [2]_.
+
+    .. math::
+
+        V = \frac{G}{G-1}\frac{n-1}{n-p}\,(J^\mathsf{T}J)^{-1}
+            \Big(\sum_g J_g^\mathsf{T} r_g\, r_g^\mathsf{T} J_g\Big)(J^\mathsf{T}J)^{-1}
+
+    with :math:`G` groups (flights). Fewer than two groups cannot estimate it: the AR(1)
+    covariance of :func:`covariance` is returned instead.
+    """
+    jac = np.asarray(jac, float)
+    resid = np.asarray(resid, float)
+    groups = np.asarray(groups)
+    labels, index = np.unique(groups, return_inverse=True)
+    if labels.size < 2:
+        return covariance(jac, resid, groups)
+    base = jacobian_covariance(jac)
+    if base.singular:
+        return base
+    n, p = jac.shape
+    scores = np.zeros((labels.size, p))
+    np.add.at(scores, index, jac * resid[:, None])
+    meat = scores.T @ scores
+    g = labels.size
+    factor = g / (g - 1.0) * (n - 1.0) / max(n - p, 1)
+    return Covariance(factor * base.matrix @ meat @ base.matrix, base.condition, False)
 
 
 def delta_method(func, x, cov) -> tuple[np.ndarray, np.ndarray]:

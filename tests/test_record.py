@@ -40,7 +40,9 @@ def test_columns_units_match_design_table():
                 "ambient_temperature_c": "°C", "pressure_pa": "Pa", "cycle": "integer",
                 "altitude_m": "m", "climb_rate_ms": "m/s", "groundspeed_ms": "m/s",
                 "course_deg": "deg", "airspeed_ms": "m/s", "wind_n_ms": "m/s",
-                "wind_e_ms": "m/s", "throttle": "0..1", "mode": "text"}
+                "wind_e_ms": "m/s", "throttle": "0..1", "mode": "text",
+                # the accelerometer's specific force: thrust over mass (rotor_losses model)
+                "specific_force_ms2": "m/s²"}
     assert {k: c.unit for k, c in COLUMNS.items()} == expected
     assert list(COLUMNS)[:2] == ["experiment", "time_s"]
 

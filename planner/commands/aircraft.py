@@ -17,7 +17,10 @@ from planner.parameters import default_battery_path, load_aircraft, load_battery
 def register(sub) -> None:
     p = sub.add_parser("fit-aircraft", help="fit efficiency, drag and system load to flights",
                        description="Fit the aircraft's power parameters (multirotor: η, drag "
-                                   "area, P_S; fixed-wing: C_D0, K, η, P_S) to the measured "
+                                   "area, P_S; multirotor with power_model rotor_losses: "
+                                   "P_stop measured on the ground, motor no-load and copper "
+                                   "losses, figure of merit, drag area, power lead; "
+                                   "fixed-wing: C_D0, K, η, P_S) to the measured "
                                    "power of logged flights, and validate on flights (or the "
                                    "last 30 %% of one flight) the fit never saw.")
     p.add_argument("data", nargs="+", metavar="DATA", help="logs or flight-record CSV files")
@@ -33,6 +36,9 @@ def register(sub) -> None:
     p.add_argument("--validate", help="comma-separated experiments to hold out")
     p.add_argument("--site-altitude", default="0", help="site altitude AMSL [m] for ISA "
                                                         "density when not logged")
+    p.add_argument("--airborne-height", help="airborne = more than this many metres above "
+                                             "each flight's first sample (default: the "
+                                             "flight phases other than ground and take-off)")
     p.add_argument("--json", help="write the fit report as JSON")
     p.set_defaults(func=run)
 
@@ -61,7 +67,9 @@ def run(args) -> int:
         result = fit_aircraft(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
                               train=_list(args.train), validate=_list(args.validate),
                               site_altitude_m=parse_float(args.site_altitude, "--site-altitude",
-                                                          -500, 9000))
+                                                          -500, 9000),
+                              airborne_height_m=None if args.airborne_height is None else
+                              parse_float(args.airborne_height, "--airborne-height", 0.0, 1000.0))
     for w in caught:
         print(f"warning: {w.message}")
     print(render(result, mass))
@@ -84,11 +92,24 @@ def render(r, mass) -> str:
     lines = [f"Fit on {len(r['train_experiments'])} experiment(s), "
              f"{r['samples']['train']} airborne samples, mass {mass:.3f} kg; validation: "
              f"{r['split']} ({r['samples']['validation']} samples)", "",
-             f"{'parameter':<16} {'start':>10} {'fitted':>10} {'± stderr':>10}"]
+             f"{'parameter':<19} {'start':>10} {'fitted':>10} {'± stderr':>10}"]
+    units = {"no_load_power_w": "W", "copper_loss_power_w": "W", "drag_area_m2": "m²",
+             "system_power_w": "W"}
     for k, v in r["parameters"].items():
+        if k in r.get("at_bound", ()):
+            lines.append(f"{k:<19} {fmt(r['start'][k], 4, 10)} {'—':>10} {'—':>10}  ended on "
+                         f"its bound ({v:.4g}): a misfit of the model's form, not a value")
+            continue
         flag = "  poorly determined" if k in r["poorly_determined"] else ""
-        lines.append(f"{k:<16} {fmt(r['start'][k], 4, 10)} {fmt(v, 4, 10)} "
-                     f"{fmt(r['stderr'][k], 4, 10)}{flag}")
+        lines.append(f"{k:<19} {fmt(r['start'][k], 4, 10)} {fmt(v, 4, 10)} "
+                     f"{fmt(r['stderr'][k], 4, 10)} {units.get(k, ''):<2}{flag}")
+    if "stopped_power" in r:
+        sp = r["stopped_power"]
+        lines.append(f"system_power_w (rotors stopped) {sp['value_w']:.1f} W: {sp['source']}")
+        lines.append(f"power lead {r['lead_s']:g} s, chosen by the training RMS ("
+                     + ", ".join(f"{k} s: {v:.1f} W" for k, v in
+                                 r["lead_train_rmse_w"].items()) + ")")
+        lines.append("standard errors cluster-robust, one cluster per flight")
     lines.append("")
     for split in ("train", "validation"):
         if split in r:

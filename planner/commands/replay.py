@@ -36,6 +36,9 @@ def register(sub) -> None:
                         "pressure and temperature (default 0)")
     p.add_argument("--json", help="write the comparison as JSON")
     p.add_argument("--plot", help="write a PNG: measured vs predicted power and charge")
+    p.add_argument("--csv", metavar="F",
+                   help="write the flight record with the per-sample predicted power (W) "
+                        "and charge (mAh) beside the measured ones")
     p.set_defaults(func=run)
 
 
@@ -44,6 +47,7 @@ def run(args) -> int:
 
     json_out = output_path(args.json, "--json")
     plot_out = plot_path(args.plot)
+    csv_out = output_path(args.csv, "--csv")
     payload = parse_float(args.payload, "--payload", 0.0, 1000.0)
     reserve = parse_fraction(args.reserve, "--reserve")
     site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0)
@@ -61,6 +65,10 @@ def run(args) -> int:
     print(render(result))
     if json_out:
         write_json(result.to_dict(), json_out)
+    if csv_out:
+        from planner.record import write_record
+        from planner.replay import replay_table
+        write_record(replay_table(data, result), csv_out)
     if plot_out:
         from planner import plots
         plots.save_replay_plot(result, plot_out)

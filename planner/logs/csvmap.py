@@ -164,10 +164,10 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
             out[ours] = v
         meta["channels"][ours] = spec["column"]
     for ours, spec in cmap["derived"].items():
-        a, b = (numeric(c, ours) for c in spec["of"])
+        a, b, *rest = (numeric(c, ours) for c in spec["of"])
         op = spec["op"]
         if op == "hypot":
-            v = np.hypot(a, b)
+            v = np.hypot(a, b) if not rest else np.sqrt(a * a + b * b + rest[0] ** 2)
         elif op == "product":
             v = a * b
         elif op == "sum":

@@ -24,12 +24,14 @@ from planner.parameters.limits import (
     AIRSPEED_MIN_MS,
     CP_MIN,
     CT_MIN,
+    DRIVE_EFFICIENCY_MIN,
     EFFICIENCY_MIN,
     GROUNDSPEED_MIN_MS,
     LOITER_BANK_MAX_DEG,
     LOITER_RADIUS_MAX_M,
     MASS_MAX_KG,
     MULTIROTOR_MIN_AIRSPEED_MS,
+    POWER_LEAD_MAX_S,
     POWER_MAX_W,
     ROTOR_DIAMETER_MAX_M,
     ROTOR_DIAMETER_MIN_M,
@@ -89,17 +91,28 @@ MULTIROTOR_KEYS = {
     "ct": S.between(CT_MIN, 1.0),
     "cp": S.between(CP_MIN, 1.0),
     "drag_area_m2": S.non_negative(default=0.0, high=10.0),
-    "power_model": S.Key(S.TEXT, choices=("propeller", "momentum")),
+    "power_model": S.Key(S.TEXT, choices=("propeller", "momentum", "rotor_losses")),
     "cruise_speed_ms": S.between(GROUNDSPEED_MIN_MS, SPEED_MAX_MS, default=5.0),
     "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, default=15.0),
     "induced_factor": S.Key(S.NUMBER, default=1.15, low=1.0, high=2.0),
     "figure_of_merit": S.Key(S.NUMBER, low=0.2, high=1.0),
     "tip_speed_ms": S.between(TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS),
     "max_thrust_n": S.positive(high=THRUST_MAX_N),
+    # power_model rotor_losses (planner.power.rotor_losses): motor losses at the reference
+    # hover, the drive efficiency between pack and motors, and the log's power lead
+    "no_load_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
+    "copper_loss_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
+    "drive_efficiency": S.between(DRIVE_EFFICIENCY_MIN, 1.0, default=0.95),
+    "reference_mass_kg": S.positive(high=MASS_MAX_KG),
+    "power_lead_s": S.between(0.0, POWER_LEAD_MAX_S, default=0.0),
 }
 
+#: Keys of MULTIROTOR_KEYS only the rotor_losses power model reads.
+ROTOR_LOSSES_KEYS = ("no_load_power_w", "copper_loss_power_w", "drive_efficiency",
+                     "reference_mass_kg", "power_lead_s")
+
 #: Keys each multirotor power model needs (besides rotors and diameter).
-POWER_MODEL_KEYS = {"propeller": ("ct", "cp"), "momentum": ()}
+POWER_MODEL_KEYS = {"propeller": ("ct", "cp"), "momentum": (), "rotor_losses": ()}
 
 #: Default vertical speeds when the aircraft file gives none. [m/s]
 #: Multirotor: ArduCopter WPNAV_SPEED_UP 2.5 m/s and WPNAV_SPEED_DN 1.5 m/s;
@@ -142,6 +155,11 @@ class Multirotor:
     figure_of_merit: float | None = None
     tip_speed_ms: float | None = None
     max_thrust_n: float | None = None
+    no_load_power_w: float | None = None
+    copper_loss_power_w: float | None = None
+    drive_efficiency: float | None = None
+    reference_mass_kg: float | None = None
+    power_lead_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -153,9 +171,12 @@ class Aircraft:
     empty_mass_kg : float
         Everything but battery and payload. [kg]
     efficiency : float
-        Battery → useful mechanical power, η. [unitless]
+        Battery → useful mechanical power, η (not read by the multirotor
+        ``power_model: rotor_losses``, whose ``drive_efficiency`` and motor losses take
+        its place). [unitless]
     system_power_w : float
-        Avionics and payload electrical load P_S. [W]
+        Avionics and payload electrical load P_S; for ``rotor_losses`` the power drawn
+        with the rotors stopped, P_stop. [W]
     climb_rate_ms, descent_rate_ms : float
         Default vertical speeds. [m/s]
     battery_path : str or None
@@ -207,7 +228,8 @@ class Aircraft:
         fw = self.fixed_wing
         return fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
 
-    def battery_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0):
+    def battery_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0,
+                      thrust=None):
         """Electric power drawn from the pack in steady flight.
 
         Thin wrapper: passes the stored parameters to the pure power models
@@ -226,12 +248,18 @@ class Aircraft:
             All-up mass. [kg]
         load_factor : numeric
             Lift over weight (turns). [unitless]
+        thrust : numeric, optional
+            Measured total thrust (mass × accelerometer specific force), read by the
+            ``rotor_losses`` model only; default the trim thrust. [N]
 
         Returns
         -------
         power : numeric
             Battery power. [W]
         """
+        if self.is_multirotor and self.multirotor.power_model == "rotor_losses":
+            return self.rotor_losses_power(airspeed, climb_rate, air_density, mass,
+                                           load_factor, thrust=thrust)
         power = self._constant_efficiency_power(airspeed, climb_rate, air_density, mass,
                                                 load_factor)
         if not self.efficiency_slope or not self.efficiency_reference_power_w:
@@ -243,6 +271,23 @@ class Aircraft:
         inv = 1.0 / eta0 - self.efficiency_slope / eta0**2 * (
             mech / self.efficiency_reference_power_w - 1.0)
         return mech * np.maximum(inv, 1.0) + ps
+
+    def rotor_losses_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0,
+                           thrust=None, rotors_turning=True):
+        """Battery power of the ``rotor_losses`` multirotor model
+        (:func:`planner.power.rotor_losses.rotor_losses_battery_power`): ``system_power_w``
+        is the power with the rotors stopped, ``drive_efficiency`` replaces ``efficiency``.
+        The reference hover is at ``reference_mass_kg`` (default: ``mass``). [W]"""
+        from planner.power import rotor_losses
+        m = self.multirotor
+        return rotor_losses.rotor_losses_battery_power(
+            mass, air_density, m.rotors, m.rotor_diameter_m, m.drive_efficiency,
+            airspeed=airspeed, climb_rate=climb_rate, drag_area=m.drag_area_m2,
+            induced_factor=m.induced_factor, figure_of_merit=m.figure_of_merit,
+            tip_speed=m.tip_speed_ms, stopped_power=self.system_power_w,
+            no_load_power=m.no_load_power_w, copper_loss_power=m.copper_loss_power_w,
+            reference_mass=m.reference_mass_kg, thrust=thrust, load_factor=load_factor,
+            rotors_turning=rotors_turning)
 
     def _constant_efficiency_power(self, airspeed, climb_rate, air_density, mass,
                                    load_factor=1.0):
@@ -327,6 +372,11 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
                             f"got {cells!r}")
         else:
             allowed = tuple(cells)
+    if (mr is not None and mr.power_model == "rotor_losses" and d["efficiency_slope"]
+            and data.get("efficiency_slope") is not None):
+        problems.append("efficiency_slope is not used with multirotor.power_model "
+                        "rotor_losses (its no-load and copper losses are how the efficiency "
+                        "changes with load): remove it")
     if problems:
         raise InputError(f"{where}: " + "; ".join(problems))
     climb, descent = DEFAULT_VERTICAL_SPEEDS[kind]
@@ -415,7 +465,8 @@ def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None
     if not bad & {"cruise_speed_ms", "max_airspeed_ms"} and cruise > top:
         problems.append(f"multirotor.cruise_speed_ms must be at most the maximum airspeed "
                         f"(multirotor.max_airspeed_ms {top:g} m/s), got {cruise!r}")
-    if model == "momentum" and not bad & {"figure_of_merit", "induced_factor"}:
+    if model in ("momentum", "rotor_losses") and not bad & {"figure_of_merit",
+                                                            "induced_factor"}:
         # momentum theory: profile power P0/P_ideal = 1/FM − κ must not be negative
         from planner.power.momentum import DEFAULT_FIGURE_OF_MERIT
         fm, kappa = d["figure_of_merit"], d["induced_factor"]
@@ -427,9 +478,16 @@ def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None
         elif fm is not None and kappa * fm > 1.0:
             problems.append(f"multirotor.figure_of_merit must be at most 1/induced_factor "
                             f"= {1.0 / kappa:.3g} (profile power >= 0), got {fm!r}")
+    given = [key for key in ROTOR_LOSSES_KEYS if isinstance(data, dict)
+             and data.get(key) is not None]
+    if model != "rotor_losses" and given:
+        problems.append(", ".join(f"multirotor.{k}" for k in given)
+                        + f" {'is' if len(given) == 1 else 'are'} read only by power_model "
+                        f"rotor_losses (this file's power_model is '{model}')")
+    losses = {key: (d[key] if model == "rotor_losses" else None) for key in ROTOR_LOSSES_KEYS}
     if len(problems) > n:
         return None
-    return Multirotor(rotors=d["rotors"], rotor_diameter_m=d["rotor_diameter_m"],
+    return Multirotor(**losses, rotors=d["rotors"], rotor_diameter_m=d["rotor_diameter_m"],
                       power_model=model, ct=d["ct"], cp=d["cp"],
                       drag_area_m2=d["drag_area_m2"], cruise_speed_ms=d["cruise_speed_ms"],
                       max_airspeed_ms=d["max_airspeed_ms"], induced_factor=d["induced_factor"],

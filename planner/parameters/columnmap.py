@@ -148,8 +148,11 @@ def load_map(source: str | os.PathLike | dict) -> dict:
             raise InputError(f"{where}: derived.{ours}.op must be one of "
                              f"{', '.join(sorted(_OPS))}, got {op!r}")
         of = spec.get("of")
-        if not isinstance(of, list) or len(of) != 2 or not all(isinstance(c, str) for c in of):
-            raise InputError(f"{where}: derived.{ours}.of must list two CSV columns, got {of!r}")
+        sizes = (2, 3) if op == "hypot" else (2,)
+        if not isinstance(of, list) or len(of) not in sizes or not all(isinstance(c, str)
+                                                                     for c in of):
+            what = "two CSV columns (three for hypot)" if op == "hypot" else "two CSV columns"
+            raise InputError(f"{where}: derived.{ours}.of must list {what}, got {of!r}")
         out["derived"][ours] = {
             "op": op, "of": of,
             "scale": _number(where, f"derived.{ours}.scale", spec.get("scale", 1.0)),

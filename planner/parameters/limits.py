@@ -59,3 +59,11 @@ MULTIROTOR_MIN_AIRSPEED_MS = 0.5
 #: Least propulsion efficiency, battery to useful power: the propulsion fits allow no
 #: less than 0.1–0.2; below 0.05 the aircraft is a heater. [unitless]
 EFFICIENCY_MIN = 0.05
+#: Least drive efficiency (ESC and wiring, battery to motor terminals) of the rotor-loss
+#: model: ESCs of small UAVs convert at 0.85–0.98; below 0.3 the wiring would melt before
+#: the aircraft flew. [unitless]
+DRIVE_EFFICIENCY_MIN = 0.3
+#: Longest delay between the power and the flight-state channels of a log the fits and
+#: replay correct for: sensor buses of small UAVs are synchronised to about 0.1–0.3 s; a
+#: lead beyond 1 s is a clock error, not a delay. [s]
+POWER_LEAD_MAX_S = 1.0
