@@ -9,8 +9,9 @@ numbers, YAML alias bombs, deep nesting, non-UTF-8 bytes, empty files, special f
 oversized files, thousands of legs and waypoints, waypoints at the pole or across the
 antimeridian, ``.plan`` items with extreme parameters, hostile option values). Every case
 runs one command (``export``, ``replay``, ``diagnose``, ``check``, ``select``,
-``sweep``, ``hybrid``) in a forked worker with a time limit and an address-space limit,
-and the fuzzer records the exit status, any traceback, the wall time, the peak memory
+``sweep``, ``hybrid``) in a forked worker with a CPU-time limit (and a wall-time limit
+for runs blocked without working) and an address-space limit, and the fuzzer records the
+exit status, any traceback, the CPU time, the peak memory
 above the worker's start, whether any input changed, and whether a file was written
 that the command was not asked to write.
 
@@ -51,8 +52,12 @@ SHARED = REPO.parent / "shared"
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-#: Wall-time limit of one case. [s]
+#: CPU-time limit of one case (its own work, counted from the fork). [s]
 TIME_LIMIT_S = 10.0
+#: Wall-time limit of one case, which catches a run that waits without working (a
+#: blocked read); the 10 s limit counts the CPU time of the case, so that a machine
+#: shared with other work does not turn slow-but-finite runs into "hangs". [s]
+WALL_LIMIT_S = 60.0
 #: Memory allowance above the worker's start: 3 × input size + this. [bytes]
 MEMORY_ALLOWANCE = 300 * 2**20
 #: Hard address-space limit of a worker (protects the machine). [bytes]
@@ -481,6 +486,10 @@ def _child(case: Case, out_path: Path, err_path: Path) -> None:
     """Run one case in this (forked) process and exit with its status."""
     try:
         resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_SPACE_LIMIT, ADDRESS_SPACE_LIMIT))
+        cpu = resource.getrusage(resource.RUSAGE_SELF)
+        used = int(cpu.ru_utime + cpu.ru_stime)
+        resource.setrlimit(resource.RLIMIT_CPU, (used + int(TIME_LIMIT_S) + 1,
+                                                 used + int(TIME_LIMIT_S) + 2))
     except (ValueError, OSError):
         pass
     fd_out = os.open(out_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
@@ -554,18 +563,21 @@ def run_cases(cases: list[Case], work: Path, jobs: int = 2,
         if pid == 0:
             now = time.perf_counter()
             for p, (case, t0, *_rest) in list(running.items()):
-                if now - t0 > TIME_LIMIT_S:
+                if now - t0 > WALL_LIMIT_S:
                     os.kill(p, signal.SIGKILL)
             time.sleep(0.002)
             continue
         case, t0, before, listing, out_p, err_p, base_rss = running.pop(pid)
-        seconds = time.perf_counter() - t0
+        wall = time.perf_counter() - t0
+        seconds = usage.ru_utime + usage.ru_stime          # the case's own CPU time
         peak = usage.ru_maxrss * 1024
         code = os.waitstatus_to_exitcode(status)
         stderr = err_p.read_text(errors="replace") if err_p.exists() else ""
         for p in (out_p, err_p):
             p.unlink(missing_ok=True)
         failures = _judge(case, code, seconds, peak - base_rss, stderr, before, listing)
+        if wall > WALL_LIMIT_S:
+            failures.insert(0, f"hang (killed after {WALL_LIMIT_S:g} s of wall time)")
         results.append(Outcome(case, code, seconds, max(peak - base_rss, 0), stderr,
                                failures))
         done += 1
@@ -581,8 +593,8 @@ def _judge(case: Case, code: int, seconds: float, peak_above: int, stderr: str,
     out = []
     size = sum(os.path.getsize(p) for p in case.inputs if os.path.isfile(p)
                and not os.path.islink(p))
-    if code < 0 and seconds > TIME_LIMIT_S:
-        out.append(f"hang (killed after {TIME_LIMIT_S:g} s)")
+    if code in (-signal.SIGXCPU, -signal.SIGKILL) and seconds >= TIME_LIMIT_S:
+        out.append(f"over {TIME_LIMIT_S:g} s of CPU time (killed)")
     elif code < 0:
         out.append(f"worker died (signal {-code})")
     elif code == 3:
@@ -595,7 +607,7 @@ def _judge(case: Case, code: int, seconds: float, peak_above: int, stderr: str,
     elif code not in (0, 1, 2):
         out.append(f"exit status {code}")
     if seconds > TIME_LIMIT_S and code >= 0:
-        out.append(f"took {seconds:.1f} s (limit {TIME_LIMIT_S:g} s)")
+        out.append(f"took {seconds:.1f} s of CPU time (limit {TIME_LIMIT_S:g} s)")
     if peak_above > 3 * size + MEMORY_ALLOWANCE:
         out.append(f"peak memory {peak_above / 2**20:.0f} MB above start for "
                    f"{size / 2**20:.1f} MB of input")
@@ -626,7 +638,8 @@ def summary(results: list[Outcome]) -> str:
     n = len(results)
     bad = [r for r in results if r.failures]
     internal = sum(any(f.startswith("internal") for f in r.failures) for r in results)
-    hangs = sum(any("hang" in f or "took" in f for f in r.failures) for r in results)
+    hangs = sum(any("hang" in f or "took" in f or "CPU" in f for f in r.failures)
+                for r in results)
     memory = sum(any("memory" in f.lower() for f in r.failures) for r in results)
     changed = sum(any("input file changed" in f for f in r.failures) for r in results)
     codes = {}
@@ -636,7 +649,7 @@ def summary(results: list[Outcome]) -> str:
     worst_m = max((r.peak_bytes for r in results), default=0) / 2**20
     return (f"fuzz: {n} cases, {len(bad)} failing ({internal} internal errors, {hangs} over "
             f"{TIME_LIMIT_S:g} s, {memory} over the memory bound, {changed} inputs changed); "
-            f"exit codes {dict(sorted(codes.items()))}; slowest {worst_t:.1f} s; largest "
+            f"exit codes {dict(sorted(codes.items()))}; slowest {worst_t:.1f} s of CPU; largest "
             f"peak {worst_m:.0f} MB above start")
 
 
