@@ -484,6 +484,8 @@ def _listing(folder: Path) -> set[str]:
 
 def _child(case: Case, out_path: Path, err_path: Path) -> None:
     """Run one case in this (forked) process and exit with its status."""
+    # the resident set this worker starts from: its peak above it is the case's memory
+    Path(str(err_path) + ".rss").write_text(str(_rss_now()))
     try:
         resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_SPACE_LIMIT, ADDRESS_SPACE_LIMIT))
         cpu = resource.getrusage(resource.RUSAGE_SELF)
@@ -573,6 +575,12 @@ def run_cases(cases: list[Case], work: Path, jobs: int = 2,
         peak = usage.ru_maxrss * 1024
         code = os.waitstatus_to_exitcode(status)
         stderr = err_p.read_text(errors="replace") if err_p.exists() else ""
+        rss_p = Path(str(err_p) + ".rss")
+        try:
+            base_rss = int(rss_p.read_text())
+        except (OSError, ValueError):
+            pass                                # killed before it wrote: the parent's
+        rss_p.unlink(missing_ok=True)
         for p in (out_p, err_p):
             p.unlink(missing_ok=True)
         failures = _judge(case, code, seconds, peak - base_rss, stderr, before, listing)
