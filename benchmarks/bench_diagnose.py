@@ -45,9 +45,11 @@ BIG_QUAD = {"empty_mass_kg": 2.0, "rotor_diameter_m": 0.7, "drag_area_m2": 0.08}
 
 
 def timed(fn):
-    t0 = time.perf_counter()
+    """CPU time of this process (one core: diagnose does not run in parallel), which a
+    machine shared with other work does not inflate as it does the wall time. [s]"""
+    t0 = time.process_time()
     out = fn()
-    return time.perf_counter() - t0, out
+    return time.process_time() - t0, out
 
 
 def names(result) -> str:
@@ -105,9 +107,11 @@ def main(argv=None) -> int:
     print("diagnose benchmark (full search: calibration, 8 effects, greedy combination)")
     ok = True
     for label, sec, found in bench_capacity() + bench_flight():
-        flag = "ok" if sec < 10.0 else "SLOW"
-        ok &= sec < 10.0
-        print(f"  {label:<52} {sec:6.2f} s  [{flag}]  findings: {found}")
+        limit = 1.0 if label.startswith("10 experiments") else 3.0
+        flag = "ok" if sec < limit else "SLOW"
+        ok &= sec < limit
+        print(f"  {label:<52} {sec:6.2f} s CPU (target < {limit:g} s)  [{flag}]  "
+              f"findings: {found}")
     hc, nc, hp, np_, sec = false_positives(args.clean, args.clean_power)
     rate = 100.0 * (hc + hp) / max(nc + np_, 1)
     print(f"  false positives on clean data: capacity {hc}/{nc}, flights {hp}/{np_}, "

@@ -32,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import numpy as np
 
 from planner.atmosphere import G, _require, _restore
@@ -121,27 +122,41 @@ def _glauert_ratio(mu, x):
     mu2 = np.asarray(mu, dtype=float) ** 2
     x = np.asarray(x, dtype=float)
     mu2, x = np.broadcast_arrays(mu2, x)
-    lo = np.zeros(x.shape)
-    hi = 1.0 + np.maximum(-x, 0.0)  # f(hi) >= 0 for any μ
-    lo = np.where(np.isnan(hi), np.nan, lo)
-    lam = 0.5 * hi
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        for _ in range(_NEWTON_ITERATIONS):
-            s = x + lam
-            q = mu2 + s * s
+    out = np.empty(x.shape)
+    _glauert_kernel(np.ascontiguousarray(mu2).ravel(), np.ascontiguousarray(x).ravel(),
+                    _NEWTON_ITERATIONS, out.reshape(-1))
+    return out
+
+
+@numba.njit(cache=True)
+def _glauert_kernel(mu2, x, iterations, out):  # pragma: no cover - compiled
+    """The bracketed Newton iteration of :func:`_glauert_ratio`, element by element: each
+    root stops as soon as it has settled to rounding (a compiled loop: the vectorised
+    form iterated every element until the slowest had settled)."""
+    for k in range(x.size):
+        m2, xk = mu2[k], x[k]
+        if np.isnan(m2) or np.isnan(xk):
+            out[k] = np.nan
+            continue
+        lo = 0.0
+        hi = 1.0 + max(-xk, 0.0)  # f(hi) >= 0 for any μ
+        lam = 0.5 * hi
+        for _ in range(iterations):
+            s = xk + lam
+            q = m2 + s * s
             f = lam * lam * q - 1.0
-            up = f > 0.0
-            hi = np.where(up, lam, hi)
-            lo = np.where(up, lo, lam)
-            step = lam - f / (2.0 * lam * q + 2.0 * lam * lam * s)
-            inside = (step > lo) & (step < hi)
-            new = np.where(inside, step, 0.5 * (lo + hi))
-            settled = np.isnan(new) | (np.abs(new - lam) <= 1e-15 * np.abs(new))
+            if f > 0.0:
+                hi = lam
+            else:
+                lo = lam
+            den = 2.0 * lam * q + 2.0 * lam * lam * s
+            step = lam - f / den if den != 0.0 else np.nan
+            new = step if (step > lo and step < hi) else 0.5 * (lo + hi)
+            done = abs(new - lam) <= 1e-15 * abs(new)
             lam = new
-            if settled.all():  # converged to rounding: more steps change nothing
+            if done:
                 break
-    nan = np.isnan(mu2) | np.isnan(x)
-    return np.where(nan, np.nan, lam)
+        out[k] = lam
 
 
 def _induced_ratio(mu, x):
