@@ -316,18 +316,20 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
     table_path = out / TABLE_NAME
     old = _read_table(table_path)
     skip = set(old.loc[old["status"] == "ok", "sha256"]) if old is not None else set()
-    own = None
-    if client is None:
-        client, own = _client(workers, scheduler)
+    own = client is None
+    cluster = None
+    if own:
+        client, cluster = _client(workers, scheduler)
     t0 = time.perf_counter()
     try:
         rows, skipped = summarise_all(
             logs, aircraft=aircraft, pack=pack, pack_map=pack_map, skip=skip, client=client,
             progress=_Progress(len(logs)) if progress else None)
     finally:
-        if own is not None:
+        if own:
             client.close()
-            own.close()
+            if cluster is not None:
+                cluster.close()
     elapsed = time.perf_counter() - t0
     new = to_frame(rows)
     failed = [(r["log"], r["error"]) for r in rows if r["status"] != "ok"]
