@@ -32,6 +32,7 @@ import os
 import re
 import sys
 import time
+import uuid
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -40,16 +41,18 @@ import pandas as pd
 from planner import files
 from planner.errors import InputError
 from planner.fleet.health import RETIRE_DEFAULT, PackHealth, pack_health
-from planner.fleet.summary import COLUMNS, summarise_log, to_frame
+from planner.fleet.summary import COLUMNS, content_hash, summarise_log, to_frame
 from planner.parameters import Aircraft, BatteryPack
 
-__all__ = ["LOG_SUFFIXES", "FleetResult", "TABLE_NAME", "collect_logs", "read_pack_map",
-           "run_fleet"]
+__all__ = ["BATCH_MAX", "LOG_SUFFIXES", "FleetResult", "TABLE_NAME", "batch_size",
+           "collect_logs", "read_pack_map", "run_fleet", "summarise_all"]
 
 #: Files a folder is searched for.
 LOG_SUFFIXES = (".bin", ".px4log", ".tlog", ".ulg")
 #: The flight table in the output folder.
 TABLE_NAME = "flights.parquet"
+#: Most logs in one Dask task (:func:`batch_size`).
+BATCH_MAX = 16
 #: Flights ahead in which a pack's retirement is flagged (``--within``). [flights]
 WITHIN_DEFAULT = 50
 
@@ -199,10 +202,12 @@ class _Progress:
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
         self.t0 = time.perf_counter()
         self.every = max(1, total // 10)
+        self.shown = 0
 
     def update(self, done: int, failed: int, skipped: int) -> None:
-        if not self.tty and done % self.every and done != self.total:
+        if not self.tty and done - self.shown < self.every and done != self.total:
             return
+        self.shown = done
         dt = time.perf_counter() - self.t0
         rate = (done - skipped) / dt if dt > 0 else 0.0
         line = (f"fleet: {done}/{self.total} logs, {failed} failed, {skipped} already in "
@@ -224,32 +229,75 @@ def _client(workers: int | None, scheduler: str | None):
     return Client(cluster), cluster
 
 
+def _summarise_batch(items, aircraft, pack):
+    """:func:`summarise_log` on each ``(path, pack id, id source, cycle)``: the rows."""
+    return [summarise_log(path, pack_id, source, cycle, aircraft=aircraft, pack=pack)
+            for path, pack_id, source, cycle in items]
+
+
+def _hash_batch(paths):
+    """The content hash of each file ("" for a file that cannot be read)."""
+    out = []
+    for path in paths:
+        try:
+            out.append(content_hash(path))
+        except OSError:
+            out.append("")
+    return out
+
+
+def batch_size(logs: int, workers: int) -> int:
+    """Logs per Dask task: about 8 tasks per worker (the load stays balanced to the end),
+    at most :data:`BATCH_MAX` (the progress line moves) and at least 1. Each task costs the
+    scheduler a few milliseconds, as much as reading a small log: batches amortise it."""
+    return max(1, min(BATCH_MAX, math.ceil(logs / (8 * max(workers, 1)))))
+
+
 def summarise_all(logs: list[Path], *, aircraft: Aircraft | None, pack: BatteryPack | None,
-                  pack_map: dict | None, skip: set[str], client, progress=None
-                  ) -> tuple[list[dict], int]:
-    """Every log through :func:`summarise_log` on the Dask ``client``: (rows, skipped)."""
+                  pack_map: dict | None, skip: set[str], client, progress=None,
+                  batch: int | None = None) -> tuple[list[dict], int]:
+    """Every log through :func:`summarise_log` on the Dask ``client``, ``batch`` logs per
+    task (default :func:`batch_size`): (rows, skipped)."""
     from dask.distributed import as_completed
 
     pack_map = pack_map or {}
-    ids = [pack_map.get(p.name, (None, None)) for p in logs]
-    common = {"aircraft": aircraft, "pack": pack, "skip": frozenset(skip)}
-    shared = client.scatter(common, broadcast=True)
-    futures = client.map(
-        summarise_log, [str(p) for p in logs], [i[0] for i in ids],
-        ["--packs" if i[0] else "unknown" for i in ids], [i[1] for i in ids],
-        key=[f"fleet-{k}-{p.name}" for k, p in enumerate(logs)], pure=False,
-        **{"aircraft": shared["aircraft"], "pack": shared["pack"], "skip": shared["skip"]})
-    rows, skipped, failed = [], 0, 0
-    for done, fut in enumerate(as_completed(futures), start=1):
-        row = fut.result()
-        if row is None:
-            skipped += 1
-        else:
+    items = []
+    for p in logs:
+        pack_id, cycle = pack_map.get(p.name, (None, None))
+        items.append((str(p), pack_id, "--packs" if pack_id else "unknown", cycle))
+    workers = len(client.scheduler_info().get("workers", {})) or 1
+    size = batch or batch_size(len(items), workers)
+    run = uuid.uuid4().hex[:12]         # keys unique to this call: a rerun on the same client
+    skipped = 0
+    if skip:
+        # a rerun: the workers hash the logs, the ones already in the table are not read
+        paths = [it[0] for it in items]
+        chunks = [paths[i:i + size] for i in range(0, len(paths), size)]
+        hashes = client.gather(client.map(
+            _hash_batch, chunks, key=[f"fleet-hash-{run}-{k}" for k in range(len(chunks))],
+            pure=False))
+        known = [h in skip for chunk in hashes for h in chunk]
+        skipped = sum(known)
+        items = [it for it, seen in zip(items, known) if not seen]
+    chunks = [items[i:i + size] for i in range(0, len(items), size)]
+    # the aircraft and the pack (a few kB) travel with each task: no scattered data to lose
+    futures = client.map(_summarise_batch, chunks,
+                         key=[f"fleet-{run}-{k}-{Path(c[0][0]).name}"
+                              for k, c in enumerate(chunks)],
+                         pure=False, aircraft=aircraft, pack=pack)
+    rows, failed, done = [], 0, skipped
+    if progress is not None and skipped:
+        progress.update(done, failed, skipped)
+    for fut in as_completed(futures):
+        for row in fut.result():
+            done += 1
             rows.append(row)
             failed += row["status"] != "ok"
         if progress is not None:
             progress.update(done, failed, skipped)
         fut.release()
+    order = {str(p): k for k, p in enumerate(logs)}
+    rows.sort(key=lambda r: order.get(r["log"], len(order)))
     return rows, skipped
 
 

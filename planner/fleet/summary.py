@@ -133,8 +133,7 @@ def _empty_row(path: str, sha: str) -> dict[str, Any]:
 
 def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "unknown",
                   cycle: float | None = None, *, aircraft: Aircraft | None = None,
-                  pack: BatteryPack | None = None, payload_kg: float = 0.0, skip: frozenset | set = frozenset()
-                  ) -> dict[str, Any] | None:
+                  pack: BatteryPack | None = None, payload_kg: float = 0.0) -> dict[str, Any]:
     """Read, replay and calibrate one log: a row of :data:`COLUMNS` (module notes).
 
     Parameters
@@ -151,12 +150,10 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
         The pack's charge-cycle count at this flight, from ``--packs``.
     payload_kg : float
         Payload carried. [kg]
-    skip : set of str
-        Content hashes already in the table: such a log returns ``None`` unread.
 
     Returns
     -------
-    dict or None
+    dict
         ``status`` is ``ok`` or ``failed`` (with ``error``, one line).
     """
     try:
@@ -165,8 +162,6 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
         row = _empty_row(path, "")
         row.update(status="failed", error=f"{path}: cannot read ({exc.strerror or exc})")
         return row
-    if sha in skip:
-        return None
     row = _empty_row(path, sha)
     try:
         with warnings.catch_warnings(record=True) as caught:
