@@ -27,9 +27,11 @@ from planner.parameters import load_aircraft_and_battery, load_battery
 
 REPO = Path(__file__).resolve().parents[1]
 AIRCRAFT = REPO / "aircraft/solo_survey.yaml"
-#: pack → (fade per cycle, first cycle, cycles given in the --packs CSV)
-PACKS = {"A": (0.0, 0, False), "B": (0.002, 0, False), "C": (0.003, 5, True),
+#: pack → (fade per cycle, first cycle, cycles given in the --packs CSV); pack 4242 is a
+#: smart battery: its serial (and, in a ULog, its cycle count) is in the log, not in the CSV
+PACKS = {"4242": (0.0, 0, False), "B": (0.002, 0, False), "C": (0.003, 5, True),
          "D": (0.008, 20, True)}
+SERIAL = "4242"
 FLIGHTS_PER_PACK = 12
 SCATTER = 0.005
 FORMATS = (".bin", ".tlog", ".ulg")
@@ -77,9 +79,15 @@ def fleet_dir(tmp_path_factory):
             opts = {"capacity_mah": pack.capacity_mah}
             if ext == ".ulg":
                 opts["cells"] = pack.cells_series
+            if name == SERIAL:
+                if ext == ".ulg":
+                    opts.update(battery_serial=int(SERIAL), battery_cycle=cycle)
+                else:
+                    opts["params"] = {"BATT_SERIAL_NUM": float(SERIAL)}
             write_log(rec, file, **opts)
-            rows.append({"log": file.name, "pack": name,
-                         "cycle": str(cycle) if cycles_given else ""})
+            if name != SERIAL:
+                rows.append({"log": file.name, "pack": name,
+                             "cycle": str(cycle) if cycles_given else ""})
             k += 1
     pd.DataFrame(rows).to_csv(root / "packs.csv", index=False)
     return root
@@ -138,7 +146,7 @@ def test_fitted_fade_within_two_standard_errors_of_the_injected(first):
     # pack D is at 1/(1 + 0.008·31) = 80.1 %: it reaches 80 % within 50 flights, the
     # slowly ageing ones do not
     assert health["D"].retires_within(50)
-    assert not any(health[p].retires_within(50) for p in "ABC")
+    assert not any(health[p].retires_within(50) for p in (SERIAL, "B", "C"))
     assert health["D"].soh == pytest.approx(1 / (1 + 0.008 * 31), abs=3 * health["D"].soh_se)
 
 
@@ -171,8 +179,15 @@ def test_parquet_schema_and_rows(first):
     assert set(ok["format"]) == {"dataflash", "tlog", "ulog"}
     assert (ok["aircraft"] == load_aircraft_and_battery(AIRCRAFT)[0].name).all()
     # the measured charge and the prediction agree to a few per cent on the new pack
-    new = ok[ok["log"].str.contains("/A_")]
+    new = ok[ok["log"].str.contains(f"/{SERIAL}_")]
     assert new["charge_error_pct"].abs().max() < 10
+    assert (new["pack_id"] == SERIAL).all()
+    assert (new["pack_id_source"] == "log battery serial").all()
+    assert (ok.loc[ok["pack_id"] != SERIAL, "pack_id_source"] == "--packs").all()
+    # a smart battery's ULog carries its cycle count
+    ulg = new[new["format"] == "ulog"]
+    assert len(ulg) and (ulg["cycle"] == ulg["log"].str.extract(r"_(\d+)\.ulg")[0]
+                         .astype(float)).all()
     # the logged charge is the simulated charge: energy / charge is the pack's voltage
     v = 1000 * ok["energy_wh"] / ok["charge_mah"]
     assert v.between(12.0, 17.0).all()
@@ -246,7 +261,7 @@ def test_cli_on_an_existing_scheduler_and_all_failed_exits_2(damaged, client, tm
 
 def test_cli_bad_packs_csv_names_the_row(fleet_dir, tmp_path, capsys):
     bad = tmp_path / "packs.csv"
-    bad.write_text("log,pack,cycle\nA_000.bin,A,3\nA_001.bin,A,three\n")
+    bad.write_text("log,pack,cycle\nB_000.bin,B,3\nB_001.tlog,B,three\n")
     code = main(["fleet", str(fleet_dir / "logs"), "--aircraft", str(AIRCRAFT), "--out",
                  str(tmp_path / "o"), "--packs", str(bad), "--workers", "1"])
     err = capsys.readouterr().err
@@ -294,3 +309,15 @@ def test_collect_logs_skips_other_files(fleet_dir, tmp_path):
     (d / "x.BIN").unlink()
     with pytest.raises(InputError, match="no log files"):
         collect_logs([d])
+
+
+def test_serial_numbers_unset_on_real_logs_without_a_smart_battery(shared_data):
+    """PX4 writes battery_status.serial_number 0 without a smart battery: no pack identity
+    from such a log (it would merge every pack of the fleet into one)."""
+    from planner.logs import read_log
+    from planner.logs._common import serial_or_none
+
+    _, meta = read_log(shared_data / "logs/px4_quad_fmuv6c_indoor_quadrotor_local.ulg")
+    assert meta["battery_serial"] is None
+    assert serial_or_none(np.array([0, 0, 1234, 1234, 0])) == "1234"
+    assert serial_or_none(-1.0) is None and serial_or_none(None) is None

@@ -191,6 +191,8 @@ def _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg)
     serial = meta.get("battery_serial")
     if serial not in (None, "", 0):
         pack_id, pack_id_source = str(serial), "log battery serial"
+        if cycle is None and meta.get("battery_cycle_count") is not None:
+            cycle = float(meta["battery_cycle_count"])
     power = df["power_w"].to_numpy(float)
     consumed = df["consumed_mah"].to_numpy(float)
     ok_c = np.isfinite(consumed)

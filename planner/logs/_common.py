@@ -142,7 +142,7 @@ class Meta:
         self.values.update({
             "source": self.source, "format": self.format, "vehicle_type": None,
             "vehicle": None, "firmware": None, "battery_capacity_mah": None,
-            "battery_cells": None, "rates_hz": {}, "channels": {}, "warnings": [],
+            "battery_cells": None, "battery_serial": None, "rates_hz": {}, "channels": {}, "warnings": [],
         })
 
     def warn(self, message: str, stacklevel: int | None = None):
@@ -167,6 +167,18 @@ def capacity_or_none(value) -> float | None:
     except (TypeError, ValueError):
         return None
     return v if math.isfinite(v) and v > 0 else None
+
+
+def serial_or_none(value) -> str | None:
+    """A battery serial number (PX4 ``battery_status.serial_number``, ArduPilot
+    ``BATT_SERIAL_NUM``): the most frequent positive whole value of a number or an array,
+    as text; 0, −1 (unset), missing or non-finite means none."""
+    v = np.atleast_1d(np.asarray(value if value is not None else [], dtype=float)).ravel()
+    v = v[np.isfinite(v) & (v > 0)]
+    if v.size == 0:
+        return None
+    vals, counts = np.unique(np.round(v), return_counts=True)
+    return str(int(vals[np.argmax(counts)]))
 
 
 def cells_or_none(value) -> int | None:

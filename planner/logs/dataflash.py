@@ -59,6 +59,7 @@ from planner.logs._common import (
     capacity_or_none,
     cells_or_none,
     resolve_channels,
+    serial_or_none,
 )
 
 __all__ = ["FIELD_MAP", "DataFlashLog", "MessageFormat", "read_dataflash"]
@@ -750,6 +751,7 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
             meta["frame"] = frame.split(":", 1)[1].strip()
         meta["vehicle"] = " ".join(x for x in (product, meta.values.get("frame")) if x) or None
         meta["battery_capacity_mah"] = capacity_or_none(params.get("BATT_CAPACITY"))
+        meta["battery_serial"] = serial_or_none(params.get("BATT_SERIAL_NUM"))
         # ArduPilot logs no cell count (only voltage thresholds)
     meta["vehicle_type"] = vclass
 

@@ -48,6 +48,7 @@ from planner.logs._common import (
     capacity_or_none,
     cells_or_none,
     resolve_channels,
+    serial_or_none,
 )
 from planner.logs.dataflash import MAV_TYPE_CLASS, mav_type_name
 
@@ -324,6 +325,7 @@ def read_tlog(path: str | os.PathLike, *, require_battery: bool = True
     meta["battery_capacity_mah"] = capacity_or_none(
         params.get("BATT_CAPACITY", params.get("BAT1_CAPACITY", params.get("BAT_CAPACITY"))))
     meta["battery_cells"] = cells_or_none(params.get("BAT1_N_CELLS", params.get("BAT_N_CELLS")))
+    meta["battery_serial"] = serial_or_none(params.get("BATT_SERIAL_NUM"))
     meta["message_counts"] = {k: len(v) for k, v in rows.items()}
     meta["system_id"] = vehicle_sys
 
