@@ -192,6 +192,13 @@ def test_parquet_schema_and_rows(first):
     v = 1000 * ok["energy_wh"] / ok["charge_mah"]
     assert v.between(12.0, 17.0).all()
     assert ok["resistance_steps"].ge(0).all()
+    # start times: the tlog's receive time and the DataFlash GPS time of the writers' start
+    from testkit.writers import START_TIME_UNIX
+
+    start = pd.Timestamp(START_TIME_UNIX, unit="s", tz="UTC")
+    clocked = ok[ok["format"] != "ulog"]
+    assert (clocked["start_time_utc"] - start).abs().max() < pd.Timedelta(seconds=1)
+    assert ok.loc[ok["format"] == "ulog", "start_time_utc"].isna().all()
 
 
 def test_pack_files_are_read_by_check_and_carry_the_fade(first):
@@ -309,6 +316,17 @@ def test_collect_logs_skips_other_files(fleet_dir, tmp_path):
     (d / "x.BIN").unlink()
     with pytest.raises(InputError, match="no log files"):
         collect_logs([d])
+
+
+def test_start_time_of_a_real_dataflash_log_from_its_gps_week(shared_data):
+    """ardupilot_copter_ac313_pixhawk_2014-10-18_20-04.bin: the file is named by the local
+    time of the flight in Texas (CDT, UTC−5): 2014-10-18 20:04 → 2014-10-19 01:04 UTC."""
+    from planner.logs import read_log
+
+    _, meta = read_log(shared_data / "logs/ardupilot_copter_ac313_pixhawk_2014-10-18_20-04.bin")
+    start = pd.Timestamp(meta["start_time_unix"], unit="s", tz="UTC")
+    assert pd.Timestamp("2014-10-19 01:04", tz="UTC") <= start < pd.Timestamp(
+        "2014-10-19 01:06", tz="UTC")
 
 
 def test_serial_numbers_unset_on_real_logs_without_a_smart_battery(shared_data):
