@@ -13,9 +13,11 @@ copied into a temporary folder under different names until there are ``--logs`` 
   The cluster's start is timed apart (it is paid once per command); the logs' time
   includes each worker's first imports.
 
-Figures: wall time, logs per second, logs per second per worker, the speed-up of two
-workers over one, and each worker's peak resident memory (``ru_maxrss``). The machine's
-cores are shared with other work, so the 2-worker scaling is a lower bound.
+Figures: wall time, logs per second, CPU time per log (the workers' own
+``time.process_time``: what a log costs whatever else the machine runs), logs per second
+per worker, the speed-up of two workers over one, and each worker's peak resident memory
+(``ru_maxrss``). On a machine whose cores are shared with other work the wall-clock
+scaling is a lower bound; the CPU time per log is the figure to size a cluster with.
 
 Run: ``python benchmarks/bench_fleet.py [--logs N] [--repeat R]``
 """
@@ -61,18 +63,19 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def serial(logs, aircraft, pack) -> float:
-    t = time.perf_counter()
+def serial(logs, aircraft, pack) -> tuple[float, float]:
+    """(wall time, CPU time) of the plain loop. [s]"""
+    t, cpu = time.perf_counter(), time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         rows = [summarise_log(str(p), aircraft=aircraft, pack=pack) for p in logs]
-    dt = time.perf_counter() - t
+    dt, dcpu = time.perf_counter() - t, time.process_time() - cpu
     assert len(rows) == len(logs)
-    return dt
+    return dt, dcpu
 
 
 def on_dask(logs, aircraft, pack, workers: int, batch: int | None = None
-            ) -> tuple[float, float, list[float], int]:
+            ) -> tuple[float, float, list[float], int, float]:
     from dask.distributed import Client, LocalCluster
 
     t0 = time.perf_counter()
@@ -84,16 +87,18 @@ def on_dask(logs, aircraft, pack, workers: int, batch: int | None = None
                   client=client, batch=1)
     start = time.perf_counter() - t0
     try:
+        cpu0 = sum(client.run(time.process_time).values())
         t = time.perf_counter()
         rows, _ = summarise_all(logs, aircraft=aircraft, pack=pack, pack_map=None, skip=set(),
                                 client=client, batch=batch)
         dt = time.perf_counter() - t
+        cpu = sum(client.run(time.process_time).values()) - cpu0
         rss = sorted(client.run(peak_rss_mb).values())
         failed = sum(r["status"] != "ok" for r in rows)
     finally:
         client.close()
         cluster.close()
-    return start, dt, rss, failed
+    return start, dt, rss, failed, cpu
 
 
 def main() -> int:
@@ -108,20 +113,20 @@ def main() -> int:
         size = sum(p.stat().st_size for p in logs) / 2**20
         print(f"fleet: {len(logs)} logs, {size:.1f} MB, machine: {os.cpu_count()} cores")
         serial(logs[:5], aircraft, pack)                  # imports and compiled kernels
-        t_serial = min(serial(logs, aircraft, pack) for _ in range(args.repeat))
-        print(f"serial loop                          : {t_serial:6.2f} s  {len(logs) / t_serial:6.1f} logs/s  "
-              f"(peak RSS {peak_rss_mb():.0f} MB)")
+        t_serial, cpu_serial = min(serial(logs, aircraft, pack) for _ in range(args.repeat))
+        print(f"serial loop                      : {t_serial:6.2f} s  "
+              f"{len(logs) / t_serial:6.1f} logs/s  CPU {1e3 * cpu_serial / len(logs):5.1f} ms "
+              f"per log  (peak RSS {peak_rss_mb():.0f} MB)")
         best = {}
         for workers, batch in ((1, None), (2, None), (2, 1)):
             runs = [on_dask(logs, aircraft, pack, workers, batch) for _ in range(args.repeat)]
-            start, dt, rss, failed = min(runs, key=lambda r: r[1])
+            start, dt, rss, failed, cpu = min(runs, key=lambda r: r[1])
             best[workers, batch] = dt
             what = (f"{batch_size(len(logs), workers)} logs per task" if batch is None
                     else "1 log per task")
             print(f"Dask {workers} worker{'s' if workers > 1 else ' '}, {what:<17}: "
-                  f"{dt:6.2f} s  "
-                  f"{len(logs) / dt:6.1f} logs/s  {len(logs) / dt / workers:6.1f} logs/s per "
-                  f"worker  (cluster start and warm-up {start:.1f} s; peak RSS per worker "
+                  f"{dt:6.2f} s  {len(logs) / dt:6.1f} logs/s  CPU {1e3 * cpu / len(logs):5.1f} "
+                  f"ms per log  {len(logs) / dt / workers:6.1f} logs/s per worker  (cluster start and warm-up {start:.1f} s; peak RSS per worker "
                   f"{', '.join(f'{m:.0f}' for m in rss)} MB; {failed} failed logs)")
         b1, b2 = best[1, None], best[2, None]
         print(f"speed-up 2 workers / 1 worker: {b1 / b2:.2f}x; 2 workers / serial loop: "

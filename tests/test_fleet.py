@@ -6,7 +6,8 @@ four packs that age at known rates. A pack ageing at ``φ`` per cycle draws
 ``(1 + φ n)`` times the new pack's charge for the same energy at cycle ``n``: the
 simulated current is multiplied by that factor and the voltage divided by it (the power,
 and so the flight, unchanged), with a flight-to-flight scatter of 0.5 % (temperature,
-charge at take-off).
+charge at take-off). (The step resistance of such a log reads R/s², an artefact of the
+injection: the resistance is checked on its own, not on this fleet.)
 """
 
 from __future__ import annotations

@@ -158,6 +158,8 @@ def pack_health(table: pd.DataFrame, *, retire: float = RETIRE_DEFAULT,
             r_se = float(math.sqrt(var)) if np.isfinite(var) and var >= 0 else math.nan
         elif rk.any():
             r_now = float(np.median(res[rk]))
+            if rk.sum() > 1:
+                r_se = 1.2533 * float(np.std(res[rk], ddof=1)) / math.sqrt(rk.sum())
         out.append(PackHealth(
             pack_id=str(pack_id), flights=int(len(flights)), last_cycle=last,
             scale_new=float(a), scale_new_se=float(a_se), fade_per_cycle=float(phi),
