@@ -277,6 +277,29 @@ def test_cli_bad_packs_csv_names_the_row(fleet_dir, tmp_path, capsys):
     assert "packs.csv: row 3: cycle must be a whole number" in err
 
 
+def test_pack_map_reads_excel_csv_and_pack_file_names_stay_apart(tmp_path):
+    from planner.fleet import _pack_file_name, read_pack_map
+
+    csv = tmp_path / "packs.csv"
+    csv.write_bytes("\ufefflog,pack,cycle\r\nx.bin,A/1,4\r\ny.ulg,A_1,\r\n".encode())
+    files.reset()
+    assert read_pack_map(csv) == {"x.bin": ("A/1", 4.0), "y.ulg": ("A_1", None)}
+    assert _pack_file_name("A/1") == _pack_file_name("A_1") == "A_1.yaml"
+
+
+def test_two_packs_whose_names_clash_get_two_files(tmp_path):
+    from planner.fleet import write_pack_files
+    from planner.fleet.health import PackHealth
+
+    nan = float("nan")
+    health = [PackHealth(pid, 10, 9.0, 1.02, 0.01, 0.004 * k, 0.001, 0.97, 0.01, 60.0, 5.0,
+                         51.0, nan, nan, nan, nan, nan) for k, pid in enumerate(("A/1", "A_1"))]
+    files.reset()
+    written, _ = write_pack_files(health, load_aircraft_and_battery(AIRCRAFT)[1], tmp_path)
+    assert sorted(p.name for p in written.values()) == ["A_1-2.yaml", "A_1.yaml"]
+    assert load_battery(written["A_1"]).model.fade_per_cycle == pytest.approx(0.004)
+
+
 def test_step_resistance_recovers_a_known_resistance():
     from planner.fleet.summary import step_resistance
 

@@ -121,7 +121,7 @@ def read_pack_map(path: str | os.PathLike) -> dict[str, tuple[str, float | None]
     Columns ``log`` and ``pack`` (required) and ``cycle`` (optional, a whole number
     ≥ 0: the pack's charge-cycle count at that flight).
     """
-    text = files.read_text(path, "table", "pack map CSV")
+    text = files.read_text(path, "table", "pack map CSV").removeprefix("\ufeff")  # Excel's BOM
     reader = csv.DictReader(io.StringIO(text))
     cols = [c.strip() for c in (reader.fieldnames or [])]
     if not {"log", "pack"} <= set(cols):
@@ -336,7 +336,12 @@ def write_pack_files(health: list[PackHealth], pack: BatteryPack, folder: Path
                              f"{h.fade_per_cycle:.3g} ± {h.fade_per_cycle_se:.2g} per cycle, "
                              f"state of health {100 * h.soh:.1f} % at cycle {h.last_cycle:.0f}"
                              "; model.cycle is the next flight's")
-        path = folder / _pack_file_name(h.pack_id)
+        name = _pack_file_name(h.pack_id)
+        taken = {p.name for p in written.values()}
+        stem, k = name[:-5], 2
+        while name in taken:                     # "A/1" and "A_1" are two packs
+            name, k = f"{stem}-{k}.yaml", k + 1
+        path = folder / name
         files.write_text(path, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
                          "--out")
         written[h.pack_id] = path
