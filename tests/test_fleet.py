@@ -220,6 +220,11 @@ def test_report_has_bias_p95_drift_and_figures(first):
     text = (out / "report.md").read_text()
     assert "bias" in text and "P95" in text and "drift per flight" in text
     assert "| D |" in text and "RETIRE" in text
+    # the worst flights are diagnosed, each on its own
+    assert len(res.diagnoses) == 5
+    assert all(Path(log).name.startswith("D_") for log in res.diagnoses)
+    assert all(t and not t.startswith("not diagnosed") for t in res.diagnoses.values())
+    assert "`diagnose` (DESIGN §6)" in text
     for png in ("accuracy.png", "drift.png", "packs.png"):
         assert (out / png).stat().st_size > 5000
 

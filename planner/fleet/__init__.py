@@ -13,7 +13,8 @@
 3. each identified pack's health (:mod:`planner.fleet.health`), and a pack file per pack in
    ``DIR/packs/`` carrying its present state (``model.fade_per_cycle`` and ``cycle``,
    δ calibrated on the pack's flights) that ``check --battery`` and ``select`` read;
-4. ``DIR/report.md`` and its figures (:mod:`planner.fleet.report`).
+4. ``DIR/report.md`` and its figures (:mod:`planner.fleet.report`), with ``diagnose``
+   (DESIGN §6) run on the :data:`DIAGNOSE_WORST` worst flights.
 
 Pack identity: the log's battery serial where the reader gives one (``battery_serial``
 in the metadata), else the ``--packs`` CSV (columns ``log``, ``pack`` and optionally
@@ -41,7 +42,13 @@ import pandas as pd
 from planner import files
 from planner.errors import InputError
 from planner.fleet.health import RETIRE_DEFAULT, PackHealth, pack_health
-from planner.fleet.summary import COLUMNS, content_hash, summarise_log, to_frame
+from planner.fleet.summary import (
+    COLUMNS,
+    content_hash,
+    diagnose_log,
+    summarise_log,
+    to_frame,
+)
 from planner.parameters import Aircraft, BatteryPack
 
 __all__ = ["BATCH_MAX", "LOG_SUFFIXES", "FleetResult", "TABLE_NAME", "batch_size",
@@ -51,6 +58,8 @@ __all__ = ["BATCH_MAX", "LOG_SUFFIXES", "FleetResult", "TABLE_NAME", "batch_size
 LOG_SUFFIXES = (".bin", ".px4log", ".tlog", ".ulg")
 #: The flight table in the output folder.
 TABLE_NAME = "flights.parquet"
+#: Worst flights (largest charge error) diagnosed for the report.
+DIAGNOSE_WORST = 5
 #: Most logs in one Dask task (:func:`batch_size`).
 BATCH_MAX = 16
 #: Flights ahead in which a pack's retirement is flagged (``--within``). [flights]
@@ -76,6 +85,8 @@ class FleetResult:
     elapsed_s : float
         Wall time of the Dask part. [s]
     notes : list of str
+    diagnoses : dict
+        Log → one line of ``diagnose`` for the worst flights.
     """
 
     table: pd.DataFrame
@@ -87,6 +98,7 @@ class FleetResult:
     outputs: list[Path] = field(default_factory=list)
     elapsed_s: float = 0.0
     notes: list[str] = field(default_factory=list)
+    diagnoses: dict[str, str] = field(default_factory=dict)
 
 
 def collect_logs(paths) -> list[Path]:
@@ -301,6 +313,28 @@ def summarise_all(logs: list[Path], *, aircraft: Aircraft | None, pack: BatteryP
     return rows, skipped
 
 
+def worst_flights(table: pd.DataFrame, count: int) -> pd.DataFrame:
+    """The ``count`` flights with the largest absolute charge error."""
+    ok = table[table["status"] == "ok"]
+    order = ok["charge_error_pct"].abs().sort_values(ascending=False, na_position="last")
+    return ok.loc[order.index[:count]]
+
+
+def diagnose_worst(table: pd.DataFrame, client, *, aircraft: Aircraft | None,
+                   pack: BatteryPack | None, count: int | None = None) -> dict[str, str]:
+    """:func:`planner.fleet.summary.diagnose_log` on the worst flights, one task each: log →
+    one line."""
+    worst = worst_flights(table, DIAGNOSE_WORST if count is None else count)
+    logs = [str(p) for p in worst["log"]]
+    if not logs:
+        return {}
+    run = uuid.uuid4().hex[:12]
+    futures = client.map(diagnose_log, logs, key=[f"fleet-diagnose-{run}-{k}"
+                                                  for k in range(len(logs))],
+                         pure=False, aircraft=aircraft, pack=pack)
+    return dict(zip(logs, client.gather(futures)))
+
+
 def _pack_file_name(pack_id: str) -> str:
     safe = re.sub(r"[^A-Za-z0-9._-]+", "_", pack_id).strip("._") or "pack"
     return f"{safe}.yaml"
@@ -378,24 +412,25 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
         rows, skipped = summarise_all(
             logs, aircraft=aircraft, pack=pack, pack_map=pack_map, skip=skip, client=client,
             progress=_Progress(len(logs)) if progress else None)
+        elapsed = time.perf_counter() - t0
+        failed = [(r["log"], r["error"]) for r in rows if r["status"] != "ok"]
+        if rows and len(failed) == len(rows) and not skipped:
+            listed = "; ".join(f"{err}" for _, err in failed[:5])
+            raise InputError(f"all {len(failed)} logs failed: {listed}"
+                             + (" …" if len(failed) > 5 else ""))
+        table = _merge(old, to_frame(rows))
+        diagnoses = diagnose_worst(table, client, aircraft=aircraft, pack=pack)
     finally:
         if own:
             client.close()
             if cluster is not None:
                 cluster.close()
-    elapsed = time.perf_counter() - t0
-    new = to_frame(rows)
-    failed = [(r["log"], r["error"]) for r in rows if r["status"] != "ok"]
-    if rows and len(failed) == len(rows) and not skipped:
-        listed = "; ".join(f"{err}" for _, err in failed[:5])
-        raise InputError(f"all {len(failed)} logs failed: {listed}"
-                         + (" …" if len(failed) > 5 else ""))
-    table = _merge(old, new)
     out.mkdir(exist_ok=True)
     with files.output_file(table_path, "--out") as tmp:
         table.to_parquet(tmp, index=False)
     result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
-                         health=[], outputs=[table_path], elapsed_s=elapsed)
+                         health=[], outputs=[table_path], elapsed_s=elapsed,
+                         diagnoses=diagnoses)
     nominal = pack.capacity_mah if pack is not None else None
     result.health = pack_health(table, retire=retire, nominal_mah=nominal)
     if result.health:

@@ -163,6 +163,7 @@ def render(result, *, retire: float, within: float) -> str:
     if len(ok):
         worst = ok.assign(_abs=ok["charge_error_pct"].abs()).sort_values(
             "_abs", ascending=False, na_position="last").head(WORST)
+        diag = getattr(result, "diagnoses", {}) or {}
         lines += ["## Worst flights (charge error)", "",
                   "| log | pack | duration s | charge mAh | predicted mAh | error % | energy "
                   "error % | warnings |", "|---|---|---:|---:|---:|---:|---:|---|"]
@@ -174,6 +175,10 @@ def render(result, *, retire: float, within: float) -> str:
                          f"{_fmt(r['energy_error_pct'], 1)} | "
                          f"{_cell(r['warnings'])} |")
         lines.append("")
+        if diag:
+            lines += ["`diagnose` (DESIGN §6) on each of the worst flights alone:", ""]
+            lines += [f"- {Path(log).name}: {_cell(text, 600)}" for log, text in diag.items()]
+            lines.append("")
     if result.health:
         lines += ["## Pack health", "",
                   f"State of health: the share of the new pack's energy its charge still "

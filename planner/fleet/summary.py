@@ -245,6 +245,34 @@ def _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg)
                                                   "the logged charge does not rise"]))
 
 
+def diagnose_log(path: str, *, aircraft: Aircraft | None = None,
+                 pack: BatteryPack | None = None) -> str:
+    """One line of :func:`planner.diagnose.diagnose` on one log (DESIGN §6): its findings'
+    headlines, or that the calibrated model explains the flight, with what stays unexplained.
+    Never raises: a log that cannot be diagnosed gives the reason."""
+    from planner.diagnose import diagnose
+    from planner.logs import read_log
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            df, _ = read_log(path)
+            df = record.complete_record(df.assign(experiment=Path(path).name))
+            res = diagnose(df, pack, aircraft)
+    except PlannerError as exc:
+        return f"not diagnosed: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+    except Exception as exc:  # noqa: BLE001 - the report goes on without it
+        return f"not diagnosed: internal error ({type(exc).__name__})"
+    if res.findings:
+        text = "; ".join(f["headline"] for f in res.findings)
+    elif res.levels:
+        text = "no significant effect beyond the recalibrated model"
+    else:
+        text = "no level could run: " + "; ".join(res.notes)
+    unexplained = res.unexplained()
+    return text + (f" (unexplained: {unexplained})" if unexplained else "")
+
+
 def to_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
     """Rows of :data:`COLUMNS` → the typed table."""
     df = pd.DataFrame(rows, columns=list(COLUMNS))
