@@ -111,9 +111,10 @@ def _run(paths, out, client, **kw):
 
     files.reset({"--out": str(out)})
     aircraft, pack = load_aircraft_and_battery(AIRCRAFT)
+    kw.setdefault("progress", False)
     return run_fleet(paths, out_dir=out, aircraft=aircraft, pack=pack,
                      pack_map=read_pack_map(kw.pop("packs")) if "packs" in kw else None,
-                     client=client, progress=False, **kw)
+                     client=client, **kw)
 
 
 @pytest.fixture(scope="module")
@@ -247,6 +248,34 @@ def test_rerun_skips_finished_logs_and_an_interrupted_run_completes_to_the_same_
     pd.testing.assert_frame_equal(canon(again.table), canon(full.table))
     third = _run([fleet_dir / "logs"], out, client, packs=fleet_dir / "packs.csv")
     assert third.processed == 0 and third.skipped == len(logs)
+
+
+def test_an_interrupted_run_keeps_what_it_finished_and_its_rerun_reads_only_the_rest(
+        first, fleet_dir, damaged, client, tmp_path):
+    _, full = first
+    out = tmp_path / "fleet"
+
+    class Interrupt:
+        """Ctrl-C once 20 logs are done."""
+
+        def update(self, done, failed, skipped):
+            if done >= 20:
+                raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        _run([fleet_dir / "logs", damaged], out, client, packs=fleet_dir / "packs.csv",
+             progress=Interrupt(), checkpoint_s=3600.0)
+    kept = pd.read_parquet(out / "flights.parquet")
+    finished = int((kept["status"] == "ok").sum())
+    assert 20 <= finished < len(PACKS) * FLIGHTS_PER_PACK
+    again = _run([fleet_dir / "logs", damaged], out, client, packs=fleet_dir / "packs.csv")
+    assert again.skipped == finished
+    assert again.processed == len(PACKS) * FLIGHTS_PER_PACK - finished + 2
+
+    def canon(t):
+        return t.sort_values(["status", "sha256", "log"]).reset_index(drop=True)
+
+    pd.testing.assert_frame_equal(canon(again.table), canon(full.table))
 
 
 def test_output_folder_may_not_hold_an_input(fleet_dir, capsys):

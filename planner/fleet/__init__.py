@@ -58,6 +58,8 @@ __all__ = ["BATCH_MAX", "LOG_SUFFIXES", "FleetResult", "TABLE_NAME", "batch_size
 LOG_SUFFIXES = (".bin", ".px4log", ".tlog", ".ulg")
 #: The flight table in the output folder.
 TABLE_NAME = "flights.parquet"
+#: Interval at which a running fleet writes its table (an interrupted run keeps it). [s]
+CHECKPOINT_S = 60.0
 #: Worst flights (largest charge error) diagnosed for the report.
 DIAGNOSE_WORST = 5
 #: Most logs in one Dask task (:func:`batch_size`).
@@ -193,6 +195,12 @@ def _read_table(path: Path) -> pd.DataFrame | None:
     return to_frame(old[list(COLUMNS)].to_dict("records"))
 
 
+def _write_table(path: Path, table: pd.DataFrame) -> None:
+    path.parent.mkdir(exist_ok=True)
+    with files.output_file(path, "--out") as tmp:
+        table.to_parquet(tmp, index=False)
+
+
 def _merge(old: pd.DataFrame | None, new: pd.DataFrame) -> pd.DataFrame:
     """Old and new rows: one row per flight (an ok row per content hash; a failed log's
     latest row per file)."""
@@ -267,9 +275,10 @@ def batch_size(logs: int, workers: int) -> int:
 
 def summarise_all(logs: list[Path], *, aircraft: Aircraft | None, pack: BatteryPack | None,
                   pack_map: dict | None, skip: set[str], client, progress=None,
-                  batch: int | None = None) -> tuple[list[dict], int]:
+                  batch: int | None = None, on_batch=None) -> tuple[list[dict], int]:
     """Every log through :func:`summarise_log` on the Dask ``client``, ``batch`` logs per
-    task (default :func:`batch_size`): (rows, skipped)."""
+    task (default :func:`batch_size`): (rows, skipped). ``on_batch(rows)`` is called with
+    the rows so far after every finished task."""
     from dask.distributed import as_completed
 
     pack_map = pack_map or {}
@@ -305,6 +314,8 @@ def summarise_all(logs: list[Path], *, aircraft: Aircraft | None, pack: BatteryP
             done += 1
             rows.append(row)
             failed += row["status"] != "ok"
+        if on_batch is not None:
+            on_batch(rows)
         if progress is not None:
             progress.update(done, failed, skipped)
         fut.release()
@@ -386,9 +397,12 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
               pack: BatteryPack | None = None, pack_map: dict | None = None,
               workers: int | None = None, scheduler: str | None = None, client=None,
               retire: float = RETIRE_DEFAULT, within: float = WITHIN_DEFAULT,
-              progress: bool = True) -> FleetResult:
+              progress=True, checkpoint_s: float | None = None) -> FleetResult:
     """Run a fleet (module notes). ``client``: an existing Dask client (then neither
-    ``workers`` nor ``scheduler`` is used and the client is left open).
+    ``workers`` nor ``scheduler`` is used and the client is left open). ``progress``: a
+    progress line on standard error (True), none (False) or an object with
+    ``update(done, failed, skipped)``. The table is written every ``checkpoint_s``
+    seconds (default :data:`CHECKPOINT_S`) and when the run is interrupted.
 
     Raises
     ------
@@ -396,6 +410,7 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
         No logs, ``out_dir`` among the inputs or unusable, or every log failed (naming
         each with its reason).
     """
+    checkpoint_s = CHECKPOINT_S if checkpoint_s is None else checkpoint_s
     logs = collect_logs(paths)
     if not logs:
         raise InputError("no log files given")
@@ -408,10 +423,28 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
     if own:
         client, cluster = _client(workers, scheduler)
     t0 = time.perf_counter()
+    so_far: list[dict] = []
+    last = [t0]
+
+    def save(rows, every: float = checkpoint_s) -> None:
+        """Write the table with the rows so far (every ``every`` seconds): an interrupted
+        run keeps what it finished, and its rerun reads only the rest."""
+        so_far[:] = rows
+        now = time.perf_counter()
+        if rows and any(r["status"] == "ok" for r in rows) and now - last[0] >= every:
+            _write_table(table_path, _merge(old, to_frame(rows)))
+            last[0] = now
+
+    if progress is True:
+        progress = _Progress(len(logs))
     try:
-        rows, skipped = summarise_all(
-            logs, aircraft=aircraft, pack=pack, pack_map=pack_map, skip=skip, client=client,
-            progress=_Progress(len(logs)) if progress else None)
+        try:
+            rows, skipped = summarise_all(
+                logs, aircraft=aircraft, pack=pack, pack_map=pack_map, skip=skip,
+                client=client, progress=progress or None, on_batch=save)
+        except KeyboardInterrupt:
+            save(so_far, every=0.0)
+            raise
         elapsed = time.perf_counter() - t0
         failed = [(r["log"], r["error"]) for r in rows if r["status"] != "ok"]
         if rows and len(failed) == len(rows) and not skipped:
@@ -425,9 +458,7 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
             client.close()
             if cluster is not None:
                 cluster.close()
-    out.mkdir(exist_ok=True)
-    with files.output_file(table_path, "--out") as tmp:
-        table.to_parquet(tmp, index=False)
+    _write_table(table_path, table)
     result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
                          health=[], outputs=[table_path], elapsed_s=elapsed,
                          diagnoses=diagnoses)
