@@ -32,6 +32,7 @@ COMMAND_MODULES = (
     "planner.commands.hybrid",
     "planner.commands.aircraft",
     "planner.commands.diagnose",
+    "planner.commands.fleet",
 )
 
 EXIT_OK, EXIT_NOGO, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3

@@ -48,6 +48,7 @@ import yaml
 from planner.errors import InputError
 
 __all__ = ["SIZE_LIMITS", "check_output", "check_outputs", "input_path", "inputs",
+           "output_file", "own_output_path",
            "load_yaml", "read_bytes", "read_text", "reset", "save_figure", "write_bytes",
            "write_text"]
 
@@ -331,3 +332,44 @@ def save_figure(fig, path: str | os.PathLike, option: str = "--plot", **kwargs) 
     fmt = p.suffix.lstrip(".").lower() or "png"
     with _atomic(p, "wb") as fh:
         fig.savefig(fh, format=fmt, **kwargs)
+
+
+@contextlib.contextmanager
+def output_file(path: str | os.PathLike, option: str = "output") -> Iterator[Path]:
+    """A temporary path in the target folder for a writer that wants a file name (pyarrow,
+    pandas): renamed onto ``path`` when the block ends without an error, removed otherwise;
+    :func:`check_output` first, as for every output."""
+    _first_write()
+    p = Path(path)
+    check_output(p, option)
+    folder = p.resolve().parent
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{p}: cannot write ({exc.strerror or exc})") from None
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, p)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise InputError(f"{p}: cannot write ({exc.strerror or exc})") from None
+        raise
+
+
+def own_output_path(path: str | os.PathLike, kind: str, what: str = "file") -> Path:
+    """A file the command itself maintains and replaces (the table ``fleet`` updates on a
+    rerun): checked like an input (a regular file within the bound of ``kind``) but not
+    recorded as one, so that its updated version may be written in its place."""
+    p = Path(path)
+    try:
+        st = os.stat(p)
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{p}: not a regular file, expected a {what}")
+    if st.st_size > _kind_limit(kind):
+        raise InputError(f"{p}: {st.st_size / 2**20:.0f} MB is larger than a {what} can be")
+    return p

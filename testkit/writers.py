@@ -426,7 +426,8 @@ def write_tlog(record: pd.DataFrame, path: str | os.PathLike, *,
                vehicle_type: str = "multirotor", capacity_mah: float | None = None,
                home: tuple[float, float, float] | None = None,
                slow_rate_hz: float = 1.0, boot_time_s: float = BOOT_TIME_S,
-               start_time_unix: float = START_TIME_UNIX, system_id: int = 1) -> Path:
+               start_time_unix: float = START_TIME_UNIX, system_id: int = 1,
+               params: dict[str, float] | None = None) -> Path:
     """Write one flight as a MAVLink 2 telemetry log (``.tlog``) of an ArduPilot vehicle.
 
     Parameters
@@ -449,6 +450,8 @@ def write_tlog(record: pd.DataFrame, path: str | os.PathLike, *,
         Receive time of the first sample. [s since 1970]
     system_id : int
         MAVLink system id of the vehicle.
+    params : dict, optional
+        Further parameters sent as ``PARAM_VALUE`` (e.g. ``BATT_SERIAL_NUM``).
 
     Notes
     -----
@@ -492,6 +495,9 @@ def write_tlog(record: pd.DataFrame, path: str | os.PathLike, *,
         put(0.0, link.statustext_encode(mavlink.MAV_SEVERITY_INFO, text.encode()[:50]), -2000)
     if capacity_mah:
         put(0.0, link.param_value_encode(b"BATT_CAPACITY", float(capacity_mah),
+                                         mavlink.MAV_PARAM_TYPE_REAL32, 1, 0), -1000)
+    for name, value in (params or {}).items():
+        put(0.0, link.param_value_encode(name.encode(), float(value),
                                          mavlink.MAV_PARAM_TYPE_REAL32, 1, 0), -1000)
     for k in range(f.n):
         t = f.t[k]
@@ -631,7 +637,8 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
                vehicle_type: str = "multirotor", capacity_mah: float | None = None,
                cells: int | None = None, home: tuple[float, float, float] | None = None,
                airspeed_sensor: bool | None = None, slow_rate_hz: float = 1.0,
-               boot_time_s: float = BOOT_TIME_S) -> Path:
+               boot_time_s: float = BOOT_TIME_S, battery_serial: int | None = None,
+               battery_cycle: int | None = None) -> Path:
     """Write one flight as a PX4 ULog (``.ulg``, file format version 1).
 
     Parameters
@@ -655,6 +662,9 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
         the sync messages. [Hz]
     boot_time_s : float
         Timestamp of the first sample. [s since boot]
+    battery_serial, battery_cycle : int, optional
+        A smart battery's ``serial_number`` and ``cycle_count`` fields of
+        ``battery_status`` (written only when given, as PX4 v1.14 names them).
 
     Notes
     -----
@@ -681,9 +691,14 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
         topics.append("airspeed_validated")
     if f.wind_n is not None:
         topics.append("wind")
+    layout = dict(ULOG_TOPICS)
+    smart = ()
+    if battery_serial is not None:
+        layout["battery_status"] += (("uint16_t", "serial_number"), ("uint16_t", "cycle_count"))
+        smart = (int(battery_serial), int(battery_cycle or 0))
     ul = _ULog(us0)
     for name in topics:
-        ul.fmt(name, ULOG_TOPICS[name])
+        ul.fmt(name, layout[name])
     ul.info("sys_name", "PX4")
     ul.info("ver_hw", "SIMULATED")
     ul.info("ver_sw", "simulated-uav-endurance-planner")
@@ -695,7 +710,7 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
     if cells:
         ul.param("BAT1_N_CELLS", int(cells))
     for name in topics:
-        ul.subscribe(name, ULOG_TOPICS[name])
+        ul.subscribe(name, layout[name])
     ul.log(ord("6"), us0, SIMULATED_TEXT)         # '6' = INFO, as PX4 writes levels
 
     nav = ([_px4_nav_state(m, where) for m in f.mode] if f.mode is not None else [0] * f.n)
@@ -712,7 +727,8 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
             ul.data("vehicle_status", tus, us0, nav[k], 2, px4_type, False)
         rem = remaining[k] / 100.0 if remaining is not None else -1.0
         ul.data("battery_status", tus, f.voltage[k], f.current[k], run_avg[k], f.consumed[k],
-                rem, 1.0, math.nan, f.temperature[k], cap, True, 0, int(cells or 0), 1, 0)
+                rem, 1.0, math.nan, f.temperature[k], cap, True, 0, int(cells or 0), 1, 0,
+                *smart)
         if f.has_position:
             a = math.radians(f.course[k])
             ul.data("vehicle_local_position", tus, f.north[k], f.east[k], -f.altitude[k],

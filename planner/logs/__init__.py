@@ -34,7 +34,12 @@ with a warning.
 Metadata keys (all readers): ``source``, ``format``, ``vehicle_type``
 (``multirotor``/``fixed_wing``/``vtol``/...), ``vehicle``, ``firmware``,
 ``battery_capacity_mah`` (None when the parameter is unset, ≤ 0),
-``battery_cells``, ``rates_hz`` (native rate of each column's source),
+``battery_cells``, ``battery_serial`` (text: a smart battery's ULog
+``battery_status.serial_number`` or ArduPilot's ``BATT_SERIAL_NUM``; None when 0 or
+unset) and, with a ULog serial, ``battery_cycle_count``, ``rates_hz`` (native rate
+of each column's source), ``time_base_start_s`` (the first record sample in the
+reader's own clock), ``start_time_unix`` (its UTC, seconds since 1970: a tlog's receive
+time, a DataFlash log's GPS week and milliseconds; None without a clock),
 ``channels`` (the message field behind each column), ``samples``,
 ``duration_s``, ``warnings`` (also issued as :class:`LogWarning`).
 """

@@ -142,7 +142,7 @@ class Meta:
         self.values.update({
             "source": self.source, "format": self.format, "vehicle_type": None,
             "vehicle": None, "firmware": None, "battery_capacity_mah": None,
-            "battery_cells": None, "rates_hz": {}, "channels": {}, "warnings": [],
+            "battery_cells": None, "battery_serial": None, "rates_hz": {}, "channels": {}, "warnings": [],
         })
 
     def warn(self, message: str, stacklevel: int | None = None):
@@ -167,6 +167,38 @@ def capacity_or_none(value) -> float | None:
     except (TypeError, ValueError):
         return None
     return v if math.isfinite(v) and v > 0 else None
+
+
+#: GPS time zero, 1980-01-06 00:00:00 UTC. [s since 1970]
+GPS_EPOCH_UNIX = 315_964_800
+#: GPS − UTC leap seconds (since 2017-01-01; older logs' start times are late by the
+#: difference, at most a few seconds). [s]
+GPS_LEAP_S = 18
+#: Receive or GPS times outside 2000 … 2100 are not a clock. [s since 1970]
+UNIX_TIME_RANGE = (946_684_800.0, 4_102_444_800.0)
+
+
+def start_time_unix(start_s: float, clock_s, unix_s) -> float | None:
+    """UTC of a log's first sample (``start_s`` in the reader's clock) from pairs of the
+    reader's clock and UTC (GPS time): the median offset between the two. [s since 1970]"""
+    c = np.asarray(clock_s, float)
+    u = np.asarray(unix_s, float)
+    ok = np.isfinite(c) & np.isfinite(u) & (u > UNIX_TIME_RANGE[0]) & (u < UNIX_TIME_RANGE[1])
+    if not ok.any() or not np.isfinite(start_s):
+        return None
+    return float(start_s + np.median(u[ok] - c[ok]))
+
+
+def serial_or_none(value) -> str | None:
+    """A battery serial number (PX4 ``battery_status.serial_number``, ArduPilot
+    ``BATT_SERIAL_NUM``): the most frequent positive whole value of a number or an array,
+    as text; 0, −1 (unset), missing or non-finite means none."""
+    v = np.atleast_1d(np.asarray(value if value is not None else [], dtype=float)).ravel()
+    v = v[np.isfinite(v) & (v > 0)]
+    if v.size == 0:
+        return None
+    vals, counts = np.unique(np.round(v), return_counts=True)
+    return str(int(vals[np.argmax(counts)]))
 
 
 def cells_or_none(value) -> int | None:
@@ -381,4 +413,5 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
     meta["samples"] = len(df)
     meta["duration_s"] = float(cols["time_s"][-1]) if len(df) else 0.0
     meta["time_base"] = base_ch.source.split(".")[0]
+    meta["time_base_start_s"] = float(t0_abs[0])
     return df

@@ -57,8 +57,12 @@ from planner.logs._common import (
     Meta,
     build_record,
     capacity_or_none,
+    GPS_EPOCH_UNIX,
+    GPS_LEAP_S,
     cells_or_none,
     resolve_channels,
+    serial_or_none,
+    start_time_unix,
 )
 
 __all__ = ["FIELD_MAP", "DataFlashLog", "MessageFormat", "read_dataflash"]
@@ -750,6 +754,7 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
             meta["frame"] = frame.split(":", 1)[1].strip()
         meta["vehicle"] = " ".join(x for x in (product, meta.values.get("frame")) if x) or None
         meta["battery_capacity_mah"] = capacity_or_none(params.get("BATT_CAPACITY"))
+        meta["battery_serial"] = serial_or_none(params.get("BATT_SERIAL_NUM"))
         # ArduPilot logs no cell count (only voltage thresholds)
     meta["vehicle_type"] = vclass
 
@@ -781,4 +786,17 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
                       f"{inst[0]} (the others: {inst[1:]})")
     df = build_record(channels, meta, experiment=path.stem, require_battery=require_battery)
     meta["skipped_bytes"] = log.skipped_bytes
+    if not px4:
+        # GPS week and milliseconds of the week: GWk/GMS, in old logs Week/TimeMS
+        gps = log.message("GPS", {"GWk", "GMS", "Week", "TimeMS", "Status"})
+        names = next((n for n in (("GWk", "GMS"), ("Week", "TimeMS"))
+                      if gps is not None and set(n) <= set(gps.data)), None)
+        if names is not None:
+            week = np.asarray(gps.data[names[0]], float)
+            fix = np.asarray(gps.data.get("Status", np.full(week.shape, 3)), float) >= 3
+            unix = np.where(fix & (week > 0), GPS_EPOCH_UNIX + week * 604_800.0
+                            + np.asarray(gps.data[names[1]], float) / 1000.0 - GPS_LEAP_S,
+                            np.nan)
+            meta["start_time_unix"] = start_time_unix(meta.values["time_base_start_s"],
+                                                      gps.t, unix)
     return df, meta.values

@@ -48,6 +48,8 @@ from planner.logs._common import (
     capacity_or_none,
     cells_or_none,
     resolve_channels,
+    serial_or_none,
+    start_time_unix,
 )
 from planner.logs.dataflash import MAV_TYPE_CLASS, mav_type_name
 
@@ -324,6 +326,7 @@ def read_tlog(path: str | os.PathLike, *, require_battery: bool = True
     meta["battery_capacity_mah"] = capacity_or_none(
         params.get("BATT_CAPACITY", params.get("BAT1_CAPACITY", params.get("BAT_CAPACITY"))))
     meta["battery_cells"] = cells_or_none(params.get("BAT1_N_CELLS", params.get("BAT_N_CELLS")))
+    meta["battery_serial"] = serial_or_none(params.get("BATT_SERIAL_NUM"))
     meta["message_counts"] = {k: len(v) for k, v in rows.items()}
     meta["system_id"] = vehicle_sys
 
@@ -346,6 +349,9 @@ def read_tlog(path: str | os.PathLike, *, require_battery: bool = True
     if "throttle" in channels:
         channels["throttle"].values = np.clip(channels["throttle"].values, 0.0, 1.0)
     df = build_record(channels, meta, experiment=path.stem, require_battery=require_battery)
+    # a tlog's clock is the ground station's receive time (UTC)
+    t0 = meta.values["time_base_start_s"]
+    meta["start_time_unix"] = start_time_unix(t0, [t0], [t0])
     return df, meta.values
 
 

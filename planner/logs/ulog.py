@@ -41,6 +41,7 @@ from planner.logs._common import (
     capacity_or_none,
     cells_or_none,
     resolve_channels,
+    serial_or_none,
 )
 from planner.logs._ulog_decode import ULogError, decode
 from planner.logs.dataflash import MAV_TYPE_CLASS, mav_type_name
@@ -220,6 +221,10 @@ def read_ulog(path: str | os.PathLike, *, require_battery: bool = True
             meta.warn(f"{path}: {len(batteries)} battery_status instances; kept instance "
                       f"{keep_battery.multi_id}, ignored "
                       f"{[d.multi_id for d in batteries if d is not keep_battery]}")
+        meta["battery_serial"] = serial_or_none(keep_battery.data.get("serial_number"))
+        cycles = keep_battery.data.get("cycle_count")
+        if meta["battery_serial"] is not None and cycles is not None and len(cycles):
+            meta["battery_cycle_count"] = int(np.max(cycles))     # a smart battery's count
 
     def get(topic: str) -> Message | None:
         lst = by_topic.get(topic)

@@ -1,0 +1,479 @@
+"""Fleet: many logs on Dask → a flight table, pack health and the planner's accuracy.
+
+:func:`run_fleet` is ``endurance fleet``:
+
+1. the logs (files, or folders searched for ``.bin``, ``.px4log``, ``.tlog``, ``.ulg``)
+   are summarised one per task on a Dask distributed cluster — a ``LocalCluster`` of
+   process workers (one thread each) by default, or the scheduler at ``scheduler`` —
+   by :func:`planner.fleet.summary.summarise_log`; a log whose content hash is already
+   in ``DIR/flights.parquet`` with ``status = ok`` is not read again; a log that fails
+   is a ``failed`` row with its reason;
+2. the table is written to ``DIR/flights.parquet`` (one row per flight,
+   :data:`planner.fleet.summary.COLUMNS`);
+3. each identified pack's health (:mod:`planner.fleet.health`), and a pack file per pack in
+   ``DIR/packs/`` carrying its present state (``model.fade_per_cycle`` and ``cycle``,
+   δ calibrated on the pack's flights) that ``check --battery`` and ``select`` read;
+4. ``DIR/report.md`` and its figures (:mod:`planner.fleet.report`), with ``diagnose``
+   (DESIGN §6) run on the :data:`DIAGNOSE_WORST` worst flights.
+
+Pack identity: the log's battery serial where the reader gives one (``battery_serial``
+in the metadata), else the ``--packs`` CSV (columns ``log``, ``pack`` and optionally
+``cycle``; ``log`` is the file name), else ``unknown``.
+
+Every input passes :func:`planner.files.input_path`; every output goes through
+:mod:`planner.files`, and ``DIR`` may not contain an input file.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import re
+import sys
+import time
+import uuid
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import pandas as pd
+
+from planner import files
+from planner.errors import InputError
+from planner.fleet.health import RETIRE_DEFAULT, PackHealth, pack_health
+from planner.fleet.summary import (
+    COLUMNS,
+    content_hash,
+    diagnose_log,
+    summarise_log,
+    to_frame,
+)
+from planner.parameters import Aircraft, BatteryPack
+
+__all__ = ["BATCH_MAX", "LOG_SUFFIXES", "FleetResult", "TABLE_NAME", "batch_size",
+           "collect_logs", "read_pack_map", "run_fleet", "summarise_all"]
+
+#: Files a folder is searched for.
+LOG_SUFFIXES = (".bin", ".px4log", ".tlog", ".ulg")
+#: The flight table in the output folder.
+TABLE_NAME = "flights.parquet"
+#: Interval at which a running fleet writes its table (an interrupted run keeps it). [s]
+CHECKPOINT_S = 60.0
+#: Worst flights (largest charge error) diagnosed for the report.
+DIAGNOSE_WORST = 5
+#: Most logs in one Dask task (:func:`batch_size`).
+BATCH_MAX = 16
+#: Flights ahead in which a pack's retirement is flagged (``--within``). [flights]
+WITHIN_DEFAULT = 50
+
+
+@dataclass
+class FleetResult:
+    """What a fleet run did and found.
+
+    Attributes
+    ----------
+    table : DataFrame
+        Every flight in ``DIR/flights.parquet`` after the run (old and new rows).
+    processed, skipped : int
+        Logs summarised by this run; logs already in the table (not read again).
+    failed : list of (str, str)
+        This run's failed logs and their one-line reasons.
+    health : list of PackHealth
+    pack_files : dict
+        Pack id → the pack file written.
+    outputs : list of Path
+    elapsed_s : float
+        Wall time of the Dask part. [s]
+    notes : list of str
+    diagnoses : dict
+        Log → one line of ``diagnose`` for the worst flights.
+    """
+
+    table: pd.DataFrame
+    processed: int
+    skipped: int
+    failed: list[tuple[str, str]]
+    health: list[PackHealth]
+    pack_files: dict[str, Path] = field(default_factory=dict)
+    outputs: list[Path] = field(default_factory=list)
+    elapsed_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
+    diagnoses: dict[str, str] = field(default_factory=dict)
+
+
+def collect_logs(paths) -> list[Path]:
+    """The log files of ``paths``: files as given, folders searched recursively for
+    :data:`LOG_SUFFIXES` (sorted). Each is checked and recorded as an input."""
+    out: list[Path] = []
+    for raw in paths:
+        p = Path(raw)
+        if p.is_dir():
+            found = sorted(q for q in p.rglob("*") if q.is_file()
+                           and q.name.lower().endswith(LOG_SUFFIXES))
+            if not found:
+                raise InputError(f"{p}: a folder with no log files (expected "
+                                 f"{', '.join(LOG_SUFFIXES)})")
+            out += found
+        else:
+            out.append(p)
+    seen: set[str] = set()
+    logs = []
+    for p in out:
+        real = os.path.realpath(p)
+        if real in seen:
+            continue
+        seen.add(real)
+        logs.append(files.input_path(p, "log", "log file"))
+    return logs
+
+
+def read_pack_map(path: str | os.PathLike) -> dict[str, tuple[str, float | None]]:
+    """``--packs`` CSV: log file name → (pack id, cycle or None).
+
+    Columns ``log`` and ``pack`` (required) and ``cycle`` (optional, a whole number
+    ≥ 0: the pack's charge-cycle count at that flight).
+    """
+    text = files.read_text(path, "table", "pack map CSV").removeprefix("\ufeff")  # Excel's BOM
+    reader = csv.DictReader(io.StringIO(text))
+    cols = [c.strip() for c in (reader.fieldnames or [])]
+    if not {"log", "pack"} <= set(cols):
+        raise InputError(f"{path}: expected a CSV with columns log,pack[,cycle]; got "
+                         f"{','.join(cols) or 'no header'}")
+    out: dict[str, tuple[str, float | None]] = {}
+    for k, row in enumerate(reader, start=2):
+        row = {(a or "").strip(): (b or "").strip() for a, b in row.items() if a}
+        log, pack = row.get("log", ""), row.get("pack", "")
+        if not log or not pack:
+            raise InputError(f"{path}: row {k}: expected a log file name and a pack id, "
+                             f"got log={log!r} pack={pack!r}")
+        cycle = None
+        if row.get("cycle"):
+            try:
+                cycle = float(row["cycle"])
+            except ValueError:
+                cycle = math.nan
+            if not (math.isfinite(cycle) and cycle >= 0 and cycle.is_integer()):
+                raise InputError(f"{path}: row {k}: cycle must be a whole number ≥ 0, got "
+                                 f"{row['cycle']!r}")
+        name = Path(log).name
+        if name in out and out[name][0] != pack:
+            raise InputError(f"{path}: row {k}: {name} is given two packs "
+                             f"({out[name][0]}, {pack})")
+        out[name] = (pack, cycle)
+    return out
+
+
+def _check_out_dir(out_dir: Path) -> Path:
+    out = out_dir.resolve()
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out_dir}: not a folder")
+    if not out.parent.is_dir():
+        raise InputError(f"--out {out_dir}: folder {out.parent} does not exist")
+    for name in files.inputs():
+        real = Path(os.path.realpath(name))
+        if real == out or out in real.parents:
+            raise InputError(f"--out {out_dir}: contains the input file {name}; outputs "
+                             "are never written among the inputs, expected another folder")
+    return out
+
+
+def _read_table(path: Path) -> pd.DataFrame | None:
+    if not path.exists():
+        return None
+    p = files.own_output_path(path, "table", "fleet table")
+    try:
+        old = pd.read_parquet(p)
+    except Exception as exc:  # noqa: BLE001 - pyarrow's errors are many
+        raise InputError(f"{path}: not a readable fleet table ({type(exc).__name__}); move "
+                         "it away or give another --out") from None
+    missing = [c for c in COLUMNS if c not in old.columns]
+    if missing:
+        raise InputError(f"{path}: not a fleet table of this version (no column "
+                         f"{', '.join(missing[:3])}); move it away or give another --out")
+    return to_frame(old[list(COLUMNS)].to_dict("records"))
+
+
+def _write_table(path: Path, table: pd.DataFrame) -> None:
+    path.parent.mkdir(exist_ok=True)
+    with files.output_file(path, "--out") as tmp:
+        table.to_parquet(tmp, index=False)
+
+
+def _merge(old: pd.DataFrame | None, new: pd.DataFrame) -> pd.DataFrame:
+    """Old and new rows: one row per flight (an ok row per content hash; a failed log's
+    latest row per file)."""
+    frames = [f for f in (old, new) if f is not None and len(f)]
+    if not frames:
+        return new
+    both = pd.concat(frames, ignore_index=True)
+    ok = both[both["status"] == "ok"].drop_duplicates("sha256", keep="first")
+    bad = both[both["status"] != "ok"]
+    bad = bad[~bad["sha256"].isin(ok["sha256"])].drop_duplicates("log", keep="last")
+    return pd.concat([ok, bad], ignore_index=True)
+
+
+class _Progress:
+    """One progress line on standard error (rewritten in place on a terminal)."""
+
+    def __init__(self, total: int, stream=None):
+        self.total, self.stream = total, stream or sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+        self.every = max(1, total // 10)
+        self.shown = 0
+
+    def update(self, done: int, failed: int, skipped: int) -> None:
+        if not self.tty and done - self.shown < self.every and done != self.total:
+            return
+        self.shown = done
+        dt = time.perf_counter() - self.t0
+        rate = (done - skipped) / dt if dt > 0 else 0.0
+        line = (f"fleet: {done}/{self.total} logs, {failed} failed, {skipped} already in "
+                f"the table, {rate:.1f} logs/s")
+        end = "" if self.tty and done != self.total else "\n"
+        print(("\r" if self.tty else "") + line, end=end, file=self.stream, flush=True)
+
+
+def _client(workers: int | None, scheduler: str | None):
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                           processes=True, dashboard_address=None)
+    return Client(cluster), cluster
+
+
+def _summarise_batch(items, aircraft, pack):
+    """:func:`summarise_log` on each ``(path, pack id, id source, cycle)``: the rows."""
+    return [summarise_log(path, pack_id, source, cycle, aircraft=aircraft, pack=pack)
+            for path, pack_id, source, cycle in items]
+
+
+def _hash_batch(paths):
+    """The content hash of each file ("" for a file that cannot be read)."""
+    out = []
+    for path in paths:
+        try:
+            out.append(content_hash(path))
+        except OSError:
+            out.append("")
+    return out
+
+
+def batch_size(logs: int, workers: int) -> int:
+    """Logs per Dask task: about 8 tasks per worker (the load stays balanced to the end),
+    at most :data:`BATCH_MAX` (the progress line moves) and at least 1. Each task costs the
+    scheduler a few milliseconds, as much as reading a small log: batches amortise it."""
+    return max(1, min(BATCH_MAX, math.ceil(logs / (8 * max(workers, 1)))))
+
+
+def summarise_all(logs: list[Path], *, aircraft: Aircraft | None, pack: BatteryPack | None,
+                  pack_map: dict | None, skip: set[str], client, progress=None,
+                  batch: int | None = None, on_batch=None) -> tuple[list[dict], int]:
+    """Every log through :func:`summarise_log` on the Dask ``client``, ``batch`` logs per
+    task (default :func:`batch_size`): (rows, skipped). ``on_batch(rows)`` is called with
+    the rows so far after every finished task."""
+    from dask.distributed import as_completed
+
+    pack_map = pack_map or {}
+    items = []
+    for p in logs:
+        pack_id, cycle = pack_map.get(p.name, (None, None))
+        items.append((str(p), pack_id, "--packs" if pack_id else "unknown", cycle))
+    workers = len(client.scheduler_info().get("workers", {})) or 1
+    size = batch or batch_size(len(items), workers)
+    run = uuid.uuid4().hex[:12]         # keys unique to this call: a rerun on the same client
+    skipped = 0
+    if skip:
+        # a rerun: the workers hash the logs, the ones already in the table are not read
+        paths = [it[0] for it in items]
+        chunks = [paths[i:i + size] for i in range(0, len(paths), size)]
+        hashes = client.gather(client.map(
+            _hash_batch, chunks, key=[f"fleet-hash-{run}-{k}" for k in range(len(chunks))],
+            pure=False))
+        known = [h in skip for chunk in hashes for h in chunk]
+        skipped = sum(known)
+        items = [it for it, seen in zip(items, known) if not seen]
+    chunks = [items[i:i + size] for i in range(0, len(items), size)]
+    # the aircraft and the pack (a few kB) travel with each task: no scattered data to lose
+    futures = client.map(_summarise_batch, chunks,
+                         key=[f"fleet-{run}-{k}-{Path(c[0][0]).name}"
+                              for k, c in enumerate(chunks)],
+                         pure=False, aircraft=aircraft, pack=pack)
+    rows, failed, done = [], 0, skipped
+    if progress is not None and skipped:
+        progress.update(done, failed, skipped)
+    for fut in as_completed(futures):
+        for row in fut.result():
+            done += 1
+            rows.append(row)
+            failed += row["status"] != "ok"
+        if on_batch is not None:
+            on_batch(rows)
+        if progress is not None:
+            progress.update(done, failed, skipped)
+        fut.release()
+    order = {str(p): k for k, p in enumerate(logs)}
+    rows.sort(key=lambda r: order.get(r["log"], len(order)))
+    return rows, skipped
+
+
+def worst_flights(table: pd.DataFrame, count: int) -> pd.DataFrame:
+    """The ``count`` flights with the largest absolute charge error."""
+    ok = table[table["status"] == "ok"]
+    order = ok["charge_error_pct"].abs().sort_values(ascending=False, na_position="last")
+    return ok.loc[order.index[:count]]
+
+
+def diagnose_worst(table: pd.DataFrame, client, *, aircraft: Aircraft | None,
+                   pack: BatteryPack | None, count: int | None = None) -> dict[str, str]:
+    """:func:`planner.fleet.summary.diagnose_log` on the worst flights, one task each: log →
+    one line."""
+    worst = worst_flights(table, DIAGNOSE_WORST if count is None else count)
+    logs = [str(p) for p in worst["log"]]
+    if not logs:
+        return {}
+    run = uuid.uuid4().hex[:12]
+    futures = client.map(diagnose_log, logs, key=[f"fleet-diagnose-{run}-{k}"
+                                                  for k in range(len(logs))],
+                         pure=False, aircraft=aircraft, pack=pack)
+    return dict(zip(logs, client.gather(futures)))
+
+
+def _pack_file_name(pack_id: str) -> str:
+    safe = re.sub(r"[^A-Za-z0-9._-]+", "_", pack_id).strip("._") or "pack"
+    return f"{safe}.yaml"
+
+
+def write_pack_files(health: list[PackHealth], pack: BatteryPack, folder: Path
+                     ) -> tuple[dict[str, Path], list[str]]:
+    """A pack file per pack with a fade fit: ``pack`` with δ calibrated on the pack's flights
+    (:math:`\\delta a^{-\\beta}`), ``fade_per_cycle`` :math:`\\varphi` and ``cycle`` the next
+    flight's (module notes of :mod:`planner.fleet.health`)."""
+    import yaml
+
+    from planner.parameters.pack import MODEL_KEYS
+
+    lo, hi = MODEL_KEYS["fade_per_cycle"].low, MODEL_KEYS["fade_per_cycle"].high
+    written, notes = {}, []
+    for h in health:
+        if not (math.isfinite(h.scale_new) and math.isfinite(h.fade_per_cycle)):
+            notes.append(f"pack {h.pack_id}: {h.flights} flight(s), too few to fit its fade; "
+                         "no pack file")
+            continue
+        phi = min(max(h.fade_per_cycle, lo), hi)
+        if phi != h.fade_per_cycle:
+            notes.append(f"pack {h.pack_id}: fitted fade {h.fade_per_cycle:.4g}/cycle is "
+                         f"outside the pack file's [{lo}, {hi}]; written as {phi:g}")
+        m = pack.model
+        model = replace(m, delta=m.delta * h.scale_new ** (-m.beta), literature=False,
+                        fade_per_cycle=phi, cycle=h.last_cycle + 1.0,
+                        source=f"endurance fleet: {h.flights} flights of pack {h.pack_id}")
+        named = replace(pack, name=f"{pack.name} (pack {h.pack_id})", model=model)
+        mapping = named.to_mapping(folder=folder)
+        mapping["source"] = (f"endurance fleet on {h.flights} flights: fade "
+                             f"{h.fade_per_cycle:.3g} ± {h.fade_per_cycle_se:.2g} per cycle, "
+                             f"state of health {100 * h.soh:.1f} % at cycle {h.last_cycle:.0f}"
+                             "; model.cycle is the next flight's")
+        name = _pack_file_name(h.pack_id)
+        taken = {p.name for p in written.values()}
+        stem, k = name[:-5], 2
+        while name in taken:                     # "A/1" and "A_1" are two packs
+            name, k = f"{stem}-{k}.yaml", k + 1
+        path = folder / name
+        files.write_text(path, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
+                         "--out")
+        written[h.pack_id] = path
+    return written, notes
+
+
+def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = None,
+              pack: BatteryPack | None = None, pack_map: dict | None = None,
+              workers: int | None = None, scheduler: str | None = None, client=None,
+              retire: float = RETIRE_DEFAULT, within: float = WITHIN_DEFAULT,
+              progress=True, checkpoint_s: float | None = None) -> FleetResult:
+    """Run a fleet (module notes). ``client``: an existing Dask client (then neither
+    ``workers`` nor ``scheduler`` is used and the client is left open). ``progress``: a
+    progress line on standard error (True), none (False) or an object with
+    ``update(done, failed, skipped)``. The table is written every ``checkpoint_s``
+    seconds (default :data:`CHECKPOINT_S`) and when the run is interrupted.
+
+    Raises
+    ------
+    InputError
+        No logs, ``out_dir`` among the inputs or unusable, or every log failed (naming
+        each with its reason).
+    """
+    checkpoint_s = CHECKPOINT_S if checkpoint_s is None else checkpoint_s
+    logs = collect_logs(paths)
+    if not logs:
+        raise InputError("no log files given")
+    out = _check_out_dir(Path(out_dir))
+    table_path = out / TABLE_NAME
+    old = _read_table(table_path)
+    skip = set(old.loc[old["status"] == "ok", "sha256"]) if old is not None else set()
+    own = client is None
+    cluster = None
+    if own:
+        client, cluster = _client(workers, scheduler)
+    t0 = time.perf_counter()
+    so_far: list[dict] = []
+    last = [t0]
+
+    def save(rows, every: float = checkpoint_s) -> None:
+        """Write the table with the rows so far (every ``every`` seconds): an interrupted
+        run keeps what it finished, and its rerun reads only the rest."""
+        so_far[:] = rows
+        now = time.perf_counter()
+        if rows and any(r["status"] == "ok" for r in rows) and now - last[0] >= every:
+            _write_table(table_path, _merge(old, to_frame(rows)))
+            last[0] = now
+
+    if progress is True:
+        progress = _Progress(len(logs))
+    try:
+        try:
+            rows, skipped = summarise_all(
+                logs, aircraft=aircraft, pack=pack, pack_map=pack_map, skip=skip,
+                client=client, progress=progress or None, on_batch=save)
+        except KeyboardInterrupt:
+            save(so_far, every=0.0)
+            raise
+        elapsed = time.perf_counter() - t0
+        failed = [(r["log"], r["error"]) for r in rows if r["status"] != "ok"]
+        if rows and len(failed) == len(rows) and not skipped:
+            listed = "; ".join(f"{err}" for _, err in failed[:5])
+            raise InputError(f"all {len(failed)} logs failed: {listed}"
+                             + (" …" if len(failed) > 5 else ""))
+        table = _merge(old, to_frame(rows))
+        diagnoses = diagnose_worst(table, client, aircraft=aircraft, pack=pack)
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    _write_table(table_path, table)
+    result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
+                         health=[], outputs=[table_path], elapsed_s=elapsed,
+                         diagnoses=diagnoses)
+    nominal = pack.capacity_mah if pack is not None else None
+    result.health = pack_health(table, retire=retire, nominal_mah=nominal)
+    if result.health:
+        if pack is None:
+            result.notes.append("no pack file (--battery or the aircraft's battery): no pack "
+                                "files written")
+        else:
+            (out / "packs").mkdir(exist_ok=True)
+            result.pack_files, notes = write_pack_files(result.health, pack, out / "packs")
+            result.notes += notes
+            result.outputs += list(result.pack_files.values())
+    from planner.fleet.report import write_report
+
+    result.outputs += write_report(result, out, retire=retire, within=within)
+    return result

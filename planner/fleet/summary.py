@@ -1,0 +1,286 @@
+"""One flight → one row of the fleet table: read, replay through the chain, calibrate.
+
+:func:`summarise_log` is what a Dask worker runs for each log. It never raises: a log that
+cannot be used gives a row with ``status = "failed"`` and the one-line reason, so that one
+damaged file does not stop a fleet.
+
+Per flight it records what the operator reads off a logbook (duration, energy, charge) and
+what the planner predicted for it:
+
+* **charge** — the chain's battery model driven by the measured power
+  (:func:`planner.replay.battery_replay`, [UAV23] eq. 14) against the logger's consumed
+  charge at the end of the flight;
+* **energy** — the chain's power model driven by the measured flight state
+  (:func:`planner.replay.power_replay`) against the measured electric energy over the
+  airborne samples;
+* **δ scale** — the least-squares factor :math:`s` in :math:`C(t) = s\\,\\hat C(t)`
+  between the measured charge and the model's charge along the flight, with its standard
+  error (AR(1)-inflated, :func:`planner.stats.covariance`). For the integral model
+  :math:`\\hat C^\\beta = \\int dt / (\\delta P^\\varepsilon)` a factor :math:`s` on the
+  charge is :math:`\\delta \\to \\delta s^{-\\beta}`; a pack that draws more charge for the
+  same energy as it ages has :math:`s` rising with its cycles (the ``fade_per_cycle`` of
+  the pack file, :meth:`planner.parameters.IntegralModel.charge_scale`);
+* **internal resistance** — the amended-VDA estimate :math:`R = -\\Delta V / \\Delta I`
+  (DESIGN §5) at every current step between two consecutive samples (a step of at least
+  :data:`STEP_MIN_A` and :data:`STEP_MIN_FRACTION` of the flight's median current); the
+  median over the steps, its standard error :math:`1.2533\\,s/\\sqrt n` (the median of a
+  normal sample).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from planner import record, stats
+from planner.chain import MissionChain
+from planner.errors import PlannerError
+from planner.parameters import Aircraft, BatteryPack
+from planner.replay import _replay_pack, battery_replay, detect_cells, power_replay
+
+#: Smallest current step used for the resistance. [A]
+STEP_MIN_A = 2.0
+#: Smallest current step relative to the flight's median current. [unitless]
+STEP_MIN_FRACTION = 0.2
+#: Longest time between the two samples of a step: beyond it the cells relax. [s]
+STEP_MAX_DT_S = 1.0
+#: Fewest steps for a resistance estimate.
+STEP_MIN_COUNT = 3
+#: Resistances outside (0, this] are not a pack's (sensor lag, a voltage spike). [Ω]
+STEP_MAX_OHM = 1.0
+#: Bytes read at a time for the content hash.
+_HASH_BLOCK = 1 << 20
+
+#: Columns of the fleet table, in order, with their pandas/Arrow types.
+COLUMNS: dict[str, str] = {
+    "sha256": "string", "log": "string", "status": "string", "error": "string",
+    "format": "string", "vehicle": "string", "aircraft": "string",
+    "pack_id": "string", "pack_id_source": "string", "cycle": "float64",
+    "start_time_utc": "datetime64[ns, UTC]", "duration_s": "float64", "samples": "int64",
+    "cells": "float64", "log_capacity_mah": "float64", "battery_model": "string",
+    "energy_wh": "float64", "charge_mah": "float64",
+    "predicted_charge_mah": "float64", "charge_error_pct": "float64",
+    "airborne_energy_wh": "float64", "predicted_energy_wh": "float64",
+    "energy_error_pct": "float64", "power_rmse_w": "float64",
+    "delta_scale": "float64", "delta_scale_se": "float64",
+    "resistance_ohm": "float64", "resistance_se_ohm": "float64", "resistance_steps": "int64",
+    "warnings": "string",
+}
+
+
+def content_hash(path: str | Path) -> str:
+    """SHA-256 of the file's bytes (hex): the key of a flight in the table."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(_HASH_BLOCK), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def step_resistance(time_s, voltage_v, current_a) -> tuple[float, float, int]:
+    """Pack resistance from current steps (module notes): (R [Ω], standard error [Ω], n)."""
+    t = np.asarray(time_s, float)
+    v = np.asarray(voltage_v, float)
+    i = np.asarray(current_a, float)
+    nan = float("nan")
+    ok = np.isfinite(i) & np.isfinite(v)
+    if ok.sum() < 2:
+        return nan, nan, 0
+    d_i, d_v, d_t = np.diff(i), np.diff(v), np.diff(t)
+    level = max(STEP_MIN_A, STEP_MIN_FRACTION * float(np.nanmedian(np.abs(i[ok]))))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        step = (np.abs(d_i) >= level) & (d_t <= STEP_MAX_DT_S) & np.isfinite(d_v)
+        r = -d_v[step] / d_i[step]
+    r = r[(r > 0) & (r <= STEP_MAX_OHM)]
+    if r.size < STEP_MIN_COUNT:
+        return nan, nan, int(r.size)
+    se = 1.2533 * float(np.std(r, ddof=1)) / math.sqrt(r.size)
+    return float(np.median(r)), se, int(r.size)
+
+
+def delta_scale(measured_mah, predicted_mah) -> tuple[float, float]:
+    """Least-squares :math:`s` in ``measured = s · predicted`` along a flight and its
+    standard error (module notes); NaN where the flight draws no charge."""
+    m = np.asarray(measured_mah, float)
+    p = np.asarray(predicted_mah, float)
+    ok = np.isfinite(m) & np.isfinite(p)
+    m, p = m[ok], p[ok]
+    if m.size < 3 or not np.any(p > 0):
+        return float("nan"), float("nan")
+    s = float(np.dot(m, p) / np.dot(p, p))
+    cov = stats.covariance(p[:, None], m - s * p)
+    return s, float(cov.stderr[0])
+
+
+def _start_time(meta: dict) -> pd.Timestamp:
+    value = meta.get("start_time_unix")
+    if value is None or not np.isfinite(value):
+        return pd.NaT
+    return pd.Timestamp(float(value), unit="s", tz="UTC")
+
+
+def _empty_row(path: str, sha: str) -> dict[str, Any]:
+    row: dict[str, Any] = {c: None for c in COLUMNS}
+    row.update(sha256=sha, log=path, samples=0, resistance_steps=0)
+    return row
+
+
+def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "unknown",
+                  cycle: float | None = None, *, aircraft: Aircraft | None = None,
+                  pack: BatteryPack | None = None, payload_kg: float = 0.0) -> dict[str, Any]:
+    """Read, replay and calibrate one log: a row of :data:`COLUMNS` (module notes).
+
+    Parameters
+    ----------
+    path : str
+        The log file (any format :func:`planner.logs.read_log` takes).
+    aircraft : Aircraft, optional
+        Enables the energy (power-level) comparison.
+    pack : BatteryPack, optional
+        The new pack's model; default the literature model of the log's cell count.
+    pack_id, pack_id_source : str, optional
+        The pack flown, from ``--packs``; the log's own battery serial wins.
+    cycle : float, optional
+        The pack's charge-cycle count at this flight, from ``--packs``.
+    payload_kg : float
+        Payload carried. [kg]
+
+    Returns
+    -------
+    dict
+        ``status`` is ``ok`` or ``failed`` (with ``error``, one line).
+    """
+    try:
+        sha = content_hash(path)
+    except OSError as exc:
+        row = _empty_row(path, "")
+        row.update(status="failed", error=f"{path}: cannot read ({exc.strerror or exc})")
+        return row
+    row = _empty_row(path, sha)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg)
+        notes = list(dict.fromkeys(str(w.message).replace("\n", " ") for w in caught))
+        row["warnings"] = "; ".join(filter(None, [row.get("warnings") or ""] + notes)) or None
+        row["status"] = "ok"
+    except PlannerError as exc:
+        row.update(status="failed", error=str(exc).splitlines()[0] if str(exc) else
+                   type(exc).__name__)
+    except Exception as exc:  # noqa: BLE001 - one bad log must not stop a fleet
+        row.update(status="failed",
+                   error=f"{path}: internal error ({type(exc).__name__}: {exc})".splitlines()[0])
+    return row
+
+
+def _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg) -> None:
+    from planner.logs import read_log
+
+    df, meta = read_log(path)
+    df = record.complete_record(df.assign(experiment=Path(path).name))
+    df = df.reset_index(drop=True)
+    t = df["time_s"].to_numpy(float)
+    if len(t) < 2 or not t[-1] > t[0]:
+        raise PlannerError(f"{path}: fewer than 2 battery samples over time; expected a flight")
+    serial = meta.get("battery_serial")
+    if serial not in (None, "", 0):
+        pack_id, pack_id_source = str(serial), "log battery serial"
+        if cycle is None and meta.get("battery_cycle_count") is not None:
+            cycle = float(meta["battery_cycle_count"])
+    power = df["power_w"].to_numpy(float)
+    consumed = df["consumed_mah"].to_numpy(float)
+    ok_c = np.isfinite(consumed)
+    cells = meta.get("battery_cells") or (detect_cells(df["voltage_v"]) if "voltage_v" in df
+                                          else None)
+    row.update(format=meta.get("format"), vehicle=meta.get("vehicle"),
+               aircraft=aircraft.name if aircraft is not None else None,
+               pack_id=pack_id or "unknown",
+               pack_id_source=pack_id_source if pack_id else "unknown",
+               cycle=float(cycle) if cycle is not None else None,
+               start_time_utc=_start_time(meta), duration_s=float(t[-1] - t[0]),
+               samples=int(len(t)), cells=float(cells) if cells else None,
+               log_capacity_mah=meta.get("battery_capacity_mah"),
+               energy_wh=float(record.cumulative_trapezoid(np.nan_to_num(power), t)[-1]) / 3600.0,
+               charge_mah=float(consumed[ok_c][-1] - consumed[ok_c][0]) if ok_c.any()
+               else None)
+    flown, label = _replay_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
+    notes = []
+    if flown is not None:
+        if pack is not None and cells and int(cells) != pack.cells_series:
+            notes.append(f"the log's pack has {int(cells)} cells in series, the pack file "
+                         f"{pack.cells_series}")
+        chain = MissionChain(aircraft, flown)
+        capacity = pack.total_capacity_mah if pack is not None else \
+            meta.get("battery_capacity_mah")
+        bat, series = battery_replay(df, chain, label, capacity)
+        s, s_se = delta_scale(series["measured_mah"], series["predicted_mah"])
+        row.update(battery_model=label, predicted_charge_mah=bat.predicted_final_mah,
+                   charge_error_pct=bat.final_error_pct, delta_scale=s, delta_scale_se=s_se)
+    else:
+        notes.append(f"battery level skipped: {label}")
+    if aircraft is not None:
+        if {"climb_rate_ms", "groundspeed_ms"} & set(df.columns):
+            mass = aircraft.empty_mass_kg + payload_kg + (
+                pack.total_mass_kg if pack is not None else 0.0)
+            pw, _ = power_replay(df, MissionChain(aircraft, pack), mass)
+            row.update(airborne_energy_wh=pw.measured_energy_wh,
+                       predicted_energy_wh=pw.predicted_energy_wh,
+                       energy_error_pct=pw.energy_error_pct, power_rmse_w=pw.rmse_w)
+        else:
+            notes.append("no flight state (speed, climb) in the log: energy not predicted")
+    if {"voltage_v", "current_a"} <= set(df.columns):
+        r, r_se, n = step_resistance(t, df["voltage_v"], df["current_a"])
+        row.update(resistance_ohm=r, resistance_se_ohm=r_se, resistance_steps=n)
+    for w in meta.get("warnings") or []:
+        notes.append(str(w))
+    row["warnings"] = "; ".join(dict.fromkeys(notes)) or None
+    if row["charge_mah"] is not None and row["charge_mah"] <= 0:
+        row["warnings"] = "; ".join(filter(None, [row["warnings"],
+                                                  "the logged charge does not rise"]))
+
+
+def diagnose_log(path: str, *, aircraft: Aircraft | None = None,
+                 pack: BatteryPack | None = None) -> str:
+    """One line of :func:`planner.diagnose.diagnose` on one log (DESIGN §6): its findings'
+    headlines, or that the calibrated model explains the flight, with what stays unexplained.
+    Never raises: a log that cannot be diagnosed gives the reason."""
+    from planner.diagnose import diagnose
+    from planner.logs import read_log
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            df, _ = read_log(path)
+            df = record.complete_record(df.assign(experiment=Path(path).name))
+            res = diagnose(df, pack, aircraft)
+    except PlannerError as exc:
+        return f"not diagnosed: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+    except Exception as exc:  # noqa: BLE001 - the report goes on without it
+        return f"not diagnosed: internal error ({type(exc).__name__})"
+    if res.findings:
+        text = "; ".join(f["headline"] for f in res.findings)
+    elif res.levels:
+        text = "no significant effect beyond the recalibrated model"
+    else:
+        text = "no level could run: " + "; ".join(res.notes)
+    unexplained = res.unexplained()
+    return text + (f" (unexplained: {unexplained})" if unexplained else "")
+
+
+def to_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    """Rows of :data:`COLUMNS` → the typed table."""
+    df = pd.DataFrame(rows, columns=list(COLUMNS))
+    for col, kind in COLUMNS.items():
+        if kind.startswith("datetime"):
+            df[col] = pd.to_datetime(df[col], utc=True)
+        elif kind == "int64":
+            df[col] = pd.to_numeric(df[col]).fillna(0).astype("int64")
+        else:
+            df[col] = df[col].astype(kind)
+    return df
