@@ -23,12 +23,15 @@ import re
 import shlex
 import subprocess
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "data"
 ELLIPSIS = {"...", "…"}
+#: Options whose value is a file the command writes.
+OUTPUT_OPTIONS = {"--out", "--json", "--plot", "--csv", "--params-out", "--sorties-out"}
 _RUN = "import sys; from planner.cli import main; sys.exit(main(sys.argv[1:]))"
 
 
@@ -99,8 +102,13 @@ def run(t: Transcript, timeout: float = 600.0) -> tuple[str, list[str]]:
     if any("../shared/data" in a for a in args) and not SHARED.is_dir():
         return "skipped: ../shared/data is absent", []
     env = dict(os.environ, COLUMNS="200")
-    p = subprocess.run([sys.executable, "-c", _RUN, *args], cwd=REPO, capture_output=True,
-                       text=True, timeout=timeout, env=env, check=False)
+    with tempfile.TemporaryDirectory(prefix="figures-") as tmp:
+        # what the command writes goes to a scratch folder, never into the repository
+        args = [str(Path(tmp) / Path(a).name) if prev in OUTPUT_OPTIONS else a
+                for prev, a in zip([""] + args[:-1], args)]
+        p = subprocess.run([sys.executable, "-c", _RUN, *args], cwd=REPO,
+                           capture_output=True, text=True, timeout=timeout, env=env,
+                           check=False)
     problems = compare(t.expected, p.stdout)
     if p.returncode not in (0, 1):
         problems.insert(0, f"exit {p.returncode}: {p.stderr.strip()[-300:]}")
