@@ -173,7 +173,14 @@ class ChainResult:
         Per-leg arrays (packs × legs) when the run kept them: ``power_w``,
         ``current_a``, ``voltage_v``, ``charge_mah``, ``charge_end_mah``,
         ``rtl_margin_mah``, ``stress_end`` (the integral model's stress at the end of
-        each leg, without the extensions' scale), and plot series.
+        each leg, without the extensions' scale), per return-home point (packs × points
+        of ``rtl_points``) ``rtl_point_margin_mah``, ``rtl_point_charge_mah`` (the
+        return's own charge: home at cruise speed, then the descent) and the return's
+        ``rtl_back_power_w`` and ``rtl_down_power_w``, and plot series.
+    rtl_points : dict of ndarray
+        The return-home points: ``leg``, ``time_s``, ``east_m``, ``north_m``,
+        ``altitude_m``, ``distance_m`` (home), and the return's ``t_back`` (straight
+        home) and ``t_down`` (descent over home) durations. [s], [m]
     """
 
     packs: list[BatteryPack]
@@ -648,7 +655,9 @@ class MissionChain:
             "power_w", "current_a", "voltage_v", "charge_mah", "charge_end_mah",
             "rtl_margin_mah", "stress_end")} if keep else None
         if keep:
-            det["rtl_point_margin_mah"] = np.empty((k, npts))
+            for name in ("rtl_point_margin_mah", "rtl_point_charge_mah", "rtl_back_power_w",
+                         "rtl_down_power_w"):
+                det[name] = np.empty((k, npts))
         block = max(1, int(block_elements // max(npts, len(ptable.states), 1)))
         for b0 in range(0, k, block):
             sl = slice(b0, min(k, b0 + block))
@@ -719,6 +728,17 @@ class MissionChain:
                     point = lim[:, None] - sc * integral.charge_from_stress(total, beta)
                 point = np.where(np.isfinite(total), point, -np.inf)
                 det["rtl_point_margin_mah"][sl] = point / AS_PER_MAH
+                # the return's own charge: from the stress at the point to its end
+                s_point = (s_start[:, :, None] + inc[:, :, None] * f_points).reshape(
+                    total.shape)
+                s_point[:, -1] = s_end[:, -1]
+                with np.errstate(invalid="ignore"):
+                    back_charge = sc * (integral.charge_from_stress(total, beta)
+                                        - integral.charge_from_stress(s_point, beta))
+                det["rtl_point_charge_mah"][sl] = np.where(
+                    np.isfinite(total), back_charge, np.inf) / AS_PER_MAH
+                det["rtl_back_power_w"][sl] = np.exp(lp_u[:, i_back])
+                det["rtl_down_power_w"][sl] = np.exp(lp_u[:, i_down])
                 det["rtl_margin_mah"][sl] = point.reshape(-1, n, RTL_POINTS_PER_LEG).min(
                     axis=2) / AS_PER_MAH
                 _series_into(det, sl, table, power, s_start, s_end, sc, beta, cp)
@@ -773,7 +793,8 @@ class MissionChain:
             max_current_a=imax, circuit=circuit, violated=violated,
             undeliverable_power_w=out["p_undeliverable"], deliverable_max_w=out["p_max"],
             rtl_points={key: rtl[key] for key in ("leg", "time_s", "east_m", "north_m",
-                                                  "altitude_m", "distance_m")},
+                                                  "altitude_m", "distance_m", "t_back",
+                                                  "t_down")},
             power_method=ptable.method, detail=det)
 
     def _circuit(self, table, which, ptable, i_leg, i_hold, mass, temp) -> dict:

@@ -14,7 +14,9 @@ from planner.commands.common import (
     plot_path,
     write_json,
 )
+from planner import files
 from planner.errors import InputError
+from planner.failsafe import FIRMWARES, FailsafePlan, failsafe_parameters
 from planner.mission import load_mission
 from planner.parameters import load_aircraft_and_battery
 
@@ -37,12 +39,20 @@ def register(sub) -> None:
     p.add_argument("--payload", help="payload mass [kg] (overrides the mission's)")
     p.add_argument("--json", help="write the result as JSON to this file")
     p.add_argument("--plot", help="write a PNG of power and remaining charge")
+    p.add_argument("--failsafe", metavar="FIRMWARE",
+                   help="derive the battery failsafe parameters of this firmware from the "
+                        "mission's worst return home: ardupilot or px4")
+    p.add_argument("--params-out", help="write the failsafe parameters as a Mission Planner "
+                                        "/ MAVProxy .param file (ardupilot) or a "
+                                        "QGroundControl parameter file (px4)")
     p.add_argument("--quiet", action="store_true", help="print only the verdict line")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     json_out = output_path(args.json, "--json")
+    params_out = output_path(args.params_out, "--params-out")
+    firmware = parse_firmware(args.failsafe, params_out)
     plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
     temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
@@ -58,20 +68,64 @@ def run(args) -> int:
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
     chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature)
-    result = chain.check(mission, env)
+    run_result = chain.run(mission, env, detail=True)
+    result = run_result.mission_result(0)
+    plan = failsafe_parameters(run_result, firmware) if firmware else None
     if not args.quiet:
         print(render(result, mission.name))
+        if plan is not None:
+            print(render_failsafe(plan))
     else:
         print(result.verdict_line())
     if json_out:
         data = result.to_dict()
         data["mission"] = mission.name
         data["environment"] = dataclasses.asdict(result.environment)
+        if plan is not None:
+            data["failsafe"] = plan.to_dict()
         write_json(data, json_out)
+    if params_out:
+        header = (f"{FIRMWARE_NAMES[plan.firmware]} battery failsafe parameters for "
+                  f"{mission.name}\n{result.aircraft}, {result.battery}\n"
+                  f"reserve {100 * result.reserve_fraction:.0f} % of nominal; worst return "
+                  f"{plan.return_charge_mah:.0f} mAh from {plan.worst_point['distance_home_m']:.0f}"
+                  f" m ({plan.return_source})\nwritten by endurance check --failsafe")
+        files.write_text(params_out, plan.param_file(header), "--params-out")
     if plot_out:
         from planner import plots
         plots.save_mission_plot(result, plot_out, title=f"{mission.name}: {result.verdict}")
     return 0 if result.go else 1
+
+
+FIRMWARE_NAMES = {"ardupilot": "ArduPilot", "px4": "PX4"}
+
+
+def parse_firmware(text: str | None, params_out: str | None) -> str | None:
+    """``--failsafe`` → firmware name (None without it); ``--params-out`` needs it."""
+    if text is None:
+        if params_out is not None:
+            raise InputError("--params-out: needs --failsafe ardupilot or --failsafe px4")
+        return None
+    name = text.strip().lower()
+    if name not in FIRMWARES:
+        raise InputError(f"--failsafe: unknown firmware {text!r}: expected "
+                         f"{' or '.join(FIRMWARES)}")
+    return name
+
+
+def render_failsafe(plan: FailsafePlan) -> str:
+    """The failsafe parameters with one line of derivation each."""
+    w = plan.worst_point
+    lines = ["", f"Failsafe  {FIRMWARE_NAMES[plan.firmware]} battery parameters: worst return "
+                 f"{plan.return_charge_mah:.0f} mAh from {w['distance_home_m']:.0f} m "
+                 f"({w['leg_origin']}, t = {w['time_s']:.0f} s, {plan.return_source})"]
+    width = max(len(p.name) for p in plan.parameters)
+    for p in plan.parameters:
+        value = f"{p.text_value()} {p.unit}".strip()
+        lines.append(f"  {p.name:<{width}} = {value:<10} {p.derivation}")
+    for text in plan.warnings:
+        lines.append(f"Warning   {text}")
+    return "\n".join(lines)
 
 
 def render(r: MissionResult, name: str) -> str:
