@@ -186,8 +186,9 @@ def failsafe_parameters(result, firmware: str, i: int = 0, *,
     i : int
         Which pack.
     return_charge_mah : array_like, optional
-        Charge of the return from every return-home point to use instead of the
-        forecast's (e.g. the 95th percentile of a Monte Carlo run). [mAh]
+        Charge of the return from every return-home point (e.g. the 95th percentile of a
+        Monte Carlo run; NaN where not sampled): where it is larger than the forecast's,
+        it is used instead. [mAh]
 
     Returns
     -------
@@ -216,12 +217,12 @@ def failsafe_parameters(result, firmware: str, i: int = 0, *,
         q_down = np.where(pts["t_down"] > 0, i_down * pts["t_down"], 0.0) / AS_PER_MAH
         q_volt = np.where(pts["t_back"] > 0, i_back * pts["t_back"], 0.0) / AS_PER_MAH + q_down
     q_volt = np.where(np.isfinite(q_volt), q_volt, np.inf)
-    if return_charge_mah is None:
-        q_ret = np.maximum(d["rtl_point_charge_mah"][i], q_volt)
-        source = "forecast wind"
-    else:
-        q_ret = np.asarray(return_charge_mah, float)
-        source = "Monte Carlo P95"
+    q_ret = np.maximum(d["rtl_point_charge_mah"][i], q_volt)
+    source = "forecast wind"
+    if return_charge_mah is not None:
+        given = np.asarray(return_charge_mah, float)
+        q_ret = np.where(np.isnan(given), q_ret, np.maximum(q_ret, given))
+        source = "forecast wind and the Monte Carlo P95"
     q_ret = np.where(np.isnan(q_ret), np.inf, q_ret)
     impossible = ~np.isfinite(q_ret)
     if impossible.any():
@@ -247,9 +248,9 @@ def failsafe_parameters(result, firmware: str, i: int = 0, *,
     low = reserve + unusable + q_return
     crit = reserve + unusable + q_land
     base = f"reserve {reserve:.0f} + unusable {unusable:.0f}"
-    ret_text = (f"return {q_return:.0f} mAh from the worst point ({where}; "
-                f"{'' if return_charge_mah is None else source + ', '}"
-                "larger of integral model and loaded current)")
+    ret_text = (f"return {q_return:.0f} mAh from the worst point ({where}; larger of "
+                "integral model and loaded current"
+                + ("" if return_charge_mah is None else " and the Monte Carlo P95") + ")")
     land_text = (f"descent {q_land:.0f} mAh from the highest point "
                  f"({pts['altitude_m'][h]:.0f} m)")
 
