@@ -249,3 +249,23 @@ def test_cli_uncertainty_text_json_and_exit_status(tmp_path, capsys):
     status_low = main(argv[:-2] + ["--confidence", "0.01"])
     capsys.readouterr()
     assert status_low == 0 or data["p_landing_with_reserve"] < 0.01
+
+
+def test_the_circuit_model_runs_once_per_mass_and_gives_each_sample_its_own():
+    """Samples sharing the pack file and the take-off mass share one circuit simulation;
+    every sample's figures equal those of its own one-pack run."""
+    ac, pack, mission = solo(integral_only=False)
+    payloads = np.array([0.2, 0.5, 0.2, 0.5, 0.35])
+    soh = np.array([1.0, 1.0, 0.9, 0.95, 1.0])
+    many = MissionChain(ac, [pack] * 5).run(mission, payload_kg=payloads, detail=False,
+                                            pack_samples={"soh": soh})
+    for i in range(5):
+        one = MissionChain(ac, pack).run(mission, payload_kg=payloads[i], detail=False,
+                                         pack_samples={"soh": soh[i]})
+        for name in ("usable_mah", "charge_used_mah", "margin_mah", "rtl_min_margin_mah"):
+            assert getattr(many, name)[i] == pytest.approx(getattr(one, name)[0], rel=1e-9)
+        for name in ("min_voltage_v", "cutoff_time_s", "max_temperature_c"):
+            assert many.circuit[name][i] == pytest.approx(one.circuit[name][0], rel=1e-9,
+                                                          nan_ok=True)
+    # the state of health scales the charge to the cut-off too
+    assert many.usable_mah[2] == pytest.approx(0.9 * many.usable_mah[0], rel=1e-9)
