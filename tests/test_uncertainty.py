@@ -232,9 +232,10 @@ def test_bad_uncertainty_flags_exit_2(flag, value, message, capsys):
 
 def test_cli_uncertainty_text_json_and_exit_status(tmp_path, capsys):
     js = tmp_path / "u.json"
+    png = tmp_path / "band.png"
     argv = ["check", str(SURVEY), "--aircraft", str(SOLO), "--uncertainty", "--samples",
             "400", "--seed", "4", "--soh", "0.99+-0.01", "--wind-sd", "1@10",
-            "--json", str(js)]
+            "--plot", str(png), "--json", str(js)]
     status = main(argv)
     text = capsys.readouterr().out
     data = json.loads(js.read_text())["uncertainty"]
@@ -245,6 +246,7 @@ def test_cli_uncertainty_text_json_and_exit_status(tmp_path, capsys):
         assert key in data["landing_charge_mah"] and key in data["return_home_margin_mah"]
     assert data["variance_split"]["driver"]
     assert "P(landing with the reserve)" in text and "CVaR5" in text
+    assert png.stat().st_size > 10_000
     # a lower confidence can only turn NO-GO into GO
     status_low = main(argv[:-2] + ["--confidence", "0.01"])
     capsys.readouterr()

@@ -134,7 +134,10 @@ def run(args) -> int:
         files.write_text(params_out, plan.param_file(header), "--params-out")
     if plot_out:
         from planner import plots
-        plots.save_mission_plot(result, plot_out, title=f"{mission.name}: {result.verdict}")
+        title = f"{mission.name}: {result.verdict}" + (
+            "" if unc is None else f"; {unc.verdict} with {100 * unc.confidence:.0f} % "
+                                   f"confidence (P = {100 * unc.p_landing:.1f} %)")
+        plots.save_mission_plot(result, plot_out, title=title, uncertainty=unc)
     if unc is not None:
         return 0 if unc.go else 1
     return 0 if result.go else 1
