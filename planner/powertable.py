@@ -173,7 +173,9 @@ class PowerTable:
         """:math:`\\ln P` at every state, shape (len(mass), n_states); −inf where P ≤ 0."""
         mass = np.asarray(mass, float).ravel()
         if self.method == "exact":
-            return safe_log(self._exact(mass, np.arange(len(self.states))))
+            # one model call per distinct mass (Monte Carlo samples share a few)
+            uniq, inv = np.unique(mass, return_inverse=True)
+            return safe_log(self._exact(uniq, np.arange(len(self.states))))[inv.ravel()]
         out = np.empty((mass.size, len(self.states)))
         lnm = np.log(mass)
         basis = _barycentric(lnm, self.nodes_log_mass, self.weights)
