@@ -1049,7 +1049,7 @@ def filled_temperature(temperature_c) -> np.ndarray | None:
 def _ocv_cell(soc):
     """:func:`planner.battery.ocv.lipo_ocv` for one value (compiled). [V]"""
     s = min(max(soc, 0.0), 1.0)
-    return -1.031 * np.exp(-35.0 * s) + 3.685 + 0.2156 * s - 0.1178 * s**2 + 0.3201 * s**3
+    return -1.031 * np.exp(-35.0 * s) + 3.685 + s * (0.2156 + s * (-0.1178 + 0.3201 * s))
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -22,9 +22,10 @@ Sources and how each is drawn
 * **state of health**: the charge the pack can give (nominal × usable fraction, and the
   circuit model's charge to the cut-off) × SoH, SoH normal (``soh`` ± ``soh_sd``, capped
   at 1 / usable fraction so no sample gives more than the nominal charge).
-* **payload**: normal (``payload_sd_kg``) about the mission's, truncated at 0; with the
-  circuit model, whose run costs one simulation per distinct take-off mass, the samples
-  of each weather draw share :data:`PAYLOAD_LEVELS` stratified levels of that normal.
+* **payload**: normal (``payload_sd_kg``) about the mission's, truncated at 0. The power
+  model and the circuit model cost one evaluation per distinct take-off mass, so the
+  samples of each weather draw share :data:`PAYLOAD_LEVELS` levels of that normal, one
+  drawn in each stratum of equal probability (stratified sampling).
 
 The weather changes every leg's kinematics, so the weather is drawn at ``weather_draws``
 points of a Latin hypercube (McKay, Beckman and Conover 1979) and the chain runs once per
@@ -76,7 +77,8 @@ __all__ = ["Spreads", "UncertaintyResult", "monte_carlo", "cvar"]
 PHYSICAL_SIGMAS = 4.0
 #: ISA lapse rate, for the site temperature when the forecast gives none. [K/m]
 ISA_LAPSE_K_PER_M = 0.0065
-#: Payload levels per weather draw with the circuit model (its run per distinct mass).
+#: Payload levels per weather draw (stratified; the power and circuit models run once per
+#: distinct take-off mass).
 PAYLOAD_LEVELS = 8
 #: Constraints a landing sample must meet (all but the return-home reserve).
 LANDING_CONSTRAINTS = tuple(c for c in CHECK_CONSTRAINTS if c != "return_home")
@@ -318,15 +320,13 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
         theta = np.tile(mean3, (samples, 1))
     soh = s.soh + s.soh_sd * rng.standard_normal(samples)
     soh_eff = np.minimum(soh, 1.0 / pack.usable_fraction)
-    if chain.models[0] == "circuit":
-        # the circuit model runs once per distinct take-off mass: the payload of each
-        # weather draw's samples takes PAYLOAD_LEVELS stratified levels, evenly shared
-        z = ndtri((np.arange(PAYLOAD_LEVELS) + 0.5) / PAYLOAD_LEVELS)
-        level = np.concatenate([rng.permutation(np.arange(np.sum(group == j)) % PAYLOAD_LEVELS)
-                                for j in range(g)])
-        pay = np.maximum(payload + s.payload_sd_kg * z[level], 0.0)
-    else:
-        pay = np.maximum(payload + s.payload_sd_kg * rng.standard_normal(samples), 0.0)
+    # the power model and the circuit model run once per distinct take-off mass: the
+    # payload of each weather draw's samples takes PAYLOAD_LEVELS levels, one drawn in
+    # each stratum of equal probability, evenly shared
+    z = ndtri((np.arange(PAYLOAD_LEVELS) + rng.random((g, PAYLOAD_LEVELS))) / PAYLOAD_LEVELS)
+    level = np.concatenate([rng.permutation(np.arange(np.sum(group == j)) % PAYLOAD_LEVELS)
+                            for j in range(g)])
+    pay = np.maximum(payload + s.payload_sd_kg * z[group, level], 0.0)
 
     landing = np.empty(samples)
     rtl_min = np.empty(samples)
@@ -395,7 +395,10 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
         z = (x - x.mean(axis=0)) / x.std(axis=0)
         q = z**2 - np.mean(z**2, axis=0)
         a = np.column_stack([np.ones(samples), z, q])
-        coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+        try:   # normal equations: the columns are standardised, the system small
+            coef = np.linalg.solve(a.T @ a, a.T @ y)
+        except np.linalg.LinAlgError:
+            coef = np.linalg.lstsq(a, y, rcond=None)[0]
         m = len(xs)
         own = z * coef[1:m + 1] + q * coef[m + 1:]      # each input's own terms
         r2 = float(1.0 - np.var(y - a @ coef) / np.var(y))
