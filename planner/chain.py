@@ -48,6 +48,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import numba
 import numpy as np
 import pandas as pd
 
@@ -138,7 +139,8 @@ class ChainResult:
     table : LegTable
         Leg kinematics (the same for every pack).
     reserve_fraction : float
-    payload_kg : float
+    payload_kg : float or ndarray
+        Payload flown, one value or one per pack (a Monte Carlo sample). [kg]
     takeoff_mass_kg, pack_mass_kg : ndarray
         [kg]
     capacity_mah, usable_mah, reserve_mah : ndarray
@@ -173,7 +175,14 @@ class ChainResult:
         Per-leg arrays (packs × legs) when the run kept them: ``power_w``,
         ``current_a``, ``voltage_v``, ``charge_mah``, ``charge_end_mah``,
         ``rtl_margin_mah``, ``stress_end`` (the integral model's stress at the end of
-        each leg, without the extensions' scale), and plot series.
+        each leg, without the extensions' scale), per return-home point (packs × points
+        of ``rtl_points``) ``rtl_point_margin_mah``, ``rtl_point_charge_mah`` (the
+        return's own charge: home at cruise speed, then the descent) and the return's
+        ``rtl_back_power_w`` and ``rtl_down_power_w``, and plot series.
+    rtl_points : dict of ndarray
+        The return-home points: ``leg``, ``time_s``, ``east_m``, ``north_m``,
+        ``altitude_m``, ``distance_m`` (home), and the return's ``t_back`` (straight
+        home) and ``t_down`` (descent over home) durations. [s], [m]
     """
 
     packs: list[BatteryPack]
@@ -183,7 +192,7 @@ class ChainResult:
     environment: Environment
     table: Any
     reserve_fraction: float
-    payload_kg: float
+    payload_kg: float | np.ndarray
     takeoff_mass_kg: np.ndarray
     pack_mass_kg: np.ndarray
     capacity_mah: np.ndarray
@@ -335,7 +344,8 @@ class ChainResult:
     def warnings(self, i: int) -> list[str]:
         """What the pilot should know about pack ``i`` that does not ground the flight."""
         p, out = self.packs[i], list(self.table.notes)
-        if self.battery_models[i] == "integral" and self.detail is not None:
+        if self.battery_models[i] == "integral" and self.detail is not None \
+                and "voltage_v" in self.detail:
             v_end = self.detail["voltage_v"][i]
             v_min = p.cells_series * p.cell_voltage_empty_v
             low = np.flatnonzero(v_end < v_min)
@@ -359,7 +369,7 @@ class ChainResult:
         """
         from planner.check import MissionResult
 
-        if self.detail is None:
+        if self.detail is None or "power_w" not in self.detail:
             chain = MissionChain(self.aircraft, [self.packs[i]],
                                  battery_model=self.battery_models[i],
                                  reserve=self.reserve_fraction,
@@ -556,8 +566,9 @@ class MissionChain:
                         detail=True).mission_result(0)
 
     def run(self, mission: Mission, environment: Environment | None = None, *,
-            payload_kg: float | None = None, detail: bool | None = None,
-            power_method: str = "auto", block_elements: int = 2_000_000) -> ChainResult:
+            payload_kg=None, detail: bool | None = None,
+            power_method: str = "auto", block_elements: int = 2_000_000,
+            rtl_subset=None, pack_samples: dict | None = None) -> ChainResult:
         """Fly ``mission`` with every pack.
 
         Parameters
@@ -565,8 +576,9 @@ class MissionChain:
         mission : Mission
         environment : Environment, optional
             Overrides the mission's weather (``--wind``).
-        payload_kg : float, optional
-            Overrides the mission's payload. [kg]
+        payload_kg : float or array_like, optional
+            Overrides the mission's payload: one value, or one per pack (the pack axis as
+            a sample axis). [kg]
         detail : bool, optional
             Keep the per-leg arrays (packs × legs) for tables and plots; default when
             there are at most 16 packs.
@@ -575,6 +587,20 @@ class MissionChain:
         block_elements : int
             Packs are processed in blocks of about this many (pack × point) elements,
             which bounds the memory.
+        rtl_subset : array_like of int, optional
+            Check the return-home reserve only at these of the
+            :func:`~planner.profile.return_home_points` (indices, increasing, the last
+            point — the mission's end — included): a Monte Carlo run checks the points
+            where the nominal run is tightest instead of every point. The result's
+            ``rtl_points`` are then the subset's, ``pnr_index`` indexes it, and
+            ``rtl_point_margin_mah`` and ``rtl_point_charge_mah`` (packs × subset) are kept
+            without ``detail``.
+        pack_samples : dict of array_like, optional
+            Per-pack values that replace the packs' own, one per pack (the pack axis as a
+            Monte Carlo sample axis): ``delta``, ``epsilon``, ``beta`` of the integral
+            model and ``soh``, the state of health, which scales the charge the pack can
+            give (nominal × usable fraction, and the circuit model's charge to the
+            cut-off).
 
         Returns
         -------
@@ -583,7 +609,8 @@ class MissionChain:
         env = environment or mission.environment
         temp = self.temperature_c if self.temperature_c is not None else env.temperature_c
         flown_env = replace(env, temperature_c=temp)
-        payload = mission.payload_kg if payload_kg is None else float(payload_kg)
+        payload = (mission.payload_kg if payload_kg is None else float(payload_kg)
+                   if np.ndim(payload_kg) == 0 else np.asarray(payload_kg, float))
         if not self.packs:
             raise InputError("the chain needs at least one pack to fly a mission")
         if not mission.legs:
@@ -600,12 +627,42 @@ class MissionChain:
         table = prof.leg_table(mission, ac, env, temperature_c=temp)
         n = len(table)
         pa = _pack_arrays(packs, temp)
+        soh = np.ones(k)
+        for key, values in (pack_samples or {}).items():
+            v = np.broadcast_to(np.asarray(values, float), (k,)).copy()
+            if key == "soh":
+                soh = v
+                pa["usable"] = pa["usable"] * v
+            elif key in ("delta", "epsilon", "beta"):
+                pa["eps" if key == "epsilon" else key] = v
+            else:
+                raise ValueError(f"pack_samples: unknown key {key!r}")
+        bad_sample = ~((pa["delta"] > 0) & (pa["beta"] > 0))
+        if pack_samples and bad_sample.any():
+            raise InputError(f"pack sample {int(np.argmax(bad_sample))}: delta and beta must "
+                             "be > 0")
         mass = ac.empty_mass_kg + pa["mass"] + payload
         cap, usable, scale = pa["cap"], pa["usable"].copy(), pa["scale"]
         limit = usable - self.reserve * cap
 
         # flight states: legs, return-home (back, down), hold; one power table for all
         rtl = prof.return_home_points(table, ac, env, temp)
+        npts_all = len(rtl["leg"])
+        sub = None
+        if rtl_subset is not None:
+            sub = np.asarray(rtl_subset, int)
+            if (sub.ndim != 1 or not sub.size or sub[-1] != npts_all - 1
+                    or np.any(np.diff(sub) <= 0) or sub[0] < 0):
+                raise ValueError("rtl_subset must be increasing point indices ending with the "
+                                 f"mission's end ({npts_all - 1})")
+            if keep:
+                raise ValueError("rtl_subset runs keep no per-leg detail (detail=False)")
+
+            def cut(v):
+                return v[sub] if np.ndim(v) and np.shape(v)[0] == npts_all else v
+
+            rtl = {key: (tuple(cut(x) for x in v) if isinstance(v, tuple) else cut(v))
+                   for key, v in rtl.items()}
         npts = len(rtl["leg"])
         rho0 = float(table.air_density[-1])
         hold = prof.hold_state(ac, rho0, env.wind_speed_ms)
@@ -632,7 +689,7 @@ class MissionChain:
             run = self._circuit(table, which, ptable, i_leg, i_hold, mass, temp)
             for name, values in run["figures"].items():
                 circuit[name][which] = values
-            cut_usable = run["usable_as"]
+            cut_usable = run["usable_as"] * soh[which]
             lower = cut_usable < usable[which]
             idx = np.asarray(which)[lower]
             usable[idx] = cut_usable[lower]
@@ -648,7 +705,12 @@ class MissionChain:
             "power_w", "current_a", "voltage_v", "charge_mah", "charge_end_mah",
             "rtl_margin_mah", "stress_end")} if keep else None
         if keep:
-            det["rtl_point_margin_mah"] = np.empty((k, npts))
+            for name in ("rtl_point_margin_mah", "rtl_point_charge_mah", "rtl_back_power_w",
+                         "rtl_down_power_w"):
+                det[name] = np.empty((k, npts))
+        if sub is not None:
+            det = {name: np.empty((k, npts)) for name in ("rtl_point_margin_mah",
+                                                          "rtl_point_charge_mah")}
         block = max(1, int(block_elements // max(npts, len(ptable.states), 1)))
         for b0 in range(0, k, block):
             sl = slice(b0, min(k, b0 + block))
@@ -656,39 +718,57 @@ class MissionChain:
             sc, cp, rr, cells = (pa[x][sl, None] for x in ("scale", "cap", "r", "cells"))
             lp_u = ptable.log_power(mass[sl])
             r_u = integral.stress_rate_from_log_power(lp_u, delta, eps)
-            power = np.exp(lp_u[:, i_leg])
-            inc = dur * r_u[:, i_leg]
-            s_end = np.cumsum(inc, axis=1)
-            s_start = s_end - inc
-            c_end = sc * integral.charge_from_stress(s_end, beta)
-            c_start = np.concatenate([np.zeros((c_end.shape[0], 1)), c_end[:, :-1]], axis=1)
-            out["used"][sl] = c_end[:, -1]
-            out["s_final"][sl] = s_end[:, -1]
-            out["energy"][sl] = power @ dur / 3600.0
             out["p_hold"][sl] = np.exp(lp_u[:, i_hold])
+            if not keep:
+                # one compiled pass over the legs of every pack (same figures as below)
+                s_end, inc = np.empty((sl.stop - sl.start, n)), np.empty((sl.stop - sl.start, n))
+                (out["used"][sl], out["energy"][sl], out["peak"][sl], peak_leg[sl],
+                 undeliverable[sl], out["p_undeliverable"][sl], out["p_max"][sl]) = \
+                    _legs_kernel(np.ascontiguousarray(lp_u[:, i_leg]), r_u[:, i_leg].copy(),
+                                 np.asarray(dur, float), pa["beta"][sl], pa["scale"][sl],
+                                 pa["cap"][sl], pa["r"][sl], pa["cells"][sl], s_end, inc)
+                out["s_final"][sl] = s_end[:, -1]
+                s_start = s_end - inc
+            else:
+                power = np.exp(lp_u[:, i_leg])
+                inc = dur * r_u[:, i_leg]
+                s_end = np.cumsum(inc, axis=1)
+                s_start = s_end - inc
+                c_end = sc * integral.charge_from_stress(s_end, beta)
+                c_start = np.concatenate([np.zeros((c_end.shape[0], 1)), c_end[:, :-1]],
+                                         axis=1)
+                out["used"][sl] = c_end[:, -1]
+                out["s_final"][sl] = s_end[:, -1]
+                out["energy"][sl] = power @ dur / 3600.0
 
-            # loaded current and voltage (open-circuit curve + pack resistance)
-            soc_mid = 1.0 - 0.5 * (c_start + c_end) / cp
-            current = loaded_current(power, cells * lipo_ocv(soc_mid), rr)
-            finite = np.isfinite(current)
-            cur = np.where(finite, current, -np.inf)
-            peak_leg[sl] = np.argmax(cur, axis=1)
-            peak = cur.max(axis=1)
-            out["peak"][sl] = np.where(np.isfinite(peak), peak, np.nan)
-            bad_i = ~finite & np.isfinite(power)
-            first = np.where(bad_i.any(axis=1), np.argmax(bad_i, axis=1), -1)
-            undeliverable[sl] = first
-            rows_b = np.arange(power.shape[0])
-            j = np.maximum(first, 0)
-            out["p_undeliverable"][sl] = power[rows_b, j]
-            v_oc = cells[:, 0] * lipo_ocv(soc_mid[rows_b, j])
-            with np.errstate(divide="ignore"):
-                out["p_max"][sl] = v_oc**2 / (4.0 * rr[:, 0])
+                # loaded current and voltage (open-circuit curve + pack resistance)
+                soc_mid = 1.0 - 0.5 * (c_start + c_end) / cp
+                current = loaded_current(power, cells * lipo_ocv(soc_mid), rr)
+                finite = np.isfinite(current)
+                cur = np.where(finite, current, -np.inf)
+                peak_leg[sl] = np.argmax(cur, axis=1)
+                peak = cur.max(axis=1)
+                out["peak"][sl] = np.where(np.isfinite(peak), peak, np.nan)
+                bad_i = ~finite & np.isfinite(power)
+                first = np.where(bad_i.any(axis=1), np.argmax(bad_i, axis=1), -1)
+                undeliverable[sl] = first
+                rows_b = np.arange(power.shape[0])
+                j = np.maximum(first, 0)
+                out["p_undeliverable"][sl] = power[rows_b, j]
+                v_oc = cells[:, 0] * lipo_ocv(soc_mid[rows_b, j])
+                with np.errstate(divide="ignore"):
+                    out["p_max"][sl] = v_oc**2 / (4.0 * rr[:, 0])
 
             # return-home reserve, on stresses: S_point + S_return <= (limit/scale)^beta
             total = r_u[:, i_back] * t_back
             total += r_u[:, i_down] * t_down
-            total += (s_start[:, :, None] + inc[:, :, None] * f_points).reshape(total.shape)
+            if sub is None:
+                s_point = (s_start[:, :, None] + inc[:, :, None] * f_points).reshape(
+                    total.shape)
+            else:
+                s_point = s_start[:, rtl["leg"]] + inc[:, rtl["leg"]] * rtl["frac"]
+            s_point[:, -1] = s_end[:, -1]
+            total += s_point
             total[:, -1] = s_end[:, -1]   # the mission's own end: the landing reserve
             total[np.isnan(total)] = np.inf
             lim = limit[sl]
@@ -705,6 +785,14 @@ class MissionChain:
                 rtl_min = lim - pa["scale"][sl] * integral.charge_from_stress(
                     t_max, pa["beta"][sl])
             out["rtl_min"][sl] = np.where(np.isfinite(t_max), rtl_min, -np.inf)
+            if sub is not None:
+                with np.errstate(invalid="ignore"):
+                    c_total = sc * integral.charge_from_stress(total, beta)
+                    det["rtl_point_margin_mah"][sl] = np.where(
+                        np.isfinite(total), lim[:, None] - c_total, -np.inf) / AS_PER_MAH
+                    det["rtl_point_charge_mah"][sl] = np.where(
+                        np.isfinite(total), c_total - sc * integral.charge_from_stress(
+                            s_point, beta), np.inf) / AS_PER_MAH
             if keep:
                 soc_end = 1.0 - c_end / cp
                 cur_end = loaded_current(power, cells * lipo_ocv(soc_end), rr)
@@ -719,6 +807,14 @@ class MissionChain:
                     point = lim[:, None] - sc * integral.charge_from_stress(total, beta)
                 point = np.where(np.isfinite(total), point, -np.inf)
                 det["rtl_point_margin_mah"][sl] = point / AS_PER_MAH
+                # the return's own charge: from the stress at the point to its end
+                with np.errstate(invalid="ignore"):
+                    back_charge = sc * (integral.charge_from_stress(total, beta)
+                                        - integral.charge_from_stress(s_point, beta))
+                det["rtl_point_charge_mah"][sl] = np.where(
+                    np.isfinite(total), back_charge, np.inf) / AS_PER_MAH
+                det["rtl_back_power_w"][sl] = np.exp(lp_u[:, i_back])
+                det["rtl_down_power_w"][sl] = np.exp(lp_u[:, i_down])
                 det["rtl_margin_mah"][sl] = point.reshape(-1, n, RTL_POINTS_PER_LEG).min(
                     axis=2) / AS_PER_MAH
                 _series_into(det, sl, table, power, s_start, s_end, sc, beta, cp)
@@ -773,10 +869,28 @@ class MissionChain:
             max_current_a=imax, circuit=circuit, violated=violated,
             undeliverable_power_w=out["p_undeliverable"], deliverable_max_w=out["p_max"],
             rtl_points={key: rtl[key] for key in ("leg", "time_s", "east_m", "north_m",
-                                                  "altitude_m", "distance_m")},
+                                                  "altitude_m", "distance_m", "t_back",
+                                                  "t_down")},
             power_method=ptable.method, detail=det)
 
     def _circuit(self, table, which, ptable, i_leg, i_hold, mass, temp) -> dict:
+        """:meth:`_circuit_unique` of the distinct (pack, take-off mass) pairs of ``which``,
+        spread back over ``which``: the samples of a Monte Carlo run share one pack file
+        and differ in the circuit model only by their mass."""
+        keys = [(id(self.packs[i]), float(mass[i])) for i in which]
+        first: dict = {}
+        inv = np.array([first.setdefault(key, len(first)) for key in keys])
+        if len(first) == len(which):
+            return self._circuit_unique(table, which, ptable, i_leg, i_hold, mass, temp)
+        reps = np.zeros(len(first), int)
+        reps[inv[::-1]] = np.arange(len(which))[::-1]    # first row of each pair
+        run = self._circuit_unique(table, [which[j] for j in reps], ptable, i_leg, i_hold,
+                                   mass, temp)
+        return {"figures": {k: v[inv] for k, v in run["figures"].items()},
+                "usable_as": run["usable_as"][inv], "leg_voltage_v": run["leg_voltage_v"][inv],
+                "temperature_bad": run["temperature_bad"][inv]}
+
+    def _circuit_unique(self, table, which, ptable, i_leg, i_hold, mass, temp) -> dict:
         """The circuit (and thermal) model of the packs ``which`` along the mission.
 
         The mission's power profile is run at :data:`CIRCUIT_STEP_S` through the coupled
@@ -956,6 +1070,90 @@ def filled_temperature(temperature_c) -> np.ndarray | None:
         idx = np.arange(temp.size)
         temp = np.interp(idx, idx[ok], temp[ok])
     return temp
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _ocv_cell(soc):
+    """:func:`planner.battery.ocv.lipo_ocv` for one value (compiled). [V]"""
+    s = min(max(soc, 0.0), 1.0)
+    return -1.031 * np.exp(-35.0 * s) + 3.685 + s * (0.2156 + s * (-0.1178 + 0.3201 * s))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _current(p, v, r):
+    """:func:`planner.battery.circuit.loaded_current` for one value (compiled). [A]"""
+    if not r > 0:
+        return p / v
+    disc = v * v - 4.0 * r * p
+    if disc >= 0:
+        return (v - np.sqrt(disc)) / (2.0 * r)
+    return np.nan
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _legs_kernel(lp_leg, rate_leg, dur, beta, scale, cap, r, cells, s_end, inc):
+    r"""The per-leg figures of :meth:`MissionChain.run` for every pack in one pass.
+
+    The same equations as the array code of ``run`` (which keeps the per-leg detail):
+    stress increments and their sum, the charge :math:`C = S^{1/\beta}` ([UAV23] eq. 14)
+    × the extensions' scale, the energy, and the loaded current at the mid-leg state of
+    charge through the pack resistance (its peak, and the first leg whose power the pack
+    cannot deliver). Fills ``s_end`` and ``inc`` (packs × legs) and returns per pack:
+    charge used [A s], energy [Wh], peak current [A] (NaN: none), its leg, the first
+    undeliverable leg (−1: none), that leg's power [W] and the most the pack delivers
+    there [W].
+    """
+    k, n = lp_leg.shape
+    used = np.empty(k)
+    energy = np.empty(k)
+    peak = np.empty(k)
+    peak_leg = np.zeros(k, np.int64)
+    first = np.full(k, -1, np.int64)
+    p_bad = np.empty(k)
+    p_max = np.empty(k)
+    for i in range(k):
+        s = 0.0
+        c_prev = 0.0
+        e = 0.0
+        best = -np.inf
+        best_j = 0
+        soc_first = 0.0
+        for j in range(n):
+            d = dur[j] * rate_leg[i, j]
+            inc[i, j] = d
+            s += d
+            s_end[i, j] = s
+            if s > 0:
+                c = scale[i] * np.exp(np.log(s) / beta[i])
+            elif np.isnan(s):
+                c = np.nan
+            else:
+                c = 0.0
+            p = np.exp(lp_leg[i, j])
+            e += p * dur[j]
+            soc = 1.0 - 0.5 * (c_prev + c) / cap[i]
+            if j == 0:
+                soc_first = soc
+            cur = _current(p, cells[i] * _ocv_cell(soc), r[i])
+            if np.isfinite(cur):
+                if cur > best:
+                    best = cur
+                    best_j = j
+            elif np.isfinite(p) and first[i] < 0:
+                first[i] = j
+                p_bad[i] = p
+                v_oc = cells[i] * _ocv_cell(soc)
+                p_max[i] = v_oc * v_oc / (4.0 * r[i])
+            c_prev = c
+        used[i] = c_prev
+        energy[i] = e / 3600.0
+        peak[i] = best if np.isfinite(best) else np.nan
+        peak_leg[i] = best_j
+        if first[i] < 0:
+            p_bad[i] = np.exp(lp_leg[i, 0])
+            v_oc = cells[i] * _ocv_cell(soc_first)
+            p_max[i] = v_oc * v_oc / (4.0 * r[i])
+    return used, energy, peak, peak_leg, first, p_bad, p_max
 
 
 def _pack_arrays(packs, temperature_c):

@@ -132,11 +132,33 @@ def _shade_legs(ax, result):
                    label=label, zorder=0)
 
 
-def save_mission_plot(result, path, title=None):
-    """Two panels: power and remaining charge against time; legs marked."""
+def plot_landing_band(result, uncertainty, ax):
+    """The Monte Carlo band of the charge left on landing (P5–P95, P50 and the mean of the
+    worst 5 %) at the end of the mission, as remaining charge in % of nominal."""
+    unusable = result.capacity_mah - result.usable_mah
+    lm = uncertainty.landing_mah
+
+    def pct(mah):
+        return 100.0 * (mah + unusable) / result.capacity_mah
+
+    t = result.duration_s / 60.0
+    lo, mid, hi = pct(lm["p5"]), pct(lm["p50"]), pct(lm["p95"])
+    ax.errorbar([t], [mid], yerr=[[mid - lo], [hi - mid]], fmt="o", color="C2", capsize=6,
+                lw=2, zorder=5, label=f"landing, {uncertainty.samples} samples: P5–P95 "
+                                      f"(P50 ●), P(reserve) {100 * uncertainty.p_landing:.0f} %")
+    ax.plot([t], [pct(uncertainty.cvar5_landing_mah)], marker="v", color="C3", ls="none",
+            zorder=5, label="landing, mean of the worst 5 % (CVaR5)")
+    return ax
+
+
+def save_mission_plot(result, path, title=None, uncertainty=None):
+    """Two panels: power and remaining charge against time; legs marked; with a Monte
+    Carlo result, the band of the charge left on landing."""
     fig, (ax1, ax2) = figure(2, 1, figsize=(10, 7), sharex=True)
     plot_power(result, ax1)
     plot_remaining(result, ax2)
+    if uncertainty is not None:
+        plot_landing_band(result, uncertainty, ax2)
     ax1.set_title(title or f"{result.aircraft}: {result.verdict}")
     ax1.legend(loc="upper right", fontsize=8, ncol=3)
     ax2.legend(loc="lower left", fontsize=8)

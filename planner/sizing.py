@@ -384,6 +384,10 @@ MIN_ALTITUDE_M = 0.01
 #: Bisection steps when a sortie ends inside a leg (leg fraction to 2⁻²⁰, under a
 #: metre on a 1 km leg).
 BISECTION_STEPS = 20
+#: Charge a sortie keeps above its landing and return-home reserves: the split is found
+#: by bisection to the limit, and the sortie's mission file (positions rounded to the
+#: file's precision, e.g. 1e-8° in a .waypoints file) must still pass the check. [mAh]
+SPLIT_MARGIN_MAH = 1.0
 
 
 @dataclass(frozen=True)
@@ -617,6 +621,12 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
     def run(a, b, k):
         return chain.check(sortie_mission(mission, a, b, k), env)
 
+    def flies(r):
+        """GO with SPLIT_MARGIN_MAH to spare: the sortie's mission file, its positions
+        rounded to the file's precision, still passes the check."""
+        return (r.go and r.margin_mah >= SPLIT_MARGIN_MAH
+                and r.rtl_min_margin_mah >= SPLIT_MARGIN_MAH)
+
     sorties: list[Sortie] = []
     a = 0.0
     while a < n:
@@ -628,7 +638,7 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
             if route_stress(a, j) > s_lim:
                 break                      # the route alone already exceeds the budget
             r = run(a, j, k)
-            if r.go:
+            if flies(r):
                 best_b, best_r = float(j), r
         lo = best_b if best_b is not None else a
         leg = min(math.floor(lo), n - 1) if lo < n else n
@@ -639,7 +649,7 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
                 if mid <= a:
                     break
                 r = run(a, mid, k)
-                if r.go:
+                if flies(r):
                     lo, best_b, best_r = mid, mid, r
                 else:
                     hi = mid

@@ -73,6 +73,12 @@ def test_fit_battery_end_to_end(tmp_path, capsys, bench):
     assert {m["experiment"] for m in data["metrics"]} == {"p050", "p125", "aprbs"}
     assert data["delta"] == pytest.approx(TRUE["delta"], rel=0.01)
     assert (tmp_path / "fit.png").stat().st_size > 10_000
+    # the fit's covariance is stored for the Monte Carlo (check --uncertainty)
+    cov = np.array(pack.model.covariance)
+    sd = np.sqrt(np.diag(cov))
+    np.testing.assert_allclose(sd, [data["stderr"][k] for k in ("delta", "epsilon", "beta")],
+                               rtol=1e-9)
+    assert np.linalg.eigvalsh(cov).min() >= -1e-12 * np.abs(cov).max()
 
 
 def test_fit_battery_keeps_the_base_pack_and_holds_beta(tmp_path, capsys, bench):
@@ -87,6 +93,7 @@ def test_fit_battery_keeps_the_base_pack_and_holds_beta(tmp_path, capsys, bench)
                 "max_discharge_c"):
         assert getattr(pack, key) == getattr(base, key)
     assert pack.model.beta == 0.9648
+    assert pack.model.covariance[2] == (0.0, 0.0, 0.0)   # a held beta has no variance
     assert "train: p050, aprbs; validate: p125; beta held at 0.9648" in pack.source
     assert "(held)" in stdout
 

@@ -216,7 +216,8 @@ def run_fit(args) -> int:
     source = (f"fit-battery on {data_names}; train: {', '.join(result['train'])}; validate: "
               f"{', '.join(result['validate']) or 'none'}"
               + (f"; beta held at {beta:g}" if beta is not None else ""))
-    model = IntegralModel(result["delta"], result["epsilon"], result["beta"])
+    model = IntegralModel(result["delta"], result["epsilon"], result["beta"],
+                          covariance=fit_covariance(result))
     dropped = []
     if base_raw is not None:
         mapping = base_raw
@@ -264,6 +265,22 @@ def run_fit(args) -> int:
     if plot_out:
         save_fit_plot(experiments, result, plot_out)
     return 0
+
+
+def fit_covariance(result: dict):
+    """The fit's covariance of δ, ε, β (standard errors × correlation; a held β has no
+    variance) for the pack file's ``model.covariance``; None when it is indeterminate."""
+    sd = np.array([result["stderr"][k] for k in ("delta", "epsilon", "beta")], float)
+    corr = np.array(result["correlation"], float)
+    if corr.shape != (3, 3) or not np.all(np.isfinite(sd)):
+        return None
+    corr = np.where(np.isfinite(corr), corr, 0.0)
+    np.fill_diagonal(corr, 1.0)
+    cov = corr * np.outer(sd, sd)
+    cov = 0.5 * (cov + cov.T)
+    if np.linalg.eigvalsh(cov).min() < -1e-9 * max(float(np.abs(cov).max()), 1e-300):
+        return None
+    return tuple(tuple(float(x) for x in row) for row in cov)
 
 
 def render_fit(result: dict) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -55,6 +56,9 @@ def register(sub) -> None:
     p.add_argument("--plot", help="write a PNG of pack mass against landing margin")
     p.add_argument("--no-sorties", action="store_true",
                    help="when no pack is feasible, do not plan sorties")
+    p.add_argument("--sorties-out", metavar="DIR",
+                   help="write one mission file per sortie into this existing folder, in "
+                        "the mission's own format (.plan, .waypoints or YAML)")
     p.set_defaults(func=run_select)
 
     s = sub.add_parser("sweep", help="sizing sweeps: endurance vs battery mass, range vs "
@@ -96,6 +100,7 @@ def run_select(args) -> int:
 
     json_out = output_path(args.json, "--json")
     plot_out = plot_path(args.plot)
+    sorties_dir = sorties_folder(args.sorties_out, args.mission, args.no_sorties)
     reserve = parse_fraction(args.reserve, "--reserve")
     top = None if args.top is None else parse_int(args.top, "--top", 1, 10**9)
     min_tw = parse_float(args.min_thrust_to_weight, "--min-thrust-to-weight", 0.0, 20.0)
@@ -126,6 +131,9 @@ def run_select(args) -> int:
     print(render_selection(selection, args.packs, env, top))
     if plan is not None:
         print(render_plan(plan))
+        if sorties_dir is not None:
+            for path in write_sorties(plan, args.mission, sorties_dir, aircraft.type):
+                print(f"wrote     {path}")
     elif plan_error:
         print(f"\nSorties   not possible: {plan_error}")
     if json_out:
@@ -202,6 +210,41 @@ def render_selection(selection, catalog, env, top=None) -> str:
         lines.append("NO-GO     no single pack of the catalog flies the mission with the "
                      "reserves")
     return "\n".join(lines)
+
+
+def sorties_folder(folder: str | None, mission_path: str, no_sorties: bool):
+    """``--sorties-out``: an existing folder, for a mission format that can be written."""
+    from planner.mission.writers import WRITERS
+
+    if folder is None:
+        return None
+    if no_sorties:
+        raise InputError("--sorties-out: cannot be given with --no-sorties")
+    if not Path(folder).is_dir():
+        raise InputError(f"--sorties-out {folder}: not an existing folder (expected the "
+                         "folder to write the sortie mission files into)")
+    suffix = Path(mission_path).suffix.lower()
+    if suffix not in WRITERS:
+        raise InputError(f"--sorties-out: cannot write missions in the format of "
+                         f"{mission_path} (expected .plan, .waypoints, .yaml or .yml)")
+    return Path(folder)
+
+
+def write_sorties(plan, mission_path: str, folder: Path, vehicle_type: str) -> list[Path]:
+    """One mission file per sortie, in the format of ``mission_path``."""
+    from planner.mission import writers
+
+    src = Path(mission_path)
+    kind = writers.WRITERS[src.suffix.lower()]
+    out = []
+    for s in plan.sorties:
+        text = (writers.to_yaml(s.mission) if kind == "yaml" else
+                writers.to_waypoints(s.mission) if kind == "waypoints" else
+                writers.to_plan(s.mission, vehicle_type))
+        path = folder / f"{src.stem}_sortie{s.number}{src.suffix}"
+        files.write_text(path, text, "--sorties-out")
+        out.append(path)
+    return out
 
 
 def render_plan(plan) -> str:

@@ -69,8 +69,44 @@ MODEL_KEYS = {
     "reference_temperature_c": S.Key(S.NUMBER, default=25.0, low=-40, high=80),
     "fade_per_cycle": S.Key(S.NUMBER, default=0.0, low=-0.01, high=0.05),
     "cycle": S.Key(S.NUMBER, default=0.0, low=0.0, high=1.0e5),  # LiPo: 300–1000 cycles
+    # parameter covariance of the fit, rows and columns delta, epsilon, beta (written by
+    # `endurance fit-battery`; the Monte Carlo of `check --uncertainty` samples it)
+    "covariance": S.Key(S.LIST),
     "source": S.Key(S.TEXT),
 }
+
+#: Order of the rows and columns of ``model.covariance``.
+COVARIANCE_PARAMETERS = ("delta", "epsilon", "beta")
+
+
+def check_covariance(value, where: str, problems: list[str]):
+    """``model.covariance`` → a 3×3 tuple of tuples, or None with the problem noted.
+
+    It must be a symmetric 3×3 matrix of finite numbers (rows and columns δ, ε, β) that is
+    positive semi-definite: a variance is never negative, in any direction.
+    """
+    key = "model.covariance"
+    try:
+        m = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        m = None
+    if m is None or m.shape != (3, 3):
+        problems.append(f"{key} must be a 3×3 list of numbers (rows and columns delta, "
+                        "epsilon, beta)")
+        return None
+    if not np.all(np.isfinite(m)):
+        problems.append(f"{key} must hold finite numbers")
+        return None
+    scale = float(np.max(np.abs(m))) or 1.0
+    if not np.allclose(m, m.T, rtol=1e-6, atol=1e-12 * scale):
+        problems.append(f"{key} must be symmetric")
+        return None
+    low = float(np.linalg.eigvalsh(m).min())
+    if low < -1e-9 * scale:
+        problems.append(f"{key} is not positive semi-definite (smallest eigenvalue "
+                        f"{low:.3g}): no distribution has it")
+        return None
+    return tuple(tuple(float(x) for x in row) for row in m)
 
 
 #: Largest cell count for which the literature start-value polynomials are used as such.
@@ -95,6 +131,9 @@ class IntegralModel:
     fade_per_cycle, cycle : float
         Relative rise of the charge drawn per charge cycle and the pack's cycle
         count (diagnose extension). [1/cycle], [cycles]
+    covariance : tuple of tuple of float or None
+        Covariance of δ, ε, β from the fit (rows and columns in that order); None when
+        the file stores none.
     """
 
     delta: float
@@ -106,6 +145,7 @@ class IntegralModel:
     fade_per_cycle: float = 0.0
     cycle: float = 0.0
     source: str | None = None
+    covariance: tuple | None = None
 
     @classmethod
     def from_literature(cls, cells_series: int,
@@ -191,6 +231,8 @@ class IntegralModel:
         if self.fade_per_cycle:
             out["fade_per_cycle"] = float(self.fade_per_cycle)
             out["cycle"] = float(self.cycle)
+        if self.covariance is not None:
+            out["covariance"] = [list(row) for row in self.covariance]
         if self.source:
             out["source"] = self.source
         return out
@@ -355,12 +397,14 @@ def battery_from_mapping(data: Any, where: str, base_dir: str | Path | None = No
     model = None
     if d["model"] is not None:
         m = S.check_mapping(d["model"], MODEL_KEYS, where, "model.", problems)
+        cov = (None if m.get("covariance") is None
+               else check_covariance(m["covariance"], where, problems))
         if not problems:
             model = IntegralModel(m["delta"], m["epsilon"], m["beta"], literature=False,
                                   temperature_coefficient_per_c=m["temperature_coefficient_per_c"],
                                   reference_temperature_c=m["reference_temperature_c"],
                                   fade_per_cycle=m["fade_per_cycle"], cycle=m["cycle"],
-                                  source=m["source"])
+                                  source=m["source"], covariance=cov)
     if problems:
         raise InputError(f"{where}: " + "; ".join(problems))
     circuit = None if d["circuit"] is None else circuit_block(d["circuit"], where, base_dir)
