@@ -483,3 +483,26 @@ def test_yaml_speeds_are_bounded(tmp_path, speed):
                     "  - descend: {height_m: 30}\n")
     with pytest.raises(InputError, match="groundspeed_ms"):
         load_mission(path)
+
+
+@pytest.mark.parametrize("where", ["payload_kg", "home", "plan_param", "plan_home"])
+def test_an_integer_too_large_for_a_float_is_bad_input(tmp_path, where):
+    """Found by the fuzzer: a 400-digit integer made float() raise OverflowError (exit 3)."""
+    big = int("9" * 400)
+    if where.startswith("plan"):
+        plan = json.loads((REPO / "missions/survey_route.plan").read_text())
+        if where == "plan_param":
+            plan["mission"]["items"][1]["params"][4] = big
+        else:
+            plan["mission"]["plannedHomePosition"][0] = big
+        path = tmp_path / "m.plan"
+        path.write_text(json.dumps(plan))
+        check_exits_2(path, "finite number")
+    else:
+        text = (f"name: t\npayload_kg: {big}\nlegs:\n  - climb: {{altitude_m: 30}}\n"
+                if where == "payload_kg" else
+                f"name: t\nhome: {{lat: {big}, lon: 3, alt_m: 1}}\nwaypoints:\n"
+                "  - {lat: 1, lon: 2, alt_m: 3}\n")
+        path = tmp_path / "m.yaml"
+        path.write_text(text)
+        check_exits_2(path, "must be a finite number, got an integer of 400 digits")

@@ -55,7 +55,10 @@ def _is_number(x: Any) -> bool:
 
 def _is_finite(x: Any) -> bool:
     """A finite JSON number (not a bool, not the non-standard NaN or Infinity)."""
-    return _is_number(x) and math.isfinite(x)
+    try:
+        return _is_number(x) and math.isfinite(x)
+    except OverflowError:                    # a JSON integer too large for a float
+        return False
 
 
 def _is_int(x: Any) -> bool:

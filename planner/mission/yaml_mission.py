@@ -158,7 +158,12 @@ class _Checker:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.add(full, f"must be a number, got {_describe(value)}")
             return None
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:                 # an integer too large for a float
+            self.add(full, f"must be a finite number, got an integer of "
+                           f"{len(str(abs(value)))} digits")
+            return None
         if not math.isfinite(value):
             self.add(full, f"must be a finite number, got {value}")
             return None

@@ -46,8 +46,13 @@ def _unknown(where: str, key: str, allowed: set) -> InputError:
 def _number(where: str, key: str, value) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(f"{where}: {key} must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: {key} must be a finite number, got {value!r}")
+    try:
+        finite = math.isfinite(value)
+    except OverflowError:                    # an integer too large for a float
+        finite = False
+    if not finite:
+        shown = repr(value) if isinstance(value, float) else f"an integer of {len(str(value))} digits"
+        raise InputError(f"{where}: {key} must be a finite number, got {shown}")
     return float(value)
 
 
