@@ -279,17 +279,46 @@ def check_outputs(outputs: dict[str, Any]) -> None:
         check_output(path, option)
 
 
+def _target(path: Path) -> tuple[Path, int | None]:
+    """Where an output really goes and the permissions it gets: a symbolic link's target
+    (the link stays), the existing file's own mode, else the usual mode for a new file
+    (0666 less the umask, not mkstemp's 0600). ``None``: not a regular file (a device
+    such as /dev/null, a pipe), written in place, never replaced."""
+    real = Path(os.path.realpath(path))
+    try:
+        st = os.stat(real)
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return real, 0o666 & ~umask
+    except OSError:
+        return real, 0o666
+    if not stat.S_ISREG(st.st_mode):
+        return real, None
+    return real, stat.S_IMODE(st.st_mode)
+
+
 @contextlib.contextmanager
 def _atomic(path: Path, mode: str) -> Iterator[Any]:
-    folder = path.resolve().parent
+    real, perm = _target(path)
+    kwargs = {} if "b" in mode else {"encoding": "utf-8"}
+    if perm is None:                                  # a device or a pipe: write in place
+        try:
+            with open(real, mode, **kwargs) as fh:
+                yield fh
+        except OSError as exc:
+            raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+        return
+    folder = real.parent
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".tmp", dir=folder)
     except OSError as exc:
         raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
     try:
-        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as fh:
+        with os.fdopen(fd, mode, **kwargs) as fh:
             yield fh
-        os.replace(tmp, path)
+        os.chmod(tmp, perm)
+        os.replace(tmp, real)
     except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
@@ -342,15 +371,19 @@ def output_file(path: str | os.PathLike, option: str = "output") -> Iterator[Pat
     _first_write()
     p = Path(path)
     check_output(p, option)
-    folder = p.resolve().parent
+    real, perm = _target(p)
+    if perm is None:                                  # a device or a pipe: write in place
+        yield real
+        return
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".tmp", dir=real.parent)
     except OSError as exc:
         raise InputError(f"{p}: cannot write ({exc.strerror or exc})") from None
     os.close(fd)
     try:
         yield Path(tmp)
-        os.replace(tmp, p)
+        os.chmod(tmp, perm)
+        os.replace(tmp, real)
     except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)

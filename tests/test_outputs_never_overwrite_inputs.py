@@ -179,3 +179,34 @@ def test_json_to_standard_output(world, capsys):
     data = json.loads(out[out.index("{"):])
     assert data["verdict"] in ("GO", "NO-GO")
     assert not (Path.cwd() / "-").exists()
+
+
+def test_outputs_get_normal_permissions_and_links_and_devices_survive(tmp_path):
+    """A new output gets 0666 less the umask (not mkstemp's 0600), a replaced file keeps
+    its own mode, a symbolic link given as the output stays a link to the updated file,
+    and /dev/null is written to, never replaced."""
+    import os
+    import stat as st
+
+    from planner import files
+
+    umask = os.umask(0o022)
+    try:
+        new = tmp_path / "new.json"
+        files.write_text(new, "{}")
+        assert st.S_IMODE(new.stat().st_mode) == 0o644
+        kept = tmp_path / "kept.json"
+        kept.write_text("old")
+        kept.chmod(0o600)
+        files.write_text(kept, "{}")
+        assert st.S_IMODE(kept.stat().st_mode) == 0o600 and kept.read_text() == "{}"
+        target = tmp_path / "target.json"
+        target.write_text("old")
+        link = tmp_path / "link.json"
+        link.symlink_to(target)
+        files.write_text(link, "new")
+        assert link.is_symlink() and target.read_text() == "new"
+        files.write_text("/dev/null", "nothing")
+        assert st.S_ISCHR(os.stat("/dev/null").st_mode)
+    finally:
+        os.umask(umask)
