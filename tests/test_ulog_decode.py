@@ -91,3 +91,20 @@ def test_damaged_logs_give_data_or_one_line_quickly(path, tmp_path):
     if p.returncode == 2:
         errors = [line for line in p.stderr.splitlines() if line.startswith("error:")]
         assert len(errors) == 1 and path.name in errors[0]
+
+
+def test_a_parameter_with_a_garbled_type_is_ignored_with_a_warning(tmp_path):
+    """Found by the fuzz campaign: a bit flip in the type of MAV_TYPE made its value raw
+    bytes, and int() of them raised ValueError (exit 3); now the parameter is ignored and
+    the rest of the log read."""
+    from planner.cli import main
+
+    data = bytearray((REPO / "logs/sim_solo_windy.ulg").read_bytes())
+    i = data.find(b"int32_t MAV_TYPE")
+    assert i > 0
+    data[i:i + 7] = b"intXX_t"
+    path = tmp_path / "garbled.ulg"
+    path.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="parameter.*unreadable type ignored .*MAV_TYPE"):
+        assert main(["export", str(path), "--csv", str(tmp_path / "out.csv")]) == 0
+    assert (tmp_path / "out.csv").stat().st_size > 1000

@@ -189,12 +189,22 @@ def read_ulog(path: str | os.PathLike, *, require_battery: bool = True
         meta["dropouts"] = len(ulog.dropouts_ms)
         meta["notes"] = [f"{len(ulog.dropouts_ms)} logging dropout(s), {lost} ms in total"]
 
-    params = dict(ulog.initial_parameters)
+    raw_params = dict(ulog.initial_parameters)
+    # a parameter is an int32 or a float; one whose type a damaged file garbled is ignored
+    params = {k: v for k, v in raw_params.items()
+              if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)}
+    garbled = sorted(set(raw_params) - set(params))
+    if garbled:
+        meta.warn(f"{path}: damaged ULog: {len(garbled)} parameter(s) with an unreadable "
+                  f"type ignored ({', '.join(garbled[:3])}{' …' if len(garbled) > 3 else ''})")
     info = ulog.msg_info_dict
     meta["params"] = params
     meta["firmware"] = _firmware(info)
     meta["hardware"] = info.get("ver_hw")
     mav_type = params.get("MAV_TYPE")
+    if mav_type is not None and not (np.isfinite(mav_type) and float(mav_type).is_integer()):
+        meta.warn(f"{path}: MAV_TYPE {mav_type} is not a vehicle type: ignored")
+        mav_type = None
     meta["vehicle"] = mav_type_name(mav_type)
     vclass = MAV_TYPE_CLASS.get(int(mav_type)) if mav_type is not None else None
     meta["vehicle_type"] = vclass
