@@ -312,9 +312,22 @@ def increasing_subset(t: np.ndarray) -> np.ndarray:
     return fin[np.array(out[::-1], dtype=np.int64)]
 
 
+#: Longest gap between two samples of one stream in a log of one flight; a time stamp
+#: beyond it is damage (a garbage ``TimeUS``, 163 000 years after boot, in a duplicated
+#: chunk), and the samples on the far side of the gap are dropped. [s]
+MAX_TIME_GAP_S = 6 * 3600.0
+
+
 def _clean(ch: Channel, meta: Meta, dropped: dict) -> np.ndarray:
-    """Indices of a channel's samples with finite, strictly increasing time."""
+    """Indices of a channel's samples with finite, strictly increasing time, in the
+    largest stretch without a gap longer than :data:`MAX_TIME_GAP_S`."""
     idx = increasing_subset(ch.t)
+    if len(idx) > 1:
+        gaps = np.flatnonzero(np.diff(np.asarray(ch.t, float)[idx]) > MAX_TIME_GAP_S)
+        if len(gaps):
+            starts, ends = np.r_[0, gaps + 1], np.r_[gaps + 1, len(idx)]
+            k = int(np.argmax(ends - starts))
+            idx = idx[starts[k]:ends[k]]
     n_bad = len(ch.t) - len(idx)
     if n_bad:
         dropped[ch.message] = max(dropped.get(ch.message, 0), n_bad)
@@ -397,7 +410,8 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
         meta["channels"][column] = ch.source
         meta["rates_hz"][column] = ch.rate_hz
     if dropped:
-        meta.warn(f"{meta.source}: dropped sample(s) whose time is missing or out of order "
+        meta.warn(f"{meta.source}: dropped sample(s) whose time is missing, out of order or "
+                  "beyond a gap of more than 6 h "
                   "(damaged data or a clock reset): "
                   + ", ".join(f"{n} {m}" for m, n in dropped.items()))
     if "voltage_v" in cols and "current_a" in cols and "power_w" not in cols:
