@@ -85,3 +85,24 @@ def test_flight_state_takes_the_airspeed_from_the_logged_wind():
     exp["pressure_pa"], exp["ambient_temperature_c"] = 90000.0, 5.0
     rho = flightstate.from_record(exp).air_density
     np.testing.assert_allclose(rho, 90000.0 / (287.05287 * 278.15), rtol=1e-9)
+
+
+def test_a_logged_pressure_outside_the_atmosphere_is_read_as_missing():
+    """Found by the fuzz campaign: a damaged ULog logged -9.3e18 Pa and replay stopped with
+    "pressure_pa must be > 0" naming no file. Out-of-model pressures and temperatures are
+    missing values; the density comes from the others."""
+    import numpy as np
+    import pandas as pd
+
+    from planner import flightstate
+
+    n = 50
+    df = pd.DataFrame({"experiment": "x", "time_s": np.arange(n, dtype=float),
+                       "power_w": np.full(n, 200.0), "groundspeed_ms": np.full(n, 5.0),
+                       "climb_rate_ms": np.zeros(n), "pressure_pa": np.full(n, 95000.0),
+                       "ambient_temperature_c": np.full(n, 15.0)})
+    df.loc[10, "pressure_pa"] = -9.3e18
+    df.loc[20, "ambient_temperature_c"] = -500.0
+    state = flightstate.from_record(df)
+    assert np.all(np.isfinite(state.air_density))
+    assert np.allclose(state.air_density, state.air_density[0], rtol=1e-9)
