@@ -299,24 +299,24 @@ def _target(path: Path) -> tuple[Path, int | None]:
 
 
 @contextlib.contextmanager
-def _atomic(path: Path, mode: str) -> Iterator[Any]:
+def _in_place_of(path: Path) -> Iterator[Path]:
+    """The path to write in place of ``path``: a temporary file beside its real target
+    (:func:`_target`), renamed onto it with its permissions when the block ends without
+    an error and removed otherwise; a device or a pipe is written in place."""
     real, perm = _target(path)
-    kwargs = {} if "b" in mode else {"encoding": "utf-8"}
-    if perm is None:                                  # a device or a pipe: write in place
+    if perm is None:
         try:
-            with open(real, mode, **kwargs) as fh:
-                yield fh
+            yield real
         except OSError as exc:
             raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
         return
-    folder = real.parent
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".tmp", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".tmp", dir=real.parent)
     except OSError as exc:
         raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    os.close(fd)
     try:
-        with os.fdopen(fd, mode, **kwargs) as fh:
-            yield fh
+        yield Path(tmp)
         os.chmod(tmp, perm)
         os.replace(tmp, real)
     except BaseException as exc:
@@ -325,6 +325,13 @@ def _atomic(path: Path, mode: str) -> Iterator[Any]:
         if isinstance(exc, OSError):
             raise InputError(f"{path}: cannot write ({exc.strerror or exc})") from None
         raise
+
+
+@contextlib.contextmanager
+def _atomic(path: Path, mode: str) -> Iterator[Any]:
+    with _in_place_of(path) as target, \
+            open(target, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as fh:
+        yield fh
 
 
 def write_text(path: str | os.PathLike, text: str, option: str = "output") -> None:
@@ -371,25 +378,8 @@ def output_file(path: str | os.PathLike, option: str = "output") -> Iterator[Pat
     _first_write()
     p = Path(path)
     check_output(p, option)
-    real, perm = _target(p)
-    if perm is None:                                  # a device or a pipe: write in place
-        yield real
-        return
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=".tmp", dir=real.parent)
-    except OSError as exc:
-        raise InputError(f"{p}: cannot write ({exc.strerror or exc})") from None
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.chmod(tmp, perm)
-        os.replace(tmp, real)
-    except BaseException as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        if isinstance(exc, OSError):
-            raise InputError(f"{p}: cannot write ({exc.strerror or exc})") from None
-        raise
+    with _in_place_of(p) as target:
+        yield target
 
 
 def own_output_path(path: str | os.PathLike, kind: str, what: str = "file") -> Path:
