@@ -300,21 +300,31 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "poorly_determined": poor, "split": how,
         "train_experiments": sorted(set(s_trn.experiment)),
         "validation_experiments": sorted(set(s_val.experiment)),
-        "train": {"before": _metrics(_predict(aircraft, s_trn, mass_trn), s_trn.measured_w,
-                                     s_trn.dt),
-                  "after": _metrics(_predict(fitted, s_trn, mass_trn), s_trn.measured_w,
-                                    s_trn.dt)},
-        "samples": {"train": int(trn.sum()), "validation": int(val.sum())},
     }
-    if val.sum() >= 2:
-        mass_val = np.full(len(s_val.time_s), float(mass_kg))
-        result["validation"] = {
-            "before": _metrics(_predict(aircraft, s_val, mass_val), s_val.measured_w, s_val.dt),
-            "after": _metrics(_predict(fitted, s_val, mass_val), s_val.measured_w, s_val.dt)}
-        result["per_experiment_energy_error_pct"] = {
-            "before": per_experiment_energy_error(aircraft, s_val, mass_val),
-            "after": per_experiment_energy_error(fitted, s_val, mass_val)}
+    result.update(_scores(aircraft, fitted, s, s, trn, val, mass_kg))
     return result
+
+
+def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg) -> dict:
+    """Power RMSE and energy error of the start and the fitted aircraft on the training
+    and (with at least 2 samples) validation rows, and the per-flight energy error of the
+    validation flights. ``before`` and ``after`` are the samples each aircraft is flown on:
+    the same, unless the fit chose a state lead."""
+    out: dict[str, Any] = {}
+    for name, rows in (("train", trn), ("validation", val)):
+        if name == "validation" and rows.sum() < 2:
+            break
+        b, a = _subset(before, rows), _subset(after, rows)
+        m = np.full(int(rows.sum()), float(mass_kg))
+        out[name] = {"before": _metrics(_predict(aircraft, b, m), b.measured_w, b.dt),
+                     "after": _metrics(_predict(fitted, a, m), a.measured_w, a.dt)}
+        if name == "train":
+            out["samples"] = {"train": int(trn.sum()), "validation": int(val.sum())}
+        else:
+            out["per_experiment_energy_error_pct"] = {
+                "before": per_experiment_energy_error(aircraft, b, m),
+                "after": per_experiment_energy_error(fitted, a, m)}
+    return out
 
 
 def _stderr(sol, names):
@@ -570,9 +580,6 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     if poor:
         warnings.warn(f"poorly determined by these flights: {', '.join(poor)} "
                       f"(standard error above {POOR_RELATIVE_STDERR:.0%} of the value)")
-    s_before = samples[given_lead]
-    s_after = samples[lead]
-    m_t = np.full(int(trn.sum()), mass)
     result = {
         "aircraft": fitted, "parameters": values, "start": starts,
         "stderr": {n: se[n] for n in chosen}, "poorly_determined": poor,
@@ -582,19 +589,7 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "profile_power_ratio": r0,
         "train_experiments": sorted(set(s0.experiment[trn])),
         "validation_experiments": sorted(set(s0.experiment[val])),
-        "train": {"before": _metrics(_predict(aircraft, _subset(s_before, trn), m_t),
-                                     s0.measured_w[trn], s0.dt[trn]),
-                  "after": _metrics(_predict(fitted, _subset(s_after, trn), m_t),
-                                    s0.measured_w[trn], s0.dt[trn])},
-        "samples": {"train": int(trn.sum()), "validation": int(val.sum())},
     }
-    if val.sum() >= 2:
-        m_v = np.full(int(val.sum()), mass)
-        vb, va = _subset(s_before, val), _subset(s_after, val)
-        result["validation"] = {
-            "before": _metrics(_predict(aircraft, vb, m_v), vb.measured_w, vb.dt),
-            "after": _metrics(_predict(fitted, va, m_v), va.measured_w, va.dt)}
-        result["per_experiment_energy_error_pct"] = {
-            "before": per_experiment_energy_error(aircraft, vb, m_v),
-            "after": per_experiment_energy_error(fitted, va, m_v)}
+    result.update(_scores(aircraft, fitted, samples[given_lead], samples[lead], trn, val,
+                          mass))
     return result
