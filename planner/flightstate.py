@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from planner import atmosphere
-from planner.atmosphere import ALTITUDE_RANGE_M
+from planner.record import PLAUSIBLE
 from planner.wind import airspeed_from_ground
 
 __all__ = ["PHASES", "FlightState", "flight_phases", "from_record"]
@@ -130,10 +130,10 @@ class FlightState:
         return self.phase != "ground"
 
 
-#: Outside air temperatures a log may report; beyond them the value is damage or a
-#: sensor fault and is read as missing (the coldest and hottest air measured at the
-#: surface are about −89 °C and +57 °C). [°C]
-AIR_TEMPERATURE_RANGE_C = (-90.0, 60.0)
+def _plausible(x: np.ndarray, column: str) -> np.ndarray:
+    low, high = PLAUSIBLE[column]
+    with np.errstate(invalid="ignore"):
+        return np.where((x >= low) & (x <= high), x, np.nan)
 
 
 def _filled(x: np.ndarray) -> np.ndarray:
@@ -177,11 +177,9 @@ def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
     v = np.abs(np.nan_to_num(v))
     climb = np.nan_to_num(col("climb_rate_ms"))
     p, temp = col("pressure_pa"), col("ambient_temperature_c")
-    # a logged value outside the atmosphere model (damage, a sensor fault) is missing
-    p_lo, p_hi = (float(atmosphere.pressure(h)) for h in ALTITUDE_RANGE_M[::-1])
-    p = np.where((p >= 0.5 * p_lo) & (p <= 1.5 * p_hi), p, np.nan)
-    temp = np.where((temp >= AIR_TEMPERATURE_RANGE_C[0]) & (temp <= AIR_TEMPERATURE_RANGE_C[1]),
-                    temp, np.nan)
+    # a logged value outside its physical range (damage, a sensor fault) is missing, as
+    # when a record file is read (planner.record.PLAUSIBLE)
+    p, temp = _plausible(p, "pressure_pa"), _plausible(temp, "ambient_temperature_c")
     have_p = np.isfinite(p).mean() > CHANNEL_COVERAGE
     if have_p and np.isfinite(temp).mean() > CHANNEL_COVERAGE:
         rho = atmosphere.density(temperature_c=_filled(temp), pressure_pa=_filled(p))
