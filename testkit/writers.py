@@ -579,6 +579,10 @@ ULOG_TOPICS: dict[str, tuple[tuple[str, str], ...]] = {
     "vehicle_status": (
         ("uint64_t", "timestamp"), ("uint64_t", "armed_time"), ("uint8_t", "nav_state"),
         ("uint8_t", "arming_state"), ("uint8_t", "vehicle_type"), ("bool", "is_vtol")),
+    "vehicle_gps_position": (
+        ("uint64_t", "timestamp"), ("uint64_t", "time_utc_usec"), ("int32_t", "lat"),
+        ("int32_t", "lon"), ("int32_t", "alt"), ("uint8_t", "fix_type"),
+        ("uint8_t", "satellites_used")),
 }
 
 
@@ -638,7 +642,8 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
                cells: int | None = None, home: tuple[float, float, float] | None = None,
                airspeed_sensor: bool | None = None, slow_rate_hz: float = 1.0,
                boot_time_s: float = BOOT_TIME_S, battery_serial: int | None = None,
-               battery_cycle: int | None = None) -> Path:
+               battery_cycle: int | None = None,
+               start_time_unix: float | None = START_TIME_UNIX) -> Path:
     """Write one flight as a PX4 ULog (``.ulg``, file format version 1).
 
     Parameters
@@ -665,6 +670,9 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
     battery_serial, battery_cycle : int, optional
         A smart battery's ``serial_number`` and ``cycle_count`` fields of
         ``battery_status`` (written only when given, as PX4 v1.14 names them).
+    start_time_unix : float or None
+        UTC of the first sample [s since 1970]: ``vehicle_gps_position.time_utc_usec`` at
+        ``slow_rate_hz`` when the record has a position (a 3D fix); None = no GPS topic.
 
     Notes
     -----
@@ -685,6 +693,8 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
     topics = ["battery_status", "vehicle_status"]
     if f.has_position:
         topics += ["vehicle_local_position", "vehicle_global_position"]
+        if start_time_unix is not None:
+            topics.append("vehicle_gps_position")
     if f.has_baro:
         topics.append("vehicle_air_data")
     if airspeed_sensor and f.airspeed is not None:
@@ -738,6 +748,10 @@ def write_ulog(record: pd.DataFrame, path: str | os.PathLike, *,
             if slow[k]:
                 ul.data("vehicle_global_position", tus, f.lat[k], f.lon[k], f.alt_amsl[k],
                         0.8, 1.2)
+                if "vehicle_gps_position" in topics:
+                    ul.data("vehicle_gps_position", tus,
+                            round((start_time_unix + f.t[k]) * 1e6), _int(f.lat[k], 1e7),
+                            _int(f.lon[k], 1e7), _int(f.alt_amsl[k], 1e3), 3, 12)
         if f.has_baro:
             ul.data("vehicle_air_data", tus, 0, f.alt_amsl[k], f.pressure[k], f.ambient[k],
                     f.density[k], 0)

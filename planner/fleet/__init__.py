@@ -36,6 +36,7 @@ import time
 import uuid
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import pandas as pd
 
@@ -49,15 +50,29 @@ from planner.fleet.summary import (
     summarise_log,
     to_frame,
 )
-from planner.parameters import Aircraft, BatteryPack
+from planner.parameters import Aircraft
 
-__all__ = ["BATCH_MAX", "LOG_SUFFIXES", "FleetResult", "TABLE_NAME", "batch_size",
-           "collect_logs", "read_pack_map", "run_fleet", "summarise_all"]
+__all__ = [
+    "BATCH_MAX",
+    "LOG_SUFFIXES",
+    "SAMPLES_NAME",
+    "TABLE_NAME",
+    "FleetResult",
+    "PackEntry",
+    "batch_size",
+    "collect_logs",
+    "fleet_models",
+    "read_pack_map",
+    "run_fleet",
+    "summarise_all",
+]
 
 #: Files a folder is searched for.
 LOG_SUFFIXES = (".bin", ".px4log", ".tlog", ".ulg")
 #: The flight table in the output folder.
 TABLE_NAME = "flights.parquet"
+#: The flights' thinned records, for the aircraft calibration (:mod:`planner.fleet.calibrate`).
+SAMPLES_NAME = "samples.parquet"
 #: Interval at which a running fleet writes its table (an interrupted run keeps it). [s]
 CHECKPOINT_S = 60.0
 #: Worst flights (largest charge error) diagnosed for the report.
@@ -89,6 +104,8 @@ class FleetResult:
     notes : list of str
     diagnoses : dict
         Log → one line of ``diagnose`` for the worst flights.
+    calibrations : list of AircraftCalibration
+        Each aircraft calibrated on the fleet, scored on held-out flights.
     """
 
     table: pd.DataFrame
@@ -101,6 +118,7 @@ class FleetResult:
     elapsed_s: float = 0.0
     notes: list[str] = field(default_factory=list)
     diagnoses: dict[str, str] = field(default_factory=dict)
+    calibrations: list = field(default_factory=list)
 
 
 def collect_logs(paths) -> list[Path]:
@@ -129,25 +147,42 @@ def collect_logs(paths) -> list[Path]:
     return logs
 
 
-def read_pack_map(path: str | os.PathLike) -> dict[str, tuple[str, float | None]]:
-    """``--packs`` CSV: log file name → (pack id, cycle or None).
+class PackEntry(NamedTuple):
+    """One row of the ``--packs`` CSV: the pack flown (None: the log's own serial), its
+    cycle count (None: not given) and the aircraft key (None: not given)."""
 
-    Columns ``log`` and ``pack`` (required) and ``cycle`` (optional, a whole number
-    ≥ 0: the pack's charge-cycle count at that flight).
+    pack: str | None
+    cycle: float | None = None
+    aircraft: str | None = None
+
+
+def read_pack_map(path: str | os.PathLike, aircraft: dict | None = None
+                  ) -> dict[str, PackEntry]:
+    """``--packs`` CSV: log file name → :class:`PackEntry`.
+
+    Columns ``log`` (required, the file name), ``pack`` and ``aircraft`` (at least one of
+    them per row), ``cycle`` (optional, a whole number ≥ 0: the pack's charge-cycle count at
+    that flight). ``aircraft``: key → Aircraft of the run; an ``aircraft`` value is a key or
+    the ``name`` of one of them (the key is kept).
     """
     text = files.read_text(path, "table", "pack map CSV").removeprefix("\ufeff")  # Excel's BOM
     reader = csv.DictReader(io.StringIO(text))
     cols = [c.strip() for c in (reader.fieldnames or [])]
-    if not {"log", "pack"} <= set(cols):
-        raise InputError(f"{path}: expected a CSV with columns log,pack[,cycle]; got "
-                         f"{','.join(cols) or 'no header'}")
-    out: dict[str, tuple[str, float | None]] = {}
+    if "log" not in cols or not {"pack", "aircraft"} & set(cols):
+        raise InputError(f"{path}: expected a CSV with columns log,pack[,cycle][,aircraft]; "
+                         f"got {','.join(cols) or 'no header'}")
+    names = {}
+    for key, a in (aircraft or {}).items():
+        names.setdefault(key, key)
+        if a is not None:
+            names.setdefault(a.name, key)
+    out: dict[str, PackEntry] = {}
     for k, row in enumerate(reader, start=2):
         row = {(a or "").strip(): (b or "").strip() for a, b in row.items() if a}
-        log, pack = row.get("log", ""), row.get("pack", "")
-        if not log or not pack:
-            raise InputError(f"{path}: row {k}: expected a log file name and a pack id, "
-                             f"got log={log!r} pack={pack!r}")
+        log, pack, craft = row.get("log", ""), row.get("pack", ""), row.get("aircraft", "")
+        if not log or not (pack or craft):
+            raise InputError(f"{path}: row {k}: expected a log file name and a pack id or an "
+                             f"aircraft, got log={log!r} pack={pack!r}")
         cycle = None
         if row.get("cycle"):
             try:
@@ -157,11 +192,16 @@ def read_pack_map(path: str | os.PathLike) -> dict[str, tuple[str, float | None]
             if not (math.isfinite(cycle) and cycle >= 0 and cycle.is_integer()):
                 raise InputError(f"{path}: row {k}: cycle must be a whole number ≥ 0, got "
                                  f"{row['cycle']!r}")
+        if craft and aircraft is not None:
+            if craft not in names:
+                raise InputError(f"{path}: row {k}: aircraft {craft!r} is none of the "
+                                 f"--aircraft (expected one of {', '.join(aircraft)})")
+            craft = names[craft]
         name = Path(log).name
-        if name in out and out[name][0] != pack:
+        if name in out and (out[name].pack or "") != pack:
             raise InputError(f"{path}: row {k}: {name} is given two packs "
-                             f"({out[name][0]}, {pack})")
-        out[name] = (pack, cycle)
+                             f"({out[name].pack}, {pack})")
+        out[name] = PackEntry(pack or None, cycle, craft or None)
     return out
 
 
@@ -199,6 +239,10 @@ def _write_table(path: Path, table: pd.DataFrame) -> None:
     path.parent.mkdir(exist_ok=True)
     with files.output_file(path, "--out") as tmp:
         table.to_parquet(tmp, index=False)
+
+
+def _write_samples(path: Path, samples: pd.DataFrame) -> None:
+    _write_table(path, samples)
 
 
 def _merge(old: pd.DataFrame | None, new: pd.DataFrame) -> pd.DataFrame:
@@ -249,10 +293,23 @@ def _client(workers: int | None, scheduler: str | None):
     return Client(cluster), cluster
 
 
-def _summarise_batch(items, aircraft, pack):
-    """:func:`summarise_log` on each ``(path, pack id, id source, cycle)``: the rows."""
-    return [summarise_log(path, pack_id, source, cycle, aircraft=aircraft, pack=pack)
-            for path, pack_id, source, cycle in items]
+def _summarise_batch(items, models, samples=False):
+    """:func:`summarise_log` on each ``(path, pack id, id source, cycle, aircraft key)``:
+    the rows."""
+    return [summarise_log(path, pack_id, source, cycle, models=models, aircraft_key=key,
+                          samples=samples)
+            for path, pack_id, source, cycle, key in items]
+
+
+def fleet_models(aircraft=None, pack=None) -> dict:
+    """Aircraft key → (Aircraft or None, pack or None) from an Aircraft (key: its name) or
+    a mapping key → Aircraft, and a pack or a mapping key → pack (None: the literature
+    model of each log's cell count)."""
+    if aircraft is None or isinstance(aircraft, Aircraft):
+        key = aircraft.name if aircraft is not None else ""
+        return {key: (aircraft, pack.get(key) if isinstance(pack, dict) else pack)}
+    return {k: (a, pack.get(k) if isinstance(pack, dict) else pack)
+            for k, a in aircraft.items()}
 
 
 def _hash_batch(paths):
@@ -273,19 +330,23 @@ def batch_size(logs: int, workers: int) -> int:
     return max(1, min(BATCH_MAX, math.ceil(logs / (8 * max(workers, 1)))))
 
 
-def summarise_all(logs: list[Path], *, aircraft: Aircraft | None, pack: BatteryPack | None,
-                  pack_map: dict | None, skip: set[str], client, progress=None,
-                  batch: int | None = None, on_batch=None) -> tuple[list[dict], int]:
+def summarise_all(logs: list[Path], *, aircraft=None, pack=None, pack_map: dict | None,
+                  skip: set[str], client, progress=None, batch: int | None = None,
+                  on_batch=None, models: dict | None = None, samples: bool = False
+                  ) -> tuple[list[dict], int]:
     """Every log through :func:`summarise_log` on the Dask ``client``, ``batch`` logs per
     task (default :func:`batch_size`): (rows, skipped). ``on_batch(rows)`` is called with
-    the rows so far after every finished task."""
+    the rows so far after every finished task. ``models`` (:func:`fleet_models`) instead of
+    ``aircraft`` and ``pack``; ``samples``: each row carries its calibration samples."""
     from dask.distributed import as_completed
 
     pack_map = pack_map or {}
+    models = models if models is not None else fleet_models(aircraft, pack)
     items = []
     for p in logs:
-        pack_id, cycle = pack_map.get(p.name, (None, None))
-        items.append((str(p), pack_id, "--packs" if pack_id else "unknown", cycle))
+        entry = pack_map.get(p.name) or PackEntry(None)
+        items.append((str(p), entry.pack, "--packs" if entry.pack else "unknown",
+                      entry.cycle, entry.aircraft))
     workers = len(client.scheduler_info().get("workers", {})) or 1
     size = batch or batch_size(len(items), workers)
     run = uuid.uuid4().hex[:12]         # keys unique to this call: a rerun on the same client
@@ -301,11 +362,11 @@ def summarise_all(logs: list[Path], *, aircraft: Aircraft | None, pack: BatteryP
         skipped = sum(known)
         items = [it for it, seen in zip(items, known) if not seen]
     chunks = [items[i:i + size] for i in range(0, len(items), size)]
-    # the aircraft and the pack (a few kB) travel with each task: no scattered data to lose
+    # the aircraft and the packs (a few kB) travel with each task: no scattered data to lose
     futures = client.map(_summarise_batch, chunks,
                          key=[f"fleet-{run}-{k}-{Path(c[0][0]).name}"
                               for k, c in enumerate(chunks)],
-                         pure=False, aircraft=aircraft, pack=pack)
+                         pure=False, models=models, samples=samples)
     rows, failed, done = [], 0, skipped
     if progress is not None and skipped:
         progress.update(done, failed, skipped)
@@ -331,18 +392,21 @@ def worst_flights(table: pd.DataFrame, count: int) -> pd.DataFrame:
     return ok.loc[order.index[:count]]
 
 
-def diagnose_worst(table: pd.DataFrame, client, *, aircraft: Aircraft | None,
-                   pack: BatteryPack | None, count: int | None = None) -> dict[str, str]:
-    """:func:`planner.fleet.summary.diagnose_log` on the worst flights, one task each: log →
-    one line."""
+def diagnose_worst(table: pd.DataFrame, client, *, aircraft=None, pack=None,
+                   count: int | None = None, models: dict | None = None) -> dict[str, str]:
+    """:func:`planner.fleet.summary.diagnose_log` on the worst flights, one task each, each
+    with the aircraft that flew it: log → one line."""
+    models = models if models is not None else fleet_models(aircraft, pack)
     worst = worst_flights(table, DIAGNOSE_WORST if count is None else count)
     logs = [str(p) for p in worst["log"]]
     if not logs:
         return {}
     run = uuid.uuid4().hex[:12]
-    futures = client.map(diagnose_log, logs, key=[f"fleet-diagnose-{run}-{k}"
-                                                  for k in range(len(logs))],
-                         pure=False, aircraft=aircraft, pack=pack)
+    futures = []
+    for k, (log, key) in enumerate(zip(logs, worst["aircraft"])):
+        craft, flown = models.get(key, (None, None)) if isinstance(key, str) else (None, None)
+        futures.append(client.submit(diagnose_log, log, key=f"fleet-diagnose-{run}-{k}",
+                                     pure=False, aircraft=craft, pack=flown))
     return dict(zip(logs, client.gather(futures)))
 
 
@@ -351,11 +415,12 @@ def _pack_file_name(pack_id: str) -> str:
     return f"{safe}.yaml"
 
 
-def write_pack_files(health: list[PackHealth], pack: BatteryPack, folder: Path
+def write_pack_files(health: list[PackHealth], pack, folder: Path
                      ) -> tuple[dict[str, Path], list[str]]:
-    """A pack file per pack with a fade fit: ``pack`` with δ calibrated on the pack's flights
-    (:math:`\\delta a^{-\\beta}`), ``fade_per_cycle`` :math:`\\varphi` and ``cycle`` the next
-    flight's (module notes of :mod:`planner.fleet.health`)."""
+    """A pack file per pack with a fade fit: ``pack`` (a BatteryPack, or a function of the
+    pack id giving the new pack of the aircraft that flew it) with δ calibrated on the
+    pack's flights (:math:`\\delta a^{-\\beta}`), ``fade_per_cycle`` :math:`\\varphi` and
+    ``cycle`` the next flight's (module notes of :mod:`planner.fleet.health`)."""
     import yaml
 
     from planner.parameters.pack import MODEL_KEYS
@@ -371,11 +436,12 @@ def write_pack_files(health: list[PackHealth], pack: BatteryPack, folder: Path
         if phi != h.fade_per_cycle:
             notes.append(f"pack {h.pack_id}: fitted fade {h.fade_per_cycle:.4g}/cycle is "
                          f"outside the pack file's [{lo}, {hi}]; written as {phi:g}")
-        m = pack.model
+        ref = pack(h.pack_id) if callable(pack) else pack
+        m = ref.model
         model = replace(m, delta=m.delta * h.scale_new ** (-m.beta), literature=False,
                         fade_per_cycle=phi, cycle=h.last_cycle + 1.0,
                         source=f"endurance fleet: {h.flights} flights of pack {h.pack_id}")
-        named = replace(pack, name=f"{pack.name} (pack {h.pack_id})", model=model)
+        named = replace(ref, name=f"{ref.name} (pack {h.pack_id})", model=model)
         mapping = named.to_mapping(folder=folder)
         mapping["source"] = (f"endurance fleet on {h.flights} flights: fade "
                              f"{h.fade_per_cycle:.3g} ± {h.fade_per_cycle_se:.2g} per cycle, "
@@ -393,16 +459,54 @@ def write_pack_files(health: list[PackHealth], pack: BatteryPack, folder: Path
     return written, notes
 
 
-def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = None,
-              pack: BatteryPack | None = None, pack_map: dict | None = None,
-              workers: int | None = None, scheduler: str | None = None, client=None,
-              retire: float = RETIRE_DEFAULT, within: float = WITHIN_DEFAULT,
-              progress=True, checkpoint_s: float | None = None) -> FleetResult:
-    """Run a fleet (module notes). ``client``: an existing Dask client (then neither
-    ``workers`` nor ``scheduler`` is used and the client is left open). ``progress``: a
-    progress line on standard error (True), none (False) or an object with
-    ``update(done, failed, skipped)``. The table is written every ``checkpoint_s``
-    seconds (default :data:`CHECKPOINT_S`) and when the run is interrupted.
+def _read_samples(path: Path) -> pd.DataFrame | None:
+    if not path.exists():
+        return None
+    p = files.own_output_path(path, "table", "fleet samples table")
+    try:
+        return pd.read_parquet(p)
+    except Exception as exc:  # noqa: BLE001 - pyarrow's errors are many
+        raise InputError(f"{path}: not a readable fleet samples table "
+                         f"({type(exc).__name__}); move it away or give another --out") from None
+
+
+def _samples_table(old: pd.DataFrame | None, rows: list[dict], keep: set[str]) -> pd.DataFrame:
+    """The calibration samples of the flights in ``keep`` (content hashes): this run's rows'
+    and, for the flights read before, the old table's."""
+    parts = [r["_samples"].assign(sha256=r["sha256"]) for r in rows
+             if r.get("status") == "ok" and r.get("_samples") is not None]
+    new = {r["sha256"] for r in rows}
+    if old is not None and "sha256" in old:
+        parts.insert(0, old[old["sha256"].isin(keep - new)])
+    if not parts:
+        return pd.DataFrame({"sha256": pd.Series(dtype="string")})
+    out = pd.concat(parts, ignore_index=True)
+    out["sha256"] = out["sha256"].astype("string")
+    return out
+
+
+def _pack_aircraft(table: pd.DataFrame) -> dict[str, str]:
+    """Pack id → the aircraft that flew most of its flights."""
+    ok = table[(table["status"] == "ok") & table["aircraft"].notna()]
+    return {str(p): str(g.mode().iloc[0]) for p, g in ok.groupby("pack_id")["aircraft"]}
+
+
+def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
+              pack_map: dict | None = None, workers: int | None = None,
+              scheduler: str | None = None, client=None, retire: float = RETIRE_DEFAULT,
+              within: float = WITHIN_DEFAULT, progress=True,
+              checkpoint_s: float | None = None, calibrate: bool = True) -> FleetResult:
+    """Run a fleet (module notes).
+
+    ``aircraft``: an Aircraft (its key in the table is its name) or a mapping key →
+    Aircraft (a fleet of several); ``pack``: the new pack of every aircraft, or a mapping
+    key → pack, or None (the literature model of each log's cell count; no pack files).
+    ``client``: an existing Dask client (then neither ``workers`` nor ``scheduler`` is
+    used and the client is left open). ``progress``: a progress line on standard error
+    (True), none (False) or an object with ``update(done, failed, skipped)``. The table
+    is written every ``checkpoint_s`` seconds (default :data:`CHECKPOINT_S`) and when
+    the run is interrupted. ``calibrate``: calibrate each aircraft on the fleet
+    (:mod:`planner.fleet.calibrate`).
 
     Raises
     ------
@@ -410,13 +514,18 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
         No logs, ``out_dir`` among the inputs or unusable, or every log failed (naming
         each with its reason).
     """
+    from planner.fleet.calibrate import calibrate_aircraft, write_aircraft_file
+
     checkpoint_s = CHECKPOINT_S if checkpoint_s is None else checkpoint_s
+    models = fleet_models(aircraft, pack)
     logs = collect_logs(paths)
     if not logs:
         raise InputError("no log files given")
     out = _check_out_dir(Path(out_dir))
     table_path = out / TABLE_NAME
+    samples_path = out / SAMPLES_NAME
     old = _read_table(table_path)
+    old_samples = _read_samples(samples_path) if calibrate else None
     skip = set(old.loc[old["status"] == "ok", "sha256"]) if old is not None else set()
     own = client is None
     cluster = None
@@ -432,7 +541,11 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
         so_far[:] = rows
         now = time.perf_counter()
         if rows and any(r["status"] == "ok" for r in rows) and now - last[0] >= every:
-            _write_table(table_path, _merge(old, to_frame(rows)))
+            merged = _merge(old, to_frame(rows))
+            if calibrate:
+                _write_samples(samples_path, _samples_table(
+                    old_samples, rows, set(merged.loc[merged["status"] == "ok", "sha256"])))
+            _write_table(table_path, merged)
             last[0] = now
 
     if progress is True:
@@ -440,8 +553,8 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
     try:
         try:
             rows, skipped = summarise_all(
-                logs, aircraft=aircraft, pack=pack, pack_map=pack_map, skip=skip,
-                client=client, progress=progress or None, on_batch=save)
+                logs, models=models, pack_map=pack_map, skip=skip, client=client,
+                progress=progress or None, on_batch=save, samples=calibrate)
         except KeyboardInterrupt:
             save(so_far, every=0.0)
             raise
@@ -452,25 +565,53 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft: Aircraft | None = 
             raise InputError(f"all {len(failed)} logs failed: {listed}"
                              + (" …" if len(failed) > 5 else ""))
         table = _merge(old, to_frame(rows))
-        diagnoses = diagnose_worst(table, client, aircraft=aircraft, pack=pack)
+        diagnoses = diagnose_worst(table, client, models=models)
     finally:
         if own:
             client.close()
             if cluster is not None:
                 cluster.close()
-    _write_table(table_path, table)
     result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
                          health=[], outputs=[table_path], elapsed_s=elapsed,
                          diagnoses=diagnoses)
-    nominal = pack.capacity_mah if pack is not None else None
-    result.health = pack_health(table, retire=retire, nominal_mah=nominal)
+    if calibrate:
+        samples = _samples_table(old_samples, rows,
+                                 set(table.loc[table["status"] == "ok", "sha256"]))
+        _write_samples(samples_path, samples)
+        result.outputs.append(samples_path)
+        for key, (craft, flown) in models.items():
+            if craft is None:
+                continue
+            cal = calibrate_aircraft(key, samples, table, craft, flown)
+            if cal.aircraft is not None:
+                result.outputs.append(write_aircraft_file(cal, out / "aircraft"))
+            result.calibrations.append(cal)
+    _write_table(table_path, table)
+    owner = _pack_aircraft(table)
+
+    def new_pack(pack_id: str):
+        """The new pack of the aircraft that flew ``pack_id`` (None without one)."""
+        key = owner.get(pack_id)
+        if key in models:
+            return models[key][1]
+        return next((p for _, p in models.values() if p is not None), None) \
+            if len(models) == 1 else None
+
+    nominal = {}
+    for pid in owner:
+        ref = new_pack(pid)
+        if ref is not None:
+            nominal[pid] = ref.capacity_mah
+    result.health = pack_health(table, retire=retire, nominal_mah=nominal, aircraft=owner)
     if result.health:
-        if pack is None:
-            result.notes.append("no pack file (--battery or the aircraft's battery): no pack "
-                                "files written")
-        else:
+        with_pack = [h for h in result.health if new_pack(h.pack_id) is not None]
+        if len(with_pack) < len(result.health):
+            result.notes.append("no pack file (--battery or the aircraft's battery) for "
+                                + ", ".join(h.pack_id for h in result.health
+                                            if h not in with_pack))
+        if with_pack:
             (out / "packs").mkdir(exist_ok=True)
-            result.pack_files, notes = write_pack_files(result.health, pack, out / "packs")
+            result.pack_files, notes = write_pack_files(with_pack, new_pack, out / "packs")
             result.notes += notes
             result.outputs += list(result.pack_files.values())
     from planner.fleet.report import write_report

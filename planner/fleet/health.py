@@ -69,6 +69,8 @@ class PackHealth:
         [Ω/cycle]
     capacity_mah : float
         Nominal capacity × SoH at the last flight (NaN without a nominal). [mAh]
+    aircraft : str
+        The aircraft that flew most of its flights ("" when not known).
     """
 
     pack_id: str
@@ -88,6 +90,7 @@ class PackHealth:
     resistance_slope_ohm_per_cycle: float
     resistance_slope_se: float
     capacity_mah: float
+    aircraft: str = ""
 
     def retires_within(self, flights: float) -> bool:
         """True when the SoH is below the threshold now or reaches it within ``flights``."""
@@ -128,13 +131,18 @@ def fit_fade(cycle, scale, scale_se=None) -> tuple[np.ndarray, np.ndarray]:
 
 
 def pack_health(table: pd.DataFrame, *, retire: float = RETIRE_DEFAULT,
-                nominal_mah: float | None = None) -> list[PackHealth]:
-    """Health of every identified pack of the fleet table (``status == "ok"``)."""
+                nominal_mah: float | dict | None = None,
+                aircraft: dict | None = None) -> list[PackHealth]:
+    """Health of every identified pack of the fleet table (``status == "ok"``).
+    ``nominal_mah``: the new pack's capacity, or pack id → it; ``aircraft``: pack id → the
+    aircraft that flew it."""
     out = []
     ok = table[(table["status"] == "ok") & table["pack_id"].notna()
                & (table["pack_id"] != "unknown")]
     for pack_id, flights in ok.groupby("pack_id", sort=True):
         n = cycle_order(flights)
+        nominal = (nominal_mah.get(str(pack_id)) if isinstance(nominal_mah, dict)
+                   else nominal_mah)
         (a, phi), cov = fit_fade(n, flights["delta_scale"], flights["delta_scale_se"])
         last = float(np.nanmax(n)) if len(n) else math.nan
         a_se, phi_se = (np.sqrt(np.diag(cov)) if np.all(np.isfinite(cov))
@@ -161,14 +169,15 @@ def pack_health(table: pd.DataFrame, *, retire: float = RETIRE_DEFAULT,
             if rk.sum() > 1:
                 r_se = 1.2533 * float(np.std(res[rk], ddof=1)) / math.sqrt(rk.sum())
         out.append(PackHealth(
-            pack_id=str(pack_id), flights=int(len(flights)), last_cycle=last,
+            pack_id=str(pack_id), flights=len(flights), last_cycle=last,
             scale_new=float(a), scale_new_se=float(a_se), fade_per_cycle=float(phi),
             fade_per_cycle_se=float(phi_se), soh=float(soh), soh_se=float(soh_se),
             retire_cycle=float(n_ret), retire_cycle_se=float(n_ret_se),
             flights_to_retire=float(n_ret - last), resistance_ohm=r_now,
             resistance_se_ohm=r_se, resistance_slope_ohm_per_cycle=slope,
             resistance_slope_se=slope_se,
-            capacity_mah=float(nominal_mah * soh) if nominal_mah else math.nan))
+            capacity_mah=float(nominal * soh) if nominal else math.nan,
+            aircraft=str((aircraft or {}).get(str(pack_id), ""))))
     return out
 
 

@@ -7,7 +7,10 @@
   least-squares slope and its standard error — a model that was right for the new fleet
   and drifts as it ages shows here;
 * the worst flights by charge error, with their data-quality warnings;
-* per pack: flights, state of health, fade per cycle, flights to retirement, resistance.
+* per pack: flights, state of health, fade per cycle, flights to retirement, resistance;
+* per aircraft: the model calibrated on the whole fleet (:mod:`planner.fleet.calibrate`),
+  its parameters with standard errors, and its error on held-out flights against the
+  aircraft file as given.
 
 Figures are :class:`matplotlib.figure.Figure` objects (:func:`planner.plots.figure`),
 written through :func:`planner.plots.save`.
@@ -198,6 +201,34 @@ def render(result, *, retire: float, within: float) -> str:
                 f"{_fmt(h.resistance_ohm * 1e3, 1)} ± {_fmt(h.resistance_se_ohm * 1e3, 1)} | "
                 f"{'packs/' + f.name if f else '–'} | {flag} |")
         lines += ["", "![pack health](packs.png)", ""]
+    cals = getattr(result, "calibrations", []) or []
+    if cals:
+        lines += ["## Aircraft calibrated on the fleet", "",
+                  "Fitted on the flights of each aircraft but about one in five, held out by "
+                  "content hash; scored on the held-out flights' airborne samples (energy "
+                  "error: predicted − measured, in per cent of the measured).", "",
+                  "| aircraft | flights fitted / held out | parameter: file → calibrated ± SE "
+                  "| held-out power RMSE, file → calibrated | held-out energy error | mean "
+                  "absolute per-flight energy error | file |",
+                  "|---|---:|---|---:|---:|---:|---|"]
+        for c in cals:
+            if c.aircraft is None:
+                lines.append(f"| {c.key} | – | not calibrated: {_cell(c.note, 200)} | | | | |")
+                continue
+            params = "; ".join(
+                f"{k} {c.start.get(k, math.nan):.4g} → {v:.4g} ± {c.stderr.get(k, math.nan):.2g}"
+                + (" (poorly determined)" if k in c.poorly_determined else "")
+                + (" (at a bound)" if k in c.at_bound else "")
+                for k, v in c.parameters.items())
+            b, a = c.validation.get("before", {}), c.validation.get("after", {})
+            fb, fa = c.flight_error_pct.get("before"), c.flight_error_pct.get("after")
+            lines.append(
+                f"| {c.key} | {c.train_flights} / {c.validation_flights} | {params} | "
+                f"{_fmt(b.get('rmse_w'), 1, ' W')} → {_fmt(a.get('rmse_w'), 1, ' W')} | "
+                f"{_fmt(b.get('energy_error_pct'), 2, ' %')} → "
+                f"{_fmt(a.get('energy_error_pct'), 2, ' %')} | {_fmt(fb, 2, ' %')} → "
+                f"{_fmt(fa, 2, ' %')} | {'aircraft/' + c.file.name if c.file else '–'} |")
+        lines.append("")
     if result.failed:
         lines += ["## Failed logs (this run)", ""]
         lines += [f"- {_cell(err, 400)}" for _, err in result.failed]

@@ -56,6 +56,14 @@ STEP_MIN_COUNT = 3
 STEP_MAX_OHM = 1.0
 #: Bytes read at a time for the content hash.
 _HASH_BLOCK = 1 << 20
+#: Most samples of one flight kept for the fleet's aircraft calibration (every k-th sample
+#: of the record): 300 samples of 1 000 000 flights are 3·10⁸ rows, a few GB of Parquet.
+CALIBRATION_SAMPLES = 300
+#: Record columns kept for the calibration (those :func:`planner.flightstate.from_record`
+#: and :func:`planner.fit_aircraft.fit_aircraft` read).
+CALIBRATION_COLUMNS = ("time_s", "power_w", "altitude_m", "climb_rate_ms", "groundspeed_ms",
+                       "airspeed_ms", "course_deg", "pressure_pa", "ambient_temperature_c",
+                       "wind_n_ms", "wind_e_ms", "specific_force_ms2", "throttle", "mode")
 
 #: Columns of the fleet table, in order, with their pandas/Arrow types.
 COLUMNS: dict[str, str] = {
@@ -131,9 +139,30 @@ def _empty_row(path: str, sha: str) -> dict[str, Any]:
     return row
 
 
+def choose_aircraft(models: dict, key: str | None, meta: dict, path: str
+                    ) -> tuple[str | None, Aircraft | None, BatteryPack | None]:
+    """The aircraft that flew a log: ``key`` (from ``--packs``), else the only one of
+    ``models`` (key → (Aircraft, pack)), else the one whose type (multirotor, fixed wing)
+    is the log's vehicle type. Raises PlannerError when several could have flown it."""
+    if key is not None:
+        return (key, *models[key])
+    if len(models) <= 1:
+        return next(((k, *v) for k, v in models.items()), (None, None, None))
+    kind = meta.get("vehicle_type")
+    fits = [k for k, (a, _) in models.items() if a is not None and a.type == kind]
+    if len(fits) == 1:
+        return (fits[0], *models[fits[0]])
+    raise PlannerError(f"{path}: which aircraft flew this {kind or 'unknown'} log? "
+                       f"{'several' if fits else 'none'} of the --aircraft "
+                       f"({', '.join(fits or list(models))}) could have: name it in the "
+                       "--packs CSV (column aircraft)")
+
+
 def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "unknown",
                   cycle: float | None = None, *, aircraft: Aircraft | None = None,
-                  pack: BatteryPack | None = None, payload_kg: float = 0.0) -> dict[str, Any]:
+                  pack: BatteryPack | None = None, payload_kg: float = 0.0,
+                  models: dict | None = None, aircraft_key: str | None = None,
+                  samples: bool = False) -> dict[str, Any]:
     """Read, replay and calibrate one log: a row of :data:`COLUMNS` (module notes).
 
     Parameters
@@ -150,12 +179,23 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
         The pack's charge-cycle count at this flight, from ``--packs``.
     payload_kg : float
         Payload carried. [kg]
+    models : dict, optional
+        Aircraft key → (Aircraft, pack or None) of a fleet of several aircraft, instead of
+        ``aircraft`` and ``pack``; the log's aircraft is :func:`choose_aircraft`'s.
+    aircraft_key : str, optional
+        The key of ``models`` that flew the log (from ``--packs``).
+    samples : bool
+        Also return the flight's record, every k-th sample (at most
+        :data:`CALIBRATION_SAMPLES`, columns :data:`CALIBRATION_COLUMNS`), as
+        ``row["_samples"]``: the fleet's aircraft calibration fits on them.
 
     Returns
     -------
     dict
         ``status`` is ``ok`` or ``failed`` (with ``error``, one line).
     """
+    if models is None:
+        models = {aircraft.name if aircraft is not None else "": (aircraft, pack)}
     try:
         sha = content_hash(path)
     except OSError as exc:
@@ -166,7 +206,8 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg)
+            _fill(row, path, models, aircraft_key, pack_id, pack_id_source, cycle, payload_kg,
+                  samples)
         notes = list(dict.fromkeys(str(w.message).replace("\n", " ") for w in caught))
         row["warnings"] = "; ".join(filter(None, [row.get("warnings") or ""] + notes)) or None
         row["status"] = "ok"
@@ -179,10 +220,12 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
     return row
 
 
-def _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg) -> None:
+def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, samples
+          ) -> None:
     from planner.logs import read_log
 
     df, meta = read_log(path)
+    key, aircraft, pack = choose_aircraft(models, key, meta, path)
     df = record.complete_record(df.assign(experiment=Path(path).name))
     df = df.reset_index(drop=True)
     t = df["time_s"].to_numpy(float)
@@ -199,12 +242,12 @@ def _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg)
     cells = meta.get("battery_cells") or (detect_cells(df["voltage_v"]) if "voltage_v" in df
                                           else None)
     row.update(format=meta.get("format"), vehicle=meta.get("vehicle"),
-               aircraft=aircraft.name if aircraft is not None else None,
+               aircraft=key if aircraft is not None else None,
                pack_id=pack_id or "unknown",
                pack_id_source=pack_id_source if pack_id else "unknown",
                cycle=float(cycle) if cycle is not None else None,
                start_time_utc=_start_time(meta), duration_s=float(t[-1] - t[0]),
-               samples=int(len(t)), cells=float(cells) if cells else None,
+               samples=len(t), cells=float(cells) if cells else None,
                log_capacity_mah=meta.get("battery_capacity_mah"),
                energy_wh=float(record.cumulative_trapezoid(np.nan_to_num(power), t)[-1]) / 3600.0,
                charge_mah=float(consumed[ok_c][-1] - consumed[ok_c][0]) if ok_c.any()
@@ -232,6 +275,8 @@ def _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg)
             row.update(airborne_energy_wh=pw.measured_energy_wh,
                        predicted_energy_wh=pw.predicted_energy_wh,
                        energy_error_pct=pw.energy_error_pct, power_rmse_w=pw.rmse_w)
+            if samples:
+                row["_samples"] = calibration_samples(df)
         else:
             notes.append("no flight state (speed, climb) in the log: energy not predicted")
     if {"voltage_v", "current_a"} <= set(df.columns):
@@ -243,6 +288,20 @@ def _fill(row, path, aircraft, pack, pack_id, pack_id_source, cycle, payload_kg)
     if row["charge_mah"] is not None and row["charge_mah"] <= 0:
         row["warnings"] = "; ".join(filter(None, [row["warnings"],
                                                   "the logged charge does not rise"]))
+
+
+def calibration_samples(df: pd.DataFrame) -> pd.DataFrame:
+    """Every k-th sample of a flight record, at most :data:`CALIBRATION_SAMPLES`, with
+    the columns of :data:`CALIBRATION_COLUMNS` it has (float32 but the time)."""
+    step = max(1, math.ceil(len(df) / CALIBRATION_SAMPLES))
+    cols = [c for c in CALIBRATION_COLUMNS if c in df.columns]
+    out = df[cols].iloc[::step].reset_index(drop=True)
+    for c in cols:
+        if c != "time_s" and c != "mode":
+            out[c] = out[c].astype("float32")
+    if "mode" in out:
+        out["mode"] = out["mode"].astype("string")
+    return out
 
 
 def diagnose_log(path: str, *, aircraft: Aircraft | None = None,

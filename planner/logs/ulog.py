@@ -42,6 +42,7 @@ from planner.logs._common import (
     cells_or_none,
     resolve_channels,
     serial_or_none,
+    start_time_unix,
 )
 from planner.logs._ulog_decode import ULogError, decode
 from planner.logs.dataflash import MAV_TYPE_CLASS, mav_type_name
@@ -121,7 +122,10 @@ NAV_STATE_NAMES = {
     28: "EXTERNAL6", 29: "EXTERNAL7", 30: "EXTERNAL8",
 }
 
-_TOPICS = sorted({f.message for fs in FIELD_MAP.values() for f in fs})
+#: Topics with the GPS receiver's UTC (``time_utc_usec``), in order of preference: the
+#: flight's start time. ``sensor_gps`` is the raw receiver topic of PX4 ≥ v1.14.
+GPS_TIME_TOPICS = ("vehicle_gps_position", "sensor_gps")
+_TOPICS = sorted({f.message for fs in FIELD_MAP.values() for f in fs} | set(GPS_TIME_TOPICS))
 
 
 def _firmware(info: dict) -> str | None:
@@ -261,4 +265,13 @@ def read_ulog(path: str | os.PathLike, *, require_battery: bool = True
         if damaged:
             raise InputError(f"{exc} - the file is damaged, see the warning above") from None
         raise
+    for topic in GPS_TIME_TOPICS:
+        gps = get(topic)
+        if gps is not None and "time_utc_usec" in gps.data:
+            # 0 until the receiver has a fix: start_time_unix keeps only times in 2000–2100
+            start = start_time_unix(meta.values["time_base_start_s"], gps.t,
+                                    np.asarray(gps.data["time_utc_usec"], float) * 1e-6)
+            if start is not None:
+                meta["start_time_unix"] = start
+                break
     return df, meta.values
