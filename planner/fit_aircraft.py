@@ -70,6 +70,9 @@ PARAMETERS = {
     "fixed_wing": {"cd0": (0.002, 0.3), "k": (0.005, 0.5), "efficiency": (0.1, 1.0),
                    "system_power_w": (0.0, 2000.0)},
 }
+#: Bounds of the fixed-wing propeller's profile power, fitted with the polar when the
+#: aircraft has a propeller (:mod:`planner.power.propeller`). [W]
+PROPELLER_PROFILE_BOUNDS_W = (0.0, 2000.0)
 #: Free parameters of the rotor_losses model and their bounds (r₀ is fitted as the
 #: profile power ratio; its upper bound is FM = 0.2). [W], [W], [unitless], [m²]
 ROTOR_LOSSES_PARAMETERS = {"no_load_power_w": (0.0, 2000.0),
@@ -261,7 +264,9 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                                 train=train, validate=validate,
                                 site_altitude_m=site_altitude_m,
                                 airborne_height_m=airborne_height_m, **kwargs)
-    table = PARAMETERS[aircraft.type]
+    table = dict(PARAMETERS[aircraft.type])
+    if not aircraft.is_multirotor and aircraft.fixed_wing.propeller_diameter_m:
+        table["propeller_profile_power_w"] = PROPELLER_PROFILE_BOUNDS_W
     names = parameters or list(table)
     unknown = set(names) - set(table)
     if unknown:

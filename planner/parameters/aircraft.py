@@ -83,6 +83,12 @@ FIXED_WING_KEYS = {
     # the default 60 m is widened to it when the aircraft is too fast to turn that tight
     "loiter_radius_m": S.positive(default=60.0, high=LOITER_RADIUS_MAX_M),
     "loiter_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
+    # the propulsive-efficiency curve (planner.power.propeller): with a propeller diameter
+    # the shaft power is T V + κ T v_i + P0 and ``efficiency`` is the motor and ESC's only
+    "propeller_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M),
+    "propellers": S.Key(S.INTEGER, default=1, low=1, high=16),
+    "propeller_induced_factor": S.Key(S.NUMBER, default=1.15, low=1.0, high=3.0),
+    "propeller_profile_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
 }
 
 MULTIROTOR_KEYS = {
@@ -132,6 +138,10 @@ class FixedWing:
     max_airspeed_ms: float | None = None
     loiter_radius_m: float = 60.0
     loiter_airspeed_ms: float | None = None
+    propeller_diameter_m: float | None = None
+    propellers: int = 1
+    propeller_induced_factor: float = 1.15
+    propeller_profile_power_w: float = 0.0
 
     @property
     def top_airspeed_ms(self) -> float:
@@ -311,6 +321,16 @@ class Aircraft:
         required = fixed_wing.required_power(airspeed, air_density, mass, f.wing_area_m2, f.cd0,
                                              f.k, climb_rate=climb_rate,
                                              load_factor=load_factor)
+        if f.propeller_diameter_m:
+            # the propulsive-efficiency curve: thrust T = P_R / V through the propeller
+            # model (planner.power.propeller); ``efficiency`` is then the motor and ESC's
+            from planner.power import propeller
+            v = np.asarray(airspeed, float)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                thrust = np.where(v > 0.0, np.asarray(required, float) / v, np.nan)
+            required = propeller.shaft_power(
+                thrust, v, air_density, f.propeller_diameter_m, f.propellers,
+                f.propeller_induced_factor, f.propeller_profile_power_w)
         return fixed_wing.battery_power(required, self.efficiency, self.system_power_w)
 
     def to_mapping(self, folder: str | Path | None = None) -> dict[str, Any]:
@@ -341,6 +361,9 @@ class Aircraft:
         block = self.multirotor if self.is_multirotor else self.fixed_wing
         out[self.type] = {k: (float(v) if isinstance(v, float) else v)
                           for k, v in block.__dict__.items() if v is not None}
+        if not self.is_multirotor and self.fixed_wing.propeller_diameter_m is None:
+            for k in ("propellers", "propeller_induced_factor", "propeller_profile_power_w"):
+                out[self.type].pop(k, None)
         if self.source:
             out["source"] = self.source
         return out
@@ -445,7 +468,11 @@ def _fixed_wing(data: Any, where: str, problems: list[str]) -> FixedWing | None:
     return FixedWing(wing_area_m2=d["wing_area_m2"], cd0=d["cd0"], k=k,
                      cruise_airspeed_ms=cruise, stall_speed_ms=stall,
                      max_airspeed_ms=top, loiter_radius_m=radius,
-                     loiter_airspeed_ms=loiter)
+                     loiter_airspeed_ms=loiter,
+                     propeller_diameter_m=d["propeller_diameter_m"],
+                     propellers=d["propellers"],
+                     propeller_induced_factor=d["propeller_induced_factor"],
+                     propeller_profile_power_w=d["propeller_profile_power_w"])
 
 
 def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None:
