@@ -13,12 +13,17 @@
 3. each identified pack's health (:mod:`planner.fleet.health`), and a pack file per pack in
    ``DIR/packs/`` carrying its present state (``model.fade_per_cycle`` and ``cycle``,
    δ calibrated on the pack's flights) that ``check --battery`` and ``select`` read;
-4. ``DIR/report.md`` and its figures (:mod:`planner.fleet.report`), with ``diagnose``
+4. each aircraft calibrated on the fleet's flights and scored on held-out ones
+   (:mod:`planner.fleet.calibrate`): ``DIR/aircraft/<key>.yaml``, fitted on the thinned
+   records kept in ``DIR/samples.parquet``;
+5. ``DIR/report.md`` and its figures (:mod:`planner.fleet.report`), with ``diagnose``
    (DESIGN §6) run on the :data:`DIAGNOSE_WORST` worst flights.
 
 Pack identity: the log's battery serial where the reader gives one (``battery_serial``
-in the metadata), else the ``--packs`` CSV (columns ``log``, ``pack`` and optionally
-``cycle``; ``log`` is the file name), else ``unknown``.
+in the metadata), else the ``--packs`` CSV (columns ``log``, ``pack``, optionally
+``cycle`` and ``aircraft``; ``log`` is the file name), else ``unknown``. Aircraft: the
+CSV's ``aircraft``, else the only one, else the one of the log's vehicle type
+(:func:`planner.fleet.summary.choose_aircraft`).
 
 Every input passes :func:`planner.files.input_path`; every output goes through
 :mod:`planner.files`, and ``DIR`` may not contain an input file.
