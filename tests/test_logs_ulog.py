@@ -143,3 +143,30 @@ def test_detect_format(logs_dir):
     for name in ULGS:
         assert detect_format(logs_dir / name) == "ulog"
     assert read_ulog  # the reader is importable on its own
+
+
+@pytest.mark.parametrize("name", ["px4_quad_fmuv3_esc_status_log.ulg",
+                                  "px4_vtol_cubeorange_sample_log_small.ulg",
+                                  "px4_quad_fmuv6xrt_corrupt_unregistered_msg_id.ulg"])
+def test_start_time_from_the_gps_utc_equals_pyulogs_reading(logs_dir, name):
+    """UTC of the first battery sample: the GPS receiver's ``time_utc_usec`` less its
+    offset from the boot clock, read here independently with pyulog (the median offset
+    over the fixes, moved to the first kept battery sample)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df, meta = read_log(logs_dir / name)
+        with contextlib.redirect_stdout(io.StringIO()):
+            ulog = ULog(str(logs_dir / name), ["vehicle_gps_position"])
+    gps = ulog.data_list[0].data
+    fix = gps["time_utc_usec"] > 946_684_800 * 1_000_000          # after 2000-01-01
+    offset = np.median(gps["time_utc_usec"][fix] * 1e-6 - gps["timestamp"][fix] * 1e-6)
+    expected = meta["time_base_start_s"] + offset
+    assert meta["start_time_unix"] == pytest.approx(expected, abs=1e-3)
+
+
+def test_no_start_time_without_a_gps_fix(logs_dir):
+    """The indoor flight's receiver never had a fix (time_utc_usec 0): no start time."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, meta = read_log(logs_dir / "px4_quad_fmuv6c_indoor_quadrotor_local.ulg")
+    assert meta.get("start_time_unix") is None
