@@ -79,10 +79,28 @@ Change points (``payload_change``)
 The change time of an experiment is located on the data of it the fit may see:
 the training blocks of a time-block split; an experiment held out whole is
 located on its own record with the mass step learned on the training
-experiments (a drop is an event of the flight; only its size is learned). A
-change is placed only where it lowers the squared error by more than
-:math:`2 \ln(n)` long-run residual variances (a BIC-like threshold), else the
-flight has none.
+experiments (a drop is an event of the flight; only its size is learned), one
+interleaved half of its bins locating the change applied to the other half.
+The flights of a data set need not weigh what was given (an unrecorded payload
+per flight): a change is located against a mass that differs for the whole
+flight, i.e. the step's column :math:`s\,1\{t \ge t_c\}` and the residual are
+both taken net of the flight's constant-mass column :math:`s` (the power's
+sensitivity to the mass), so that a step near the start or end of a flight —
+which is a flight flown heavier or lighter — is not a change. A change is
+placed only where it lowers that squared error by more than :math:`k \ln(n)`
+long-run residual variances (a BIC-like threshold, :math:`\ln n` per fitted
+parameter: :math:`k = 2` for the time and the size, :math:`k = 1` on a held-out
+flight, whose step size was learned on the other flights), else the flight has
+none.
+
+Climb rate
+----------
+Where the record has an altitude, the logged climb rate is checked against the
+altitude's rate of change over :data:`CLIMB_WINDOW_S` windows; when they differ
+by more than :data:`MAX_CLIMB_DISAGREEMENT_MS` RMS (the DJI M100 data's
+``velocity_z`` is not a vertical speed in forward flight: it reads 1–3 m/s at
+constant altitude), the power model is driven by the altitude's rate of change
+(direct evidence first) and a note says so.
 """
 
 from __future__ import annotations
@@ -892,7 +910,7 @@ class PowerLevel:
         return starts
 
     def _locate(self, payload, effects, names, x, state, rows, y, groups, fixed_step,
-                coef=None):
+                coef=None, step_known=False):
         """Locate the change time in each experiment with training rows (see the module notes)."""
         base = [e for e in effects if e.name != "payload_change"]
         bnames = [k for k in names if k != "mass_step_kg"]
@@ -912,7 +930,7 @@ class PowerLevel:
         bumped["mass"] = inputs["mass"] + dm
         s = (self.mechanical(shape, bumped, rows) - M) / dm * coef[0]
         times = state.get("change_time_s", {})
-        change = self._scan(rows, r, s, groups, fixed_step)
+        change = self._scan(rows, r, s, groups, fixed_step, step_known)
         times = dict(times)
         times.update(change)
         state["change_time_s"] = times
@@ -927,7 +945,8 @@ class PowerLevel:
                 den += float(np.dot(s[m], s[m]))
             state["initial_step"] = num / den if den > 0 else 0.0
 
-    def _scan(self, rows, r, s, groups, fixed_step) -> dict[str, float | None]:
+    def _scan(self, rows, r, s, groups, fixed_step, step_known=False
+              ) -> dict[str, float | None]:
         out: dict[str, float | None] = {}
         per: dict[int, tuple] = {}
         for e in np.unique(groups):
@@ -954,7 +973,9 @@ class PowerLevel:
             den = den_raw - den_raw**2 / ss
             # a change point must beat a BIC-like threshold: 2 ln(n) times the residual
             # variance inflated for autocorrelation (else noise always "finds" one)
-            penalty = 2.0 * math.log(n) * _long_run_variance(rp)
+            # (per fitted parameter ln(n): the time and the size; only the time when the
+            # size was learned on other flights, step_known)
+            penalty = (1.0 if step_known else 2.0) * math.log(n) * _long_run_variance(rp)
             per[e] = (m, num, den, lo, hi, penalty)
         step = fixed_step
         for it in range(3 if fixed_step is None else 1):
@@ -1028,7 +1049,8 @@ class PowerLevel:
             st = {key: v for key, v in fit.state.items() if key != "step_mask"}
             st["change_time_s"] = {}
             self._locate(payload, effects, fit.nl_names, fit.nl, st, locate, y_all[locate],
-                         self.exp[locate], fixed_step=float(fit.nl[k]), coef=fit.coef)
+                         self.exp[locate], fixed_step=float(fit.nl[k]), coef=fit.coef,
+                         step_known=True)
             times = st["change_time_s"]
             for e in new:
                 tc = times.get(self.names[e])
