@@ -174,7 +174,7 @@ class DiagnoseResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON of DESIGN §6 (plus ``baselines``, ``extended``, ``candidates``,
-        ``skipped``, ``selection`` and ``notes``)."""
+        ``skipped``, ``withheld``, ``not_identifiable``, ``selection`` and ``notes``)."""
         primary = self.primary_level
         candidates = []
         for name, lv in self.levels.items():
