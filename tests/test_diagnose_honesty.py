@@ -143,3 +143,63 @@ def test_findings_of_both_levels_are_ranked_by_one_measure():
     firsts = [v[0] for v in by_level.values()]
     assert res.findings and firsts == sorted(firsts, reverse=True)
     assert all(np.isfinite(gains))
+
+
+# ----------------------------------------------------------------------------- payload step
+
+class _Flights:
+    """The few attributes of a power level that the payload step's checks read."""
+
+    def __init__(self, climb, exp, time, names):
+        self.climb, self.exp, self.time, self.names = climb, exp, time, names
+
+
+def test_a_step_at_the_end_of_the_climb_is_confounded_with_the_regime():
+    """A mass step switched on exactly where every flight levels off has the indicator of
+    'not climbing': a power model with a wrong climb power fits it as well, so it is
+    withheld with both candidates; the same step in the middle of level flight is not."""
+    t = np.arange(200.0)
+    climb = np.where(t < 40, 2.5, np.where(t > 170, -1.5, 0.0))
+    pw = _Flights(np.r_[climb, climb], np.repeat([0, 1], 200), np.r_[t, t], ["a", "b"])
+    at_climb_end = {"step_mask": (pw.time >= 40).astype(float),
+                    "change_time_s": {"a": 40.0, "b": 40.0}}
+    found = E.PayloadChange().regime_confound(pw, at_climb_end)
+    assert found is not None and "the power model's climb or descent power" in found[1]
+    mid = {"step_mask": (pw.time >= 100).astype(float),
+           "change_time_s": {"a": 100.0, "b": 100.0}}
+    assert E.PayloadChange().regime_confound(pw, mid) is None
+
+
+def test_a_flight_flown_heavier_throughout_has_no_change_point():
+    """A flight whose power is higher all along by what 0.3 kg more would draw (an
+    unrecorded payload) is not a mass change in flight; a true mid-flight drop is."""
+    from planner.diagnose.search import PowerLevel
+
+    rng = np.random.default_rng(7)
+    n = 400
+    t = np.arange(n, dtype=float)
+    s = 60.0 * (1 + 0.1 * np.sin(t / 30))        # W per kg, as the mass sensitivity
+    noise = 5.0 * rng.standard_normal(n)
+    fake = _Flights(np.zeros(n), np.zeros(n, int), t, ["f"])
+    rows, groups = np.arange(n), np.zeros(n, int)
+    heavier = 0.3 * s + noise
+    out = PowerLevel._scan(fake, rows, heavier, s, groups, fixed_step=None)
+    assert out["f"] is None
+    drop = np.where(t >= 250, -0.3 * s, 0.0) + noise
+    out = PowerLevel._scan(fake, rows, drop, s, groups, fixed_step=None)
+    assert out["f"] is not None and abs(out["f"] - 250) <= 5
+
+
+def test_no_offset_or_load_entry_where_the_power_is_measured_on_its_own():
+    """The 'current offset or constant load' entry holds only where the power is V·I."""
+    import pandas as pd
+
+    from planner.diagnose import _offset_or_load
+
+    df = pd.DataFrame({"voltage_v": np.full(50, 22.0), "current_a": np.full(50, 20.0)})
+    df["power_w"] = df["voltage_v"] * df["current_a"]
+    assert _offset_or_load(df, {"power": None}, [])["effects"] == ["current_offset",
+                                                                   "system_power"]
+    assert _offset_or_load(df, {"power": None}, [{"effect": "current_offset"}]) is None
+    df["power_w"] = df["power_w"] * 1.05
+    assert _offset_or_load(df, {"power": None}, []) is None

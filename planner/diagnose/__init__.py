@@ -83,6 +83,10 @@ class DiagnoseResult:
         parameters (``kind`` ``implausible``), a driver the data cannot tell from time,
         depth of discharge or another effect (``confounded``), or an impossible baseline
         (``baseline``); each with ``why`` and ``where`` the misfit shows.
+    not_identifiable : list of dict
+        Effects these data cannot tell apart whatever the fit says (``effects``, the
+        candidates; ``level``; ``why``), e.g. a current-sensor offset and a constant load
+        when the power is the logged voltage times the logged current.
     """
 
     levels: dict[str, LevelReport]
@@ -93,6 +97,7 @@ class DiagnoseResult:
     aircraft: Aircraft | None
     sources: list[str] = field(default_factory=list)
     withheld: list[dict[str, Any]] = field(default_factory=list)
+    not_identifiable: list[dict[str, Any]] = field(default_factory=list)
 
     # ------------------------------------------------------------------ JSON
     def baseline(self, name: str) -> dict[str, Any]:
@@ -169,7 +174,7 @@ class DiagnoseResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON of DESIGN §6 (plus ``baselines``, ``extended``, ``candidates``,
-        ``skipped``, ``selection`` and ``notes``)."""
+        ``skipped``, ``withheld``, ``not_identifiable``, ``selection`` and ``notes``)."""
         primary = self.primary_level
         candidates = []
         for name, lv in self.levels.items():
@@ -187,6 +192,7 @@ class DiagnoseResult:
             "findings": self.findings,
             "unexplained": self.unexplained(),
             "withheld": [{k: v for k, v in w.items()} for w in self.withheld],
+            "not_identifiable": [dict(x) for x in self.not_identifiable],
             "baselines": [self.baseline(n) for n in self.levels],
             "extended": self.extended(),
             "candidates": candidates,
@@ -245,6 +251,9 @@ class DiagnoseResult:
                              f" → {_num(ext['final_error_pct_after'], 2)} %")
         for s in self.skipped:
             lines.append(f"  not tested: {s['effect']}: {s['reason']}")
+        for x in self.not_identifiable:
+            lines.append(f"Not identifiable on these data: {' or '.join(x['effects'])}: "
+                         f"{x['why']}")
         un = self.unexplained()
         if un:
             lines.append(f"Unexplained: {un}")
@@ -465,6 +474,11 @@ def _driver(level, effect, state) -> np.ndarray | None:
 def _confound(level, effect, state, others) -> tuple[str, list[str]] | None:
     """Why ``effect`` cannot be told apart from time, depth of discharge or another
     selected effect in these data (module notes), and the candidates; None if it can."""
+    regime = getattr(effect, "regime_confound", None)
+    if regime is not None:
+        found = regime(level, state)
+        if found:
+            return found
     x = _driver(level, effect, state)
     if x is None:
         return None
@@ -735,7 +749,55 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
         for i, eff in zip(pos, order):
             findings[i] = next(f for f in lv.findings if f["effect"] == eff)
     withheld = [w for lv in levels.values() for w in lv.result.withheld]
-    return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources, withheld)
+    blind = _offset_or_load(df, levels, findings)
+    return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources, withheld,
+                          [blind] if blind else [])
+
+
+#: Largest median relative difference between the logged power and voltage × current
+#: for the power to count as computed from the logged current. [unitless]
+POWER_FROM_CURRENT_TOL = 1e-3
+
+
+def _offset_or_load(df: pd.DataFrame, levels: dict, findings: list[dict]) -> dict | None:
+    """A current-sensor offset and a constant load, when the data cannot tell them apart.
+
+    When the logged power is the logged voltage times the logged current (the readers
+    and column maps compute it so where no power is logged), an offset b of the current
+    sensor enters the charge drawn *and* the power: the integral model, driven by that
+    power, predicts the extra charge b·t itself, so the capacity level cannot see it;
+    the power level sees b·V, which — with V within some ±10 % over a flight — is a
+    constant load. And the current at rest is the avionics' draw plus b. Unless a
+    current offset was named (a charge counter that drifts apart from the current it
+    counts, which the power does not carry), the output says so, naming both.
+    """
+    if any(f["effect"] == "current_offset" for f in findings):
+        return None
+    if not {"power_w", "voltage_v", "current_a"} <= set(df.columns):
+        return None
+    p = df["power_w"].to_numpy(float)
+    vi = df["voltage_v"].to_numpy(float) * df["current_a"].to_numpy(float)
+    ok = np.isfinite(p) & np.isfinite(vi) & (np.abs(vi) > 1.0)
+    if ok.sum() < 10 or np.median(np.abs(p[ok] - vi[ok]) / np.abs(vi[ok])) > \
+            POWER_FROM_CURRENT_TOL:
+        return None
+    effects = ["current_offset", "system_power"]
+    tested = [name for name in ("capacity", "power") if name in levels]
+    if not tested:
+        return None
+    why = ("the power is the logged voltage × the logged current, so an offset b of the "
+           "current sensor is in the power too: the capacity level predicts the extra charge "
+           "b·t from that power itself, and at the power level b·V is a constant load "
+           "(the voltage varies little); the current at rest is the avionics' draw plus b. "
+           "A constant load found (or missing) at the power level may be a current-sensor "
+           "offset of load / voltage, and the other way round: calibrate the sensor's zero "
+           "with the load off and the avionics unplugged to tell them apart")
+    out = {"effects": effects, "level": " and ".join(tested), "why": why}
+    cap = levels.get("capacity")
+    rest = getattr(cap.result.level, "rest_current", None) if cap else None
+    if rest is not None:
+        out["rest_current_a"], out["rest_current_a_stderr"] = rest
+    return out
 
 
 def load_definitions(battery: str | Path | None, aircraft: str | Path | None):

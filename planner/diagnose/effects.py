@@ -608,6 +608,46 @@ class PayloadChange(PowerEffect):
                     f"{pw.mass0 + dm:.2f} kg, above its maximum take-off mass {mtow:.2f} kg")
         return None
 
+    def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
+        """Why the located steps cannot be told from a change of flight regime, and the
+        candidates; None when they can.
+
+        A mass step switches the model's mass on at the change time of each flight. When
+        the change times sit where the flight changes regime — at the end of the climb or
+        the start of the descent — the step's indicator is (almost) the indicator of the
+        regime: a power model whose climb or descent power is wrong fits the same step. The
+        test is the one of the other confounds (:data:`planner.diagnose.CONFOUND_R`): the
+        share of the variance of the step indicator, over the airborne bins of the flights
+        with a change, that a linear fit on the regime indicators (climbing, descending:
+        the altitude-checked climb rate beyond ±:data:`planner.flightstate.CLIMB_THRESHOLD_MS`)
+        explains. Ground speed is deliberately not a regime here: with a wind it varies
+        with the direction of travel, which a wind effect explains.
+        """
+        from planner.diagnose import CONFOUND_R
+        from planner.flightstate import CLIMB_THRESHOLD_MS
+
+        mask = state.get("step_mask")
+        times = state.get("change_time_s", {})
+        located = [pw.names.index(k) for k, v in times.items() if v is not None]
+        if mask is None or not located:
+            return None
+        rows = np.isin(pw.exp, located)
+        y = np.asarray(mask, float)[rows]
+        if np.var(y) <= 0:
+            return None
+        climb = pw.climb[rows]
+        X = np.column_stack([np.ones(y.size), climb > CLIMB_THRESHOLD_MS,
+                             climb < -CLIMB_THRESHOLD_MS]).astype(float)
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        r2 = float(1.0 - np.var(y - X @ coef) / np.var(y))
+        if r2 < CONFOUND_R**2:
+            return None
+        return (f"{100 * r2:.0f} % of the variation of its step (on after the change time in "
+                f"{len(located)} flight(s)) follows the flight regime (climbing, level, "
+                "descending): the data cannot tell a mass change from a power model whose "
+                "climb or descent power is wrong",
+                [self.name, "the power model's climb or descent power"])
+
     def start(self, pw):
         m0 = float(np.median(pw.mass))
         return {"mass_step_kg": (0.0, -0.9 * m0, 2.0 * m0, 0.05 * m0)}
