@@ -51,6 +51,11 @@ of 9 "storage" discharges; 30Q 10 of 15 rate tests) and runs the full search
     temperature below 25 °C; typical of 18650 data-sheet temperature curves at 0.2–1C),
     by the same resampling as for fade. :math:`R_{25}`: 7.87 mΩ (P42A), 30 mΩ (30Q: the
     1-s voltage step at the start of its 1C–4C tests, (V_rest − V_loaded)/I).
+``*_30q_amb``
+    The same 30Q cases with the ambient (chamber) channel as ``temperature_c`` instead of
+    the cell surface: a pack sensor that reads the air, without the self-heating. It
+    shows how much of the cold cells' miss is owed to the self-heating in the
+    temperature channel.
 ``bias`` (P42A, 30Q)
     The logged current reads :data:`BIAS_A` = +0.1 A too high (and so does V·I): the
     zero error of a Hall-effect hobby current sensor (Allegro ACS712/ACS758 class: tens
@@ -114,16 +119,17 @@ COLD_CAPACITY_LOSS = 0.10
 #: Zero error of the current sensor. [A]
 BIAS_A = 0.1
 #: DC resistance at 25 °C. [ohm]
-R25 = {"p42a": 7.87e-3, "q30": 30e-3}
+R25 = {"p42a": 7.87e-3, "q30": 30e-3, "q30amb": 30e-3}
 #: Nominal capacity of the pack (one cell). [mAh]
-CAPACITY_MAH = {"p42a": 4200.0, "q30": 3000.0, "pouch": 2280.0}
+CAPACITY_MAH = {"p42a": 4200.0, "q30": 3000.0, "q30amb": 3000.0, "pouch": 2280.0}
 
 
 # ============================================================================ data
 
 def _load():
+    q30 = cells.q30()
     data = {"p42a": cells.p42a(("cycle", "storage")).drop(columns="consumed_mah"),
-            "q30": cells.q30()}
+            "q30": q30, "q30amb": q30}
     if cells.ENERTECH.is_dir():
         data["pouch"] = cells.enertech()
     return data
@@ -142,7 +148,7 @@ def _draw(source, exps, rng, kind):
         if kind != "fade":
             pick += list(rng.choice(sto, 7, replace=False))
         return pick
-    if source == "q30":
+    if source in ("q30", "q30amb"):
         return list(rng.choice(names, 10, replace=False))
     return names
 
@@ -207,6 +213,9 @@ CASES = {
     "cold_p42a_x4": ("p42a", "cold", 4.0, "temperature"),
     "cold_30q": ("q30", "cold", 1.0, "temperature"),
     "cold_30q_x4": ("q30", "cold", 4.0, "temperature"),
+    "clean_30q_amb": ("q30amb", "clean", 0.0, None),
+    "cold_30q_amb": ("q30amb", "cold", 1.0, "temperature"),
+    "cold_30q_amb_x4": ("q30amb", "cold", 4.0, "temperature"),
     "bias_p42a": ("p42a", "bias", 1.0, "current_offset"),
     "bias_30q": ("q30", "bias", 1.0, "current_offset"),
 }
@@ -224,6 +233,8 @@ def run_case(name, data, runs, seed):
     for _ in range(n_runs):
         pick = _draw(source, exps, rng, kind)
         record, equiv, cpe = inject(source, kind, [exps[n] for n in pick], rng, size)
+        if source == "q30amb":      # the same injection, seen by a sensor in the air
+            record["temperature_c"] = record["ambient_temperature_c"]
         pack = BatteryPack(name=source, cells_series=1, capacity_mah=CAPACITY_MAH[source],
                            mass_kg=0.0)
         t0 = time.process_time()
