@@ -82,8 +82,9 @@ SAMPLES_NAME = "samples.parquet"
 CHECKPOINT_S = 60.0
 #: Worst flights (largest charge error) diagnosed for the report.
 DIAGNOSE_WORST = 5
-#: Most logs in one Dask task (:func:`batch_size`).
-BATCH_MAX = 16
+#: Most logs in one Dask task (:func:`batch_size`): on 1 000 small generated logs 32 a task
+#: scale 1.8× from 1 to 2 workers where 16 gave 1.65× (benchmarks/bench_fleet.py).
+BATCH_MAX = 32
 #: Flights ahead in which a pack's retirement is flagged (``--within``). [flights]
 WITHIN_DEFAULT = 50
 
