@@ -48,8 +48,8 @@ SHARED = REPO.parent / "shared" / "data" / "logs"
 from planner import files  # noqa: E402
 from planner.fleet import (  # noqa: E402
     LOG_SUFFIXES,
-    PackEntry,
     batch_size,
+    log_items,
     read_pack_map,
     summarise_all,
 )
@@ -97,12 +97,9 @@ def serial(logs, models, pack_map) -> tuple[float, float]:
     t, cpu = time.perf_counter(), time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        rows = []
-        for p in logs:
-            e = pack_map.get(p.name) or PackEntry(None)
-            rows.append(summarise_log(str(p), e.pack, "--packs" if e.pack else "unknown",
-                                      e.cycle, models=models, aircraft_key=e.aircraft,
-                                      samples=True))
+        rows = [summarise_log(path, pack_id, source, cycle, models=models,
+                              aircraft_key=key, samples=True)
+                for path, pack_id, source, cycle, key in log_items(logs, pack_map)]
     dt, dcpu = time.perf_counter() - t, time.process_time() - cpu
     assert len(rows) == len(logs)
     return dt, dcpu

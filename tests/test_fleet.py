@@ -467,3 +467,34 @@ def test_serial_numbers_unset_on_real_logs_without_a_smart_battery(shared_data):
     assert meta["battery_serial"] is None
     assert serial_or_none(np.array([0, 0, 1234, 1234, 0])) == "1234"
     assert serial_or_none(-1.0) is None and serial_or_none(None) is None
+
+
+def test_a_fleet_without_aircraft_keeps_each_packs_nominal_capacity(client, tmp_path):
+    """Library use without an aircraft: the pack given is every pack's reference, so the
+    health carries its capacity and a pack file is written per pack; the CSV's aircraft
+    column is moot."""
+    from planner.fleet import read_pack_map, run_fleet
+    from testkit.fleet import PACKS, generate_fleet
+
+    g = generate_fleet(tmp_path / "small", flights_per_pack=4, packs=PACKS[1:3])
+    _, pack = load_aircraft_and_battery(AIRCRAFT)
+    files.reset({"--out": str(tmp_path / "o")})
+    res = run_fleet([g.logs], out_dir=tmp_path / "o", aircraft=None, pack=pack,
+                    pack_map=read_pack_map(g.packs_csv), client=client, progress=False)
+    assert (res.table["status"] == "ok").all()
+    assert {h.pack_id for h in res.health} == {"S2", "S3"}
+    for h in res.health:
+        assert h.capacity_mah == pytest.approx(pack.capacity_mah * h.soh)
+    assert sorted(p.name for p in res.pack_files.values()) == ["S2.yaml", "S3.yaml"]
+
+
+def test_an_aircraft_the_run_does_not_have_is_a_failed_row_that_names_it(fleet):
+    from planner.fleet.summary import summarise_log
+
+    craft, packs = _models()
+    log = sorted(fleet.logs.iterdir())[0]
+    row = summarise_log(str(log), models={"solo_survey": (craft["solo_survey"],
+                                                          packs["solo_survey"])},
+                        aircraft_key="hexa")
+    assert row["status"] == "failed"
+    assert "names aircraft 'hexa', none of the --aircraft (solo_survey)" in row["error"]

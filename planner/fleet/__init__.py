@@ -35,7 +35,6 @@ import csv
 import io
 import math
 import os
-import re
 import sys
 import time
 import uuid
@@ -52,6 +51,7 @@ from planner.fleet.summary import (
     COLUMNS,
     content_hash,
     diagnose_log,
+    safe_stem,
     summarise_log,
     to_frame,
 )
@@ -67,6 +67,7 @@ __all__ = [
     "batch_size",
     "collect_logs",
     "fleet_models",
+    "log_items",
     "read_pack_map",
     "run_fleet",
     "summarise_all",
@@ -225,15 +226,22 @@ def _check_out_dir(out_dir: Path) -> Path:
     return out
 
 
-def _read_table(path: Path) -> pd.DataFrame | None:
+def _read_parquet(path: Path, what: str) -> pd.DataFrame | None:
+    """A table a previous run wrote into ``--out`` (None when there is none)."""
     if not path.exists():
         return None
-    p = files.own_output_path(path, "table", "fleet table")
+    p = files.own_output_path(path, "table", what)
     try:
-        old = pd.read_parquet(p)
+        return pd.read_parquet(p)
     except Exception as exc:  # noqa: BLE001 - pyarrow's errors are many
-        raise InputError(f"{path}: not a readable fleet table ({type(exc).__name__}); move "
+        raise InputError(f"{path}: not a readable {what} ({type(exc).__name__}); move "
                          "it away or give another --out") from None
+
+
+def _read_table(path: Path) -> pd.DataFrame | None:
+    old = _read_parquet(path, "fleet table")
+    if old is None:
+        return None
     missing = [c for c in COLUMNS if c not in old.columns]
     if missing:
         raise InputError(f"{path}: not a fleet table of this version (no column "
@@ -245,10 +253,6 @@ def _write_table(path: Path, table: pd.DataFrame) -> None:
     path.parent.mkdir(exist_ok=True)
     with files.output_file(path, "--out") as tmp:
         table.to_parquet(tmp, index=False)
-
-
-def _write_samples(path: Path, samples: pd.DataFrame) -> None:
-    _write_table(path, samples)
 
 
 def _merge(old: pd.DataFrame | None, new: pd.DataFrame) -> pd.DataFrame:
@@ -300,8 +304,7 @@ def _client(workers: int | None, scheduler: str | None):
 
 
 def _summarise_batch(items, models, samples=False):
-    """:func:`summarise_log` on each ``(path, pack id, id source, cycle, aircraft key)``:
-    the rows."""
+    """:func:`summarise_log` on each item of :func:`log_items`: the rows."""
     return [summarise_log(path, pack_id, source, cycle, models=models, aircraft_key=key,
                           samples=samples)
             for path, pack_id, source, cycle, key in items]
@@ -336,6 +339,17 @@ def batch_size(logs: int, workers: int) -> int:
     return max(1, min(BATCH_MAX, math.ceil(logs / (8 * max(workers, 1)))))
 
 
+def log_items(logs: list[Path], pack_map: dict | None) -> list[tuple]:
+    """``(path, pack id, id source, cycle, aircraft key)`` of each log from the
+    ``--packs`` map: the arguments of :func:`summarise_log`."""
+    items = []
+    for p in logs:
+        entry = (pack_map or {}).get(Path(p).name) or PackEntry(None)
+        items.append((str(p), entry.pack, "--packs" if entry.pack else "unknown",
+                      entry.cycle, entry.aircraft))
+    return items
+
+
 def summarise_all(logs: list[Path], *, aircraft=None, pack=None, pack_map: dict | None,
                   skip: set[str], client, progress=None, batch: int | None = None,
                   on_batch=None, models: dict | None = None, samples: bool = False
@@ -346,13 +360,8 @@ def summarise_all(logs: list[Path], *, aircraft=None, pack=None, pack_map: dict 
     ``aircraft`` and ``pack``; ``samples``: each row carries its calibration samples."""
     from dask.distributed import as_completed
 
-    pack_map = pack_map or {}
     models = models if models is not None else fleet_models(aircraft, pack)
-    items = []
-    for p in logs:
-        entry = pack_map.get(p.name) or PackEntry(None)
-        items.append((str(p), entry.pack, "--packs" if entry.pack else "unknown",
-                      entry.cycle, entry.aircraft))
+    items = log_items(logs, pack_map)
     workers = len(client.scheduler_info().get("workers", {})) or 1
     size = batch or batch_size(len(items), workers)
     run = uuid.uuid4().hex[:12]         # keys unique to this call: a rerun on the same client
@@ -417,8 +426,7 @@ def diagnose_worst(table: pd.DataFrame, client, *, aircraft=None, pack=None,
 
 
 def _pack_file_name(pack_id: str) -> str:
-    safe = re.sub(r"[^A-Za-z0-9._-]+", "_", pack_id).strip("._") or "pack"
-    return f"{safe}.yaml"
+    return f"{safe_stem(pack_id, 'pack')}.yaml"
 
 
 def write_pack_files(health: list[PackHealth], pack, folder: Path
@@ -463,17 +471,6 @@ def write_pack_files(health: list[PackHealth], pack, folder: Path
                          "--out")
         written[h.pack_id] = path
     return written, notes
-
-
-def _read_samples(path: Path) -> pd.DataFrame | None:
-    if not path.exists():
-        return None
-    p = files.own_output_path(path, "table", "fleet samples table")
-    try:
-        return pd.read_parquet(p)
-    except Exception as exc:  # noqa: BLE001 - pyarrow's errors are many
-        raise InputError(f"{path}: not a readable fleet samples table "
-                         f"({type(exc).__name__}); move it away or give another --out") from None
 
 
 def _samples_table(old: pd.DataFrame | None, rows: list[dict], keep: set[str]) -> pd.DataFrame:
@@ -531,7 +528,7 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     table_path = out / TABLE_NAME
     samples_path = out / SAMPLES_NAME
     old = _read_table(table_path)
-    old_samples = _read_samples(samples_path) if calibrate else None
+    old_samples = _read_parquet(samples_path, "fleet samples table") if calibrate else None
     skip = set(old.loc[old["status"] == "ok", "sha256"]) if old is not None else set()
     own = client is None
     cluster = None
@@ -549,7 +546,7 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
         if rows and any(r["status"] == "ok" for r in rows) and now - last[0] >= every:
             merged = _merge(old, to_frame(rows))
             if calibrate:
-                _write_samples(samples_path, _samples_table(
+                _write_table(samples_path, _samples_table(
                     old_samples, rows, set(merged.loc[merged["status"] == "ok", "sha256"])))
             _write_table(table_path, merged)
             last[0] = now
@@ -583,7 +580,7 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     if calibrate:
         samples = _samples_table(old_samples, rows,
                                  set(table.loc[table["status"] == "ok", "sha256"]))
-        _write_samples(samples_path, samples)
+        _write_table(samples_path, samples)
         result.outputs.append(samples_path)
         for key, (craft, flown) in models.items():
             if craft is None:
@@ -604,10 +601,10 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
             if len(models) == 1 else None
 
     nominal = {}
-    for pid in owner:
-        ref = new_pack(pid)
+    for pid in table.loc[table["status"] == "ok", "pack_id"].dropna().unique():
+        ref = new_pack(str(pid))
         if ref is not None:
-            nominal[pid] = ref.capacity_mah
+            nominal[str(pid)] = ref.capacity_mah
     result.health = pack_health(table, retire=retire, nominal_mah=nominal, aircraft=owner)
     if result.health:
         with_pack = [h for h in result.health if new_pack(h.pack_id) is not None]

@@ -34,6 +34,7 @@ import pandas as pd
 from planner import files
 from planner.errors import PlannerError
 from planner.fit_aircraft import fit_aircraft
+from planner.fleet.summary import safe_stem
 
 #: One flight in about this many is held out (by content hash).
 HOLDOUT_EVERY = 5
@@ -132,7 +133,7 @@ def write_aircraft_file(cal: AircraftCalibration, folder: Path) -> Path | None:
     if cal.aircraft is None:
         return None
     folder.mkdir(exist_ok=True)
-    path = folder / f"{_safe(cal.key)}.yaml"
+    path = folder / f"{safe_stem(cal.key, 'aircraft')}.yaml"
     mapping = cal.aircraft.to_mapping(folder=folder)
     fitted = ", ".join(f"{k} {v:.4g} ± {cal.stderr.get(k, math.nan):.2g}"
                        for k, v in cal.parameters.items())
@@ -145,9 +146,3 @@ def write_aircraft_file(cal: AircraftCalibration, folder: Path) -> Path | None:
                      "--out")
     cal.file = path
     return path
-
-
-def _safe(key: str) -> str:
-    import re
-
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", key).strip("._") or "aircraft"

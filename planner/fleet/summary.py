@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 import warnings
 from pathlib import Path
 from typing import Any
@@ -80,6 +81,12 @@ COLUMNS: dict[str, str] = {
     "resistance_ohm": "float64", "resistance_se_ohm": "float64", "resistance_steps": "int64",
     "warnings": "string",
 }
+
+
+def safe_stem(text: str, fallback: str) -> str:
+    """``text`` as a file name without folders or odd characters (``fallback`` when
+    nothing is left): the stem of a pack or aircraft file in the output folder."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or fallback
 
 
 def content_hash(path: str | Path) -> str:
@@ -143,9 +150,13 @@ def choose_aircraft(models: dict, key: str | None, meta: dict, path: str
                     ) -> tuple[str | None, Aircraft | None, BatteryPack | None]:
     """The aircraft that flew a log: ``key`` (from ``--packs``), else the only one of
     ``models`` (key → (Aircraft, pack)), else the one whose type (multirotor, fixed wing)
-    is the log's vehicle type. Raises PlannerError when several could have flown it."""
-    if key is not None:
+    is the log's vehicle type; without any aircraft, the key is moot. Raises PlannerError
+    when several could have flown it or ``key`` is none of them."""
+    if key is not None and key in models:
         return (key, *models[key])
+    if key is not None and any(a is not None for a, _ in models.values()):
+        raise PlannerError(f"{path}: the --packs CSV names aircraft {key!r}, none of the "
+                           f"--aircraft ({', '.join(models)})")
     if len(models) <= 1:
         return next(((k, *v) for k, v in models.items()), (None, None, None))
     kind = meta.get("vehicle_type")
