@@ -212,3 +212,37 @@ def charge_ah(g: pd.DataFrame) -> float:
     """∫I dt of one discharge. [A h]"""
     return float(np.trapezoid(g["current_a"].to_numpy(float),
                               g["time_s"].to_numpy(float))) / 3600
+
+
+# ============================================================================ equivalents
+
+def mean_hinge(g: pd.DataFrame, column: str = "temperature_c", reference_c: float = 25.0
+               ) -> float:
+    """Charge-weighted mean of max(reference − T, 0) over one discharge: the driver of the
+    planner's cold-pack charge scale (:meth:`planner.parameters.IntegralModel.extend_charge`).
+    [°C]"""
+    h = np.maximum(reference_c - g[column].to_numpy(float), 0.0)
+    i = g["current_a"].to_numpy(float)
+    return float(np.sum(h * i) / np.sum(i))
+
+
+def charge_scale_equivalent(f, dz, z0) -> float:
+    r"""An injection expressed as the planner's charge scale :math:`1 + k z`.
+
+    ``f`` per pair of discharges: energy to the cut-off clean over injected − 1; ``dz`` the
+    rise of the driver z (the cycle, or :func:`mean_hinge`) from clean to injected, ``z0``
+    its clean value. Returns the k that minimises
+    :math:`\sum [\ln(1 + f) - \ln((1 + k (z_0 + \Delta z)) / (1 + k z_0))]^2`, the loss the
+    cut-off level of ``diagnose`` fits. [1/unit of z]
+    """
+    from scipy.optimize import minimize_scalar
+
+    f, dz, z0 = (np.asarray(a, float) for a in (f, dz, z0))
+    y = np.log1p(f)
+
+    def loss(k):
+        return float(np.sum((y - np.log((1 + k * (z0 + dz)) / (1 + k * z0))) ** 2))
+
+    k0 = float(np.sum(dz * f) / np.sum(dz * dz))
+    lo, hi = sorted((k0 / 4, 4 * k0))
+    return float(minimize_scalar(loss, bounds=(lo - 1e-9, hi + 1e-9), method="bounded").x)

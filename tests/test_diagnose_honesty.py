@@ -41,9 +41,12 @@ def test_impossible_parameters_are_named_as_such(effect, params, needle):
 
 def test_a_cold_effect_with_the_wrong_sign_is_withheld_not_named():
     """The pack temperature column reversed (a sensor mounted on the heater, say): the
-    true cold effect then fits as "colder draws less", which is never a cause."""
+    true cold effect then fits as "colder draws less", which is never a cause. (Mirrored
+    and shifted so that every reading stays below the 25 °C reference of the hinge.)"""
     df, _ = capacity_dataset("temperature", 0.006, profile="flights", seed=1)
-    df["temperature_c"] = 2 * 25.0 - df["temperature_c"]
+    t = df["temperature_c"]
+    df["temperature_c"] = t.min() + t.max() - t - 15.0
+    assert df["temperature_c"].max() < 25.0
     res = diagnose(df, battery())
     assert "temperature" not in names(res)
     w = withheld(res).get("temperature")

@@ -98,7 +98,10 @@ def test_m100_current_offset_is_reported_as_not_identifiable(shared_data, tmp_pa
     res = diagnose(pd.concat(parts, ignore_index=True), pack, ac, payload_kg=0.25)
     assert [f["effect"] for f in res.findings] == [], res.summary()
     blind = res.to_dict()["not_identifiable"]
-    assert [set(x["effects"]) for x in blind] == [{"current_offset", "system_power"}]
+    # and the flights land with charge left: a capacity loss cannot be seen either
+    assert [set(x["effects"]) for x in blind] == [{"current_offset", "system_power"},
+                                                  {"capacity_fade", "temperature"}]
+    assert "cut-off" in blind[1]["why"]
     assert "Not identifiable on these data: current_offset or system_power" in res.summary()
 
 

@@ -35,6 +35,7 @@ import pandas as pd
 from planner import record as rec
 from planner import stats
 from planner.battery import integral
+from planner.diagnose import cutoff as CO
 from planner.diagnose import search as S
 from planner.diagnose.effects import EFFECTS, make_effects
 from planner.errors import FitError, InputError, ModelError
@@ -110,7 +111,11 @@ class DiagnoseResult:
                "final_error_pct_as_given": lv.final_error_as_given,
                "parameters": _with_stderr(lv.base_values, lv.base_stderr),
                "experiments": level.n_experiments, "split": level.split.to_dict()}
-        if name == "capacity":
+        if name == "cutoff":
+            out["rmse_note"] = ("held-out error of the energy delivered to the cut-off, "
+                                "ln(E/Ê) × 100, one unit per held-out discharge; final error: "
+                                "Σ|E − Ê| / Σ E")
+        elif name == "capacity":
             out["window_s"] = level.window_s
             out["beta_fitted"] = bool(level.fit_beta)
             out["rmse_note"] = ("held-out cumulative C − Ĉ from the start of each held-out "
@@ -124,15 +129,18 @@ class DiagnoseResult:
 
     @property
     def primary_level(self) -> str | None:
-        if "capacity" in self.levels:
-            return "capacity"
-        return "power" if "power" in self.levels else None
+        for name in ("capacity", "power", "cutoff"):
+            if name in self.levels:
+                return name
+        return None
 
     def unexplained(self) -> str | None:
         parts = []
         for name, lv in self.levels.items():
             final = lv.result.final
             level = lv.result.level
+            if name == "cutoff":        # one row per discharge: no series to be slow in
+                continue
             rows = final.heldout_rows
             resid = final.heldout_row_resid
             order = np.argsort(rows, kind="stable")
@@ -218,7 +226,14 @@ class DiagnoseResult:
         for name, lv in self.levels.items():
             b = lv.result.baseline
             unit = lv.result.level.unit
-            if name == "capacity":
+            if name == "cutoff":
+                v = lv.base_values
+                rate = (f", {v['energy_per_a_pct']:+.3g} %/A" if "energy_per_a_pct" in v
+                        else "")
+                what = (f"energy to the cut-off {v['energy_at_cutoff_wh']:.4g} W h at "
+                        f"{v['reference_current_a']:.3g} A mean current{rate}, "
+                        f"{lv.result.level.n_rows} discharges")
+            elif name == "capacity":
                 v = lv.base_values
                 what = (f"integral model recalibrated (δ {v['delta']:.4g}, ε {v['epsilon']:.4g}, "
                         f"β {v['beta']:.4g}{'' if lv.result.level.fit_beta else ' held'})")
@@ -250,7 +265,8 @@ class DiagnoseResult:
                              f"{ext['unit']}, final error {_num(ext['final_error_pct_before'], 2)}"
                              f" → {_num(ext['final_error_pct_after'], 2)} %")
         for s in self.skipped:
-            lines.append(f"  not tested: {s['effect']}: {s['reason']}")
+            lines.append(f"  not tested at the {s['level']} level: {s['effect']}: "
+                         f"{s['reason']}")
         for x in self.not_identifiable:
             lines.append(f"Not identifiable on these data: {' or '.join(x['effects'])}: "
                          f"{x['why']}")
@@ -267,8 +283,13 @@ class DiagnoseResult:
         lv = self.levels.get("capacity")
         if lv is None or self.pack is None:
             return None
-        v = lv.final_values
+        v = dict(lv.final_values)
         effects = {e.name: e for e, _ in lv.result.selected}
+        cut = self.levels.get("cutoff")
+        if cut is not None:      # the capacity effects found on the energy to the cut-off
+            effects |= {e.name: e for e, _ in cut.result.selected}
+            v |= {k: x for k, x in cut.final_values.items()
+                  if k in ("temperature_coefficient_per_c", "fade_per_cycle")}
         kw = {}
         if "temperature" in effects:
             kw["temperature_coefficient_per_c"] = float(np.clip(
@@ -406,8 +427,11 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
         current = None
         if "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).mean() > 0.5:
             current = S._interp_nan(t, sub["current_a"].to_numpy(float))
+        voltage = None
+        if "voltage_v" in sub and np.isfinite(sub["voltage_v"].to_numpy(float)).mean() > 0.5:
+            voltage = S._interp_nan(t, sub["voltage_v"].to_numpy(float))
         out.append({"name": name, "t": t, "p": p, "c": c, "temperature": temp, "cycle": cycle,
-                    "current": current})
+                    "current": current, "voltage": voltage})
     return out
 
 
@@ -466,6 +490,8 @@ def _explained(x: np.ndarray, columns: list[np.ndarray]) -> float:
 def _driver(level, effect, state) -> np.ndarray | None:
     if effect.driver_is_time:
         return None
+    if level.name == "cutoff":
+        return np.asarray(effect.cutoff_column(level), float)
     if level.name == "capacity":
         return np.asarray(effect.window_driver(level), float)
     return np.asarray(effect.bin_driver(level, state), float)
@@ -652,6 +678,39 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     # ---------------------------------------------------------------- capacity
     cap_effects = [e for e in wanted if e.level == "capacity"]
     exps = _capacity_experiments(df, notes)
+    cut_effects = [e for e in make_effects([e.name for e in cap_effects])
+                   if hasattr(e, "cutoff_column")]
+    cut_names = {e.name for e in cut_effects}
+    cut_exps, cut_what = CO.select(exps, pack) if exps else ([], "no experiment")
+    cut_level = None
+    if cut_effects and len(cut_exps) >= CO.MIN_CUTOFF_EXPERIMENTS:
+        cut_level = CO.CutoffLevel(cut_exps, pack)
+        notes.append(f"cut-off level: {cut_what}")
+        res = _run_level(cut_level, cut_effects, notes)
+        if res is not None:
+            bv, bs = cut_level.physical(res.base_fit, [])
+            fv, fs = cut_level.physical(res.final_fit, [e for e, _ in res.selected])
+            rg, fg = cut_level.as_given()
+            rep_ = LevelReport("cutoff", res, bv, bs, fv, fs, rg, fg, [])
+            rep_.findings = _findings("cutoff", res, cut_level, fv, fs)
+            levels["cutoff"] = rep_
+            skipped += [{"effect": k, "level": "cutoff", "reason": v}
+                        for k, v in res.skipped.items()]
+            # direct evidence first: the capacity effects are tested on the energy to the
+            # cut-off, not again on the charge per unit energy
+            skipped += [{"effect": e.name, "level": "capacity",
+                         "reason": "tested at the cut-off level instead, on the energy each "
+                                   "discharge delivered to its cut-off (the direct evidence "
+                                   "of the capacity)"} for e in cap_effects
+                        if e.name in cut_names]
+            cap_effects = [e for e in cap_effects if e.name not in cut_names]
+        else:
+            cut_level = None
+    elif cut_effects and exps:
+        cut_what = (f"only {len(cut_exps)} experiment(s) run from a full pack to a common "
+                    f"cut-off (needs {CO.MIN_CUTOFF_EXPERIMENTS})" if cut_exps else cut_what)
+        skipped += [{"effect": e.name, "level": "cutoff", "reason": cut_what}
+                    for e in cut_effects]
     cap_level = None
     if not exps:
         notes.append("capacity level not run: no experiment with power and charge drawn")
@@ -749,9 +808,18 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
         for i, eff in zip(pos, order):
             findings[i] = next(f for f in lv.findings if f["effect"] == eff)
     withheld = [w for lv in levels.values() for w in lv.result.withheld]
-    blind = _offset_or_load(df, levels, findings)
+    blind = [_offset_or_load(df, levels, findings)]
+    if cut_effects and "cutoff" not in levels and "capacity" in levels:
+        blind.append({
+            "effects": sorted(cut_names), "level": "cutoff",
+            "why": (f"a loss of usable capacity (an ageing or a cold pack) shows where a "
+                    f"discharge reaches its cut-off voltage, and here {cut_what}; the charge "
+                    "drawn per unit of energy, which the capacity level tests, changes little "
+                    "when the capacity shrinks (an aged cell runs through the same voltage "
+                    "curve, only faster): a capacity loss cannot be seen in these data, and "
+                    "no finding at the capacity level measures one")})
     return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources, withheld,
-                          [blind] if blind else [])
+                          [b for b in blind if b])
 
 
 #: Largest median relative difference between the logged power and voltage × current

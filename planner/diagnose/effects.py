@@ -21,13 +21,20 @@ coefficients in closed form, ``A`` included):
     each increment of charge drawn is scaled by the pack temperature at that
     moment; for a constant temperature this is
     :meth:`planner.parameters.IntegralModel.charge_scale`. :math:`k` [1/°C];
-    :math:`T_{ref}` = the highest pack temperature in the data, or 25 °C when
-    that is lower (so that the linear law covers every measured temperature).
+    :math:`T_{ref}` = :data:`REFERENCE_TEMPERATURE_C` (25 °C, the rating temperature of
+    cell data sheets): the extension models the cold only, so a cell's self-heating above
+    it is not a driver (a reference at the hottest sample made self-heated cells "cold"
+    and the driver follow the C-rate).
 ``capacity_fade``
     :math:`\hat C = A\,(1 + \varphi\, n)\, G` with :math:`n` the experiment's
     ``cycle`` (else its position in the data, 0, 1, 2, …: then :math:`\varphi`
     is per experiment, and the output says so). :math:`\varphi` [1/cycle];
     δ then belongs to cycle 0, as ``charge_scale`` expects.
+At the cut-off level (:mod:`planner.diagnose.cutoff`) the same two effects scale the
+energy a discharge delivers to its cut-off by :math:`1/(1 + k\bar h)` and
+:math:`1/(1 + \varphi n)`, :math:`\bar h` the charge-weighted mean hinge of the discharge:
+the direct evidence of a capacity (where discharges reach the cut-off, they are tested
+there and not on the charge per unit energy).
 ``current_offset``
     measured charge :math:`= \hat C + b\,t`: a current sensor that reads
     :math:`b` too high drifts linearly in time, also while the load is off. [A]
@@ -91,6 +98,8 @@ __all__ = [
     "make_effects",
 ]
 
+#: Reference of the cold-pack hinge max(T_ref − T, 0): the data-sheet rating temperature.
+REFERENCE_TEMPERATURE_C = 25.0
 #: Below this spread of the hinge max(T_ref − T, 0) a temperature effect cannot be told
 #: from δ. [°C]
 MIN_TEMPERATURE_SPREAD_C = 3.0
@@ -249,8 +258,12 @@ class Temperature(CapacityEffect):
 
     def prepare(self, cap) -> None:
         temp = cap.temperature
-        self.reference_c = 25.0 if temp is None else max(25.0, float(np.nanmax(temp)))
+        self.reference_c = REFERENCE_TEMPERATURE_C
         self.hinge = None if temp is None else np.maximum(self.reference_c - temp, 0.0)
+
+    def cutoff_column(self, level) -> np.ndarray:
+        """Charge-weighted mean hinge of each discharge (cut-off level). [°C]"""
+        return level.charge_mean(self.hinge)
 
     def skip_reason(self, cap) -> str | None:
         if cap.temperature is None:
@@ -259,9 +272,12 @@ class Temperature(CapacityEffect):
                     "no pack temperature (temperature_c) for experiment(s) "
                     + ", ".join(missing[:5]) + (" …" if len(missing) > 5 else ""))
         self.prepare(cap)
-        spread = float(np.nanmax(self.hinge) - np.nanmin(self.hinge))
+        h = self.cutoff_column(cap) if cap.name == "cutoff" else self.hinge
+        spread = float(np.nanmax(h) - np.nanmin(h))
         if spread < MIN_TEMPERATURE_SPREAD_C:
-            return (f"the pack temperature varies by only {spread:.1f} °C below "
+            what = ("the discharges' mean temperature" if cap.name == "cutoff"
+                    else "the pack temperature")
+            return (f"{what} varies by only {spread:.1f} °C below "
                     f"{self.reference_c:.0f} °C (needs {MIN_TEMPERATURE_SPREAD_C:g} °C): its "
                     "effect cannot be told from the calibration")
         return None
@@ -297,6 +313,15 @@ class Temperature(CapacityEffect):
         k = p["percent_per_c"]
         t_lo = float(np.nanmin(cap.temperature))
         ref = p["reference_temperature_c"]
+        if cap.name == "cutoff":
+            cold = float(np.nanmax(self.cutoff_column(cap)))
+            loss = 100.0 * (1.0 - 1.0 / (1.0 + p["temperature_coefficient_per_c"] * cold))
+            return (f"Cold pack: the energy delivered to the cut-off falls as the pack is "
+                    f"colder; the charge scale rises {k:.2f} %/°C (±"
+                    f"{p['percent_per_c_stderr']:.2f}) below {ref:.0f} °C, so the coldest "
+                    f"discharges (mean {ref - cold:.0f} °C) delivered {loss:.1f} % less energy "
+                    "before the cut-off (less usable capacity and more resistance in the "
+                    "cold)")
         if k >= 0:
             return (f"Cold pack: the charge drawn per Wh rises {abs(k):.2f} %/°C below "
                     f"{ref:.0f} °C (±{p['percent_per_c_stderr']:.2f}); at {t_lo:.0f} °C the "
@@ -309,6 +334,9 @@ class Temperature(CapacityEffect):
     def headline(self, p, cap):
         k = p["percent_per_c"]
         word = "rises" if k >= 0 else "falls"
+        if cap.name == "cutoff":
+            return (f"Cold pack: {abs(k):.2f} % less energy to the cut-off per °C below "
+                    f"{p['reference_temperature_c']:.0f} °C")
         return (f"Cold pack: charge drawn per Wh {word} {abs(k):.2f} %/°C below "
                 f"{p['reference_temperature_c']:.0f} °C")
 
@@ -335,6 +363,10 @@ class CapacityFade(CapacityEffect):
 
     def cumulative(self, cap, G, dG):
         return self.cycles[cap.exp_index] * G
+
+    def cutoff_column(self, level) -> np.ndarray:
+        """The cycle of each discharge (cut-off level). [cycles]"""
+        return self.cycles
 
     def window_driver(self, cap):
         return self.cycles[cap.window_exp].astype(float)
@@ -364,6 +396,12 @@ class CapacityFade(CapacityEffect):
             "experiment (no cycle count in the data: experiments taken in the order they "
             "appear, one cycle each)")
         word = "rises" if f >= 0 else "falls"
+        if cap.name == "cutoff":
+            loss = 100.0 * (1.0 - 1.0 / (1.0 + p["fade_per_cycle"] * (hi - lo)))
+            return (f"Ageing pack: the energy delivered to the cut-off falls as the pack "
+                    f"ages; the charge scale rises {f:.3f} % (±{se:.3f}) per {per}, so at "
+                    f"cycle {hi:.0f} the pack delivers {loss:.1f} % less energy than at cycle "
+                    f"{lo:.0f} (capacity loss and resistance growth)")
         return (f"Ageing pack: the charge drawn for the same energy {word} {abs(f):.3f} % "
                 f"(±{se:.3f}) per {per}; {100 * p['fade_per_cycle'] * (hi - lo):+.1f} % "
                 f"from cycle {lo:.0f} to {hi:.0f}")
@@ -371,6 +409,8 @@ class CapacityFade(CapacityEffect):
     def headline(self, p, cap):
         f = 100 * p["fade_per_cycle"]
         unit = "cycle" if self.source == "cycle" else "experiment"
+        if cap.name == "cutoff":
+            return f"Ageing pack: {f:.3f} % less energy to the cut-off per {unit}"
         return f"Ageing pack: charge drawn per Wh {'rises' if f >= 0 else 'falls'} " \
                f"{abs(f):.3f} % per {unit}"
 

@@ -30,6 +30,19 @@ def plot_residual_time(report, ax=None):
     level = res.level
     changed = bool(res.selected)
     scores = [(res.baseline, BEFORE)] + ([(res.final, AFTER)] if changed else [])
+    if level.name == "cutoff":
+        for score, style in scores:
+            rows, r = _ordered(score)
+            ax.plot(level.duration[rows] / 60.0, level.row_driver_residual(r, rows), "o",
+                    ms=4, color=style["color"], label=style["label"])
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xlabel("duration of the discharge to the cut-off [min]")
+        ax.set_ylabel("energy to the cut-off, measured / model − 1 [%]")
+        ax.set_title("cut-off level: held-out error of the energy to the cut-off, one point "
+                     "per discharge", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=7)
+        return ax
     for score, style in scores:
         if level.name == "capacity":
             idx = score.heldout_samples
@@ -58,6 +71,11 @@ def plot_residual_time(report, ax=None):
 
 
 def _driver(level, effect, state):
+    if level.name == "cutoff":
+        x = effect.cutoff_column(level)
+        # the temperature's column is the mean hinge below the reference: plot the
+        # temperature it stands for
+        return effect.reference_c - x if effect.name == "temperature" else x
     if level.name == "capacity":
         return effect.window_driver(level)
     if effect.name in ("system_power", "efficiency_curve"):
@@ -85,7 +103,9 @@ def plot_residual_driver(report, effect, ax=None, after=True):
         x = x_all[rows]
         ok = np.isfinite(x) & np.isfinite(y)
         x, y = x[ok], y[ok]
-        ax.plot(x, y, ".", ms=2, color=style["color"], alpha=0.35)
+        ax.plot(x, y, "o" if level.name == "cutoff" else ".", ms=4 if level.name == "cutoff"
+                else 2, color=style["color"], alpha=0.8 if level.name == "cutoff" else 0.35,
+                label=style["label"] if level.name == "cutoff" else None)
         if len(x) >= 10:
             edges = np.unique(np.quantile(x, np.linspace(0, 1, min(16, len(x) // 5) + 1)))
             if len(edges) > 2:
@@ -96,8 +116,9 @@ def plot_residual_driver(report, effect, ax=None, after=True):
                         label=style["label"] + " (binned mean)")
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_xlabel(label)
-    ax.set_ylabel("excess current, measured − model [mA]" if level.name == "capacity"
-                  else "power residual, measured − model [W]")
+    ax.set_ylabel({"capacity": "excess current, measured − model [mA]",
+                   "cutoff": "energy to the cut-off, measured / model − 1 [%]"}.get(
+                       level.name, "power residual, measured − model [W]"))
     found = any(e.name == effect.name for e, _ in res.selected)
     ax.set_title(f"{effect.name} ({'found' if found else 'not significant'}): residual against "
                  "its driver", fontsize=9)
