@@ -629,6 +629,10 @@ class AirDensity(PowerEffect):
 class PayloadChange(PowerEffect):
     key = "mass_step_kg"
     name = "payload_change"
+    #: A change within a flight explains only variation within it (the flight's own
+    #: constant mass is projected out where the change is located): its training test
+    #: compares the residuals net of each flight's mean (:func:`planner.diagnose.search.compare`).
+    within_experiment = True
     needs = ()
     nonlinear = ("mass_step_kg",)
     bounds: ClassVar[dict] = {"mass_step_kg": (0.0, -10.0, 10.0, 0.05)}

@@ -48,7 +48,12 @@ An effect (added to the current model) is reported only when all hold:
    autocorrelation ρ of the extended model's training residuals; compared with
    :math:`\chi^2` of the added degrees of freedom (a payload change also counts
    each located change time). The median p-value over the folds must be below
-   :data:`ALPHA_TRAIN` (0.05).
+   :data:`ALPHA_TRAIN` (0.05). For a payload change, which explains only variation
+   *within* a flight (it is located net of the flight's own constant mass), RSS and ρ
+   are those of the training residuals net of each flight's mean: a flight flown with an
+   unrecorded payload is a level shift of that flight, which neither model is asked to
+   explain and which would otherwise swamp the test (on real M100 flights, whose payload
+   per flight is not in the data, it did: ``benchmarks/bench_diagnose_real.py``).
 2. **Practical held-out gain.** The pooled held-out RMSE falls by at least
    :data:`MIN_GAIN_PCT` (5 %).
 3. **Paired held-out test.** One-sided paired randomisation (sign-flip) test on
@@ -1215,6 +1220,17 @@ class Score:
     train_n: list[int]
     train_rho: list[float]
     dof: list[int]
+    #: The same, of the training residuals net of each experiment's mean (the test of an
+    #: effect that explains only variation within an experiment).
+    train_rss_within: list[float] = field(default_factory=list)
+    train_rho_within: list[float] = field(default_factory=list)
+
+
+def _within(resid: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Residuals net of their group's mean."""
+    _, inv = np.unique(groups, return_inverse=True)
+    mean = np.bincount(inv, weights=resid) / np.bincount(inv)
+    return resid - mean[inv]
 
 
 def cross_validate(level, effects, base: Score | None = None) -> Score:
@@ -1223,7 +1239,7 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
     unit_loss = np.zeros(n_units)
     has = np.zeros(n_units, bool)
     fits, rows_all, rr_all, samples_all, sr_all, finals = [], [], [], [], [], []
-    rss, nn, rho, dof = [], [], [], []
+    rss, nn, rho, dof, rss_w, rho_w = [], [], [], [], [], []
     for k in range(level.split.n_folds):
         train = level.row_fold != k
         if not train.any() or not (~train).any():
@@ -1245,6 +1261,9 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
         rss.append(fit.rss)
         nn.append(int(train.sum()))
         rho.append(stats.lag1_autocorrelation(fit.train_resid, level.row_group[train]))
+        wr = _within(fit.train_resid, level.row_group[train])
+        rss_w.append(float(np.dot(wr, wr)))
+        rho_w.append(stats.lag1_autocorrelation(wr, level.row_group[train]))
     sr = np.concatenate(sr_all)
     scale = AS_PER_MAH if level.name == "capacity" else 1.0
     unit_loss[~has] = np.nan
@@ -1252,7 +1271,7 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
                  float(np.sqrt(np.mean(sr**2))) / scale,
                  _weighted_final(finals),
                  unit_loss, np.concatenate(rows_all), np.concatenate(rr_all),
-                 np.concatenate(samples_all), sr, rss, nn, rho, dof)
+                 np.concatenate(samples_all), sr, rss, nn, rho, dof, rss_w, rho_w)
 
 
 #: Random sign patterns of the paired test (exact enumeration up to 2**16 patterns).
@@ -1318,11 +1337,13 @@ def compare(effect, before: Score, after: Score, level=None) -> Comparison:
     nz = d[np.abs(d) > 1e-12 * max(float(np.nanmax(np.abs(before.unit_loss))), 1e-300)]
     p_pair = sign_flip_test(nz) if len(nz) >= MIN_TEST_UNITS else 1.0
     lrs, ps, neffs = [], [], []
+    within = bool(getattr(effect, "within_experiment", False))
     for k in range(len(before.fits)):
         n = after.train_n[k]
-        rho = after.train_rho[k]
+        rho = (after.train_rho_within if within else after.train_rho)[k]
         neff = n * (1 - rho) / (1 + rho)
-        r0, r1 = before.train_rss[k], after.train_rss[k]
+        r0, r1 = ((before.train_rss_within[k], after.train_rss_within[k]) if within else
+                  (before.train_rss[k], after.train_rss[k]))
         lr = neff * math.log(r0 / r1) if r0 > 0 and r1 > 0 else 0.0
         df = max(after.dof[k] - before.dof[k], 1)
         lrs.append(lr)
