@@ -149,21 +149,21 @@ class DiagnoseResult:
                 what = (f"{level.window_s:.0f}-s windows" if name == "capacity"
                         else f"{level.bin_s:.1f}-s bins")
                 worst = _worst_experiment(level, rows, resid)
-                parts.append(f"{name} level: held-out error {final.rmse:.3g} {level.unit} "
+                parts.append(f"{_title(name)} level: held-out error {final.rmse:.3g} {level.unit} "
                              f"remains with slow structure (lag-1 autocorrelation {rho:.2f} "
                              f"between {what}), largest in experiment {worst}; none of the "
                              "tested effects explains it")
         for w in self.withheld:
             if w["kind"] == "confounded":
-                parts.append(f"{w['level']} level: a misfit that {w['effect']} would absorb, "
-                             f"not named: {w['why']} (candidates: "
+                parts.append(f"{_title(w['level'])} level: a misfit that {w['effect']} would "
+                             f"absorb, not named: {w['why']} (candidates: "
                              f"{', '.join(w['candidates'])})")
             else:
-                parts.append(f"{w['level']} level: a misfit of the model's form against "
-                             f"{w['where']}, not a cause: {w['effect']} would need "
+                parts.append(f"{_title(w['level'])} level: a misfit of the model's form "
+                             f"against {w['where']}, not a cause: {w['effect']} would need "
                              f"parameters that are physically impossible ({w['why']})"
                              if w["kind"] == "implausible" else
-                             f"{w['level']} level: {w['effect']} not named: {w['why']}")
+                             f"{_title(w['level'])} level: {w['effect']} not named: {w['why']}")
         return "; ".join(parts) if parts else None
 
     def extended(self) -> dict[str, Any]:
@@ -241,7 +241,8 @@ class DiagnoseResult:
                 v = lv.base_values
                 shape = ", ".join(f"{k} {v[k]:.3g}" for k in lv.result.level.shape)
                 what = f"power model recalibrated (η {v['efficiency']:.3g}, {shape})"
-            lines.append(f"Baseline, {name} level: {what}: held-out error {_num(b.rmse)} {unit}, "
+            lines.append(f"Baseline, {_title(name)} level: {what}: held-out error "
+                         f"{_num(b.rmse)} {unit}, "
                          f"final error {_num(b.final_error_pct, 2)} % "
                          f"(as given: {_num(lv.rmse_as_given)} {unit})")
         if not self.levels:
@@ -260,12 +261,13 @@ class DiagnoseResult:
                          "as any tested extension.")
         for name, ext in self.extended().items():
             if ext["effects"]:
-                lines.append(f"Extended {name} model ({' + '.join(ext['effects'])}): held-out "
+                title = _title(name)
+                lines.append(f"Extended {title} model ({' + '.join(ext['effects'])}): held-out "
                              f"error {_num(ext['rmse_before'])} → {_num(ext['rmse_after'])} "
                              f"{ext['unit']}, final error {_num(ext['final_error_pct_before'], 2)}"
                              f" → {_num(ext['final_error_pct_after'], 2)} %")
         for s in self.skipped:
-            lines.append(f"  not tested at the {s['level']} level: {s['effect']}: "
+            lines.append(f"  not tested at the {_title(s['level'])} level: {s['effect']}: "
                          f"{s['reason']}")
         for x in self.not_identifiable:
             lines.append(f"Not identifiable on these data: {' or '.join(x['effects'])}: "
@@ -328,6 +330,11 @@ class DiagnoseResult:
         return replace(ac, source=f"endurance diagnose ({names}) on "
                                   f"{', '.join(self.sources) or 'the given data'}; start values "
                                   f"from {self.aircraft.path or self.aircraft.name}")
+
+
+def _title(level: str) -> str:
+    """A level's name in text (the JSON keeps the key: ``cutoff``)."""
+    return "cut-off" if level == "cutoff" else level
 
 
 def _num(x, digits=None) -> str:
@@ -554,7 +561,8 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                 params = e.parameters(values, stderr, level, res.final_fit.state)
                 z = e.z_score(params)
                 if math.isfinite(z) and z < MIN_Z:
-                    notes.append(f"{level.name} level: {e.name} passed the held-out tests but "
+                    notes.append(f"{_title(level.name)} level: {e.name} passed the held-out "
+                                 "tests but "
                                  f"its parameter is only {z:.1f} standard errors from no "
                                  "effect in the fit on all the data: not reported")
                     drop[e.name] = None
@@ -578,7 +586,7 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
             res.selected = [(e, c) for e, c in res.selected if e.name not in drop]
         return res
     except (FitError, ModelError, np.linalg.LinAlgError) as exc:
-        notes.append(f"{level.name} level: could not be calibrated ({exc})")
+        notes.append(f"{_title(level.name)} level: could not be calibrated ({exc})")
         return None
 
 
