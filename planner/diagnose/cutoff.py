@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from planner.diagnose.search import N_FOLDS, Fit, Split, Unit
+from planner.diagnose.search import N_FOLDS, Fit, Split, Unit, experiment_channels
 
 #: Share of an experiment's samples at its end (start) searched for the cut-off (full
 #: charge). [unitless]
@@ -152,14 +152,8 @@ class CutoffLevel:
             dc = np.diff(e["c"])
             w.append(np.r_[0.0, dc] * 0.5 + np.r_[dc, 0.0] * 0.5)
         self.charge_weight = np.clip(np.concatenate(w), 0.0, None)
-        temps = [e.get("temperature") for e in exps]
-        self.temperature_missing = [e["name"] for e, tc in zip(exps, temps) if tc is None]
-        self.temperature = None if self.temperature_missing else np.concatenate(temps)
-        cyc = [e.get("cycle") for e in exps]
-        if all(c is not None for c in cyc):
-            self.cycles, self.cycle_source = np.asarray(cyc, float), "cycle"
-        else:
-            self.cycles, self.cycle_source = np.arange(n, dtype=float), "experiment order"
+        (self.temperature, self.temperature_missing, self.cycles,
+         self.cycle_source) = experiment_channels(exps)
         k = min(N_FOLDS, n)
         self.row_fold = np.arange(n) % k
         self.row_group = np.arange(n)

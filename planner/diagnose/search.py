@@ -280,6 +280,20 @@ class Fit:
 
 # ============================================================================ capacity
 
+def experiment_channels(exps: list[dict]):
+    """The capacity effects' channels of a set of experiments: the pack temperature of
+    every sample (None unless every experiment has one), the names of the experiments
+    without, each experiment's cycle and where it came from (``"cycle"``, else
+    ``"experiment order"``: 0, 1, 2, …)."""
+    temps = [e.get("temperature") for e in exps]
+    missing = [e["name"] for e, tc in zip(exps, temps) if tc is None]
+    temperature = None if missing else np.concatenate(temps)
+    cyc = [e.get("cycle") for e in exps]
+    if all(c is not None for c in cyc):
+        return temperature, missing, np.asarray(cyc, float), "cycle"
+    return temperature, missing, np.arange(len(exps), dtype=float), "experiment order"
+
+
 class CapacityLevel:
     """Measured charge against the integral model driven by the measured power.
 
@@ -342,15 +356,8 @@ class CapacityLevel:
             rate = np.diff(self.c) / np.where(dt > 0, dt, np.inf)
             self.median_current_a = float(np.median(rate[self.p[:-1] > 0])) if on.any() else 0.0
             self.rest_current = None
-        temps = [e.get("temperature") for e in exps]
-        self.temperature_missing = [e["name"] for e, tc in zip(exps, temps) if tc is None]
-        self.temperature = None if self.temperature_missing else np.concatenate(temps)
-        cyc = [e.get("cycle") for e in exps]
-        if all(c is not None for c in cyc):
-            self.cycles, self.cycle_source = np.asarray(cyc, float), "cycle"
-        else:
-            self.cycles, self.cycle_source = np.arange(len(exps), dtype=float), \
-                "experiment order"
+        (self.temperature, self.temperature_missing, self.cycles,
+         self.cycle_source) = experiment_channels(exps)
 
         self.final_charge_as = np.array([e["c"][-1] for e in exps])
         depth = float(np.max(self.final_charge_as)) / max(pack.capacity_as, 1e-9)
