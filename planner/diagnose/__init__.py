@@ -821,11 +821,10 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
         blind.append({
             "effects": sorted(cut_names), "level": "cutoff",
             "why": (f"a loss of usable capacity (an ageing or a cold pack) shows where a "
-                    f"discharge reaches its cut-off voltage, and here {cut_what}; the charge "
-                    "drawn per unit of energy, which the capacity level tests, changes little "
-                    "when the capacity shrinks (an aged cell runs through the same voltage "
-                    "curve, only faster): a capacity loss cannot be seen in these data, and "
-                    "no finding at the capacity level measures one")})
+                    f"discharge reaches its cut-off voltage; here {cut_what}. The charge drawn "
+                    "per unit of energy, which the capacity level tests instead, barely "
+                    "changes when the capacity shrinks: no finding there measures a capacity "
+                    "loss")})
     return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources, withheld,
                           [b for b in blind if b])
 
