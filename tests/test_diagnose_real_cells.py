@@ -193,3 +193,22 @@ def test_cold_law_doubles_the_resistance_at_0c_and_costs_at_least_the_capacity_l
     dr = R25_P42A_OHM * (cells.arrhenius(0.0, EA_J_PER_MOL) - cells.arrhenius(22.0, EA_J_PER_MOL))
     assert g["voltage_v"].iloc[1] - d["voltage_v"].iloc[1] == pytest.approx(
         g["current_a"].iloc[1] * dr, abs=0.01)
+
+
+# ----------------------------------------------------------------- resampled runs
+
+@pytest.mark.parametrize("case", ["fade_p42a", "cold_p42a"])
+def test_realistic_ageing_and_cold_are_named_in_resampled_runs(case, battery_data):
+    """Ten seeded runs of the benchmark's realistic P42A cases (each a random draw of the
+    discharges, a random order of the ages or a random half made cold): the injected
+    effect is named first in at least 8, its fitted value within two standard errors of
+    the injection (as the planner's charge scale) in at least 7 of those. The benchmark:
+    40 of 40 named, within 2 SE in 90 % (ageing) and 92 % (cold)."""
+    from benchmarks.bench_diagnose_cells import _load, run_case
+
+    s = run_case(case, {"p42a": _load()["p42a"]}, runs=10, seed=1)
+    assert s["first"] >= 8, s
+    fits = np.array(s["fits"])
+    within = np.abs(fits[:, 0] - fits[:, 2]) <= 2 * fits[:, 1]
+    assert within.sum() >= 7, fits
+    assert not s["false"], s["false"]
