@@ -173,6 +173,50 @@ def test_a_step_at_the_end_of_the_climb_is_confounded_with_the_regime():
     assert E.PayloadChange().regime_confound(pw, mid) is None
 
 
+class _Route(_Flights):
+    """Flights that move at 10 m/s along ``courses`` (deg from north, one per bin), no
+    logged wind: what the wind's and the payload step's confound checks read."""
+
+    def __init__(self, courses, n_flights=2):
+        c = np.radians(np.tile(courses, n_flights))
+        n = len(courses)
+        t = np.tile(np.arange(n, dtype=float), n_flights)
+        super().__init__(np.zeros(t.size), np.repeat(np.arange(n_flights), n), t,
+                         [f"f{k}" for k in range(n_flights)])
+        self.vn, self.ve = 10.0 * np.cos(c), 10.0 * np.sin(c)
+        self.course = np.degrees(c) % 360.0
+        self.moving = np.ones(t.size, bool)
+        self.course_known = self.moving
+        self.has_course, self.airspeed_measured = True, False
+        self.logged_wind_n = self.logged_wind_e = 0.0
+
+
+OUT_AND_BACK = np.r_[np.full(100, 30.0), np.full(100, 210.0)]
+SURVEY = np.tile(np.r_[np.full(25, 0.0), np.full(25, 90.0), np.full(25, 180.0),
+                       np.full(25, 90.0)], 2)
+
+
+def test_a_wind_on_an_out_and_back_route_is_confounded_with_a_mass_change():
+    """Out and back, a steady wind changes the airspeed one way out and the other way back:
+    a step at the turnaround, which a payload drop there fits as well. On a survey route
+    (legs N, E, S, E) it is not one step, and the wind can be named."""
+    wind = {"values": {"wind_n_ms": 3.0, "wind_e_ms": 1.0}}
+    found = E.Wind().regime_confound(_Route(OUT_AND_BACK), wind)
+    assert found is not None and found[1] == ["wind", "payload_change"]
+    assert E.Wind().regime_confound(_Route(SURVEY), wind) is None
+
+
+def test_a_mass_change_at_the_turnaround_is_confounded_with_a_wind():
+    """The other way round: a drop at the turnaround of out-and-back flights follows the
+    direction of travel, which a wind fits; the same drop on a survey route does not."""
+    for route, confounded in ((OUT_AND_BACK, True), (SURVEY, False)):
+        pw = _Route(route)
+        step = {"step_mask": (pw.time >= 100).astype(float),
+                "change_time_s": {"f0": 100.0, "f1": 100.0}}
+        found = E.PayloadChange().regime_confound(pw, step)
+        assert (found is not None and found[1] == ["payload_change", "wind"]) == confounded
+
+
 def test_a_flight_flown_heavier_throughout_has_no_change_point():
     """A flight whose power is higher all along by what 0.3 kg more would draw (an
     unrecorded payload) is not a mass change in flight; a true mid-flight drop is."""

@@ -56,7 +56,8 @@ def test_power_is_positive_where_the_aircraft_flies(m100):
 
 
 def test_matches_the_derived_summary(m100, energy):
-    """energy_Wh, charge_Ah and hspeed_p95 of m100_flight_summary_derived.csv, per flight."""
+    """energy_Wh, charge_Ah, hspeed_p95 and duration of m100_flight_summary_derived.csv,
+    per flight."""
     df, _ = m100
     summary = pd.read_csv(energy / "m100_flight_summary_derived.csv").set_index("flight")
     for f, g in df.groupby("experiment"):
@@ -66,6 +67,46 @@ def test_matches_the_derived_summary(m100, energy):
         assert g["consumed_mah"].iloc[-1] / 1000 == pytest.approx(row.charge_Ah, abs=0.0002)
         assert g["groundspeed_ms"].quantile(0.95) == pytest.approx(row.hspeed_p95, abs=0.01)
         assert g["time_s"].iloc[-1] == pytest.approx(row.duration_s, abs=0.01)
+
+
+def _gnss_velocity(raw):
+    """East, north and up speed of the GNSS track (longitude, latitude, altitude
+    differenced over 1 s): the reference the rotated velocities must follow. [m/s]"""
+    t = raw["time"].to_numpy()
+    tt = np.arange(t[0], t[-1], 1.0)
+    lat0 = np.radians(raw["position_y"].mean())
+    e = np.interp(tt, t, np.radians(raw["position_x"])) * 6371000.0 * np.cos(lat0)
+    n = np.interp(tt, t, np.radians(raw["position_y"])) * 6371000.0
+    u = np.interp(tt, t, raw["position_z"])
+    return tt, np.gradient(e, tt), np.gradient(n, tt), np.gradient(u, tt)
+
+
+@pytest.mark.parametrize("flight", CRUISE)
+def test_body_velocity_rotated_follows_the_gnss_track(energy, flight):
+    """velocity_x/y/z are body-frame: rotated by the attitude quaternion (the enu_* ops of
+    column maps) they follow the GNSS track's speed, course and climb; velocity_z alone
+    (the map's climb_rate_ms: the velocity along the thrust axis, see its notes) does not."""
+    from planner.logs.csvmap import _enu
+
+    raw = pd.read_csv(energy / "m100_flights_sample.csv")
+    raw = raw[raw["flight"] == int(flight)]
+    tt, ve, vn, vu = _gnss_velocity(raw)
+    v = raw[["velocity_x", "velocity_y", "velocity_z"]].to_numpy(float)
+    q = raw[["orientation_x", "orientation_y", "orientation_z", "orientation_w"]].to_numpy(float)
+    t = raw["time"].to_numpy()
+    gs = np.interp(tt, t, _enu("enu_horizontal", v, q))
+    climb = np.interp(tt, t, _enu("enu_up", v, q))
+    assert np.sqrt(np.mean((gs - np.hypot(ve, vn)) ** 2)) < 0.5
+    assert np.corrcoef(climb, vu)[0, 1] > 0.9
+    assert np.sqrt(np.mean((climb - vu) ** 2)) < 0.4
+    raw_vz = np.interp(tt, t, raw["velocity_z"])
+    worse = 2.0 if flight in ("12", "14") else 1.2    # the faster, the more the body pitches
+    assert np.sqrt(np.mean((raw_vz - vu) ** 2)) > worse * np.sqrt(np.mean((climb - vu) ** 2))
+    course = _enu("enu_course", v, q)
+    course = np.interp(tt, t, np.unwrap(np.radians(pd.Series(course).ffill().bfill())))
+    moving = np.hypot(ve, vn) > 3.0
+    diff = np.angle(np.exp(1j * (course - np.arctan2(ve, vn))))[moving]
+    assert np.median(np.abs(np.degrees(diff))) < 10.0
 
 
 def test_sensible_groundspeed_altitude_and_climb(m100):
@@ -91,8 +132,39 @@ def test_sensible_groundspeed_altitude_and_climb(m100):
 def test_extra_columns_and_no_course(m100):
     df, meta = m100
     assert "anemometer_speed_ms" in df and "airspeed_ms" not in df
-    assert "course_deg" not in df                 # velocity_x/y frame undocumented
+    assert "course_deg" not in df                 # see the map's notes
     assert meta["channels"]["groundspeed_ms"] == "hypot(velocity_x, velocity_y)"
+
+
+def test_enu_ops_rotate_by_the_quaternion(tmp_path):
+    """A body moving forward (+x) at 10 m/s and climbing 1 m/s along its own z, yawed 90°
+    left of east (facing north in ENU) and pitched: east/north/up from the quaternion."""
+    from scipy.spatial.transform import Rotation
+
+    q = Rotation.from_euler("zy", [90.0, -10.0], degrees=True).as_quat()   # x, y, z, w
+    v = Rotation.from_quat(q).inv().apply([0.0, 10.0, 1.0])   # world (E, N, U) in the body
+    rows = "\n".join(f"{k},{k * 0.1:.1f},{v[0]},{v[1]},{v[2]},{q[0]},{q[1]},{q[2]},{q[3]},"
+                     "22.0,10.0" for k in range(20))
+    csv = write(tmp_path, "b.csv", "f,t,vx,vy,vz,qx,qy,qz,qw,u,i\n" + rows + "\n")
+    of = "[vx, vy, vz, qx, qy, qz, qw]"
+    m = write(tmp_path, "m.yaml", f"""time: t
+experiment: f
+columns:
+  voltage_v: u
+  current_a: i
+derived:
+  climb_rate_ms: {{op: enu_up, of: {of}}}
+  groundspeed_ms: {{op: enu_horizontal, of: {of}}}
+  course_deg: {{op: enu_course, of: {of}}}
+""")
+    df, _ = read_csv_log(csv, map=m)
+    assert_allclose(df["climb_rate_ms"], 1.0, atol=1e-9)
+    assert_allclose(df["groundspeed_ms"], 10.0, atol=1e-9)
+    assert_allclose(df["course_deg"], 0.0, atol=1e-6)
+    bad = write(tmp_path, "bad.yaml", "time: t\ncolumns: {voltage_v: u}\n"
+                "derived: {climb_rate_ms: {op: enu_up, of: [vx, vy, vz]}}\n")
+    with pytest.raises(InputError, match="seven CSV columns"):
+        load_map(bad)
 
 
 def test_read_log_dispatch_and_shipped_map_name(energy):

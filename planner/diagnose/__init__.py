@@ -573,7 +573,8 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                                     "kind": "implausible", "why": why,
                                     "where": e.driver_label, "parameters": params}
                     continue
-                conf = _confound(level, e, res.final_fit.state,
+                state = res.final_fit.state | {"values": res.final_fit.values()}
+                conf = _confound(level, e, state,
                                  [o for o in chosen if o.name != e.name])
                 if conf:
                     drop[e.name] = {"effect": e.name, "level": level.name,

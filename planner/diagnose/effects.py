@@ -535,6 +535,50 @@ class Wind(PowerEffect):
     def bin_driver(self, pw, state):
         return pw.course
 
+    def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
+        """Why the fitted wind cannot be told from a mass change in flight, and the
+        candidates; None when it can.
+
+        A steady wind changes the airspeed by :math:`\Delta v = |\vec v_g - \vec w| - |\vec
+        v_g - \vec w_0|` (:math:`\vec w_0` the logged wind, or calm). On an out-and-back
+        route it is one sign on the way out and the other on the way back: a step at the
+        turnaround, which a payload dropped (or picked up) there fits as well. The test is
+        the one of the other confounds (:data:`planner.diagnose.CONFOUND_R`): the share of
+        the within-flight variance of :math:`\Delta v` over the moving bins that one step
+        per flight (its best place) explains.
+        """
+        from planner.diagnose import CONFOUND_R
+
+        values = state.get("values", {})
+        if "wind_n_ms" not in values:
+            return None
+        wn0, we0 = pw.logged_wind_n, pw.logged_wind_e
+        dv = (np.hypot(pw.vn - wn0 - values["wind_n_ms"], pw.ve - we0 - values["wind_e_ms"])
+              - np.hypot(pw.vn - wn0, pw.ve - we0))
+        m = pw.moving
+        sse = sst = 0.0
+        for e in np.unique(pw.exp[m]):
+            x = dv[m & (pw.exp == e)]
+            if x.size < 6:
+                continue
+            x = x - x.mean()
+            sst += float(np.dot(x, x))
+            # best single step: the split that leaves the least squared error
+            n = x.size
+            k = np.arange(1, n)
+            cs = np.cumsum(x)[:-1]
+            gain = cs**2 / k + cs**2 / (n - k)     # between-segment sum of squares
+            sse += float(np.dot(x, x) - gain.max())
+        if sst <= 0:
+            return None
+        r2 = 1.0 - sse / sst
+        if r2 < CONFOUND_R**2:
+            return None
+        return (f"{100 * r2:.0f} % of the wind's change of the airspeed within each flight is "
+                "one step (out and back): a mass change in flight at that point fits the same "
+                "power pattern, so the data cannot tell the wind from a payload dropped or "
+                "picked up there", [self.name, "payload_change"])
+
     def parameters(self, values, stderr, pw, state):
         wn, we = values["wind_n_ms"], values["wind_e_ms"]
         sn, se = stderr["wind_n_ms"], stderr["wind_e_ms"]
@@ -684,13 +728,46 @@ class PayloadChange(PowerEffect):
                              climb < -CLIMB_THRESHOLD_MS]).astype(float)
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         r2 = float(1.0 - np.var(y - X @ coef) / np.var(y))
+        if r2 >= CONFOUND_R**2:
+            return (f"{100 * r2:.0f} % of the variation of its step (on after the change time "
+                    f"in {len(located)} flight(s)) follows the flight regime (climbing, level, "
+                    "descending): the data cannot tell a mass change from a power model whose "
+                    "climb or descent power is wrong",
+                    [self.name, "the power model's climb or descent power"])
+        return self._wind_confound(pw, np.asarray(mask, float), located)
+
+    def _wind_confound(self, pw, mask, located) -> tuple[str, list[str]] | None:
+        """The step against a steady wind, where the data can test one: a wind
+        :math:`\vec w` changes the airspeed by about :math:`-\hat v_g \cdot \vec w`, i.e.
+        by a combination of the cosine and sine of the course. When that explains
+        :data:`planner.diagnose.CONFOUND_R`² of the step's within-flight variation over the
+        moving bins (out-and-back routes, the change at the turnaround), the data cannot
+        tell the two apart."""
+        from planner.diagnose import CONFOUND_R
+
+        if not getattr(pw, "has_course", False) or Wind().skip_reason(pw) is not None:
+            return None
+        rows = pw.moving & np.isin(pw.exp, located)
+        if rows.sum() < 10:
+            return None
+        c = np.radians(pw.course[rows])
+        cols = [mask[rows], np.cos(c), np.sin(c)]
+        exp = pw.exp[rows]
+        _, inv = np.unique(exp, return_inverse=True)
+        cnt = np.bincount(inv)
+        y, xc, xs = (v - (np.bincount(inv, weights=v) / cnt)[inv] for v in cols)
+        sst = float(np.dot(y, y))
+        if sst <= 0:
+            return None
+        X = np.column_stack([xc, xs])
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        r2 = float(1.0 - np.sum((y - X @ coef) ** 2) / sst)
         if r2 < CONFOUND_R**2:
             return None
-        return (f"{100 * r2:.0f} % of the variation of its step (on after the change time in "
-                f"{len(located)} flight(s)) follows the flight regime (climbing, level, "
-                "descending): the data cannot tell a mass change from a power model whose "
-                "climb or descent power is wrong",
-                [self.name, "the power model's climb or descent power"])
+        return (f"{100 * r2:.0f} % of the variation of its step within the flights follows the "
+                "direction of travel (out and back): a steady wind fits the same power pattern, "
+                "so the data cannot tell a mass change from a wind",
+                [self.name, "wind"])
 
     def start(self, pw):
         m0 = float(np.median(pw.mass))

@@ -26,6 +26,12 @@ Map schema (YAML)::
       groundspeed_ms: {op: hypot, of: [velocity_x, velocity_y], scale: 1.0}
       power_w: {op: product, of: [battery_voltage, battery_current]}
       course_deg: {op: course, of: [v_north, v_east]}
+      climb_rate_ms: {op: enu_up, of: [vx, vy, vz, qx, qy, qz, qw]}
+                                       # enu_up / enu_horizontal / enu_course: a body-frame
+                                       # velocity rotated by the attitude quaternion
+                                       # (x, y, z, w: scalar last, as ROS logs it) into
+                                       # east-north-up: its up component, its horizontal
+                                       # speed, its course (deg from north)
     extra:                             # CSV columns kept under a new name (not in §4)
       anemometer_speed_ms: {column: wind_speed}
     meta: {vehicle_type: multirotor, battery_capacity_mah: 4500, battery_cells: 6}
@@ -57,6 +63,30 @@ __all__ = ["FIELD_MAP", "MAPS_DIR", "load_map", "read_csv_log"]
 #: Default (identity) map: a flight-record CSV, every column under its own name.
 FIELD_MAP: dict[str, dict] = {name: {"column": name, "scale": 1.0, "offset": 0.0}
                               for name in COLUMNS if name not in ("experiment", "time_s")}
+
+
+def _enu(op: str, v_body: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
+    """Up component, horizontal speed or course [deg from north] of a body-frame velocity
+    rotated into east-north-up by the attitude quaternion (x, y, z, w). Rows with a missing
+    value or a quaternion far from unit length give NaN; a course is NaN below 0.2 m/s."""
+    from scipy.spatial.transform import Rotation
+
+    norm = np.linalg.norm(quat_xyzw, axis=1)
+    ok = np.isfinite(v_body).all(axis=1) & np.isfinite(norm) & (np.abs(norm - 1.0) < 0.1)
+    out = np.full(len(v_body), np.nan)
+    if not ok.any():
+        return out
+    w = Rotation.from_quat(quat_xyzw[ok]).apply(v_body[ok])
+    east, north, up = w[:, 0], w[:, 1], w[:, 2]
+    if op == "enu_up":
+        out[ok] = up
+    elif op == "enu_horizontal":
+        out[ok] = np.hypot(east, north)
+    else:
+        course = np.degrees(np.arctan2(east, north)) % 360.0
+        course[np.hypot(east, north) < 0.2] = np.nan
+        out[ok] = course
+    return out
 
 
 def _per_experiment_first(values: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
@@ -166,7 +196,11 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     for ours, spec in cmap["derived"].items():
         a, b, *rest = (numeric(c, ours) for c in spec["of"])
         op = spec["op"]
-        if op == "hypot":
+        if op in ("enu_up", "enu_horizontal", "enu_course"):
+            v = _enu(op, np.column_stack([a, b, rest[0]]), np.column_stack(rest[1:]))
+            if op == "enu_course":
+                spec = {**spec, "scale": 1.0}
+        elif op == "hypot":
             v = np.hypot(a, b) if not rest else np.sqrt(a * a + b * b + rest[0] ** 2)
         elif op == "product":
             v = a * b

@@ -31,7 +31,10 @@ _TOP_KEYS = {"name", "source", "experiment", "time", "columns", "derived", "extr
 _COL_KEYS = {"column", "scale", "offset", "relative", "missing", "note"}
 _TIME_KEYS = {"column", "scale", "offset", "zero", "note"}
 _DERIVED_KEYS = {"op", "of", "scale", "offset", "note"}
-_OPS = {"hypot", "product", "course", "sum", "difference"}
+_OPS = {"hypot", "product", "course", "sum", "difference", "enu_up", "enu_horizontal",
+        "enu_course"}
+#: Ops that rotate a body-frame velocity by the attitude quaternion: seven CSV columns.
+ROTATE_OPS = {"enu_up", "enu_horizontal", "enu_course"}
 _META_KEYS = {"vehicle_type", "vehicle", "firmware", "battery_capacity_mah", "battery_cells",
               "aircraft", "battery"}
 
@@ -153,10 +156,12 @@ def load_map(source: str | os.PathLike | dict) -> dict:
             raise InputError(f"{where}: derived.{ours}.op must be one of "
                              f"{', '.join(sorted(_OPS))}, got {op!r}")
         of = spec.get("of")
-        sizes = (2, 3) if op == "hypot" else (2,)
+        sizes = (2, 3) if op == "hypot" else (7,) if op in ROTATE_OPS else (2,)
         if not isinstance(of, list) or len(of) not in sizes or not all(isinstance(c, str)
                                                                      for c in of):
-            what = "two CSV columns (three for hypot)" if op == "hypot" else "two CSV columns"
+            what = ("two CSV columns (three for hypot)" if op == "hypot" else
+                    "seven CSV columns: the body-frame velocity x, y, z and the attitude "
+                    "quaternion x, y, z, w" if op in ROTATE_OPS else "two CSV columns")
             raise InputError(f"{where}: derived.{ours}.of must list {what}, got {of!r}")
         out["derived"][ours] = {
             "op": op, "of": of,
