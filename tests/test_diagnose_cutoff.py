@@ -10,7 +10,6 @@ import warnings
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from planner.diagnose import cutoff as CO
 from planner.diagnose import diagnose

@@ -536,7 +536,7 @@ class Wind(PowerEffect):
         return pw.course
 
     def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
-        """Why the fitted wind cannot be told from a mass change in flight, and the
+        r"""Why the fitted wind cannot be told from a mass change in flight, and the
         candidates; None when it can.
 
         A steady wind changes the airspeed by :math:`\Delta v = |\vec v_g - \vec w| - |\vec
@@ -737,7 +737,7 @@ class PayloadChange(PowerEffect):
         return self._wind_confound(pw, np.asarray(mask, float), located)
 
     def _wind_confound(self, pw, mask, located) -> tuple[str, list[str]] | None:
-        """The step against a steady wind, where the data can test one: a wind
+        r"""The step against a steady wind, where the data can test one: a wind
         :math:`\vec w` changes the airspeed by about :math:`-\hat v_g \cdot \vec w`, i.e.
         by a combination of the cosine and sine of the course. When that explains
         :data:`planner.diagnose.CONFOUND_R`² of the step's within-flight variation over the
