@@ -1020,9 +1020,11 @@ class MissionChain:
         """
         ac = self.aircraft
         on_ground = state.phase == "ground"
+        # a multirotor flies its rotor disks' in-plane and axial speed (FlightState notes)
+        v, climb = (state.rotor_velocities() if ac.is_multirotor
+                    else (state.airspeed_ms, state.climb_rate_ms))
         if not (ac.is_multirotor and ac.multirotor.power_model == "rotor_losses"):
-            return self.power_at(state.airspeed_ms, state.climb_rate_ms, state.air_density,
-                                 mass_kg, on_ground=on_ground)
+            return self.power_at(v, climb, state.air_density, mass_kg, on_ground=on_ground)
         lead = float(ac.multirotor.power_lead_s or 0.0)
         t = np.asarray(state.time_s, float)
 
@@ -1033,9 +1035,8 @@ class MissionChain:
         mass = np.asarray(mass_kg, float)
         force = state.specific_force_ms2
         thrust = None if force is None else mass * later(force)
-        return self.power_at(later(state.airspeed_ms), later(state.climb_rate_ms),
-                             later(state.air_density), mass, on_ground=on_ground,
-                             thrust=thrust)
+        return self.power_at(later(v), later(climb), later(state.air_density), mass,
+                             on_ground=on_ground, thrust=thrust)
 
     def power_at(self, airspeed_ms, climb_rate_ms, air_density, mass_kg, *,
                  on_ground=False, thrust=None) -> np.ndarray:

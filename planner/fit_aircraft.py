@@ -142,8 +142,7 @@ def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
         t = exp["time_s"].to_numpy(float)
         p = exp["power_w"].to_numpy(float)
         state = flightstate.from_record(exp, site_altitude_m)
-        v, climb, rho, phase = (state.airspeed_ms, state.climb_rate_ms, state.air_density,
-                                state.phase)
+        (v, climb), rho, phase = state.rotor_velocities(), state.air_density, state.phase
         ok = airborne_mask(exp, state, airborne_height_m) & np.isfinite(p) & np.isfinite(v)
         dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
         parts.append((np.full(ok.sum(), str(exp_id), dtype=object), t[ok], v[ok], climb[ok],
@@ -393,9 +392,10 @@ def rotor_losses_samples(states, lead_s: float = 0.0,
 
         force = (later(st.specific_force_ms2) if st.specific_force_ms2 is not None
                  else np.full(t.size, np.nan))
+        v, climb = st.rotor_velocities()
         dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
         parts.append((np.full(ok.sum(), exp_id, dtype=object), t[ok],
-                      later(st.airspeed_ms)[ok], later(st.climb_rate_ms)[ok],
+                      later(v)[ok], later(climb)[ok],
                       later(st.air_density)[ok], st.measured_power_w[ok], dt[ok], force[ok]))
     parts = [part for part in parts if len(part[1])]
     if not parts:

@@ -109,6 +109,9 @@ class FlightState:
     specific_force_ms2 : ndarray or None
         Magnitude of the accelerometer's specific force where the record has it (gaps
         filled from neighbours), else None; thrust = mass × specific force. [m/s²]
+    axial_speed_ms : ndarray or None
+        Velocity along the thrust axis where the record has it (gaps filled), else None:
+        see :meth:`rotor_velocities`. [m/s]
     """
 
     time_s: np.ndarray
@@ -120,6 +123,25 @@ class FlightState:
     airspeed_source: str
     density_source: str
     specific_force_ms2: np.ndarray | None = None
+    axial_speed_ms: np.ndarray | None = None
+
+    def rotor_velocities(self) -> tuple[np.ndarray, np.ndarray]:
+        r"""Speed in the plane of a multirotor's rotor disks and along their axis. [m/s]
+
+        Momentum theory of a rotor in forward flight (Glauert; Leishman 2006 ch. 2) works
+        in the disk's frame: the flow through the disk is the velocity component along
+        its axis, :math:`V \sin\alpha` for a disk tilted by α into a flight speed V,
+        and the power :math:`T (v_i + V \sin\alpha)` holds the power to overcome the
+        body's drag (in steady flight the tilt balances it). Where the record has the
+        velocity along the thrust axis (``axial_speed_ms``), the disk's climb is that and
+        its in-plane speed :math:`\sqrt{V^2 + \dot h^2 - v_{ax}^2}` (the speed is the
+        same in both frames); otherwise they are the airspeed and the climb rate.
+        """
+        if self.axial_speed_ms is None:
+            return self.airspeed_ms, self.climb_rate_ms
+        ax = self.axial_speed_ms
+        speed2 = self.airspeed_ms**2 + self.climb_rate_ms**2
+        return np.sqrt(np.maximum(speed2 - ax**2, 0.0)), ax
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -197,7 +219,10 @@ def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
                           exp.get("altitude_m"))
     force = col("specific_force_ms2")
     force = _filled(force) if np.isfinite(force).mean() > CHANNEL_COVERAGE else None
+    axial = col("axial_speed_ms")
+    axial = _filled(axial) if np.isfinite(axial).mean() > CHANNEL_COVERAGE else None
     return FlightState(time_s=t, airspeed_ms=v, climb_rate_ms=climb,
                        air_density=np.asarray(rho, float), phase=phase,
                        measured_power_w=power, airspeed_source=source,
-                       density_source=dsource, specific_force_ms2=force)
+                       density_source=dsource, specific_force_ms2=force,
+                       axial_speed_ms=axial)

@@ -79,6 +79,9 @@ COLUMNS: dict[str, Column] = {c.name: c for c in (
     Column("throttle", "0..1", "float", "throttle demand"),
     Column("specific_force_ms2", "m/s²", "float",
            "magnitude of the accelerometer's specific force (about 9.81 in hover)"),
+    Column("axial_speed_ms", "m/s", "float",
+           "velocity along a multirotor's thrust axis (body z, up positive): the velocity "
+           "through its tilted rotor disk; in level cruise about speed × sin(tilt)"),
     Column("mode", "text", "text", "flight mode name"),
 )}
 
@@ -104,6 +107,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "wind_n_ms": (-150.0, 150.0),
     "wind_e_ms": (-150.0, 150.0),
     "specific_force_ms2": (0.0, 1000.0),  # IMUs of small UAVs saturate at 16 g (157 m/s²)
+    "axial_speed_ms": (-100.0, 100.0),
 }
 
 _BATTERY = {"voltage_v", "current_a", "power_w", "consumed_mah"}

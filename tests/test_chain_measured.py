@@ -106,3 +106,38 @@ def test_a_logged_pressure_outside_the_atmosphere_is_read_as_missing():
     state = flightstate.from_record(df)
     assert np.all(np.isfinite(state.air_density))
     assert np.allclose(state.air_density, state.air_density[0], rtol=1e-9)
+
+
+def test_a_multirotor_flies_its_rotor_disks_axial_speed_where_the_record_has_it(flight):
+    """With ``axial_speed_ms`` (the velocity along the thrust axis, a tilted disk's climb),
+    a multirotor's power is the model's at the disk's in-plane and axial speed, the speed
+    being the same in both frames; fit-aircraft's samples carry the same; without the
+    channel nothing changes. (Momentum theory of a tilted disk: Leishman 2006 ch. 2.)"""
+    data, _, aircraft, pack = flight
+    (_, exp), = record.experiments(data)
+    exp = exp.reset_index(drop=True)
+    plain = flightstate.from_record(exp)
+    assert plain.axial_speed_ms is None
+    v, climb = plain.rotor_velocities()
+    assert v is plain.airspeed_ms and climb is plain.climb_rate_ms
+
+    # a disk tilted 10° forward into the flight path: V sin(10°) through it
+    tilted = exp.assign(axial_speed_ms=np.sin(np.radians(10.0)) * plain.airspeed_ms
+                        + plain.climb_rate_ms)
+    state = flightstate.from_record(tilted)
+    inplane, axial = state.rotor_velocities()
+    assert_speed = np.hypot(plain.airspeed_ms, plain.climb_rate_ms)
+    np.testing.assert_allclose(np.hypot(inplane, axial), assert_speed, atol=1e-9)
+    chain = MissionChain(aircraft, pack)
+    mass = aircraft.empty_mass_kg + pack.total_mass_kg
+    airborne = state.phase != "ground"
+    got = chain.power_from_state(state, mass)
+    want = chain.power_at(inplane, axial, state.air_density, mass,
+                          on_ground=state.phase == "ground")
+    np.testing.assert_allclose(got, want)
+    before = chain.power_from_state(plain, mass)
+    assert np.mean(got[airborne]) > np.mean(before[airborne]) + 1.0   # the drag power
+    s = airborne_samples(tilted)
+    s0 = airborne_samples(exp)
+    assert len(s.climb_rate) == len(s0.climb_rate)
+    assert not np.allclose(s.climb_rate, s0.climb_rate)

@@ -119,10 +119,10 @@ def test_m100_cli_json_has_the_not_identifiable_entry(shared_data, tmp_path, cap
 
 
 def test_m100_climb_rate_is_checked_against_the_altitude(shared_data):
-    """The M100 data's velocity_z (the map's climb rate) is the body frame's: it reads
-    1–3 m/s in level cruise (altitude constant). The power level must notice and drive the
-    model by the altitude's rate of change; the velocity rotated into east-north-up (a map
-    with the enu_up op) agrees with the altitude and is used as logged."""
+    """The M100 data's raw velocity_z is the body frame's: given as the climb rate it
+    reads 1–3 m/s in level cruise (altitude constant), and the power level must notice and
+    drive the model by the altitude's rate of change. The shipped map's climb rate (the
+    velocity rotated into east-north-up) agrees with the altitude and is used."""
     import yaml
 
     from planner import record as rec
@@ -133,21 +133,19 @@ def test_m100_climb_rate_is_checked_against_the_altitude(shared_data):
     mass = ac.empty_mass_kg + pack.total_mass_kg + 0.25
     df = _m100_sample(shared_data)
     pw = S.PowerLevel([(str(k), s) for k, s in rec.experiments(df)], ac, mass)
+    assert pw.climb_disagreement_ms < 0.2
+    assert pw.climb_source == "logged climb rate"
+
+    raw_map = yaml.safe_load((MAPS_DIR / "dji_m100.yaml").read_text())
+    del raw_map["derived"]["climb_rate_ms"]
+    raw_map["columns"]["climb_rate_ms"] = {"column": "velocity_z"}
+    raw, _ = read_csv_log(shared_data / "energy" / "m100_flights_sample.csv", map=raw_map)
+    raw = raw[raw["experiment"].astype(int) < 200].reset_index(drop=True)
+    pw = S.PowerLevel([(str(k), s) for k, s in rec.experiments(raw)], ac, mass)
     assert pw.climb_disagreement_ms > S.MAX_CLIMB_DISAGREEMENT_MS
     assert pw.climb_source == "rate of change of the logged altitude"
     assert any("disagrees with the rate of change of the logged altitude" in n
                for n in pw.notes)
-
-    enu_map = yaml.safe_load((MAPS_DIR / "dji_m100.yaml").read_text())
-    del enu_map["columns"]["climb_rate_ms"]
-    enu_map["derived"]["climb_rate_ms"] = {
-        "op": "enu_up", "of": ["velocity_x", "velocity_y", "velocity_z", "orientation_x",
-                               "orientation_y", "orientation_z", "orientation_w"]}
-    enu, _ = read_csv_log(shared_data / "energy" / "m100_flights_sample.csv", map=enu_map)
-    enu = enu[enu["experiment"].astype(int) < 200].reset_index(drop=True)
-    pw = S.PowerLevel([(str(k), s) for k, s in rec.experiments(enu)], ac, mass)
-    assert pw.climb_disagreement_ms < 0.2
-    assert pw.climb_source == "logged climb rate"
 
 
 def test_m100_clean_flights_name_nothing_and_an_injected_drop_is_measured(shared_data):

@@ -42,7 +42,9 @@ def test_columns_units_match_design_table():
                 "course_deg": "deg", "airspeed_ms": "m/s", "wind_n_ms": "m/s",
                 "wind_e_ms": "m/s", "throttle": "0..1", "mode": "text",
                 # the accelerometer's specific force: thrust over mass (rotor_losses model)
-                "specific_force_ms2": "m/s²"}
+                "specific_force_ms2": "m/s²",
+                # the velocity through a multirotor's tilted rotor disk (FlightState)
+                "axial_speed_ms": "m/s"}
     assert {k: c.unit for k, c in COLUMNS.items()} == expected
     assert list(COLUMNS)[:2] == ["experiment", "time_s"]
 
