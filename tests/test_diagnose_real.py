@@ -153,9 +153,8 @@ def test_m100_clean_flights_name_nothing_and_an_injected_drop_is_measured(shared
     time), as ``benchmarks/bench_diagnose_real.py`` draws them: clean, no cause is named
     in any (the false 0.22 kg step of the earlier code was named on such flights); with a
     0.25 kg payload released mid-flight, ``payload_change`` is named first in all 5 (the
-    benchmark: 88 % of 50 random draws; 4 of these 5 when its training test counted each
-    flight's own unknown payload against it), and where it is named the fitted step lies
-    within two standard errors of −0.25 kg."""
+    benchmark: 80 % and 86 % of 50 random draws), and where it is named the fitted step
+    lies within two standard errors of −0.25 kg."""
     import warnings
 
     from benchmarks.bench_diagnose_real import DATA, PAYLOAD_KG, inject, load
