@@ -153,8 +153,9 @@ def test_m100_clean_flights_name_nothing_and_an_injected_drop_is_measured(shared
     time), as ``benchmarks/bench_diagnose_real.py`` draws them: clean, no cause is named
     in any (the false 0.22 kg step of the earlier code was named on such flights); with a
     0.25 kg payload released mid-flight, ``payload_change`` is named first in all 5 (the
-    benchmark: 80 % and 86 % of 50 random draws), and where it is named the fitted step
-    lies within two standard errors of −0.25 kg."""
+    benchmark: 92 % and 88 % of 50 random draws), its fitted step within three standard
+    errors of −0.25 kg in all and within two in at least 3 (fewer than 3 of 5 inside a
+    95 % interval has a probability of 0.1 %; the benchmark: 44 of 46 and 40 of 44)."""
     import warnings
 
     from benchmarks.bench_diagnose_real import DATA, PAYLOAD_KG, inject, load
@@ -168,7 +169,7 @@ def test_m100_clean_flights_name_nothing_and_an_injected_drop_is_measured(shared
         warnings.simplefilter("ignore")
         df = load()
         ids = df["experiment"].unique()
-        named = 0
+        named, within2 = 0, 0
         for k in range(5):
             sub = df[df["experiment"].isin(ids[16 * k:16 * (k + 1)])].reset_index(drop=True)
             clean = diagnose(sub, pack, ac, payload_kg=PAYLOAD_KG)
@@ -177,6 +178,30 @@ def test_m100_clean_flights_name_nothing_and_an_injected_drop_is_measured(shared
             if drop.findings and drop.findings[0]["effect"] == "payload_change":
                 named += 1
                 p = drop.findings[0]["parameters"]
-                assert abs(p["mass_step_kg"] + PAYLOAD_KG) <= 2 * p["mass_step_kg_stderr"], \
-                    drop.summary()
-    assert named == 5
+                z = abs(p["mass_step_kg"] + PAYLOAD_KG) / p["mass_step_kg_stderr"]
+                assert z <= 3.0, drop.summary()
+                within2 += z <= 2.0
+    assert named == 5 and within2 >= 3
+
+
+def test_m100_power_level_flies_the_rotor_disks_axial_speed(shared_data):
+    """The M100 map's axial_speed_ms (the body-frame velocity along the thrust axis):
+    diagnose's rotor model flies it as the disks' climb, with the in-plane speed beside it
+    (tilted-disk momentum theory), and the calibrated baseline predicts the held-out
+    flights' power better than on the east-north-up climb alone."""
+    import warnings
+
+    from planner.diagnose import diagnose
+
+    pack, ac = _m100_definitions()
+    df = _m100_sample(shared_data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with_axial = diagnose(df, pack, ac, payload_kg=0.25)
+        without = diagnose(df.drop(columns="axial_speed_ms"), pack, ac, payload_kg=0.25)
+    level = with_axial.levels["power"].result.level
+    assert level.rotor_axial and not without.levels["power"].result.level.rotor_axial
+    assert any("axial speed" in n for n in with_axial.notes)
+    rmse = [r.levels["power"].result.baseline.rmse for r in (with_axial, without)]
+    assert rmse[0] < 0.97 * rmse[1], rmse
+    assert with_axial.findings == [] and without.findings == []

@@ -528,6 +528,8 @@ class Wind(PowerEffect):
         wn = pw.logged_wind_n + values["wind_n_ms"]
         we = pw.logged_wind_e + values["wind_e_ms"]
         v = np.hypot(pw.vn - wn, pw.ve - we)
+        if getattr(pw, "rotor_axial", False):     # the speed in the rotor disks' plane
+            v = np.sqrt(np.maximum(v**2 + pw.climb**2 - inputs["climb"] ** 2, 0.0))
         out = dict(inputs)
         out["airspeed"] = np.where(pw.course_known, v, inputs["airspeed"])
         return out

@@ -595,7 +595,7 @@ class PowerLevel:
         self.mass0 = float(mass_kg)
         self.names = []
         cols = {k: [] for k in ("exp", "t", "p", "gs", "course", "climb", "air", "wn", "we",
-                                "pres", "temp", "alt_rate", "climb_smooth")}
+                                "pres", "temp", "alt_rate", "climb_smooth", "axial")}
         spans = []
         self.notes: list[str] = []
         ground = []
@@ -629,6 +629,7 @@ class PowerLevel:
             cols["alt_rate"].append(rate[ok])
             cols["climb_smooth"].append(smooth[ok])
             cols["air"].append(_finite_col(sub, "airspeed_ms", n)[ok])
+            cols["axial"].append(_finite_col(sub, "axial_speed_ms", n)[ok])
             cols["wn"].append(_finite_col(sub, "wind_n_ms", n)[ok])
             cols["we"].append(_finite_col(sub, "wind_e_ms", n)[ok])
             pres = _finite_col(sub, "pressure_pa", n)
@@ -743,6 +744,17 @@ class PowerLevel:
                                                      self.ve - self.logged_wind_e), self.gs)
         self.base_inputs = {"airspeed": np.abs(v), "climb": self.climb,
                             "air_density": self.rho_std, "mass": self.mass}
+        axial, n_axial = mean(s["axial"])
+        #: A multirotor flies its rotor disks' axial and in-plane speed where the record
+        #: has the velocity along the thrust axis (FlightState.rotor_velocities).
+        self.rotor_axial = bool(aircraft.is_multirotor and np.isfinite(s["axial"]).mean() > 0.5)
+        if self.rotor_axial:
+            ax = _fill(take(np.where(n_axial > 0, axial, np.nan)))
+            speed2 = v**2 + self.climb**2
+            self.base_inputs["airspeed"] = np.sqrt(np.maximum(speed2 - ax**2, 0.0))
+            self.base_inputs["climb"] = ax
+            self.notes.append("power level: the rotor model flies the disks' axial speed "
+                              "(axial_speed_ms) and their in-plane speed")
         self._table = None
         self._warm: dict = {}
         self._shape_name = "drag_area_m2"
