@@ -5,13 +5,19 @@ measure the gain (DESIGN §6).
 >>> print(result.summary())                            # doctest: +SKIP
 >>> result.to_dict()["findings"]                       # doctest: +SKIP
 
-Two levels are examined, each where the data allows:
+Three levels are examined, each where the data allows:
 
+* **cut-off** (``cutoff``) — the energy each discharge delivered to its cut-off
+  voltage, where six or more run from a full pack to one cut-off: the direct evidence
+  of a capacity, where ``capacity_fade`` and ``temperature`` are tested
+  (:mod:`planner.diagnose.cutoff`); elsewhere the output says a capacity loss cannot
+  be seen;
 * **capacity** — the measured charge drawn against the integral model driven by
   the measured power (needs power and current or consumed charge);
 * **power** — the measured electric power against the aircraft's physics model
   driven by the measured flight state (needs ``aircraft`` and a flight state:
-  climb rate, ground speed or airspeed).
+  climb rate, ground speed or airspeed; a multirotor flies its rotor disks' axial
+  speed where the record has ``axial_speed_ms``).
 
 On each level the baseline's own parameters are calibrated first (δ, ε, β;
 η and drag), every effect of :mod:`planner.diagnose.effects` is fitted on
