@@ -140,8 +140,7 @@ class FlightState:
         if self.axial_speed_ms is None:
             return self.airspeed_ms, self.climb_rate_ms
         ax = self.axial_speed_ms
-        speed2 = self.airspeed_ms**2 + self.climb_rate_ms**2
-        return np.sqrt(np.maximum(speed2 - ax**2, 0.0)), ax
+        return inplane_speed(self.airspeed_ms, self.climb_rate_ms, ax), ax
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -150,6 +149,15 @@ class FlightState:
     def airborne(self) -> np.ndarray:
         """Samples in the air. [bool]"""
         return self.phase != "ground"
+
+
+def inplane_speed(horizontal, climb, axial):
+    r"""Speed in the plane of a rotor disk, :math:`\sqrt{V^2 + \dot h^2 - v_{ax}^2}`, from
+    the horizontal speed, the climb rate and the speed along the disk's axis (the speed is
+    the same in the ground's and the disk's frame; :meth:`FlightState.rotor_velocities`).
+    [m/s]"""
+    speed2 = np.asarray(horizontal, float) ** 2 + np.asarray(climb, float) ** 2
+    return np.sqrt(np.maximum(speed2 - np.asarray(axial, float) ** 2, 0.0))
 
 
 def _plausible(x: np.ndarray, column: str) -> np.ndarray:

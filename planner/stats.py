@@ -100,6 +100,13 @@ def lag1_autocorrelation(resid, groups=None) -> float:
     return min(max(rho, 0.0), RHO_MAX)
 
 
+def within_groups(x, groups) -> np.ndarray:
+    """``x`` net of the mean of its group (e.g. each experiment's own level)."""
+    x = np.asarray(x, float)
+    _, inv = np.unique(groups, return_inverse=True)
+    return x - (np.bincount(inv, weights=x) / np.bincount(inv))[inv]
+
+
 def ar1_inflation(rho: float) -> float:
     """Variance inflation :math:`(1 + \\rho)/(1 - \\rho)` of an AR(1) residual. [unitless]"""
     rho = min(max(float(rho), 0.0), RHO_MAX)

@@ -697,7 +697,6 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
                    if hasattr(e, "cutoff_column")]
     cut_names = {e.name for e in cut_effects}
     cut_exps, cut_what = CO.select(exps, pack) if exps else ([], "no experiment")
-    cut_level = None
     if cut_effects and len(cut_exps) >= CO.MIN_CUTOFF_EXPERIMENTS:
         cut_level = CO.CutoffLevel(cut_exps, pack)
         notes.append(f"cut-off level: {cut_what}")
@@ -719,8 +718,6 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
                                    "of the capacity)"} for e in cap_effects
                         if e.name in cut_names]
             cap_effects = [e for e in cap_effects if e.name not in cut_names]
-        else:
-            cut_level = None
     elif cut_effects and exps:
         cut_what = (f"only {len(cut_exps)} experiment(s) run from a full pack to a common "
                     f"cut-off (needs {CO.MIN_CUTOFF_EXPERIMENTS})" if cut_exps else cut_what)

@@ -157,13 +157,11 @@ class CutoffLevel:
         k = min(N_FOLDS, n)
         self.row_fold = np.arange(n) % k
         self.row_group = np.arange(n)
-        self.row_unit = np.arange(n)
         units = [Unit(j, 0.0, float(self.duration[j]), int(self.row_fold[j])) for j in range(n)]
         self.split = Split(units, k, True,
                            f"whole discharges held out: {n} discharges to the cut-off dealt in "
                            f"order into {k} folds (discharge i to fold i mod {k}); one test "
                            "unit per discharge")
-        self.window_s = float("nan")
 
     # ---------------------------------------------------------------- helpers
     def charge_mean(self, x: np.ndarray) -> np.ndarray:
@@ -241,9 +239,6 @@ class CutoffLevel:
         return {"rows": rows, "row_resid": r, "samples": rows, "sample_resid": 100.0 * r,
                 "finals": finals, "loss_units": rows, "loss": r**2}
 
-    def row_residuals(self, fit: Fit, effects, rows: np.ndarray) -> np.ndarray:
-        return self.y[rows] - self.predict(fit, effects)[rows]
-
     # ---------------------------------------------------------------- reporting
     def covariance(self, fit: Fit, effects) -> tuple[np.ndarray, np.ndarray]:
         """Covariance of [θ…, c0, a] of an all-data fit, s²(JᵀJ)⁻¹."""
@@ -260,8 +255,9 @@ class CutoffLevel:
         return cov, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
-        """Each effect's coefficient, the energy at the reference power [W h] and the rate
-        slope [% per W], with standard errors."""
+        """Each effect's coefficient, the energy to the cut-off at the median discharge
+        [W h], the median mean power [W] and current [A], and the rate slope [% per A],
+        with standard errors."""
         cov, x = self.covariance(fit, effects)
         se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
         m = len(fit.nl)

@@ -82,6 +82,9 @@ from typing import ClassVar
 
 import numpy as np
 
+from planner import stats
+from planner.flightstate import inplane_speed
+
 __all__ = [
     "CAPACITY_EFFECTS",
     "EFFECTS",
@@ -529,7 +532,7 @@ class Wind(PowerEffect):
         we = pw.logged_wind_e + values["wind_e_ms"]
         v = np.hypot(pw.vn - wn, pw.ve - we)
         if getattr(pw, "rotor_axial", False):     # the speed in the rotor disks' plane
-            v = np.sqrt(np.maximum(v**2 + pw.climb**2 - inputs["climb"] ** 2, 0.0))
+            v = inplane_speed(v, pw.climb, inputs["climb"])
         out = dict(inputs)
         out["airspeed"] = np.where(pw.course_known, v, inputs["airspeed"])
         return out
@@ -753,11 +756,8 @@ class PayloadChange(PowerEffect):
         if rows.sum() < 10:
             return None
         c = np.radians(pw.course[rows])
-        cols = [mask[rows], np.cos(c), np.sin(c)]
         exp = pw.exp[rows]
-        _, inv = np.unique(exp, return_inverse=True)
-        cnt = np.bincount(inv)
-        y, xc, xs = (v - (np.bincount(inv, weights=v) / cnt)[inv] for v in cols)
+        y, xc, xs = (stats.within_groups(v, exp) for v in (mask[rows], np.cos(c), np.sin(c)))
         sst = float(np.dot(y, y))
         if sst <= 0:
             return None

@@ -123,7 +123,7 @@ from scipy.stats import chi2
 from planner import atmosphere, stats
 from planner.errors import FitError, ModelError
 from planner.fit_aircraft import with_params
-from planner.flightstate import CLIMB_THRESHOLD_MS, flight_phases
+from planner.flightstate import CLIMB_THRESHOLD_MS, flight_phases, inplane_speed
 from planner.units import AS_PER_MAH
 
 #: Folds of the cross-validation. [unitless]
@@ -750,8 +750,7 @@ class PowerLevel:
         self.rotor_axial = bool(aircraft.is_multirotor and np.isfinite(s["axial"]).mean() > 0.5)
         if self.rotor_axial:
             ax = _fill(take(np.where(n_axial > 0, axial, np.nan)))
-            speed2 = v**2 + self.climb**2
-            self.base_inputs["airspeed"] = np.sqrt(np.maximum(speed2 - ax**2, 0.0))
+            self.base_inputs["airspeed"] = inplane_speed(v, self.climb, ax)
             self.base_inputs["climb"] = ax
             self.notes.append("power level: the rotor model flies the disks' axial speed "
                               "(axial_speed_ms) and their in-plane speed")
@@ -1245,13 +1244,6 @@ class Score:
     train_rho_within: list[float] = field(default_factory=list)
 
 
-def _within(resid: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    """Residuals net of their group's mean."""
-    _, inv = np.unique(groups, return_inverse=True)
-    mean = np.bincount(inv, weights=resid) / np.bincount(inv)
-    return resid - mean[inv]
-
-
 def cross_validate(level, effects, base: Score | None = None) -> Score:
     """Fit ``effects`` on each fold's training split, score on its held-out split."""
     n_units = len(level.split.units)
@@ -1280,7 +1272,7 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
         rss.append(fit.rss)
         nn.append(int(train.sum()))
         rho.append(stats.lag1_autocorrelation(fit.train_resid, level.row_group[train]))
-        wr = _within(fit.train_resid, level.row_group[train])
+        wr = stats.within_groups(fit.train_resid, level.row_group[train])
         rss_w.append(float(np.dot(wr, wr)))
         rho_w.append(stats.lag1_autocorrelation(wr, level.row_group[train]))
     sr = np.concatenate(sr_all)

@@ -55,7 +55,7 @@ import pandas as pd
 from planner import files
 from planner.errors import InputError
 from planner.logs._common import Meta
-from planner.parameters.columnmap import MAPS_DIR, load_map
+from planner.parameters.columnmap import MAPS_DIR, ROTATE_OPS, load_map
 from planner.record import COLUMNS, add_consumed, drop_truncated_last_line, validate_record
 
 __all__ = ["FIELD_MAP", "MAPS_DIR", "load_map", "read_csv_log"]
@@ -63,6 +63,18 @@ __all__ = ["FIELD_MAP", "MAPS_DIR", "load_map", "read_csv_log"]
 #: Default (identity) map: a flight-record CSV, every column under its own name.
 FIELD_MAP: dict[str, dict] = {name: {"column": name, "scale": 1.0, "offset": 0.0}
                               for name in COLUMNS if name not in ("experiment", "time_s")}
+
+
+#: Below this speed the course is undefined (hovering): NaN. [m/s]
+MIN_COURSE_SPEED_MS = 0.2
+
+
+def _course(north: np.ndarray, east: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """Course [deg from north, clockwise] of a velocity; NaN below
+    :data:`MIN_COURSE_SPEED_MS` of ``speed``."""
+    course = np.degrees(np.arctan2(east, north)) % 360.0
+    course[speed < MIN_COURSE_SPEED_MS] = np.nan
+    return course
 
 
 def _enu(op: str, v_body: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
@@ -83,9 +95,7 @@ def _enu(op: str, v_body: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
     elif op == "enu_horizontal":
         out[ok] = np.hypot(east, north)
     else:
-        course = np.degrees(np.arctan2(east, north)) % 360.0
-        course[np.hypot(east, north) < 0.2] = np.nan
-        out[ok] = course
+        out[ok] = _course(north, east, np.hypot(east, north))
     return out
 
 
@@ -196,7 +206,7 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     for ours, spec in cmap["derived"].items():
         a, b, *rest = (numeric(c, ours) for c in spec["of"])
         op = spec["op"]
-        if op in ("enu_up", "enu_horizontal", "enu_course"):
+        if op in ROTATE_OPS:
             v = _enu(op, np.column_stack([a, b, rest[0]]), np.column_stack(rest[1:]))
             if op == "enu_course":
                 spec = {**spec, "scale": 1.0}
@@ -209,8 +219,7 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
         elif op == "difference":
             v = a - b
         else:  # course from (north, east)
-            v = np.degrees(np.arctan2(b, a)) % 360.0
-            v[np.hypot(a, b) * spec["scale"] < 0.2] = np.nan
+            v = _course(a, b, np.hypot(a, b) * spec["scale"])
             spec = {**spec, "scale": 1.0}
         out[ours] = v * spec["scale"] + spec["offset"]
         meta["channels"][ours] = f"{op}({', '.join(spec['of'])})"

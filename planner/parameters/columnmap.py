@@ -31,10 +31,9 @@ _TOP_KEYS = {"name", "source", "experiment", "time", "columns", "derived", "extr
 _COL_KEYS = {"column", "scale", "offset", "relative", "missing", "note"}
 _TIME_KEYS = {"column", "scale", "offset", "zero", "note"}
 _DERIVED_KEYS = {"op", "of", "scale", "offset", "note"}
-_OPS = {"hypot", "product", "course", "sum", "difference", "enu_up", "enu_horizontal",
-        "enu_course"}
 #: Ops that rotate a body-frame velocity by the attitude quaternion: seven CSV columns.
 ROTATE_OPS = {"enu_up", "enu_horizontal", "enu_course"}
+_OPS = {"hypot", "product", "course", "sum", "difference"} | ROTATE_OPS
 _META_KEYS = {"vehicle_type", "vehicle", "firmware", "battery_capacity_mah", "battery_cells",
               "aircraft", "battery"}
 
