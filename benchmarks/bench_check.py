@@ -23,8 +23,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from planner.check import MissionChain
-from planner.parameters import load_aircraft_and_battery
 from planner.mission import load_mission
+from planner.parameters import load_aircraft_and_battery
 
 
 def write_waypoints(path: Path, n: int = 500) -> None:

@@ -83,8 +83,9 @@ def ulog_decode(path: Path) -> None:
 
 
 def pyulog_topics(path: Path) -> None:
-    from planner.logs.ulog import _TOPICS
     from pyulog import ULog
+
+    from planner.logs.ulog import _TOPICS
     with contextlib.redirect_stdout(io.StringIO()):
         ULog(str(path), _TOPICS)
 

@@ -102,7 +102,7 @@ def fit(data, train, test, model: str):
 def score(ac, data, test):
     """Per-flight MAPE over airborne samples, pooled MAPE, ground-phase means."""
     chain = MissionChain(ac, None)
-    per, num, den = {}, [], []
+    per, num = {}, []
     g_meas, g_pred = [], []
     for exp_id in test:
         exp = data[data["experiment"] == exp_id].reset_index(drop=True)

@@ -25,8 +25,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from planner.chain import MissionChain
-from planner.parameters import BatteryPack, load_aircraft
 from planner.mission.legs import Environment, Leg, Mission
+from planner.parameters import BatteryPack, load_aircraft
 from planner.select import evaluate_packs
 
 N_PACKS = 10_000

@@ -39,10 +39,10 @@ if str(REPO) not in sys.path:           # run from a fresh clone without install
 import numpy as np
 import pandas as pd
 
-from planner.parameters import load_aircraft_and_battery
 from planner.fit_aircraft import with_params
 from planner.mission import load_mission
 from planner.mission.legs import Environment, Mission
+from planner.parameters import load_aircraft_and_battery
 from testkit.flight import simulate_flight
 
 #: True parameters of the simulated 3DR Solo (aircraft/solo_survey.yaml has η 0.80,

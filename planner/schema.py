@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-
 from planner.errors import InputError
 
 NUMBER = "number"

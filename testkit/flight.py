@@ -16,10 +16,10 @@ import pandas as pd
 from scipy.signal import lfilter
 
 from planner import profile as prof
-from planner.wind import wind_vector
 from planner.battery.circuit import simulate
-from planner.parameters import Aircraft, BatteryPack
 from planner.mission.legs import Environment, Mission
+from planner.parameters import Aircraft, BatteryPack
+from planner.wind import wind_vector
 
 
 def simulate_flight(mission: Mission, aircraft: Aircraft, pack: BatteryPack, *,

@@ -15,8 +15,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from planner import record
 from planner.battery import bench, design, fit
-from planner.parameters import load_battery
 from planner.errors import InputError
+from planner.parameters import load_battery
 
 POWERS = (50.0, 75.0, 100.0, 125.0)
 LONG = np.arange(0.0, 12 * 3600.0)  # 1 Hz, longer than any discharge here

@@ -7,8 +7,8 @@ import pytest
 
 from planner.battery.circuit import loaded_current
 from planner.chain import MissionChain
-from planner.parameters import load_aircraft_and_battery
 from planner.mission.legs import Environment, Leg, Mission
+from planner.parameters import load_aircraft_and_battery
 
 REPO = Path(__file__).resolve().parents[1]
 SEA_LEVEL_20C = Environment(temperature_c=20.0)  # ρ = 1.204 kg/m³, the seed's condition

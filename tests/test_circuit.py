@@ -14,8 +14,13 @@ from planner.battery.circuit import (
 from planner.battery.ocv import OcvTable, lipo_ocv
 from planner.battery.thermal import ThermalParameters
 from planner.errors import InputError, ModelError
-from planner.parameters.blocks import circuit_block, circuit_from_mapping, circuit_to_mapping, thermal_from_mapping
 from planner.parameters import BatteryPack
+from planner.parameters.blocks import (
+    circuit_block,
+    circuit_from_mapping,
+    circuit_to_mapping,
+    thermal_from_mapping,
+)
 from planner.parameters.ocv import read_ocv_csv, write_ocv_csv
 
 

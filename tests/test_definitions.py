@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from planner.parameters import load_aircraft, load_aircraft_and_battery, load_battery
 from planner.errors import InputError
+from planner.parameters import load_aircraft, load_aircraft_and_battery, load_battery
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 import yaml
 
-from planner.parameters import aircraft as D
 from planner.cli import main
 from planner.commands.common import parse_wind
-from planner.parameters import load_aircraft, load_battery
 from planner.errors import InputError
+from planner.parameters import aircraft as D
+from planner.parameters import load_aircraft, load_battery
 
 REPO = Path(__file__).resolve().parents[1]
 SOLO = REPO / "aircraft/solo_survey.yaml"

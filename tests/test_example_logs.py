@@ -14,9 +14,9 @@ from numpy.testing import assert_allclose
 
 from planner.cli import main
 from planner.data import load_flight_data
-from planner.parameters import load_aircraft_and_battery
 from planner.fit_aircraft import fit_aircraft
 from planner.logs import read_log
+from planner.parameters import load_aircraft_and_battery
 from planner.replay import replay
 from testkit.writers import SIMULATED_TEXT
 

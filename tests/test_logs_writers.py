@@ -9,11 +9,11 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from planner.parameters import load_aircraft_and_battery
 from planner.errors import InputError
 from planner.logs import read_log
 from planner.mission import load_mission
 from planner.mission.legs import Environment
+from planner.parameters import load_aircraft_and_battery
 from testkit.flight import simulate_flight
 from testkit.writers import (
     DATAFLASH_FORMATS,

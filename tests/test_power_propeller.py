@@ -55,9 +55,9 @@ def test_no_thrust_no_power_and_bad_parameters_are_named():
 
 def _x8(**prop):
     from dataclasses import replace
+    from pathlib import Path
 
     from planner.parameters import load_aircraft
-    from pathlib import Path
 
     a = load_aircraft(Path(__file__).resolve().parents[1] / "aircraft/x8_mapper.yaml")
     return replace(a, fixed_wing=replace(a.fixed_wing, **prop))

@@ -9,11 +9,11 @@ import pytest
 
 from planner.battery import integral
 from planner.cli import main
-from planner.parameters import IntegralModel, load_aircraft_and_battery
 from planner.fit_aircraft import fit_aircraft, with_params
+from planner.flightstate import flight_phases
 from planner.mission import load_mission
 from planner.mission.legs import Environment
-from planner.flightstate import flight_phases
+from planner.parameters import IntegralModel, load_aircraft_and_battery
 from planner.replay import detect_cells, replay
 from testkit.flight import simulate_flight
 

@@ -10,10 +10,10 @@ import pytest
 from planner import select as sel
 from planner.battery.circuit import loaded_current
 from planner.chain import MissionChain
-from planner.parameters import IntegralModel, load_aircraft, load_battery, load_catalog
 from planner.errors import InputError
 from planner.mission import load_mission
 from planner.mission.legs import Environment, Leg, Mission
+from planner.parameters import IntegralModel, load_aircraft, load_battery, load_catalog
 from planner.powertable import PowerTable
 
 REPO = Path(__file__).resolve().parents[1]

@@ -8,8 +8,7 @@ import pytest
 
 from planner.chain import MissionChain
 from planner.cli import main
-from planner.mission import load_mission
-from planner.mission import writers
+from planner.mission import load_mission, writers
 from planner.parameters import load_aircraft, load_catalog
 
 REPO = Path(__file__).resolve().parents[1]

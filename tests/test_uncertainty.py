@@ -15,7 +15,6 @@ from planner.cli import main
 from planner.errors import InputError
 from planner.failsafe import failsafe_parameters
 from planner.mission import load_mission
-from planner.mission.legs import Environment, Leg, Mission
 from planner.parameters import load_aircraft_and_battery, load_battery
 from planner.uncertainty import Spreads, cvar, monte_carlo
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from planner import files
 from planner.check import MissionChain, MissionResult
 from planner.commands.common import (
     flags_for,
@@ -17,12 +18,11 @@ from planner.commands.common import (
     plot_path,
     write_json,
 )
-from planner import files
 from planner.errors import InputError
 from planner.failsafe import FIRMWARES, FailsafePlan, failsafe_parameters
-from planner.uncertainty import Spreads, UncertaintyResult, monte_carlo
 from planner.mission import load_mission
 from planner.parameters import load_aircraft_and_battery
+from planner.uncertainty import Spreads, UncertaintyResult, monte_carlo
 
 
 def register(sub) -> None:

@@ -52,13 +52,13 @@ from pymavlink.DFReader import FORMAT_TO_STRUCT
 
 from planner.errors import InputError
 from planner.logs._common import (
+    GPS_EPOCH_UNIX,
+    GPS_LEAP_S,
     Field,
     Message,
     Meta,
     build_record,
     capacity_or_none,
-    GPS_EPOCH_UNIX,
-    GPS_LEAP_S,
     cells_or_none,
     resolve_channels,
     serial_or_none,

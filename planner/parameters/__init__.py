@@ -21,7 +21,6 @@ from planner.parameters.catalog import catalog_from_mapping, load_catalog
 from planner.parameters.pack import BatteryPack, IntegralModel, battery_from_mapping, load_battery
 
 
-
 def read_definition(path, to_folder=None):
     """A definition file's mapping as written (validated YAML syntax only), for a command
     that extends a file and writes it again (``fit-battery --battery``).

@@ -10,8 +10,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from planner.battery.ocv import OcvTable, ocv_table
 from planner import files
+from planner.battery.ocv import OcvTable, ocv_table
 from planner.errors import InputError
 
 __all__ = ["read_ocv_csv", "write_ocv_csv"]

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from planner.battery.design import SCHEDULE_COLUMNS
 from planner import files
+from planner.battery.design import SCHEDULE_COLUMNS
 from planner.errors import InputError
 
 __all__ = ["read_schedule", "write_schedule"]
