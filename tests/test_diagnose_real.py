@@ -205,3 +205,41 @@ def test_m100_power_level_flies_the_rotor_disks_axial_speed(shared_data):
     rmse = [r.levels["power"].result.baseline.rmse for r in (with_axial, without)]
     assert rmse[0] < 0.97 * rmse[1], rmse
     assert with_axial.findings == [] and without.findings == []
+
+
+def test_anemometer_wind_recovers_each_flights_steady_wind(tmp_path):
+    """``benchmarks/bench_diagnose_real.anemometer_wind`` (the flights' own wind that
+    ``--by-wind`` sorts them by): built from a known steady wind per flight and an
+    anemometer that reads k = 0.66 of the air-relative velocity towards the compass
+    direction ``wind_angle``, the fit returns each flight's wind speed; samples below
+    7 m above the first altitude (the ground) do not count."""
+    import numpy as np
+    import pandas as pd
+
+    from benchmarks.bench_diagnose_real import anemometer_wind
+
+    rng = np.random.default_rng(3)
+    winds = {"1": (2.0, -1.0), "2": (-0.5, 3.5)}          # east, north [m/s]
+    frames = []
+    for flight, (w_e, w_n) in winds.items():
+        n = 400
+        heading = np.cumsum(rng.normal(0.0, 0.05, n))
+        speed = 8.0 * np.abs(np.sin(np.linspace(0.0, 3.0, n))) + 0.5
+        v_e, v_n = speed * np.sin(heading), speed * np.cos(heading)
+        a_e, a_n = (v_e - w_e) / 0.66, (v_n - w_n) / 0.66
+        alt = np.r_[np.zeros(20), np.full(n - 20, 30.0)]
+        a_e[:20], a_n[:20] = 50.0, 50.0                      # on the ground: ignored
+        frames.append(pd.DataFrame({
+            "flight": int(flight), "wind_speed": np.hypot(a_e, a_n),
+            "wind_angle": np.degrees(np.arctan2(a_e, a_n)) % 360.0,
+            "position_z": 300.0 + alt,
+            # identity attitude: the body frame's x, y are east and north
+            "velocity_x": v_e, "velocity_y": v_n, "velocity_z": 0.0,
+            "orientation_x": 0.0, "orientation_y": 0.0, "orientation_z": 0.0,
+            "orientation_w": 1.0}))
+    path = tmp_path / "m100.csv"
+    pd.concat(frames).to_csv(path, index=False)
+    got = anemometer_wind(path)
+    assert set(got) == set(winds)
+    for flight, (w_e, w_n) in winds.items():
+        assert got[flight] == pytest.approx(np.hypot(w_e, w_n), abs=1e-6)
