@@ -26,10 +26,10 @@ Each run draws 16 flights at random (seeded) and runs the full search:
 ``--drop-at F [F …]`` instead runs the payload drop at the given fractions of each
 flight's airborne time (the same 16-flight draws for every fraction), to show how the hit
 rate depends on where in the flight the drop falls, and prints where in the flight the
-calibrated model misses on the clean flights (:func:`residual_profile`). ``--by-wind``
-runs the two payload-drop cases on flights drawn from the calmer and the windier half of
-the flights, by each flight's steady wind measured by the on-board anemometer
-(:func:`anemometer_wind`): a test of whether the flights' own wind is what hides a drop.
+calibrated model misses on the clean flights (:func:`residual_profile`).
+``--wind-step`` prints the clean flights' power residual step at the turnaround against
+each flight's own wind along its route, measured by the on-board anemometer
+(:func:`wind_step`).
 
 For the payload drop it also prints how often the fitted step lies within two of its
 standard errors of the injected −0.25 kg, over the runs where it is named.
@@ -39,7 +39,7 @@ planner's own models. Prints the hit rates and the CPU time per run. Run::
 
     python benchmarks/bench_diagnose_real.py [--runs 10] [--seed 0]
     python benchmarks/bench_diagnose_real.py --drop-at 0.25 0.5 0.75 --runs 40
-    python benchmarks/bench_diagnose_real.py --by-wind --runs 40
+    python benchmarks/bench_diagnose_real.py --wind-step
 """
 
 from __future__ import annotations
@@ -76,22 +76,22 @@ def subset(df, rng, n=16):
     return df[df["experiment"].isin(pick)].reset_index(drop=True)
 
 
-def anemometer_wind(path=DATA) -> dict[str, float]:
-    r"""Each flight's steady wind speed [m/s] from its on-board anemometer.
+def anemometer_wind(path=DATA) -> dict[str, np.ndarray]:
+    r"""Each flight's steady wind (east, north) [m/s] from its on-board anemometer.
 
     The anemometer (upstream ``wind_speed``, ``wind_angle``) reads the air flow relative to
     the vehicle, rotor wash included: as a vector :math:`\vec a` of its speed towards the
     compass direction ``wind_angle``, the ground velocity is :math:`\vec v_g = \vec w +
-    k\,\vec a` for a steady wind :math:`\vec w`, with a scale k < 1 for the flow the
-    sensor sees. Fitted by least squares per flight over the airborne samples (more than
-    7 m above the first valid altitude) on the east and north components of the body-frame
-    velocity rotated by the attitude quaternion (as the column map's ``enu_*`` ops do).
-    Of the readings of the angle (world or body frame, towards or from it), this one leaves
-    the steadiest wind within a flight: on flights 1–149, with k = 0.6, the wind's
-    within-flight spread (the two components' standard deviations, combined) is 3.2 m/s,
-    against 5.1–10.6 m/s for the other readings and 5.1 m/s for the ground velocity alone.
-    Fitted per flight, k has median 0.66. The wind is the intercept :math:`|\vec w|`; no
-    model uses it, it only sorts the flights.
+    k\,\vec a` for a steady wind :math:`\vec w` (the velocity of the air), with a scale
+    k < 1 for the flow the sensor sees. Fitted by least squares per flight over the
+    airborne samples (more than 7 m above the first valid altitude) on the east and north
+    components of the body-frame velocity rotated by the attitude quaternion (as the
+    column map's ``enu_*`` ops do). Of the readings of the angle (world or body frame,
+    towards or from it), this one leaves the steadiest wind within a flight: on flights
+    1–149, with k = 0.6, the wind's within-flight spread (the two components' standard
+    deviations, combined) is 3.2 m/s, against 5.1–10.6 m/s for the other readings and
+    5.1 m/s for the ground velocity alone. Fitted per flight, k has median 0.66. No model
+    uses this wind; :func:`wind_step` compares it with the power model's residual.
     """
     import pandas as pd
     from scipy.spatial.transform import Rotation
@@ -120,33 +120,95 @@ def anemometer_wind(path=DATA) -> dict[str, float]:
         X[:n, 0] = X[n:, 1] = 1.0
         X[:n, 2], X[n:, 2] = a_e[m], a_n[m]
         coef, *_ = np.linalg.lstsq(X, np.concatenate([v[m, 0], v[m, 1]]), rcond=None)
-        out[str(f)] = float(np.hypot(coef[0], coef[1]))
+        out[str(f)] = coef[:2]
     return out
 
 
-def by_wind(df, aircraft, pack, mass, runs, seed) -> None:
-    """The two payload-drop cases on the calmer and on the windier half of the flights."""
-    wind = anemometer_wind()
-    ids = np.array(sorted(set(wind) & set(df["experiment"].unique())))
-    speeds = np.array([wind[i] for i in ids])
-    median = float(np.median(speeds))
-    rng = np.random.default_rng(seed)
-    print(f"payload drop named first, by the flights' anemometer wind ({runs} runs of 16 "
-          f"flights; {len(ids)} flights, median wind {median:.2f} m/s)")
-    for name, half in (("calmer", ids[speeds < median]), ("windier", ids[speeds >= median])):
-        hits = {0.5: 0, 1 / 3: 0}
-        for _ in range(runs):
-            pick = rng.choice(half, size=min(16, len(half)), replace=False)
-            data = df[df["experiment"].isin(pick)].reset_index(drop=True)
-            for at in hits:
-                res = diagnose(inject(data, "payload_drop", mass, at=at), pack, aircraft,
-                               payload_kg=PAYLOAD_KG)
-                hits[at] += bool(res.findings) and \
-                    res.findings[0]["effect"] == "payload_change"
-        w = np.median([wind[i] for i in half])
-        print(f"  {name:<8} {len(half)} flights, median wind {w:.2f} m/s: at the delivery "
-              f"point {100 * hits[0.5] / runs:3.0f} %, on the way out "
-              f"{100 * hits[1 / 3] / runs:3.0f} %")
+def turnaround(path=DATA) -> dict[str, tuple[float, float]]:
+    """Each flight's turnaround from its GNSS track: the time [s since the flight's first
+    sample] it is farthest from its first fix, and the bearing of that point from it
+    [deg from north]."""
+    import pandas as pd
+
+    raw = pd.read_csv(path, usecols=["flight", "time", "position_x", "position_y"])
+    out = {}
+    for f, g in raw.groupby("flight"):
+        lon, lat = g["position_x"].to_numpy(), g["position_y"].to_numpy()
+        ok = (lon != 0.0) & np.isfinite(lon) & np.isfinite(lat)
+        if ok.sum() < 10:
+            continue
+        east = (lon - lon[ok][0]) * 111.32e3 * np.cos(np.radians(lat[ok][0]))
+        north = (lat - lat[ok][0]) * 110.57e3
+        d = np.where(ok, np.hypot(east, north), -1.0)
+        j = int(np.argmax(d))
+        t = g["time"].to_numpy()
+        out[str(f)] = (float(t[j] - t[0]), float(np.degrees(np.arctan2(east[j], north[j])) % 360))
+    return out
+
+
+def wind_step(df, aircraft, pack) -> None:
+    """The clean flights' power residual at the turnaround against their own wind.
+
+    For the flights in sets of 16 (file order), the calibrated power model's residual
+    (measured − modelled) over the cruise bins (ground speed > 2 m/s, |climb| < 0.5 m/s)
+    of the return leg minus that of the outbound leg, split at the turnaround
+    (:func:`turnaround`), against the anemometer's wind along the outbound bearing
+    (:func:`anemometer_wind`; positive: a tailwind out). The model flies the ground speed
+    (the map has no wind), so a tailwind out, a lower airspeed out and a higher one back,
+    leaves a step of about 2·w·dP/dV: printed beside, from the calibrated model's own
+    power curve at the flights' median cruise ground speed.
+    """
+    from planner.diagnose.search import with_params
+
+    wind, turn = anemometer_wind(), turnaround()
+    ids = df["experiment"].unique()
+    steps, along, speeds, bearings, base = [], [], [], [], []
+    for k in range(0, len(ids), 16):
+        data = df[df["experiment"].isin(ids[k:k + 16])].reset_index(drop=True)
+        res = diagnose(data, pack, aircraft, payload_kg=PAYLOAD_KG)
+        report = res.levels["power"]
+        level, fit = report.result.level, report.result.base_fit or report.result.final_fit
+        base.append(report.base_values)
+        rows = np.flatnonzero(fit.train)
+        resid = -fit.train_resid        # the fit's residual is modelled − measured
+        exp, t = level.exp[rows], level.time[rows]
+        cruise = (level.gs[rows] > 2.0) & (np.abs(level.climb[rows]) < 0.5)
+        for e in np.unique(exp):
+            name = level.names[e]
+            if name not in wind or name not in turn:
+                continue
+            t_far, bearing = turn[name]
+            out = cruise & (exp == e) & (t < t_far)
+            back = cruise & (exp == e) & (t >= t_far)
+            if out.sum() < 5 or back.sum() < 5:
+                continue
+            u = np.array([np.sin(np.radians(bearing)), np.cos(np.radians(bearing))])
+            steps.append(resid[back].mean() - resid[out].mean())
+            along.append(float(wind[name] @ u))
+            speeds.append(np.median(level.gs[rows][cruise & (exp == e)]))
+            bearings.append(bearing)
+    steps, along = np.array(steps), np.array(along)
+    from scipy.stats import pearsonr
+
+    slope, _ = np.polyfit(along, steps, 1)
+    r, p_value = pearsonr(along, steps)
+    v = float(np.median(speeds))
+    eta = float(np.median([b["efficiency"] for b in base]))
+    f = float(np.median([b["drag_area_m2"] for b in base]))
+    model = with_params(aircraft, {"efficiency": eta, "drag_area_m2": f})
+    mass = aircraft.empty_mass_kg + pack.mass_kg + PAYLOAD_KG
+    dp_dv = float(np.diff(model.battery_power(np.array([v - 1.0, v + 1.0]), 0.0,
+                                              1.19, mass))[0] / 2.0)
+    print(f"turnaround step of the clean flights' power residual ({len(steps)} flights with "
+          f"cruise both ways; outbound bearing median {np.median(bearings):.0f}°)")
+    print(f"  return − outbound residual: median {np.median(steps):+.1f} W, negative in "
+          f"{100 * np.mean(steps < 0):.0f} % of the flights")
+    print(f"  anemometer wind along the outbound bearing: median {np.median(along):+.2f} m/s "
+          f"(a tailwind out in {100 * np.mean(along > 0):.0f} % of the flights)")
+    print(f"  step against that wind: correlation {r:.2f} (p = {p_value:.1g}), slope "
+          f"{slope:+.1f} W per m/s; "
+          f"the calibrated model (η {eta:.3f}, drag area {f:.3f} m²) at {v:.1f} m/s: "
+          f"{2 * dp_dv:+.1f} W per m/s")
 
 
 def by_position(df, aircraft, pack, mass, runs, seed, fractions) -> None:
@@ -228,8 +290,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--drop-at", type=float, nargs="+", metavar="F",
                     help="the payload drop at these fractions of the airborne time")
-    ap.add_argument("--by-wind", action="store_true",
-                    help="the payload drops on the calmer and the windier flights")
+    ap.add_argument("--wind-step", action="store_true",
+                    help="the clean flights' residual step at the turnaround against their "
+                         "own wind")
     args = ap.parse_args(argv)
     if not DATA.exists():
         print(f"skipped: {DATA} is absent (the real data lie in ../shared/data)")
@@ -242,8 +305,8 @@ def main(argv=None) -> int:
     if args.drop_at:
         by_position(df, aircraft, pack, mass, args.runs, args.seed, args.drop_at)
         return 0
-    if args.by_wind:
-        by_wind(df, aircraft, pack, mass, args.runs, args.seed)
+    if args.wind_step:
+        wind_step(df, aircraft, pack)
         return 0
     rng = np.random.default_rng(args.seed)
     cases = {"clean": None, "payload_drop": "payload_change",

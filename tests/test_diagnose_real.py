@@ -209,14 +209,15 @@ def test_m100_power_level_flies_the_rotor_disks_axial_speed(shared_data):
 
 def test_anemometer_wind_recovers_each_flights_steady_wind(tmp_path):
     """``benchmarks/bench_diagnose_real.anemometer_wind`` (the flights' own wind that
-    ``--by-wind`` sorts them by): built from a known steady wind per flight and an
-    anemometer that reads k = 0.66 of the air-relative velocity towards the compass
-    direction ``wind_angle``, the fit returns each flight's wind speed; samples below
-    7 m above the first altitude (the ground) do not count."""
+    ``--wind-step`` compares with the power residual): built from a known steady wind per
+    flight and an anemometer that reads k = 0.66 of the air-relative velocity towards the
+    compass direction ``wind_angle``, the fit returns each flight's wind vector (east,
+    north); samples below 7 m above the first altitude (the ground) do not count. The
+    turnaround is the point farthest from the first GNSS fix."""
     import numpy as np
     import pandas as pd
 
-    from benchmarks.bench_diagnose_real import anemometer_wind
+    from benchmarks.bench_diagnose_real import anemometer_wind, turnaround
 
     rng = np.random.default_rng(3)
     winds = {"1": (2.0, -1.0), "2": (-0.5, 3.5)}          # east, north [m/s]
@@ -236,10 +237,19 @@ def test_anemometer_wind_recovers_each_flights_steady_wind(tmp_path):
             # identity attitude: the body frame's x, y are east and north
             "velocity_x": v_e, "velocity_y": v_n, "velocity_z": 0.0,
             "orientation_x": 0.0, "orientation_y": 0.0, "orientation_z": 0.0,
-            "orientation_w": 1.0}))
+            "orientation_w": 1.0, "time": 0.1 * np.arange(n),
+            # out to 150 m at a bearing of 60° and back, the farthest at sample 250
+            "position_x": -79.78 + np.sin(np.radians(60.0)) * 150.0 / (111.32e3 * np.cos(
+                np.radians(40.45))) * np.interp(np.arange(n), [0, 250, n - 1], [0, 1, 0]),
+            "position_y": 40.45 + np.cos(np.radians(60.0)) * 150.0 / 110.57e3 * np.interp(
+                np.arange(n), [0, 250, n - 1], [0, 1, 0])}))
     path = tmp_path / "m100.csv"
     pd.concat(frames).to_csv(path, index=False)
     got = anemometer_wind(path)
     assert set(got) == set(winds)
-    for flight, (w_e, w_n) in winds.items():
-        assert got[flight] == pytest.approx(np.hypot(w_e, w_n), abs=1e-6)
+    for flight, w in winds.items():
+        assert got[flight] == pytest.approx(np.array(w), abs=1e-6)
+    turn = turnaround(path)
+    for flight in winds:
+        assert turn[flight][0] == pytest.approx(25.0)
+        assert turn[flight][1] == pytest.approx(60.0, abs=0.01)
