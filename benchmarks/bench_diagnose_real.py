@@ -114,8 +114,8 @@ def anemometer_wind(path=DATA) -> dict[str, np.ndarray]:
     column map's ``enu_*`` ops do). Of the readings of the angle (world or body frame,
     towards or from it), this one leaves the steadiest wind within a flight: on flights
     1–149, with k = 0.6, the wind's within-flight spread (the two components' standard
-    deviations, combined) is 3.2 m/s, against 5.1–10.6 m/s for the other readings and
-    5.1 m/s for the ground velocity alone. Fitted per flight, k has median 0.66. No model
+    deviations, combined) is 3.2 m/s, against 5.1–8.3 m/s for the other readings (each at
+    the best of the scales tried, 0.4–1) and 5.1 m/s for the ground velocity alone. Fitted per flight, k has median 0.66. No model
     uses this wind; :func:`wind_step` compares it with the power model's residual.
     """
     import pandas as pd
@@ -183,17 +183,20 @@ def wind_step(df, aircraft, pack) -> None:
     leaves a step of about 2·w·dP/dV: printed beside, from the calibrated model's own
     power curve at the flights' median cruise ground speed.
     """
+    from scipy.stats import pearsonr
+
     from planner.diagnose.search import with_params
 
     wind, turn = anemometer_wind(), turnaround()
     ids = df["experiment"].unique()
-    steps, along, speeds, bearings, base = [], [], [], [], []
+    steps, along, speeds, bearings, base, rho = [], [], [], [], [], []
     for k in range(0, len(ids), 16):
         data = df[df["experiment"].isin(ids[k:k + 16])].reset_index(drop=True)
         res = diagnose(data, pack, aircraft, payload_kg=PAYLOAD_KG)
         report = res.levels["power"]
         level, fit = report.result.level, report.result.base_fit or report.result.final_fit
         base.append(report.base_values)
+        rho.append(float(np.median(level.rho_std)))   # the density the model flew
         rows = np.flatnonzero(fit.train)
         resid = -fit.train_resid        # the fit's residual is modelled − measured
         exp, t = level.exp[rows], level.time[rows]
@@ -213,8 +216,6 @@ def wind_step(df, aircraft, pack) -> None:
             speeds.append(np.median(level.gs[rows][cruise & (exp == e)]))
             bearings.append(bearing)
     steps, along = np.array(steps), np.array(along)
-    from scipy.stats import pearsonr
-
     slope, _ = np.polyfit(along, steps, 1)
     r, p_value = pearsonr(along, steps)
     v = float(np.median(speeds))
@@ -223,7 +224,7 @@ def wind_step(df, aircraft, pack) -> None:
     model = with_params(aircraft, {"efficiency": eta, "drag_area_m2": f})
     mass = aircraft.empty_mass_kg + pack.mass_kg + PAYLOAD_KG
     dp_dv = float(np.diff(model.battery_power(np.array([v - 1.0, v + 1.0]), 0.0,
-                                              1.19, mass))[0] / 2.0)
+                                              float(np.median(rho)), mass))[0] / 2.0)
     print(f"turnaround step of the clean flights' power residual ({len(steps)} flights with "
           f"cruise both ways; outbound bearing median {np.median(bearings):.0f}°)")
     print(f"  return − outbound residual: median {np.median(steps):+.1f} W, negative in "
