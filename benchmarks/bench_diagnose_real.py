@@ -171,7 +171,7 @@ def turnaround(path=DATA) -> dict[str, tuple[float, float]]:
     return out
 
 
-def wind_step(df, aircraft, pack) -> None:
+def wind_step(df, aircraft, pack) -> dict[str, float]:
     """The clean flights' power residual at the turnaround against their own wind.
 
     For the flights in sets of 16 (file order), the calibrated power model's residual
@@ -180,8 +180,8 @@ def wind_step(df, aircraft, pack) -> None:
     (:func:`turnaround`), against the anemometer's wind along the outbound bearing
     (:func:`anemometer_wind`; positive: a tailwind out). The model flies the ground speed
     (the map has no wind), so a tailwind out, a lower airspeed out and a higher one back,
-    leaves a step of about 2·w·dP/dV: printed beside, from the calibrated model's own
-    power curve at the flights' median cruise ground speed.
+    leaves a step of about 2·w·dP/dV: returned beside (``model_slope_w_per_ms``), from
+    the calibrated model's own power curve at the flights' median cruise ground speed.
     """
     from scipy.stats import pearsonr
 
@@ -225,16 +225,28 @@ def wind_step(df, aircraft, pack) -> None:
     mass = aircraft.empty_mass_kg + pack.mass_kg + PAYLOAD_KG
     dp_dv = float(np.diff(model.battery_power(np.array([v - 1.0, v + 1.0]), 0.0,
                                               float(np.median(rho)), mass))[0] / 2.0)
-    print(f"turnaround step of the clean flights' power residual ({len(steps)} flights with "
-          f"cruise both ways; outbound bearing median {np.median(bearings):.0f}°)")
-    print(f"  return − outbound residual: median {np.median(steps):+.1f} W, negative in "
-          f"{100 * np.mean(steps < 0):.0f} % of the flights")
-    print(f"  anemometer wind along the outbound bearing: median {np.median(along):+.2f} m/s "
-          f"(a tailwind out in {100 * np.mean(along > 0):.0f} % of the flights)")
-    print(f"  step against that wind: correlation {r:.2f} (p = {p_value:.1g}), slope "
-          f"{slope:+.1f} W per m/s; "
-          f"the calibrated model (η {eta:.3f}, drag area {f:.3f} m²) at {v:.1f} m/s: "
-          f"{2 * dp_dv:+.1f} W per m/s")
+    return {"flights": len(steps), "bearing_deg": float(np.median(bearings)),
+            "step_median_w": float(np.median(steps)),
+            "step_negative_share": float(np.mean(steps < 0)),
+            "along_wind_median_ms": float(np.median(along)),
+            "tailwind_out_share": float(np.mean(along > 0)), "correlation": float(r),
+            "p_value": float(p_value), "slope_w_per_ms": float(slope),
+            "model_slope_w_per_ms": 2.0 * dp_dv, "efficiency": eta, "drag_area_m2": f,
+            "cruise_speed_ms": v}
+
+
+def print_wind_step(w: dict) -> None:
+    print(f"turnaround step of the clean flights' power residual ({w['flights']} flights with "
+          f"cruise both ways; outbound bearing median {w['bearing_deg']:.0f}°)")
+    print(f"  return − outbound residual: median {w['step_median_w']:+.1f} W, negative in "
+          f"{100 * w['step_negative_share']:.0f} % of the flights")
+    print(f"  anemometer wind along the outbound bearing: median "
+          f"{w['along_wind_median_ms']:+.2f} m/s (a tailwind out in "
+          f"{100 * w['tailwind_out_share']:.0f} % of the flights)")
+    print(f"  step against that wind: correlation {w['correlation']:.2f} "
+          f"(p = {w['p_value']:.1g}), slope {w['slope_w_per_ms']:+.1f} W per m/s; the "
+          f"calibrated model (η {w['efficiency']:.3f}, drag area {w['drag_area_m2']:.3f} m²) "
+          f"at {w['cruise_speed_ms']:.1f} m/s: {w['model_slope_w_per_ms']:+.1f} W per m/s")
 
 
 def by_position(df, aircraft, pack, mass, runs, seed, fractions) -> None:
@@ -334,7 +346,7 @@ def main(argv=None) -> int:
         by_position(df, aircraft, pack, mass, args.runs, args.seed, args.drop_at)
         return 0
     if args.wind_step:
-        wind_step(df, aircraft, pack)
+        print_wind_step(wind_step(df, aircraft, pack))
         return 0
     rng = np.random.default_rng(args.seed)
     cases = {"clean": None, "payload_drop": "payload_change",

@@ -253,3 +253,30 @@ def test_anemometer_wind_recovers_each_flights_steady_wind(tmp_path):
     for flight in winds:
         assert turn[flight][0] == pytest.approx(25.0)
         assert turn[flight][1] == pytest.approx(60.0, abs=0.01)
+
+
+def test_m100_power_residual_steps_at_the_turnaround_with_the_flights_own_wind(shared_data):
+    """The clean M100 flights (1–149) fly one route out and back; the calibrated power
+    model flies the ground speed (the map has no course), so a wind along the route leaves
+    a step in its residual at the turnaround of about 2·w·dP/dV. It does: the step
+    (return − outbound) follows each flight's wind along the route from its own anemometer
+    with a negative slope, significantly, of the size the model's own power curve gives
+    (``benchmarks/bench_diagnose_real.py --wind-step``: 84 flights, r = −0.52,
+    −14.7 W per m/s against −18.1). An anemometer read the wrong way round (its angle as
+    where the flow comes from) turns the slope positive and fails it."""
+    import warnings
+
+    from benchmarks.bench_diagnose_real import DATA, load, wind_step
+
+    if not DATA.exists():
+        pytest.skip(f"{DATA} is absent")
+    pack, ac = _m100_definitions()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        w = wind_step(load(), ac, pack)
+    assert w["flights"] >= 60
+    assert 40.0 <= w["bearing_deg"] <= 80.0
+    assert w["step_negative_share"] >= 0.7 and w["tailwind_out_share"] >= 0.6
+    assert w["correlation"] < -0.3 and w["p_value"] < 1e-3
+    assert w["model_slope_w_per_ms"] < 0.0
+    assert 0.4 <= w["slope_w_per_ms"] / w["model_slope_w_per_ms"] <= 2.5
