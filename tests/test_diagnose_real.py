@@ -262,8 +262,8 @@ def test_m100_power_residual_steps_at_the_turnaround_with_the_flights_own_wind(s
     (return − outbound) follows each flight's wind along the route from its own anemometer
     with a negative slope, significantly, of the size the model's own power curve gives
     (``benchmarks/bench_diagnose_real.py --wind-step``: 84 flights, r = −0.52,
-    −14.7 W per m/s against −18.1). An anemometer read the wrong way round (its angle as
-    where the flow comes from) turns the slope positive and fails it."""
+    −14.7 W per m/s against −18.1). An anemometer angle read 90° off (from east instead
+    of north) leaves no correlation (r = 0.01) and fails it."""
     import warnings
 
     from benchmarks.bench_diagnose_real import DATA, load, wind_step
