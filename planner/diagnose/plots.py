@@ -64,8 +64,7 @@ def plot_residual_time(report, ax=None):
     ax.set_xlabel("time since the start of the experiment [min]")
     what = "restarted at each held-out segment" if level.name == "capacity" else \
         f"{level.bin_s:.1f}-s means"
-    title = level.name.replace("cutoff", "cut-off")
-    ax.set_title(f"{title} level: held-out residual against time ({what})", fontsize=9)
+    ax.set_title(f"{level.name} level: held-out residual against time ({what})", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=7)
     return ax
