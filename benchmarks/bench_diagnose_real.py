@@ -48,6 +48,7 @@ planner's own models. Prints the hit rates and the CPU time per run. Run::
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 import warnings
@@ -101,6 +102,18 @@ def subset(df, rng, n=16):
     return df[df["experiment"].isin(pick)].reset_index(drop=True)
 
 
+@functools.lru_cache(maxsize=2)
+def _raw(path):
+    """The upstream columns the wind and turnaround need, read once per file (not to be
+    changed by callers)."""
+    import pandas as pd
+
+    return pd.read_csv(path, usecols=[
+        "flight", "time", "wind_speed", "wind_angle", "position_x", "position_y",
+        "position_z", "velocity_x", "velocity_y", "velocity_z", "orientation_x",
+        "orientation_y", "orientation_z", "orientation_w"])
+
+
 def anemometer_wind(path=DATA) -> dict[str, np.ndarray]:
     r"""Each flight's steady wind (east, north) [m/s] from its on-board anemometer.
 
@@ -118,12 +131,9 @@ def anemometer_wind(path=DATA) -> dict[str, np.ndarray]:
     the best of the scales tried, 0.4–1) and 5.1 m/s for the ground velocity alone. Fitted per flight, k has median 0.66. No model
     uses this wind; :func:`wind_step` compares it with the power model's residual.
     """
-    import pandas as pd
     from scipy.spatial.transform import Rotation
 
-    cols = ["flight", "wind_speed", "wind_angle", "position_z", "velocity_x", "velocity_y",
-            "velocity_z", "orientation_x", "orientation_y", "orientation_z", "orientation_w"]
-    raw = pd.read_csv(path, usecols=cols)
+    raw = _raw(path)
     q = raw[["orientation_x", "orientation_y", "orientation_z", "orientation_w"]].to_numpy()
     ok = np.abs(np.linalg.norm(q, axis=1) - 1.0) < 0.1
     raw, q = raw[ok], q[ok]
@@ -153,11 +163,8 @@ def turnaround(path=DATA) -> dict[str, tuple[float, float]]:
     """Each flight's turnaround from its GNSS track: the time [s since the flight's first
     sample] it is farthest from its first fix, and the bearing of that point from it
     [deg from north]."""
-    import pandas as pd
-
-    raw = pd.read_csv(path, usecols=["flight", "time", "position_x", "position_y"])
     out = {}
-    for f, g in raw.groupby("flight"):
+    for f, g in _raw(path).groupby("flight"):
         lon, lat = g["position_x"].to_numpy(), g["position_y"].to_numpy()
         ok = (lon != 0.0) & np.isfinite(lon) & np.isfinite(lat)
         if ok.sum() < 10:
@@ -169,6 +176,16 @@ def turnaround(path=DATA) -> dict[str, tuple[float, float]]:
         t = g["time"].to_numpy()
         out[str(f)] = (float(t[j] - t[0]), float(np.degrees(np.arctan2(east[j], north[j])) % 360))
     return out
+
+
+def clean_residual(data, aircraft, pack):
+    """diagnose's power level on clean ``data``: the level, the rows of its calibrated
+    baseline's fit on all the data, their residual measured − modelled [W] and the
+    baseline's values."""
+    report = diagnose(data, pack, aircraft, payload_kg=PAYLOAD_KG).levels["power"]
+    level, fit = report.result.level, report.result.base_fit or report.result.final_fit
+    # the fit's residual is modelled − measured
+    return level, np.flatnonzero(fit.train), -fit.train_resid, report.base_values
 
 
 def wind_step(df, aircraft, pack) -> dict[str, float]:
@@ -192,13 +209,9 @@ def wind_step(df, aircraft, pack) -> dict[str, float]:
     steps, along, speeds, bearings, base, rho = [], [], [], [], [], []
     for k in range(0, len(ids), 16):
         data = df[df["experiment"].isin(ids[k:k + 16])].reset_index(drop=True)
-        res = diagnose(data, pack, aircraft, payload_kg=PAYLOAD_KG)
-        report = res.levels["power"]
-        level, fit = report.result.level, report.result.base_fit or report.result.final_fit
-        base.append(report.base_values)
+        level, rows, resid, values = clean_residual(data, aircraft, pack)
+        base.append(values)
         rho.append(float(np.median(level.rho_std)))   # the density the model flew
-        rows = np.flatnonzero(fit.train)
-        resid = -fit.train_resid        # the fit's residual is modelled − measured
         exp, t = level.exp[rows], level.time[rows]
         cruise = (level.gs[rows] > 2.0) & (np.abs(level.climb[rows]) < 0.5)
         for e in np.unique(exp):
@@ -270,11 +283,7 @@ def residual_profile(df, aircraft, pack) -> None:
     the mean of measured − modelled power of the power level's bins by tenth of each
     flight's airborne span, beside the mean ground speed and the share of bins climbing or
     descending (> 0.5 m/s)."""
-    res = diagnose(df, pack, aircraft, payload_kg=PAYLOAD_KG)
-    result = res.levels["power"].result
-    level, fit = result.level, result.base_fit or result.final_fit
-    rows = np.flatnonzero(fit.train)
-    resid = -fit.train_resid        # the fit's residual is modelled − measured
+    level, rows, resid, _ = clean_residual(df, aircraft, pack)
     exp, t, climb, gs = level.exp[rows], level.time[rows], level.climb[rows], level.gs[rows]
     u = np.zeros_like(t)
     for e in np.unique(exp):
