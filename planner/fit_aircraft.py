@@ -129,6 +129,16 @@ class Samples:
     specific_force: np.ndarray | None = None
 
 
+def _check_fittable(exp_id, exp: pd.DataFrame) -> None:
+    """Raise :class:`InputError` unless the experiment has power and flight state."""
+    if record.voltage_only(exp):
+        raise InputError(f"experiment {exp_id}: {record.NO_CURRENT} (battery voltage only): "
+                         "fitting an aircraft needs the measured power")
+    if not record.has_power(exp) or not {"climb_rate_ms", "groundspeed_ms"} & set(exp.columns):
+        raise InputError(f"experiment {exp_id}: needs power and flight state "
+                         "(climb_rate_ms, groundspeed_ms or airspeed_ms) to fit an aircraft")
+
+
 def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
                      airborne_height_m: float | None = None) -> Samples:
     """Flight state and measured power of the airborne samples of every experiment
@@ -136,9 +146,7 @@ def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
     parts = []
     for exp_id, exp in record.experiments(data):
         exp = exp.reset_index(drop=True)
-        if "power_w" not in exp or not {"climb_rate_ms", "groundspeed_ms"} & set(exp.columns):
-            raise InputError(f"experiment {exp_id}: needs power and flight state "
-                             "(climb_rate_ms, groundspeed_ms or airspeed_ms) to fit an aircraft")
+        _check_fittable(exp_id, exp)
         t = exp["time_s"].to_numpy(float)
         p = exp["power_w"].to_numpy(float)
         state = flightstate.from_record(exp, site_altitude_m)
@@ -350,9 +358,7 @@ def _states(data: pd.DataFrame, site_altitude_m: float):
     out = []
     for exp_id, exp in record.experiments(data):
         exp = exp.reset_index(drop=True)
-        if "power_w" not in exp or not {"climb_rate_ms", "groundspeed_ms"} & set(exp.columns):
-            raise InputError(f"experiment {exp_id}: needs power and flight state "
-                             "(climb_rate_ms, groundspeed_ms or airspeed_ms) to fit an aircraft")
+        _check_fittable(exp_id, exp)
         out.append((str(exp_id), exp, flightstate.from_record(exp, site_altitude_m)))
     return out
 

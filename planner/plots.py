@@ -195,6 +195,15 @@ def plot_replay_experiment(exp, axes):
     s = exp.series
     t = s["time_s"]
     ax1, ax2 = axes
+    if "measured_w" not in s:   # nothing of the battery to compare with (no current sensor)
+        for ax, what in zip(axes, ("power", "charge")):
+            ax.text(0.5, 0.5, "; ".join(exp.notes) or "not replayed", ha="center",
+                    va="center", wrap=True, transform=ax.transAxes, fontsize=8)
+            ax.set_title(f"{exp.experiment}: {what}")
+        ax1.set_ylabel("power [W]")
+        ax2.set_ylabel("charge drawn [mAh]")
+        ax2.set_xlabel("time [s]")
+        return
     ax1.plot(t, s["measured_w"], color="k", lw=0.8, label="measured power")
     if "predicted_w" in s:
         ax1.plot(t, s["predicted_w"], color="C3", lw=1.0, label="power model")

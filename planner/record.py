@@ -88,6 +88,12 @@ COLUMNS: dict[str, Column] = {c.name: c for c in (
 #: Always required; plus ``power_w`` or both ``voltage_v`` and ``current_a``.
 REQUIRED = ("time_s",)
 
+#: What a record with battery voltage and no current (a vehicle without a current sensor)
+#: can and cannot give: said once by the readers, the row reason of ``replay`` and ``fleet``.
+NO_CURRENT = "no current: not replayable"
+NO_CURRENT_NOTE = (f"battery voltage but no current sensor ({NO_CURRENT}): the charge drawn "
+                   "and the electric power cannot be replayed without current")
+
 #: Physical range of a column: finite values outside it are sensor glitches or corrupt
 #: data (a 1e308 speed, a −300 °C air temperature, a pressure of 0 Pa). They become
 #: missing values with a warning, so one bad sample does not void a log.
@@ -141,7 +147,9 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
     source : str or path, optional
         Where the table came from; every error message starts with it.
     require_power : bool, default True
-        Require ``power_w`` or both ``voltage_v`` and ``current_a``. ``False``
+        Require battery data: ``power_w``, or ``voltage_v`` (with ``current_a``; a
+        voltage-only record, from a vehicle without a current sensor, is read and
+        exported but cannot be replayed: :data:`NO_CURRENT`). ``False``
         accepts a kinematics-only record (e.g. a SITL log without battery data).
     csv_lines : bool, optional
         Name bad rows by CSV line number as well (default: when ``source`` is
@@ -170,8 +178,7 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
         if name not in df.columns:
             raise InputError(f"{where}: missing required column '{name}' "
                              f"(columns: {', '.join(map(str, df.columns)) or 'none'})")
-    if require_power and "power_w" not in df.columns and not (
-            "voltage_v" in df.columns and "current_a" in df.columns):
+    if require_power and "power_w" not in df.columns and "voltage_v" not in df.columns:
         missing = [c for c in ("voltage_v", "current_a") if c not in df.columns]
         raise InputError(f"{where}: missing required column '{missing[0]}' "
                          "(need 'power_w' or both 'voltage_v' and 'current_a')")
@@ -301,6 +308,23 @@ def cumulative_trapezoid(y: np.ndarray, x: np.ndarray) -> np.ndarray:
         seg[:first] = 0.0       # before the first and after the last finite sample
         seg[last:] = 0.0
     return np.concatenate(([0.0], np.cumsum(seg)))
+
+
+def _any_finite(df: pd.DataFrame, name: str) -> bool:
+    return name in df.columns and bool(np.isfinite(df[name].to_numpy(float)).any())
+
+
+def has_power(df: pd.DataFrame) -> bool:
+    """Whether the record (or one experiment of it) can give the electric power: a
+    ``power_w`` sample, or ``voltage_v`` and ``current_a`` samples (DESIGN §4). Columns
+    that hold only NaN (another experiment's channels) do not count."""
+    return _any_finite(df, "power_w") or (_any_finite(df, "voltage_v")
+                                           and _any_finite(df, "current_a"))
+
+
+def voltage_only(df: pd.DataFrame) -> bool:
+    """A record with battery voltage but no current and no power (no current sensor)."""
+    return _any_finite(df, "voltage_v") and not has_power(df)
 
 
 def add_power(df: pd.DataFrame) -> pd.DataFrame:

@@ -300,6 +300,13 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
         meta = _meta_for(exp_id, metas)
         notes: list[str] = []
         t = exp["time_s"].to_numpy(float)
+        if not record.has_power(exp):
+            # a log without a current sensor: nothing of the battery to compare with
+            notes.append(record.NO_CURRENT + (" (the log has battery voltage only)"
+                                              if "voltage_v" in exp else " (no battery data)"))
+            out.append(ExperimentReplay(str(exp_id), float(t[-1] - t[0]) if len(t) else 0.0,
+                                        len(exp), None, None, notes, {"time_s": t}))
+            continue
         flown, label = _replay_pack(pack, meta, exp.get("voltage_v", pd.Series(dtype=float)))
         if pack is not None and "voltage_v" in exp:
             cells = meta.get("battery_cells") or detect_cells(exp["voltage_v"])

@@ -15,9 +15,11 @@ from planner.record import (
     complete_record,
     cumulative_trapezoid,
     interpolate_onto,
+    has_power,
     read_record,
     resample_record,
     validate_record,
+    voltage_only,
     write_record,
 )
 
@@ -57,9 +59,14 @@ def test_missing_time_column_names_file_and_column():
         validate_record(df, "flights.csv")
 
 
-def test_power_or_voltage_and_current_required():
-    with pytest.raises(InputError, match="missing required column 'current_a'"):
-        validate_record(record().drop(columns="current_a"), "x.csv")
+def test_power_or_voltage_required():
+    with pytest.raises(InputError, match="missing required column 'voltage_v'"):
+        validate_record(record().drop(columns=["current_a", "voltage_v", "power_w"],
+                                      errors="ignore"), "x.csv")
+    # a vehicle without a current sensor: read, exported, said not replayable downstream
+    only_voltage = validate_record(record().drop(columns=["current_a", "power_w"],
+                                                 errors="ignore"), "x.csv")
+    assert voltage_only(only_voltage) and not has_power(only_voltage)
     only_power = pd.DataFrame({"time_s": [0.0, 1.0], "power_w": [100.0, 110.0]})
     assert validate_record(only_power, "x.csv")["power_w"].dtype == np.float64
     kinematic = pd.DataFrame({"time_s": [0.0, 1.0], "altitude_m": [0.0, 1.0]})

@@ -335,6 +335,9 @@ def prepare_experiments(record, source: str | None = None,
     for src, df in frames:
         src = src if src is not None else source
         df = rec.validate_record(df, src)
+        if rec.voltage_only(df):
+            raise InputError(f"{src or 'data'}: missing required column 'current_a' "
+                             f"({rec.NO_CURRENT}: a battery fit needs the current or power)")
         for key, sub in rec.experiments(df):
             name = str(key) if key is not None else (Path(src).stem if src else "1")
             if name in seen:

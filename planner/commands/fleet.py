@@ -77,10 +77,14 @@ def run(args) -> int:
                        retire=retire, within=within, calibrate=not args.no_calibration)
     ok = int((result.table["status"] == "ok").sum())
     print(f"{result.processed} logs summarised in {result.elapsed_s:.1f} s "
-          f"({len(result.failed)} failed), {result.skipped} already in the table; "
+          f"({len(result.failed)} failed"
+          + (f", {len(result.not_replayable)} not replayable" if result.not_replayable else "")
+          + f"), {result.skipped} already in the table; "
           f"{ok} flights in {result.outputs[0]}")
     for log, err in result.failed:
         print(f"failed: {err}", file=sys.stderr)
+    for log, err in result.not_replayable:
+        print(f"not replayed: {err}", file=sys.stderr)
     for h in result.health:
         if h.retires_within(within):
             print(f"pack {h.pack_id}: state of health {100 * h.soh:.1f} %, reaches "

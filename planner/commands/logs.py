@@ -23,7 +23,11 @@ def export(log: str | Path, csv: str | Path, *, map: str | Path | None = None,
     df, meta = read_log(log, **opts)
     if len(df) == 0:
         raise InputError(f"{log}: no samples to export")
-    write_record(df, csv, require_power=require_battery)
+    from planner.record import voltage_only
+
+    # a voltage-only log (no current sensor) is exported as it is: the reader said once
+    # that its charge and power cannot be replayed
+    write_record(df, csv, require_power=require_battery and not voltage_only(df))
     channels = [c for c in df.columns if c not in ("experiment", "time_s")]
     n_exp = df["experiment"].nunique() if "experiment" in df else 1
     if n_exp > 1:

@@ -68,7 +68,8 @@ def run(args) -> int:
     if csv_out:
         from planner.record import write_record
         from planner.replay import replay_table
-        write_record(replay_table(data, result), csv_out)
+        from planner.record import has_power
+        write_record(replay_table(data, result), csv_out, require_power=has_power(data))
     if plot_out:
         from planner import plots
         plots.save_replay_plot(result, plot_out)
@@ -80,6 +81,8 @@ def run(args) -> int:
 
 
 def render(result) -> str:
+    from planner.record import NO_CURRENT
+
     lines = []
     w = name_width([e.experiment for e in result.experiments], "experiment")
     head = (f"{'experiment':<{w}} {'dur s':>6} {'meas mAh':>9} {'pred mAh':>9} "
@@ -87,6 +90,9 @@ def render(result) -> str:
     lines += [head, "-" * len(head)]
     for e in result.experiments:
         b, p = e.battery, e.power
+        if b is None and p is None and any(n.startswith(NO_CURRENT) for n in e.notes):
+            lines.append(f"{e.experiment:<{w}} {fmt(e.duration_s, 0, 6)}  {NO_CURRENT}")
+            continue
         lines.append(
             f"{e.experiment:<{w}} {fmt(e.duration_s, 0, 6)} "
             f"{fmt(b.measured_final_mah if b else math.nan, 0, 9)} "
@@ -97,6 +103,8 @@ def render(result) -> str:
             f"{fmt(p.energy_error_pct if p else math.nan, 1, 8)}")
     lines.append("-" * len(head))
     for e in result.experiments:
+        if not e.battery and e.notes:
+            lines.append(f"{e.experiment}:")
         if e.battery:
             lines.append(f"{e.experiment}: battery model {e.battery.model}")
             te = e.battery.time_error_s

@@ -725,7 +725,9 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
                     for e in cut_effects]
     cap_level = None
     if not exps:
-        notes.append("capacity level not run: no experiment with power and charge drawn")
+        notes.append("capacity level not run: no experiment with power and charge drawn"
+                     + (f" ({rec.NO_CURRENT}: battery voltage only)"
+                        if rec.voltage_only(df) else ""))
     else:
         try:
             cap_level = S.CapacityLevel(exps, pack)

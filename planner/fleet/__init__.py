@@ -113,6 +113,8 @@ class FleetResult:
         Log → one line of ``diagnose`` for the worst flights.
     calibrations : list of AircraftCalibration
         Each aircraft calibrated on the fleet, scored on held-out flights.
+    not_replayable : list of (str, str)
+        This run's logs that were read but cannot be replayed (no current sensor).
     """
 
     table: pd.DataFrame
@@ -126,6 +128,7 @@ class FleetResult:
     notes: list[str] = field(default_factory=list)
     diagnoses: dict[str, str] = field(default_factory=dict)
     calibrations: list = field(default_factory=list)
+    not_replayable: list[tuple[str, str]] = field(default_factory=list)
 
 
 def collect_logs(paths) -> list[Path]:
@@ -389,7 +392,7 @@ def summarise_all(logs: list[Path], *, aircraft=None, pack=None, pack_map: dict 
         for row in fut.result():
             done += 1
             rows.append(row)
-            failed += row["status"] != "ok"
+            failed += row["status"] == "failed"
         if on_batch is not None:
             on_batch(rows)
         if progress is not None:
@@ -562,7 +565,9 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
             save(so_far, every=0.0)
             raise
         elapsed = time.perf_counter() - t0
-        failed = [(r["log"], r["error"]) for r in rows if r["status"] != "ok"]
+        failed = [(r["log"], r["error"]) for r in rows if r["status"] == "failed"]
+        not_replayable = [(r["log"], r["error"]) for r in rows
+                          if r["status"] == "not replayable"]
         if rows and len(failed) == len(rows) and not skipped:
             listed = "; ".join(f"{err}" for _, err in failed[:5])
             raise InputError(f"all {len(failed)} logs failed: {listed}"
@@ -576,7 +581,7 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
                 cluster.close()
     result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
                          health=[], outputs=[table_path], elapsed_s=elapsed,
-                         diagnoses=diagnoses)
+                         diagnoses=diagnoses, not_replayable=not_replayable)
     if calibrate:
         samples = _samples_table(old_samples, rows,
                                  set(table.loc[table["status"] == "ok", "sha256"]))

@@ -140,9 +140,12 @@ def render(result, *, retire: float, within: float) -> str:
     """The Markdown report (module notes)."""
     table = result.table
     ok = table[table["status"] == "ok"].reset_index(drop=True)
-    bad = table[table["status"] != "ok"]
+    bad = table[table["status"] == "failed"]
+    unusable = table[table["status"] == "not replayable"]
     lines = ["# Fleet report", "",
-             f"{len(ok)} flights in the table ({len(bad)} failed logs); this run summarised "
+             f"{len(ok)} flights in the table ({len(bad)} failed logs"
+             + (f", {len(unusable)} not replayable" if len(unusable) else "")
+             + "); this run summarised "
              f"{result.processed} logs ({len(result.failed)} failed) and found "
              f"{result.skipped} already in the table.", ""]
     ch = error_summary(ok["charge_error_pct"])
@@ -232,6 +235,10 @@ def render(result, *, retire: float, within: float) -> str:
     if result.failed:
         lines += ["## Failed logs (this run)", ""]
         lines += [f"- {_cell(err, 400)}" for _, err in result.failed]
+        lines.append("")
+    if result.not_replayable:
+        lines += ["## Logs read but not replayable (this run)", ""]
+        lines += [f"- {_cell(err, 400)}" for _, err in result.not_replayable]
         lines.append("")
     if result.notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in result.notes] + [""]

@@ -169,6 +169,10 @@ def choose_aircraft(models: dict, key: str | None, meta: dict, path: str
                        "--packs CSV (column aircraft)")
 
 
+class NotReplayable(PlannerError):
+    """A log that is read but cannot be replayed (no current sensor): the row's reason."""
+
+
 def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "unknown",
                   cycle: float | None = None, *, aircraft: Aircraft | None = None,
                   pack: BatteryPack | None = None, payload_kg: float = 0.0,
@@ -222,6 +226,8 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
         notes = list(dict.fromkeys(str(w.message).replace("\n", " ") for w in caught))
         row["warnings"] = "; ".join(filter(None, [row.get("warnings") or ""] + notes)) or None
         row["status"] = "ok"
+    except NotReplayable as exc:
+        row.update(status="not replayable", error=str(exc))
     except PlannerError as exc:
         row.update(status="failed", error=str(exc).splitlines()[0] if str(exc) else
                    type(exc).__name__)
@@ -237,6 +243,10 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
 
     df, meta = read_log(path)
     key, aircraft, pack = choose_aircraft(models, key, meta, path)
+    if not record.has_power(df):
+        raise NotReplayable(f"{path}: {record.NO_CURRENT} (the log has "
+                            + ("battery voltage only)" if "voltage_v" in df else
+                               "no battery data)"))
     df = record.complete_record(df.assign(experiment=Path(path).name))
     df = df.reset_index(drop=True)
     t = df["time_s"].to_numpy(float)

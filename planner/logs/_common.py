@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from planner.errors import InputError
-from planner.record import COLUMNS, cumulative_trapezoid, interpolate_onto
+from planner.record import NO_CURRENT_NOTE, COLUMNS, cumulative_trapezoid, interpolate_onto
 
 #: Columns that come from the battery message (they define the time base).
 BATTERY_COLUMNS = ("voltage_v", "current_a", "consumed_mah", "temperature_c")
@@ -414,6 +414,14 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
                   "beyond a gap of more than 6 h "
                   "(damaged data or a clock reset): "
                   + ", ".join(f"{n} {m}" for m, n in dropped.items()))
+    if "voltage_v" in cols and "current_a" not in cols and "power_w" not in cols:
+        # no current sensor (PX4 logs current −1, ArduPilot no CURR): the autopilot's
+        # consumed-charge counter then stays at zero and means nothing
+        if "consumed_mah" in cols and not np.nanmax(np.abs(cols["consumed_mah"])) > 0:
+            del cols["consumed_mah"]
+            meta["channels"].pop("consumed_mah", None)
+            meta["rates_hz"].pop("consumed_mah", None)
+        meta.warn(f"{meta.source}: {NO_CURRENT_NOTE}")
     if "voltage_v" in cols and "current_a" in cols and "power_w" not in cols:
         cols["power_w"] = np.asarray(cols["voltage_v"], float) * np.asarray(cols["current_a"],
                                                                             float)
