@@ -21,7 +21,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from planner.battery import bench, campaign
+from planner.identify import bench, campaign
 
 
 def sweep(pack: bench.BenchPack, seeds) -> None:

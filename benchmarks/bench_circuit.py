@@ -14,8 +14,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from planner.battery.circuit import CircuitParameters, simulate
-from planner.battery.thermal import ThermalParameters
+from planner.physics.battery.circuit import CircuitParameters, simulate
+from planner.physics.battery.thermal import ThermalParameters
 
 TARGET_MS = 500.0
 

@@ -36,7 +36,7 @@ from diagnose_generators import (
     power_dataset,
 )
 
-from planner.diagnose import diagnose
+from planner.identify.diagnose import diagnose
 
 #: A heavy-lift quad with a 6S 32 Ah pack: a one-hour flight at about 75 % depth.
 BIG_PACK = dict(PACK_6S, name="6S 32 Ah (bench)", capacity_mah=32000, mass_kg=4.2,

@@ -26,7 +26,8 @@ import pandas as pd
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from planner.battery import design, fit, integral
+from planner.identify import protocols as design, battery_fit as fit
+from planner.physics.battery import integral
 
 TRUE = {"delta": 23.6482, "epsilon": -1.0209, "beta": 0.9648}
 

@@ -45,7 +45,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 SHARED = REPO.parent / "shared" / "data" / "logs"
 
-from planner import files  # noqa: E402
+from planner.io import files  # noqa: E402
 from planner.fleet import (  # noqa: E402
     LOG_SUFFIXES,
     batch_size,

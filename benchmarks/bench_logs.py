@@ -9,7 +9,7 @@ Targets (issue "Log replay", part 1):
   DataFlash kept at >= 40x pymavlink;
 * peak memory (tracemalloc) of one read below 3x the file size.
 
-"ours" is the complete :func:`planner.logs.read_log` call: file to flight-record
+"ours" is the complete :func:`planner.io.logs.read_log` call: file to flight-record
 DataFrame, every channel. Times are the best of several runs, ours and the
 reference interleaved; memory is measured in a separate run with tracemalloc on.
 
@@ -30,7 +30,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 LOGS = REPO.parent / "shared" / "data" / "logs"
 
-from planner.logs import LogWarning, read_log
+from planner.io.logs import LogWarning, read_log
 
 
 def timed_pair(a, b, repeat: int) -> tuple[float, float]:
@@ -76,8 +76,8 @@ def ours(path: Path) -> None:
 
 def ulog_decode(path: Path) -> None:
     """The decoder alone (what pyulog.ULog does): the topics of the flight record."""
-    from planner.logs._ulog_decode import decode
-    from planner.logs.ulog import _TOPICS
+    from planner.io.logs._ulog_decode import decode
+    from planner.io.logs.ulog import _TOPICS
 
     decode(path.read_bytes(), _TOPICS)
 
@@ -85,7 +85,7 @@ def ulog_decode(path: Path) -> None:
 def pyulog_topics(path: Path) -> None:
     from pyulog import ULog
 
-    from planner.logs.ulog import _TOPICS
+    from planner.io.logs.ulog import _TOPICS
     with contextlib.redirect_stdout(io.StringIO()):
         ULog(str(path), _TOPICS)
 

@@ -3,7 +3,7 @@
 Data: the CMU package-delivery flights of a DJI M100 (Rodrigues et al., Scientific Data 8,
 155, 2021, DOI 10.1184/R1/12683453, CC BY 4.0), ``../shared/data/energy`` beside the
 repository (see its PROVENANCE.md), read through the repository's column map
-``planner/logs/maps/dji_m100.yaml``.
+``planner/io/logs/maps/dji_m100.yaml``.
 
 Split and metric of A. Choudhry et al., "CVaR-based flight energy risk assessment for
 multirotor UAVs using a deep energy model", ICRA 2021 (repository
@@ -14,7 +14,7 @@ mean over flights (also pooled over all samples). Their figures: Liu analytic mo
 14.05 %, b-TCN deep model 10.38 %; both knew each flight's payload, this copy does not
 (the mass flown is 2.605 kg: 2.355 kg M100 with TB47D plus the middle 0.25 kg payload).
 
-Models, each fitted on the training flights by ``planner.fit_aircraft`` on the same
+Models, each fitted on the training flights by ``planner.identify.aircraft_fit`` on the same
 airborne samples (ISA density at the 300 m site):
 
 * today's — ``power_model: momentum`` (η, drag area f, constant load P_S fitted);
@@ -49,10 +49,10 @@ import yaml
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from planner import flightstate  # noqa: E402
-from planner.chain import MissionChain  # noqa: E402
-from planner.data import load_flight_data  # noqa: E402
-from planner.fit_aircraft import (  # noqa: E402
+from planner.chain import flightstate  # noqa: E402
+from planner.chain.mission_chain import MissionChain  # noqa: E402
+from planner.io.flightdata import load_flight_data  # noqa: E402
+from planner.identify.aircraft_fit import (
     STOPPED_HEIGHT_M,
     STOPPED_POWER_FRACTION,
     STOPPED_SPEED_MS,

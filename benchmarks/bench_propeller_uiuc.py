@@ -8,7 +8,7 @@ J, C_T, C_P, η at about one rotational speed.
 Each sweep is fitted (:mod:`testkit.uiuc`) with
 
 * the planner's propeller model, momentum theory with profile loss,
-  C_P = C_T J + κ C_T λ_i + C_P0 (:mod:`planner.power.propeller`), and
+  C_P = C_T J + κ C_T λ_i + C_P0 (:mod:`planner.physics.power.propeller`), and
 * a constant propulsive efficiency (the polar model without a propeller),
 
 and scored by the RMS error of the efficiency over its rows with positive thrust.

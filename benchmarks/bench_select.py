@@ -6,7 +6,7 @@ and return-home reserves, C rating, take-off mass — in under 1 s with the inte
 model, and in under 3 s when every pack carries circuit and thermal blocks (the
 equivalent circuit and lumped thermal model run along the mission and on to the
 cut-off, vectorised over packs). The alternative it is compared with is a loop of
-:meth:`planner.chain.MissionChain.check` over the same packs, timed on a few hundred
+:meth:`planner.chain.mission_chain.MissionChain.check` over the same packs, timed on a few hundred
 packs and extrapolated to 10 000.
 
 Run: ``python benchmarks/bench_select.py``
@@ -24,10 +24,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from planner.chain import MissionChain
-from planner.mission.legs import Environment, Leg, Mission
+from planner.chain.mission_chain import MissionChain
+from planner.physics.mission import Environment, Leg, Mission
 from planner.parameters import BatteryPack, load_aircraft
-from planner.select import evaluate_packs
+from planner.chain.selection import evaluate_packs
 
 N_PACKS = 10_000
 N_LOOP = 300

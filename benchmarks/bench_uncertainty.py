@@ -3,7 +3,7 @@
 Targets (issue "Decisions an operator flies with"): 10 000 samples under 1 s with the
 integral model and under 5 s with the circuit and thermal model, on the 2-core machine.
 The samples ride on the chain's pack axis, one chain run per weather draw
-(:mod:`planner.uncertainty`). The alternative a user would write is a loop of the
+(:mod:`planner.chain.uncertainty`). The alternative a user would write is a loop of the
 pre-flight check, one sample at a time: timed on 50 samples and scaled to 10 000.
 
 Run: ``python benchmarks/bench_uncertainty.py [--samples N]``
@@ -28,10 +28,10 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 from bench_check import write_waypoints  # noqa: E402
 
-from planner.chain import MissionChain  # noqa: E402
-from planner.mission import load_mission  # noqa: E402
+from planner.chain.mission_chain import MissionChain  # noqa: E402
+from planner.io.mission import load_mission  # noqa: E402
 from planner.parameters import load_aircraft_and_battery  # noqa: E402
-from planner.uncertainty import Spreads, monte_carlo  # noqa: E402
+from planner.chain.uncertainty import Spreads, monte_carlo  # noqa: E402
 
 SPREADS = Spreads(wind_sd_ms=2.0, wind_direction_sd_deg=30.0, gust_factor=1.3,
                   temperature_sd_c=5.0, soh=0.97, soh_sd=0.03, payload_sd_kg=0.05)

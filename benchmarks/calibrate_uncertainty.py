@@ -6,7 +6,7 @@ wide (useless) are both failures.
 
 Data: the CMU package-delivery flights of a DJI Matrice 100 (Rodrigues et al., Scientific
 Data 8, 155 (2021), DOI 10.1184/R1/12683453, CC BY 4.0), ``../shared/data/energy`` beside
-the repository, read through ``planner/logs/maps/dji_m100.yaml``; the cruise flights
+the repository, read through ``planner/io/logs/maps/dji_m100.yaml``; the cruise flights
 (route R of ``m100_flight_summary_derived.csv``).
 
 Procedure:
@@ -15,7 +15,7 @@ Procedure:
    with standard errors), the others are held out.
 2. For each held-out flight the energy of its airborne samples is predicted from its
    measured flight state through the chain's power model
-   (:meth:`planner.chain.MissionChain.power_at`), drawing
+   (:meth:`planner.chain.mission_chain.MissionChain.power_at`), drawing
    * the fitted parameters from normals with their standard errors (``DRAWS`` sets), and
    * the payload from the data set's design, 0, 0.25 or 0.5 kg with equal weight (the
      payload of each flight is not in this copy of the data).
@@ -40,9 +40,9 @@ import pandas as pd
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from planner.chain import MissionChain  # noqa: E402
-from planner.data import load_flight_data  # noqa: E402
-from planner.fit_aircraft import airborne_samples, fit_aircraft, with_params  # noqa: E402
+from planner.chain.mission_chain import MissionChain  # noqa: E402
+from planner.io.flightdata import load_flight_data  # noqa: E402
+from planner.identify.aircraft_fit import airborne_samples, fit_aircraft, with_params  # noqa: E402
 from planner.parameters import load_aircraft_and_battery  # noqa: E402
 
 ENERGY = REPO.parent / "shared" / "data" / "energy"

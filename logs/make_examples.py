@@ -39,9 +39,9 @@ if str(REPO) not in sys.path:           # run from a fresh clone without install
 import numpy as np
 import pandas as pd
 
-from planner.fit_aircraft import with_params
-from planner.mission import load_mission
-from planner.mission.legs import Environment, Mission
+from planner.identify.aircraft_fit import with_params
+from planner.io.mission import load_mission
+from planner.physics.mission import Environment, Mission
 from planner.parameters import load_aircraft_and_battery
 from testkit.flight import simulate_flight
 

@@ -6,7 +6,7 @@ never copied into the repository:
 
 * Molicel INR-21700-P42A (Team-Peryton/21700-Li-ion-Cell-Testing @ 968133a, no licence,
   validation only): constant-current discharges, one sample per ~10 s, read with the
-  shipped column map ``planner/logs/maps/molicel_p42a.yaml``;
+  shipped column map ``planner/io/logs/maps/molicel_p42a.yaml``;
 * Samsung INR18650-30Q (ARTS-Lab, CC BY-SA 4.0): constant-current rate tests C/10…4C,
   1 Hz, with the cell surface temperature;
 * Enertech LiCoO2 pouch (PyBaMM repository, BSD-3-Clause; Ai et al. 2020, J. Electrochem.
@@ -26,7 +26,7 @@ BATTERY = REPO.parent / "shared" / "data" / "battery"
 P42A = BATTERY / "molicel_p42a" / "p42a_discharge_segments_derived.csv"
 Q30 = BATTERY / "samsung_30q_artslab" / "raw"
 ENERTECH = BATTERY / "enertech_lco_pouch" / "raw"
-P42A_MAP = REPO / "planner" / "logs" / "maps" / "molicel_p42a.yaml"
+P42A_MAP = REPO / "planner" / "io" / "logs" / "maps" / "molicel_p42a.yaml"
 
 #: Samsung 30Q rate tests: (cell, rate label) → file name. [-]
 Q30_RATES = ("C10", "1C", "2C", "3C", "4C")
@@ -47,7 +47,7 @@ def p42a(test: str | tuple[str, ...] = "cycle") -> pd.DataFrame:
 
     Columns: experiment, time_s, voltage_v, current_a, consumed_mah, power_w (= V·I).
     """
-    from planner.data import load_flight_data
+    from planner.io.flightdata import load_flight_data
 
     tests = (test,) if isinstance(test, str) else tuple(test)
     df, _ = load_flight_data(P42A, column_map=P42A_MAP)

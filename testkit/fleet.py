@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from planner.mission.legs import Environment, Leg, Mission
+from planner.physics.mission import Environment, Leg, Mission
 from planner.parameters import Aircraft, BatteryPack, load_aircraft_and_battery
 
 REPO = Path(__file__).resolve().parents[1]
@@ -136,7 +136,7 @@ def aircraft_files() -> dict[str, Path]:
 
 def true_aircraft(key: str) -> tuple[Aircraft, BatteryPack]:
     """The aircraft ``key`` as flown (:data:`TRUTH` applied to its file) and its pack."""
-    from planner.fit_aircraft import get_param, with_params
+    from planner.identify.aircraft_fit import get_param, with_params
 
     aircraft, pack = load_aircraft_and_battery(aircraft_files()[key])
     values = {name: get_param(aircraft, name) * factor

@@ -4,7 +4,7 @@ Used for the example logs the repository ships (``logs/``, all marked
 simulated), for tests with known true parameters, and for demonstrations.
 The aircraft's power model gives the electric power of every leg; a seeded
 turbulence term (an AR(1) process, 3 % by default) makes it look measured;
-the equivalent-circuit pack model (:mod:`planner.battery.circuit`) turns the
+the equivalent-circuit pack model (:mod:`planner.physics.battery.circuit`) turns the
 power into terminal voltage and current; the logger's consumed charge is the
 integral of that current. Sensor noise is added to voltage and current.
 """
@@ -15,11 +15,11 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
-from planner import profile as prof
-from planner.battery.circuit import simulate
-from planner.mission.legs import Environment, Mission
+from planner.chain import kinematics as prof
+from planner.physics.battery.circuit import simulate
+from planner.physics.mission import Environment, Mission
 from planner.parameters import Aircraft, BatteryPack
-from planner.wind import wind_vector
+from planner.physics.wind import wind_vector
 
 
 def simulate_flight(mission: Mission, aircraft: Aircraft, pack: BatteryPack, *,
@@ -75,7 +75,7 @@ def simulate_flight(mission: Mission, aircraft: Aircraft, pack: BatteryPack, *,
     voltage = battery.voltage_v + voltage_noise_v * rng.standard_normal(t.size)
     amsl = env.site_altitude_m + alt
     w_e, w_n = wind_vector(env.wind_speed_ms, env.wind_from_deg)
-    from planner import atmosphere
+    from planner.physics import atmosphere
     pressure = atmosphere.pressure(amsl) if env.pressure_pa is None else (
         env.pressure_pa * atmosphere.pressure(amsl) / atmosphere.pressure(env.site_altitude_m))
     return pd.DataFrame({

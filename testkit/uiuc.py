@@ -1,5 +1,5 @@
 """The UIUC propeller database's wind-tunnel sweeps (``../shared/data/props/uiuc``) and the
-fit of :mod:`planner.power.propeller`'s coefficient form to each.
+fit of :mod:`planner.physics.power.propeller`'s coefficient form to each.
 
 Data: J. B. Brandt, R. W. Deters, G. K. Ananda, O. D. Dantsker and M. S. Selig, UIUC
 Propeller Database, Vols 1–4, University of Illinois at Urbana-Champaign,
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from planner.power.propeller import inflow_ratio, power_coefficient
+from planner.physics.power.propeller import inflow_ratio, power_coefficient
 
 REPO = Path(__file__).resolve().parents[1]
 UIUC = REPO.parent / "shared" / "data" / "props" / "uiuc"

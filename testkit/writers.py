@@ -58,9 +58,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from planner import atmosphere
+from planner.physics import atmosphere
 from planner.errors import InputError
-from planner.record import cumulative_trapezoid
+from planner.io.record import cumulative_trapezoid
 
 __all__ = ["SIMULATED_TEXT", "write_dataflash", "write_log", "write_tlog", "write_ulog"]
 
@@ -188,7 +188,7 @@ def _flight(record: pd.DataFrame, home, where: str) -> _Flight:
     home = tuple(float(x) for x in (home or (0.0, 0.0, 0.0)))
     if len(home) != 3:
         raise ValueError(f"{where}: home must be (lat_deg, lon_deg, alt_amsl_m)")
-    from planner.mission.geo import en_to_latlon
+    from planner.physics.geo import en_to_latlon
     lat, lon = en_to_latlon(east, north, home[0], home[1])
     amsl = home[2] + alt
 
@@ -240,7 +240,7 @@ def _ardupilot_mode(name: str, mav_type: int, where: str) -> int:
 
 
 def _px4_nav_state(name: str, where: str) -> int:
-    from planner.logs.ulog import NAV_STATE_NAMES
+    from planner.io.logs.ulog import NAV_STATE_NAMES
     by_name = {v: k for k, v in NAV_STATE_NAMES.items()}
     key = name if name in by_name else _AP_TO_PX4.get(name, name)
     if key not in by_name:

@@ -1,13 +1,10 @@
 """Shared fixtures: paths to the repository's data and to the real third-party data."""
 
-import sys
 from pathlib import Path
 
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:  # the test tooling package ``testkit`` lives at the root
-    sys.path.insert(0, str(REPO))
 SHARED_DATA = REPO.parent / "shared" / "data"
 
 

@@ -31,7 +31,7 @@ SHARED = REPO.parent / "shared" / "data"
 ELLIPSIS = {"...", "…"}
 #: Options whose value is a file the command writes.
 OUTPUT_OPTIONS = {"--out", "--json", "--plot", "--csv", "--params-out", "--sorties-out"}
-_RUN = "import sys; from planner.cli import main; sys.exit(main(sys.argv[1:]))"
+_RUN = "import sys; from planner.cli.main import main; sys.exit(main(sys.argv[1:]))"
 
 
 @dataclass

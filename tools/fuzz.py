@@ -326,7 +326,7 @@ def log_cases(n: int, rng: random.Random, work: Path) -> list[Case]:
     seeds = _seed_logs()
     csv_seed = work / "seed_record.csv"
     if not csv_seed.exists():
-        from planner.cli import main
+        from planner.cli.main import main
         main(["export", str(REPO / "logs/sim_solo_calm.bin"), "--csv", str(csv_seed)])
     seeds.append(csv_seed)
     solo = str(REPO / "aircraft/solo_survey.yaml")
@@ -503,7 +503,7 @@ def _child(case: Case, out_path: Path, err_path: Path) -> None:
     import warnings
 
     warnings.simplefilter("default")
-    from planner.cli import main
+    from planner.cli.main import main
 
     try:
         status = main(case.argv)
@@ -526,7 +526,7 @@ def run_cases(cases: list[Case], work: Path, jobs: int = 2,
     import contextlib
     import io
 
-    from planner.cli import main
+    from planner.cli.main import main
 
     # import and compile what the commands use once, before forking the workers
     solo = str(REPO / "aircraft/solo_survey.yaml")

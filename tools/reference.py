@@ -2,8 +2,8 @@
 
 The key tables of the definition files (every key, its type, whether it is required,
 its default and its allowed range) and the flight record's columns are read from the
-schemas the loaders validate with (:mod:`planner.parameters`, :mod:`planner.record`,
-:mod:`planner.mission.yaml_mission`), so the reference cannot drift from what the
+schemas the loaders validate with (:mod:`planner.parameters`, :mod:`planner.io.record`,
+:mod:`planner.io.mission.yaml_mission`), so the reference cannot drift from what the
 planner accepts. Text between ``<!-- generated: NAME -->`` and ``<!-- end -->`` is
 replaced; the rest of each page is written by hand.
 
@@ -82,9 +82,10 @@ def list_table(keys, prefix: str = "") -> str:
 
 
 def sections() -> dict[str, str]:
-    from planner import record
-    from planner.mission import yaml_mission as ym
-    from planner.parameters import aircraft, blocks, catalog, columnmap, pack
+    from planner.io import record
+    from planner.io.mission import yaml_mission as ym
+    from planner.parameters import aircraft, blocks, catalog, pack
+    from planner.io.logs import columnmap
 
     out = {
         "aircraft": key_table(aircraft.AIRCRAFT_KEYS),

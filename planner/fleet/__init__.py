@@ -25,8 +25,8 @@ in the metadata), else the ``--packs`` CSV (columns ``log``, ``pack``, optionall
 CSV's ``aircraft``, else the only one, else the one of the log's vehicle type
 (:func:`planner.fleet.summary.choose_aircraft`).
 
-Every input passes :func:`planner.files.input_path`; every output goes through
-:mod:`planner.files`, and ``DIR`` may not contain an input file.
+Every input passes :func:`planner.io.files.input_path`; every output goes through
+:mod:`planner.io.files`, and ``DIR`` may not contain an input file.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from typing import NamedTuple
 
 import pandas as pd
 
-from planner import files
+from planner.io import files
 from planner.errors import InputError
 from planner.fleet.health import RETIRE_DEFAULT, PackHealth, pack_health
 from planner.fleet.summary import (
@@ -501,7 +501,8 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
               pack_map: dict | None = None, workers: int | None = None,
               scheduler: str | None = None, client=None, retire: float = RETIRE_DEFAULT,
               within: float = WITHIN_DEFAULT, progress=True,
-              checkpoint_s: float | None = None, calibrate: bool = True) -> FleetResult:
+              checkpoint_s: float | None = None, calibrate: bool = True,
+              figures=None) -> FleetResult:
     """Run a fleet (module notes).
 
     ``aircraft``: an Aircraft (its key in the table is its name) or a mapping key →
@@ -512,7 +513,9 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     (True), none (False) or an object with ``update(done, failed, skipped)``. The table
     is written every ``checkpoint_s`` seconds (default :data:`CHECKPOINT_S`) and when
     the run is interrupted. ``calibrate``: calibrate each aircraft on the fleet
-    (:mod:`planner.fleet.calibrate`).
+    (:mod:`planner.fleet.calibrate`). ``figures``: draws the report's figures
+    (:func:`planner.fleet.report.write_report`; the command line passes
+    :func:`planner.cli.plots.fleet.write_figures`); None: a text report.
 
     Raises
     ------
@@ -624,5 +627,5 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
             result.outputs += list(result.pack_files.values())
     from planner.fleet.report import write_report
 
-    result.outputs += write_report(result, out, retire=retire, within=within)
+    result.outputs += write_report(result, out, retire=retire, within=within, figures=figures)
     return result

@@ -9,7 +9,7 @@ flights). For each aircraft of the run:
   divisible by :data:`HOLDOUT_EVERY` (about one flight in five, the same flights on every
   rerun and whatever order the logs come in); with no such flight, the flight of the
   smallest hash is held out;
-* **fit** — :func:`planner.fit_aircraft.fit_aircraft` on the other flights (its
+* **fit** — :func:`planner.identify.aircraft_fit.fit_aircraft` on the other flights (its
   parameters: η, drag area and constant load of a multirotor; C_D0, K, η and the constant
   load of a fixed wing; the ``rotor_losses`` terms for that model), at the aircraft's
   all-up mass with its pack;
@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from planner import files
+from planner.io import files
 from planner.errors import PlannerError
-from planner.fit_aircraft import fit_aircraft
+from planner.identify.aircraft_fit import fit_aircraft
 from planner.fleet.summary import safe_stem
 
 #: One flight in about this many is held out (by content hash).

@@ -12,8 +12,8 @@
   its parameters with standard errors, and its error on held-out flights against the
   aircraft file as given.
 
-Figures are :class:`matplotlib.figure.Figure` objects (:func:`planner.plots.figure`),
-written through :func:`planner.plots.save`.
+The figures it shows are drawn by the command line (``figures`` of :func:`write_report`:
+:func:`planner.cli.plots.fleet.write_figures`); without them the report is text only.
 """
 
 from __future__ import annotations
@@ -24,9 +24,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from planner import files
+from planner.io import files
 from planner.fleet.health import cycle_order
-from planner.plots import figure, save
 
 #: Flights listed as the worst.
 WORST = 10
@@ -68,75 +67,7 @@ def _cell(text, width: int = 160) -> str:
     return one if len(one) <= width else one[:width - 1] + "…"
 
 
-def plot_accuracy(ok: pd.DataFrame):
-    """Predicted vs measured charge and energy, one point per flight, with the 1:1 line."""
-    fig, (a1, a2) = figure(1, 2, figsize=(10, 4.4))
-    for ax, meas, pred, what, unit in (
-            (a1, "charge_mah", "predicted_charge_mah", "charge drawn", "mAh"),
-            (a2, "airborne_energy_wh", "predicted_energy_wh", "airborne energy", "Wh")):
-        m = pd.to_numeric(ok[meas], errors="coerce").to_numpy(float)
-        p = pd.to_numeric(ok[pred], errors="coerce").to_numpy(float)
-        good = np.isfinite(m) & np.isfinite(p)
-        ax.plot(m[good], p[good], "o", ms=3.5, alpha=0.7, color="C0",
-                label=f"flights ({good.sum()})")
-        if good.any():
-            lim = [0.0, 1.05 * float(max(m[good].max(), p[good].max()))]
-            ax.plot(lim, lim, "k--", lw=1, label="predicted = measured")
-        ax.set_xlabel(f"measured {what} [{unit}]")
-        ax.set_ylabel(f"predicted {what} [{unit}]")
-        ax.set_title(f"{what}: planner vs log")
-        ax.grid(alpha=0.3)
-        ax.legend(loc="upper left", fontsize=8)
-    fig.tight_layout()
-    return fig
-
-
-def plot_drift(ok: pd.DataFrame, order: np.ndarray):
-    """Charge and energy error against the flight order."""
-    fig, ax = figure(figsize=(9, 4))
-    for col, label, colour in (("charge_error_pct", "charge (measured − predicted)", "C0"),
-                               ("energy_error_pct", "energy (predicted − measured)", "C3")):
-        y = pd.to_numeric(ok[col], errors="coerce").to_numpy(float)
-        good = np.isfinite(y)
-        if good.any():
-            ax.plot(order[good], y[good], "o", ms=3, alpha=0.7, color=colour, label=label)
-    ax.axhline(0.0, color="k", lw=0.7)
-    ax.set_xlabel("flight (in order of start time, else log name)")
-    ax.set_ylabel("error [% of measured]")
-    ax.set_title("prediction error over the fleet's flights")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    return fig
-
-
-def plot_packs(ok: pd.DataFrame, health, retire: float):
-    """Each pack's per-flight state of health :math:`a/s_i` against its cycle, the fitted
-    fade and the retirement threshold."""
-    fig, ax = figure(figsize=(9, 4.6))
-    for k, h in enumerate(health):
-        flights = ok[ok["pack_id"] == h.pack_id]
-        n = cycle_order(flights)
-        s = flights["delta_scale"].to_numpy(float)
-        colour = f"C{k % 10}"
-        if math.isfinite(h.scale_new):
-            ax.plot(n, h.scale_new / s, "o", ms=3, color=colour, alpha=0.7,
-                    label=f"pack {h.pack_id}")
-            if math.isfinite(h.fade_per_cycle):
-                grid = np.linspace(0.0, max(float(np.nanmax(n)), 1.0), 50)
-                ax.plot(grid, 1.0 / (1.0 + h.fade_per_cycle * grid), "-", color=colour, lw=1)
-    ax.axhline(retire, color="k", ls="--", lw=1, label=f"retirement at {100 * retire:.0f} %")
-    ax.set_xlabel("cycle [flights]")
-    ax.set_ylabel("state of health [share of the new pack's energy]")
-    ax.set_title("pack health: charge per energy relative to new, and the fitted fade")
-    ax.grid(alpha=0.3)
-    if health:
-        ax.legend(loc="lower left", fontsize=7, ncol=2)
-    fig.tight_layout()
-    return fig
-
-
-def render(result, *, retire: float, within: float) -> str:
+def render(result, *, retire: float, within: float, with_figures: bool = True) -> str:
     """The Markdown report (module notes)."""
     table = result.table
     ok = table[table["status"] == "ok"].reset_index(drop=True)
@@ -164,8 +95,9 @@ def render(result, *, retire: float, within: float) -> str:
               f"{_fmt(en['p95_abs_pct'], 2, ' %')} | {_fmt(d_en, 3, ' %')} ± "
               f"{_fmt(d_en_se, 3, ' %')} |", "",
               "Errors are in per cent of the measured value. Drift is the least-squares slope "
-              "of the error against the flight's order, with its standard error.", "",
-              "![predicted vs measured](accuracy.png)", "", "![drift](drift.png)", ""]
+              "of the error against the flight's order, with its standard error.", ""]
+    if with_figures:
+        lines += ["![predicted vs measured](accuracy.png)", "", "![drift](drift.png)", ""]
     if len(ok):
         worst = ok.assign(_abs=ok["charge_error_pct"].abs()).sort_values(
             "_abs", ascending=False, na_position="last").head(WORST)
@@ -203,7 +135,9 @@ def render(result, *, retire: float, within: float) -> str:
                 f"‰ | {_fmt(h.flights_to_retire, 0)} | "
                 f"{_fmt(h.resistance_ohm * 1e3, 1)} ± {_fmt(h.resistance_se_ohm * 1e3, 1)} | "
                 f"{'packs/' + f.name if f else '–'} | {flag} |")
-        lines += ["", "![pack health](packs.png)", ""]
+        lines.append("")
+        if with_figures:
+            lines += ["![pack health](packs.png)", ""]
     cals = getattr(result, "calibrations", []) or []
     if cals:
         lines += ["## Aircraft calibrated on the fleet", "",
@@ -245,17 +179,13 @@ def render(result, *, retire: float, within: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_report(result, out: Path, *, retire: float, within: float) -> list[Path]:
-    """Write ``report.md`` and its PNG figures into ``out``; return the paths."""
-    ok = result.table[result.table["status"] == "ok"].reset_index(drop=True)
-    written = []
-    figs = [("accuracy.png", plot_accuracy(ok)),
-            ("drift.png", plot_drift(ok, cycle_order(ok) if len(ok) else np.array([])))]
-    if result.health:
-        figs.append(("packs.png", plot_packs(ok, result.health, retire)))
-    for name, fig in figs:
-        save(fig, out / name, "--out")
-        written.append(out / name)
-    files.write_text(out / "report.md", render(result, retire=retire, within=within), "--out")
+def write_report(result, out: Path, *, retire: float, within: float, figures=None,
+                 option: str = "output folder") -> list[Path]:
+    """Write ``report.md`` into ``out`` and, with ``figures`` (a callable
+    ``figures(result, out, retire=…)`` that draws and returns the PNG files), its figures;
+    return the paths written. ``option`` names the output in messages."""
+    written = list(figures(result, out, retire=retire)) if figures is not None else []
+    text = render(result, retire=retire, within=within, with_figures=bool(written))
+    files.write_text(out / "report.md", text, option)
     written.append(out / "report.md")
     return written

@@ -8,14 +8,14 @@ Per flight it records what the operator reads off a logbook (duration, energy, c
 what the planner predicted for it:
 
 * **charge** — the chain's battery model driven by the measured power
-  (:func:`planner.replay.battery_replay`, [UAV23] eq. 14) against the logger's consumed
+  (:func:`planner.identify.replay.battery_replay`, [UAV23] eq. 14) against the logger's consumed
   charge at the end of the flight;
 * **energy** — the chain's power model driven by the measured flight state
-  (:func:`planner.replay.power_replay`) against the measured electric energy over the
+  (:func:`planner.identify.replay.power_replay`) against the measured electric energy over the
   airborne samples;
 * **δ scale** — the least-squares factor :math:`s` in :math:`C(t) = s\\,\\hat C(t)`
   between the measured charge and the model's charge along the flight, with its standard
-  error (AR(1)-inflated, :func:`planner.stats.covariance`). For the integral model
+  error (AR(1)-inflated, :func:`planner.identify.stats.covariance`). For the integral model
   :math:`\\hat C^\\beta = \\int dt / (\\delta P^\\varepsilon)` a factor :math:`s` on the
   charge is :math:`\\delta \\to \\delta s^{-\\beta}`; a pack that draws more charge for the
   same energy as it ages has :math:`s` rising with its cycles (the ``fade_per_cycle`` of
@@ -39,11 +39,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from planner import record, stats
-from planner.chain import MissionChain
+from planner.io import record
+from planner.identify import stats
+from planner.chain.mission_chain import MissionChain
 from planner.errors import PlannerError
 from planner.parameters import Aircraft, BatteryPack
-from planner.replay import _replay_pack, battery_replay, detect_cells, power_replay
+from planner.identify.replay import _replay_pack, battery_replay, detect_cells, power_replay
 
 #: Smallest current step used for the resistance. [A]
 STEP_MIN_A = 2.0
@@ -60,8 +61,8 @@ _HASH_BLOCK = 1 << 20
 #: Most samples of one flight kept for the fleet's aircraft calibration (every k-th sample
 #: of the record): 300 samples of 1 000 000 flights are 3·10⁸ rows, a few GB of Parquet.
 CALIBRATION_SAMPLES = 300
-#: Record columns kept for the calibration (those :func:`planner.flightstate.from_record`
-#: and :func:`planner.fit_aircraft.fit_aircraft` read).
+#: Record columns kept for the calibration (those :func:`planner.chain.flightstate.from_record`
+#: and :func:`planner.identify.aircraft_fit.fit_aircraft` read).
 CALIBRATION_COLUMNS = ("time_s", "power_w", "altitude_m", "climb_rate_ms", "groundspeed_ms",
                        "airspeed_ms", "course_deg", "pressure_pa", "ambient_temperature_c",
                        "wind_n_ms", "wind_e_ms", "specific_force_ms2", "throttle", "mode")
@@ -183,7 +184,7 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
     Parameters
     ----------
     path : str
-        The log file (any format :func:`planner.logs.read_log` takes).
+        The log file (any format :func:`planner.io.logs.read_log` takes).
     aircraft : Aircraft, optional
         Enables the energy (power-level) comparison.
     pack : BatteryPack, optional
@@ -239,7 +240,7 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
 
 def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, samples
           ) -> None:
-    from planner.logs import read_log
+    from planner.io.logs import read_log
 
     df, meta = read_log(path)
     key, aircraft, pack = choose_aircraft(models, key, meta, path)
@@ -327,11 +328,11 @@ def calibration_samples(df: pd.DataFrame) -> pd.DataFrame:
 
 def diagnose_log(path: str, *, aircraft: Aircraft | None = None,
                  pack: BatteryPack | None = None) -> str:
-    """One line of :func:`planner.diagnose.diagnose` on one log (DESIGN §6): its findings'
+    """One line of :func:`planner.identify.diagnose.diagnose` on one log (DESIGN §6): its findings'
     headlines, or that the calibrated model explains the flight, with what stays unexplained.
     Never raises: a log that cannot be diagnosed gives the reason."""
-    from planner.diagnose import diagnose
-    from planner.logs import read_log
+    from planner.identify.diagnose import diagnose
+    from planner.io.logs import read_log
 
     try:
         with warnings.catch_warnings():

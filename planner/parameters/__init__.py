@@ -6,7 +6,7 @@ objects; nothing else in the planner opens a definition file. The physics (layer
 these objects or plain numbers; the mission chain (layer 3) composes them.
 """
 
-from planner import schema as _schema
+from planner.io import schema as _schema
 from planner.parameters.aircraft import (
     Aircraft,
     FixedWing,

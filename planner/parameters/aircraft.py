@@ -4,9 +4,9 @@
 also reads the pack the aircraft names. Every file is validated when it is loaded and
 every problem is reported at once in one line naming the file and the key. The tables
 ``AIRCRAFT_KEYS``, ``FIXED_WING_KEYS`` and ``MULTIROTOR_KEYS`` are the schema, with the
-bounds of :mod:`planner.parameters.limits`; ``POWER_MODEL_KEYS`` lists the keys each
+bounds of :mod:`planner.physics.limits`; ``POWER_MODEL_KEYS`` lists the keys each
 multirotor power model needs. :class:`Aircraft` methods stay thin: they pass the stored
-parameters to the pure power models of :mod:`planner.power`.
+parameters to the pure power models of :mod:`planner.physics.power`.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from planner import schema as S
+from planner.io import schema as S
 from planner.errors import InputError
-from planner.parameters.limits import (
+from planner.physics.limits import (
     AIRSPEED_MIN_MS,
     CP_MIN,
     CT_MIN,
@@ -44,7 +44,7 @@ from planner.parameters.limits import (
     WING_AREA_MIN_M2,
 )
 from planner.parameters.pack import BatteryPack, load_battery
-from planner.power.fixed_wing import min_loiter_radius
+from planner.physics.power.fixed_wing import min_loiter_radius
 
 __all__ = ["AIRCRAFT_KEYS", "FIXED_WING_KEYS", "MULTIROTOR_KEYS", "Aircraft", "FixedWing",
            "Multirotor", "aircraft_from_mapping", "default_battery_path", "load_aircraft",
@@ -83,7 +83,7 @@ FIXED_WING_KEYS = {
     # the default 60 m is widened to it when the aircraft is too fast to turn that tight
     "loiter_radius_m": S.positive(default=60.0, high=LOITER_RADIUS_MAX_M),
     "loiter_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
-    # the propulsive-efficiency curve (planner.power.propeller): with a propeller diameter
+    # the propulsive-efficiency curve (planner.physics.power.propeller): with a propeller diameter
     # the shaft power is T V + κ T v_i + P0 and ``efficiency`` is the motor and ESC's only
     "propeller_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M),
     "propellers": S.Key(S.INTEGER, default=1, low=1, high=16),
@@ -104,7 +104,7 @@ MULTIROTOR_KEYS = {
     "figure_of_merit": S.Key(S.NUMBER, low=0.2, high=1.0),
     "tip_speed_ms": S.between(TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS),
     "max_thrust_n": S.positive(high=THRUST_MAX_N),
-    # power_model rotor_losses (planner.power.rotor_losses): motor losses at the reference
+    # power_model rotor_losses (planner.physics.power.rotor_losses): motor losses at the reference
     # hover, the drive efficiency between pack and motors, and the log's power lead
     "no_load_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
     "copper_loss_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
@@ -243,8 +243,8 @@ class Aircraft:
         """Electric power drawn from the pack in steady flight.
 
         Thin wrapper: passes the stored parameters to the pure power models
-        (:mod:`planner.power.fixed_wing`, :mod:`planner.power.multirotor`,
-        :mod:`planner.power.momentum`). All arguments broadcast.
+        (:mod:`planner.physics.power.fixed_wing`, :mod:`planner.physics.power.multirotor`,
+        :mod:`planner.physics.power.momentum`). All arguments broadcast.
 
         Parameters
         ----------
@@ -288,7 +288,7 @@ class Aircraft:
         (:func:`planner.power.rotor_losses.rotor_losses_battery_power`): ``system_power_w``
         is the power with the rotors stopped, ``drive_efficiency`` replaces ``efficiency``.
         The reference hover is at ``reference_mass_kg`` (default: ``mass``). [W]"""
-        from planner.power import rotor_losses
+        from planner.physics.power import rotor_losses
         m = self.multirotor
         return rotor_losses.rotor_losses_battery_power(
             mass, air_density, m.rotors, m.rotor_diameter_m, m.drive_efficiency,
@@ -304,27 +304,27 @@ class Aircraft:
         if self.is_multirotor:
             m = self.multirotor
             if m.power_model == "propeller":
-                from planner.power import multirotor
+                from planner.physics.power import multirotor
                 return multirotor.propeller_battery_power(
                     mass * load_factor, air_density, m.rotors, m.rotor_diameter_m, m.ct, m.cp,
                     self.efficiency, climb_rate=climb_rate, airspeed=airspeed,
                     drag_area=m.drag_area_m2, system_power=self.system_power_w)
-            from planner.power import momentum
+            from planner.physics.power import momentum
             return momentum.momentum_battery_power(
                 mass, air_density, m.rotors, m.rotor_diameter_m, self.efficiency,
                 airspeed=airspeed, climb_rate=climb_rate, drag_area=m.drag_area_m2,
                 induced_factor=m.induced_factor, figure_of_merit=m.figure_of_merit,
                 tip_speed=m.tip_speed_ms, system_power=self.system_power_w,
                 load_factor=load_factor)
-        from planner.power import fixed_wing
+        from planner.physics.power import fixed_wing
         f = self.fixed_wing
         required = fixed_wing.required_power(airspeed, air_density, mass, f.wing_area_m2, f.cd0,
                                              f.k, climb_rate=climb_rate,
                                              load_factor=load_factor)
         if f.propeller_diameter_m:
             # the propulsive-efficiency curve: thrust T = P_R / V through the propeller
-            # model (planner.power.propeller); ``efficiency`` is then the motor and ESC's
-            from planner.power import propeller
+            # model (planner.physics.power.propeller); ``efficiency`` is then the motor and ESC's
+            from planner.physics.power import propeller
             v = np.asarray(airspeed, float)
             with np.errstate(invalid="ignore", divide="ignore"):
                 thrust = np.where(v > 0.0, np.asarray(required, float) / v, np.nan)
@@ -428,7 +428,7 @@ def _fixed_wing(data: Any, where: str, problems: list[str]) -> FixedWing | None:
             problems.append("fixed_wing needs 'k' or both 'aspect_ratio' and "
                             "'oswald_efficiency' (K = 1/(π e AR))")
         elif given("aspect_ratio") and given("oswald_efficiency"):
-            from planner.power import fixed_wing
+            from planner.physics.power import fixed_wing
             k = float(fixed_wing.induced_drag_factor(d["aspect_ratio"], d["oswald_efficiency"]))
     elif d["aspect_ratio"] is not None:
         problems.append("fixed_wing: give either 'k' or 'aspect_ratio'/'oswald_efficiency', "
@@ -495,7 +495,7 @@ def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None
     if model in ("momentum", "rotor_losses") and not bad & {"figure_of_merit",
                                                             "induced_factor"}:
         # momentum theory: profile power P0/P_ideal = 1/FM − κ must not be negative
-        from planner.power.momentum import DEFAULT_FIGURE_OF_MERIT
+        from planner.physics.power.momentum import DEFAULT_FIGURE_OF_MERIT
         fm, kappa = d["figure_of_merit"], d["induced_factor"]
         if fm is None and kappa * DEFAULT_FIGURE_OF_MERIT > 1.0:
             problems.append(f"multirotor.induced_factor must be at most "

@@ -1,16 +1,16 @@
 r"""The ``circuit:``, ``thermal:`` and ``supercap:`` blocks of definition files.
 
 Each block is validated once, when its file is loaded, and becomes a typed object: the
-``thermal:`` block a :class:`~planner.battery.thermal.ThermalParameters`, the
-``supercap:`` block a :class:`~planner.battery.supercap.SupercapParameters`, and the
+``thermal:`` block a :class:`~planner.physics.battery.thermal.ThermalParameters`, the
+``supercap:`` block a :class:`~planner.physics.battery.supercap.SupercapParameters`, and the
 ``circuit:`` block a :class:`CircuitBlock` — the block as written (per cell, with the OCV
 table read once), which :meth:`CircuitBlock.parameters` completes from the pack (capacity,
 R0 and layout where the block leaves them out) into the
-:class:`~planner.battery.circuit.CircuitParameters` the physics runs on.
+:class:`~planner.physics.battery.circuit.CircuitParameters` the physics runs on.
 
 The keys, units and defaults of each block are tabulated in the module docstring of its
-model (:mod:`planner.battery.circuit`, :mod:`planner.battery.thermal`,
-:mod:`planner.battery.supercap`); the bounds are the tables below.
+model (:mod:`planner.physics.battery.circuit`, :mod:`planner.physics.battery.thermal`,
+:mod:`planner.physics.battery.supercap`); the bounds are the tables below.
 """
 
 from __future__ import annotations
@@ -20,16 +20,16 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from planner import schema as S
-from planner.battery.circuit import (
+from planner.io import schema as S
+from planner.physics.battery.circuit import (
     DEFAULT_CAPACITY_TEMP_COEFF,
     DEFAULT_R0_ACTIVATION_J_MOL,
     CircuitParameters,
     parse_r0,
 )
-from planner.battery.ocv import lipo_ocv
-from planner.battery.supercap import SupercapParameters
-from planner.battery.thermal import T_RANGE_C, ThermalParameters
+from planner.physics.battery.ocv import lipo_ocv
+from planner.physics.battery.supercap import SupercapParameters
+from planner.physics.battery.thermal import T_RANGE_C, ThermalParameters
 from planner.errors import InputError
 from planner.parameters.ocv import read_ocv_csv
 
@@ -71,7 +71,7 @@ class CircuitBlock:
 
     Every field is the block's value per cell; ``None`` where the block leaves it to the
     pack (``capacity_ah``, ``r0_ohm``, ``cells_series``, ``cells_parallel``). See
-    :class:`~planner.battery.circuit.CircuitParameters` for the meaning and units.
+    :class:`~planner.physics.battery.circuit.CircuitParameters` for the meaning and units.
     """
 
     capacity_ah: float | None = None

@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from planner import schema as S
+from planner.io import schema as S
 from planner.errors import InputError
 from planner.parameters.pack import BatteryPack, battery_from_mapping, load_battery
 

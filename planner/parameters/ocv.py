@@ -1,7 +1,7 @@
 """OCV tables: the ``soc [1], ocv [V]`` CSV files a ``circuit:`` block names.
 
 A table is read once, when the pack file that names it is loaded, into a
-:class:`planner.battery.ocv.OcvTable`; ``fit-battery --circuit-rates`` writes one beside
+:class:`planner.physics.battery.ocv.OcvTable`; ``fit-battery --circuit-rates`` writes one beside
 the pack it fits.
 """
 
@@ -10,8 +10,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from planner import files
-from planner.battery.ocv import OcvTable, ocv_table
+from planner.io import files
+from planner.physics.battery.ocv import OcvTable, ocv_table
 from planner.errors import InputError
 
 __all__ = ["read_ocv_csv", "write_ocv_csv"]

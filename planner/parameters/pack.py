@@ -4,7 +4,7 @@
 loaded and every problem is reported at once in one line naming the file and the key
 (:class:`planner.errors.InputError`); the ``circuit:`` and ``thermal:`` blocks become
 typed objects then (:mod:`planner.parameters.blocks`). ``BATTERY_KEYS`` and ``MODEL_KEYS``
-are the schema, with the bounds of :mod:`planner.parameters.limits`.
+are the schema, with the bounds of :mod:`planner.physics.limits`.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from planner import schema as S
-from planner.battery import integral
-from planner.battery.circuit import CircuitParameters
-from planner.battery.thermal import ThermalParameters
+from planner.io import schema as S
+from planner.physics.battery import integral
+from planner.physics.battery.circuit import CircuitParameters
+from planner.physics.battery.thermal import ThermalParameters
 from planner.errors import InputError
 from planner.parameters.blocks import (
     CircuitBlock,
@@ -28,13 +28,8 @@ from planner.parameters.blocks import (
     thermal_from_mapping,
     thermal_to_mapping,
 )
-from planner.parameters.limits import (
-    CAPACITY_MAX_MAH,
-    CAPACITY_MIN_MAH,
-    DISCHARGE_C_MAX,
-    MASS_MAX_KG,
-)
-from planner.units import AS_PER_MAH
+from planner.physics.limits import CAPACITY_MAX_MAH, CAPACITY_MIN_MAH, DISCHARGE_C_MAX, MASS_MAX_KG
+from planner.physics.units import AS_PER_MAH
 
 __all__ = ["BATTERY_KEYS", "MODEL_KEYS", "BatteryPack", "IntegralModel",
            "battery_from_mapping", "load_battery"]
@@ -201,10 +196,10 @@ class IntegralModel:
 
         :math:`\hat C(t) = (1 + \varphi n) \int_0^t (1 + k\,h(T))\, dC_0` with
         :math:`C_0` the integral model's own charge along the profile
-        (:func:`planner.battery.integral.charge`) and :math:`h = \max(T_{ref} - T, 0)`
+        (:func:`planner.physics.battery.integral.charge`) and :math:`h = \max(T_{ref} - T, 0)`
         at the mid-point of each interval: each increment of charge is scaled by
         the pack temperature of that moment, as diagnose fits it
-        (:mod:`planner.diagnose.effects`). For a constant temperature this is
+        (:mod:`planner.identify.diagnose.effects`). For a constant temperature this is
         ``charge_scale(T)·C_0``.
 
         Parameters

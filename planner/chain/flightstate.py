@@ -1,0 +1,236 @@
+r"""Flight state from a flight record: what the power model needs, in one module.
+
+The mission chain's *from measured flight state* entry point
+(:meth:`planner.chain.mission_chain.MissionChain.power_from_state`) takes a :class:`FlightState`; every
+command that drives the power model with a log (``replay``, ``fit-aircraft``,
+``diagnose``, ``fleet``) builds it here, from one experiment of the flight record
+(DESIGN §4):
+
+* **airspeed** — the measured true airspeed where the log has it; else the ground
+  velocity corrected with the autopilot's wind estimate (the wind triangle of
+  :func:`planner.physics.wind.airspeed_from_ground`); else the ground speed (still air assumed);
+* **air density** — from the measured static pressure and outside air temperature
+  (:func:`planner.physics.atmosphere.density`); from the pressure alone with the ISA temperature
+  at the pressure altitude; else the ISA density at the site altitude;
+* **specific force** — the magnitude of the accelerometer's specific force
+  (``specific_force_ms2``) where the record has it: the measured thrust over mass;
+* **flight phases** (:func:`flight_phases`) — *ground* where the power is below 30 % of
+  the flight's 90th-percentile power; among airborne samples *climb* (vz > 0.5 m/s),
+  *descent* (vz < −0.5 m/s), *cruise* (ground speed > 2 m/s) and *hover* (the rest);
+  *takeoff* is the first 10 s after the first airborne sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from planner.physics import atmosphere
+from planner.io.record import PLAUSIBLE
+from planner.physics.wind import airspeed_from_ground
+
+__all__ = ["PHASES", "FlightState", "flight_phases", "from_record"]
+
+#: Flight phases, in the order reports list them.
+PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent")
+#: Share of the 90th-percentile power below which a sample is on the ground. [unitless]
+GROUND_POWER_FRACTION = 0.3
+#: Vertical speed beyond which an airborne sample climbs or descends. [m/s]
+CLIMB_THRESHOLD_MS = 0.5
+#: Ground speed above which an airborne sample cruises. [m/s]
+CRUISE_THRESHOLD_MS = 2.0
+#: Duration of the take-off phase after the first airborne sample. [s]
+TAKEOFF_S = 10.0
+#: Share of finite samples a channel needs to be used. [unitless]
+CHANNEL_COVERAGE = 0.5
+
+
+def flight_phases(power_w, climb_rate_ms=None, groundspeed_ms=None, time_s=None,
+                  altitude_m=None) -> np.ndarray:
+    """Label every sample with a flight phase (see the module notes).
+
+    A record whose altitude never changes by 1 m (or is not known) and whose ground speed
+    never exceeds 1 m/s is a ground test: every sample is ``ground``.
+
+    Returns
+    -------
+    phase : ndarray of str
+    """
+    p = np.asarray(power_w, float)
+    n = p.size
+    if n == 0:
+        return np.array([], dtype=object)
+    finite = p[np.isfinite(p)]
+    p90 = np.percentile(finite, 90) if finite.size else np.nan
+    airborne = p > GROUND_POWER_FRACTION * p90
+    if altitude_m is not None and groundspeed_ms is not None:
+        alt = np.asarray(altitude_m, float)
+        gsp = np.asarray(groundspeed_ms, float)
+        still_alt = not np.isfinite(alt).any() or np.nanmax(alt) - np.nanmin(alt) < 1.0
+        if still_alt and np.isfinite(gsp).any() and np.nanmax(gsp) < 1.0:
+            return np.full(n, "ground", dtype=object)
+    vz = np.zeros(n) if climb_rate_ms is None else np.nan_to_num(
+        np.asarray(climb_rate_ms, float))
+    gs = np.zeros(n) if groundspeed_ms is None else np.nan_to_num(
+        np.asarray(groundspeed_ms, float))
+    phase = np.where(vz > CLIMB_THRESHOLD_MS, "climb",
+                     np.where(vz < -CLIMB_THRESHOLD_MS, "descent",
+                              np.where(gs > CRUISE_THRESHOLD_MS, "cruise", "hover")))
+    phase = np.where(airborne, phase, "ground").astype(object)
+    if time_s is not None and airborne.any():
+        t = np.asarray(time_s, float)
+        t0 = t[np.argmax(airborne)]
+        phase[airborne & (t >= t0) & (t < t0 + TAKEOFF_S)] = "takeoff"
+    return phase
+
+
+@dataclass
+class FlightState:
+    """The flight state of one experiment, sample by sample.
+
+    Attributes
+    ----------
+    time_s : ndarray
+        [s]
+    airspeed_ms : ndarray
+        True airspeed (never NaN: 0 where nothing is known). [m/s]
+    climb_rate_ms : ndarray
+        Vertical speed, up positive (0 where not logged). [m/s]
+    air_density : ndarray
+        [kg m⁻³]
+    phase : ndarray of str
+        :data:`PHASES`.
+    measured_power_w : ndarray
+        The record's electric power (NaN where missing). [W]
+    airspeed_source, density_source : str
+        Which channels gave the airspeed and the density, in words.
+    specific_force_ms2 : ndarray or None
+        Magnitude of the accelerometer's specific force where the record has it (gaps
+        filled from neighbours), else None; thrust = mass × specific force. [m/s²]
+    axial_speed_ms : ndarray or None
+        Velocity along the thrust axis where the record has it (gaps filled), else None:
+        see :meth:`rotor_velocities`. [m/s]
+    """
+
+    time_s: np.ndarray
+    airspeed_ms: np.ndarray
+    climb_rate_ms: np.ndarray
+    air_density: np.ndarray
+    phase: np.ndarray
+    measured_power_w: np.ndarray
+    airspeed_source: str
+    density_source: str
+    specific_force_ms2: np.ndarray | None = None
+    axial_speed_ms: np.ndarray | None = None
+
+    def rotor_velocities(self) -> tuple[np.ndarray, np.ndarray]:
+        r"""Speed in the plane of a multirotor's rotor disks and along their axis. [m/s]
+
+        Momentum theory of a rotor in forward flight (Glauert; Leishman 2006 ch. 2) works
+        in the disk's frame: the flow through the disk is the velocity component along
+        its axis, :math:`V \sin\alpha` for a disk tilted by α into a flight speed V,
+        and the power :math:`T (v_i + V \sin\alpha)` holds the power to overcome the
+        body's drag (in steady flight the tilt balances it). Where the record has the
+        velocity along the thrust axis (``axial_speed_ms``), the disk's climb is that and
+        its in-plane speed :math:`\sqrt{V^2 + \dot h^2 - v_{ax}^2}` (the speed is the
+        same in both frames); otherwise they are the airspeed and the climb rate.
+        """
+        if self.axial_speed_ms is None:
+            return self.airspeed_ms, self.climb_rate_ms
+        ax = self.axial_speed_ms
+        return inplane_speed(self.airspeed_ms, self.climb_rate_ms, ax), ax
+
+    def __len__(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def airborne(self) -> np.ndarray:
+        """Samples in the air. [bool]"""
+        return self.phase != "ground"
+
+
+def inplane_speed(horizontal, climb, axial):
+    r"""Speed in the plane of a rotor disk, :math:`\sqrt{V^2 + \dot h^2 - v_{ax}^2}`, from
+    the horizontal speed, the climb rate and the speed along the disk's axis (the speed is
+    the same in the ground's and the disk's frame; :meth:`FlightState.rotor_velocities`).
+    [m/s]"""
+    speed2 = np.asarray(horizontal, float) ** 2 + np.asarray(climb, float) ** 2
+    return np.sqrt(np.maximum(speed2 - np.asarray(axial, float) ** 2, 0.0))
+
+
+def _plausible(x: np.ndarray, column: str) -> np.ndarray:
+    low, high = PLAUSIBLE[column]
+    with np.errstate(invalid="ignore"):
+        return np.where((x >= low) & (x <= high), x, np.nan)
+
+
+def _filled(x: np.ndarray) -> np.ndarray:
+    return pd.Series(x).interpolate(limit_direction="both").to_numpy()
+
+
+def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
+    """The flight state of one experiment of a flight record (see the module notes).
+
+    Parameters
+    ----------
+    exp : DataFrame
+        One experiment, flight-record columns (DESIGN §4).
+    site_altitude_m : float
+        Site altitude for the ISA density when the log has no pressure. [m]
+
+    Returns
+    -------
+    FlightState
+    """
+    n = len(exp)
+
+    def col(name):
+        return exp[name].to_numpy(float) if name in exp.columns else np.full(n, np.nan)
+
+    airspeed, gs, course = col("airspeed_ms"), col("groundspeed_ms"), col("course_deg")
+    wn, we = col("wind_n_ms"), col("wind_e_ms")
+    have_wind = np.isfinite(wn) & np.isfinite(we) & ((np.abs(wn) + np.abs(we)) > 0)
+    # hovering, the track is undefined (and often not logged): any course will do
+    course = np.where(np.isfinite(course) | ~(np.nan_to_num(gs, nan=1.0) < 0.2), course, 0.0)
+    if np.isfinite(airspeed).mean() > CHANNEL_COVERAGE:
+        source = "measured airspeed"
+        v = np.where(np.isfinite(airspeed), airspeed, gs)
+    elif have_wind.mean() > CHANNEL_COVERAGE:
+        source = "ground speed corrected with the logged wind"
+        v = np.where(have_wind & np.isfinite(course),
+                     airspeed_from_ground(gs, course, we, wn), gs)
+    else:
+        source = "ground speed (no airspeed or wind in the log: still air assumed)"
+        v = gs
+    v = np.abs(np.nan_to_num(v))
+    climb = np.nan_to_num(col("climb_rate_ms"))
+    p, temp = col("pressure_pa"), col("ambient_temperature_c")
+    # a logged value outside its physical range (damage, a sensor fault) is missing, as
+    # when a record file is read (planner.io.record.PLAUSIBLE)
+    p, temp = _plausible(p, "pressure_pa"), _plausible(temp, "ambient_temperature_c")
+    have_p = np.isfinite(p).mean() > CHANNEL_COVERAGE
+    if have_p and np.isfinite(temp).mean() > CHANNEL_COVERAGE:
+        rho = atmosphere.density(temperature_c=_filled(temp), pressure_pa=_filled(p))
+        dsource = "measured pressure and temperature"
+    elif have_p:
+        p = _filled(p)
+        rho = atmosphere.density(atmosphere.pressure_altitude(p), pressure_pa=p)
+        dsource = "measured pressure, ISA temperature at the pressure altitude"
+    else:
+        rho = np.full(n, float(atmosphere.density(site_altitude_m)))
+        dsource = f"ISA at {site_altitude_m:.0f} m"
+    t = exp["time_s"].to_numpy(float)
+    power = col("power_w")
+    phase = flight_phases(power, exp.get("climb_rate_ms"), exp.get("groundspeed_ms"), t,
+                          exp.get("altitude_m"))
+    force = col("specific_force_ms2")
+    force = _filled(force) if np.isfinite(force).mean() > CHANNEL_COVERAGE else None
+    axial = col("axial_speed_ms")
+    axial = _filled(axial) if np.isfinite(axial).mean() > CHANNEL_COVERAGE else None
+    return FlightState(time_s=t, airspeed_ms=v, climb_rate_ms=climb,
+                       air_density=np.asarray(rho, float), phase=phase,
+                       measured_power_w=power, airspeed_source=source,
+                       density_source=dsource, specific_force_ms2=force,
+                       axial_speed_ms=axial)

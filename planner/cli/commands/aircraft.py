@@ -1,0 +1,127 @@
+"""``endurance fit-aircraft``: identify an aircraft's power parameters from flights."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import yaml
+
+from planner.io import files
+from planner.cli.commands.common import fmt, output_path, parse_float, write_json
+from planner.io.flightdata import load_flight_data
+from planner.errors import InputError
+from planner.parameters import default_battery_path, load_aircraft, load_battery
+
+
+def register(sub) -> None:
+    p = sub.add_parser("fit-aircraft", help="fit efficiency, drag and system load to flights",
+                       description="Fit the aircraft's power parameters (multirotor: η, drag "
+                                   "area, P_S; multirotor with power_model rotor_losses: "
+                                   "P_stop measured on the ground, motor no-load and copper "
+                                   "losses, figure of merit, drag area, power lead; "
+                                   "fixed-wing: C_D0, K, η, P_S) to the measured "
+                                   "power of logged flights, and validate on flights (or the "
+                                   "last 30 %% of one flight) the fit never saw.")
+    p.add_argument("data", nargs="+", metavar="DATA", help="logs or flight-record CSV files")
+    p.add_argument("--aircraft", required=True, help="aircraft YAML (start values)")
+    p.add_argument("--out", required=True, help="write the fitted aircraft YAML here")
+    p.add_argument("--battery", help="pack flown (default: the aircraft's)")
+    p.add_argument("--payload", default="0", help="payload mass [kg] (default 0)")
+    p.add_argument("--mass", help="all-up mass [kg] (overrides aircraft + pack + payload)")
+    p.add_argument("--map", help="column map for CSV data that is not a flight record "
+                                 "(e.g. dji_m100)")
+    p.add_argument("--parameters", help="comma-separated subset to fit")
+    p.add_argument("--train", help="comma-separated experiments to fit on")
+    p.add_argument("--validate", help="comma-separated experiments to hold out")
+    p.add_argument("--site-altitude", default="0", help="site altitude AMSL [m] for ISA "
+                                                        "density when not logged")
+    p.add_argument("--airborne-height", help="airborne = more than this many metres above "
+                                             "each flight's first sample (default: the "
+                                             "flight phases other than ground and take-off)")
+    p.add_argument("--json", help="write the fit report as JSON")
+    p.set_defaults(func=run)
+
+
+def _list(text):
+    return [s.strip() for s in text.split(",") if s.strip()] if text else None
+
+
+def run(args) -> int:
+    from planner.identify.aircraft_fit import fit_aircraft
+
+    json_out = output_path(args.json, "--json")
+    output_path(args.out, "--out")
+    aircraft = load_aircraft(args.aircraft)
+    if args.mass is not None:
+        mass = parse_float(args.mass, "--mass", 0.01, 10000.0)
+    else:
+        path = args.battery or default_battery_path(aircraft)
+        if path is None:
+            raise InputError(f"{args.aircraft}: no pack known: give --battery or --mass")
+        mass = (aircraft.empty_mass_kg + load_battery(path).total_mass_kg
+                + parse_float(args.payload, "--payload", 0.0, 1000.0))
+    data, _ = load_flight_data(args.data, column_map=args.map)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = fit_aircraft(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
+                              train=_list(args.train), validate=_list(args.validate),
+                              site_altitude_m=parse_float(args.site_altitude, "--site-altitude",
+                                                          -500, 9000),
+                              airborne_height_m=None if args.airborne_height is None else
+                              parse_float(args.airborne_height, "--airborne-height", 0.0, 1000.0))
+    for w in caught:
+        print(f"warning: {w.message}")
+    print(render(result, mass))
+    fitted = result["aircraft"]
+    mapping = fitted.to_mapping(folder=Path(args.out).parent)
+    src = ", ".join(str(d) for d in args.data)
+    mapping["source"] = (f"fit-aircraft on {src} ({result['split']}; "
+                         f"{result['samples']['train']} airborne samples; mass {mass:.3f} kg); "
+                         f"start values from {args.aircraft}")
+    files.write_text(args.out, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
+                     "--out")
+    if json_out:
+        report = {k: v for k, v in result.items() if k != "aircraft"}
+        report["mass_kg"] = mass
+        write_json(report, json_out)
+    return 0
+
+
+def render(r, mass) -> str:
+    lines = [f"Fit on {len(r['train_experiments'])} experiment(s), "
+             f"{r['samples']['train']} airborne samples, mass {mass:.3f} kg; validation: "
+             f"{r['split']} ({r['samples']['validation']} samples)", "",
+             f"{'parameter':<19} {'start':>10} {'fitted':>10} {'± stderr':>10}"]
+    units = {"no_load_power_w": "W", "copper_loss_power_w": "W", "drag_area_m2": "m²",
+             "system_power_w": "W"}
+    for k, v in r["parameters"].items():
+        if k in r.get("at_bound", ()):
+            lines.append(f"{k:<19} {fmt(r['start'][k], 4, 10)} {'—':>10} {'—':>10}  ended on "
+                         f"its bound ({v:.4g}): a misfit of the model's form, not a value")
+            continue
+        flag = "  poorly determined" if k in r["poorly_determined"] else ""
+        lines.append(f"{k:<19} {fmt(r['start'][k], 4, 10)} {fmt(v, 4, 10)} "
+                     f"{fmt(r['stderr'][k], 4, 10)} {units.get(k, ''):<2}{flag}")
+    if "stopped_power" in r:
+        sp = r["stopped_power"]
+        lines.append(f"system_power_w (rotors stopped) {sp['value_w']:.1f} W: {sp['source']}")
+        lines.append(f"power lead {r['lead_s']:g} s, chosen by the training RMS ("
+                     + ", ".join(f"{k} s: {v:.1f} W" for k, v in
+                                 r["lead_train_rmse_w"].items()) + ")")
+        lines.append("standard errors cluster-robust, one cluster per flight")
+    lines.append("")
+    for split in ("train", "validation"):
+        if split in r:
+            b, a = r[split]["before"], r[split]["after"]
+            lines.append(f"{split:<10} power RMSE {b['rmse_w']:7.1f} → {a['rmse_w']:7.1f} W, "
+                         f"energy error {b['energy_error_pct']:+6.1f} → "
+                         f"{a['energy_error_pct']:+6.1f} %")
+    if "per_experiment_energy_error_pct" in r:
+        after = r["per_experiment_energy_error_pct"]["after"]
+        vals = sorted(after.values())
+        if vals:
+            lines.append(f"held-out flights: energy error after the fit, median "
+                         f"{vals[len(vals) // 2]:+.1f} %, range {vals[0]:+.1f} … "
+                         f"{vals[-1]:+.1f} % over {len(vals)} flight(s)")
+    return "\n".join(lines)

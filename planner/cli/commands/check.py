@@ -1,0 +1,321 @@
+"""``endurance check``: will this mission land with the reserve?"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from planner.io import files
+from planner.chain.result import MissionChain, MissionResult
+from planner.cli.commands.common import (
+    flags_for,
+    fmt,
+    output_path,
+    parse_float,
+    parse_fraction,
+    parse_int,
+    parse_wind,
+    plot_path,
+    write_json,
+)
+from planner.errors import InputError
+from planner.chain.failsafe import FIRMWARES, FailsafePlan, failsafe_parameters
+from planner.io.mission import load_mission
+from planner.parameters import load_aircraft_and_battery
+from planner.chain.uncertainty import Spreads, UncertaintyResult, monte_carlo
+
+
+def register(sub) -> None:
+    p = sub.add_parser("check", help="pre-flight endurance check: GO / NO-GO with margins",
+                       description="Predict power and charge leg by leg and check the landing "
+                                   "and return-home reserves. Exit 0 = GO, 1 = NO-GO, "
+                                   "2 = bad input.")
+    p.add_argument("mission", help="mission file: .yaml, QGroundControl .plan or "
+                                   "Mission Planner .waypoints")
+    p.add_argument("--aircraft", required=True, help="aircraft YAML")
+    p.add_argument("--battery", help="battery-pack YAML (default: the aircraft's)")
+    p.add_argument("--wind", help="SPEED@FROM_DEG, e.g. 6@270: 6 m/s from the west "
+                                  "(overrides the mission's)")
+    p.add_argument("--temperature", help="outside air temperature [°C] (overrides the "
+                                         "mission's; default ISA)")
+    p.add_argument("--reserve", default="0.2", help="landing reserve as a fraction of "
+                                                    "nominal capacity (default 0.2 = 20%%)")
+    p.add_argument("--payload", help="payload mass [kg] (overrides the mission's)")
+    p.add_argument("--json", help="write the result as JSON to this file")
+    p.add_argument("--plot", help="write a PNG of power and remaining charge")
+    p.add_argument("--failsafe", metavar="FIRMWARE",
+                   help="derive the battery failsafe parameters of this firmware from the "
+                        "mission's worst return home: ardupilot or px4")
+    p.add_argument("--params-out", help="write the failsafe parameters as a Mission Planner "
+                                        "/ MAVProxy .param file (ardupilot) or a "
+                                        "QGroundControl parameter file (px4)")
+    u = p.add_argument_group("probabilistic verdict (Monte Carlo through the mission chain)")
+    u.add_argument("--uncertainty", action="store_true",
+                   help="draw the uncertain inputs and give P(landing with the reserve); "
+                        "GO when it is at least --confidence")
+    u.add_argument("--samples", default="2000", help="Monte Carlo samples (default 2000)")
+    u.add_argument("--seed", default="0", help="random seed: the same seed gives the same "
+                                               "answer (default 0)")
+    u.add_argument("--confidence", default="0.95",
+                   help="required P(landing with the reserve) (default 0.95)")
+    u.add_argument("--wind-sd", metavar="SPEED@DEG",
+                   help="spread of the forecast wind: speed [m/s] @ direction [deg], one "
+                        "standard deviation, e.g. 2@30")
+    u.add_argument("--gust", metavar="F", help="gust factor: peak gust over mean wind (≥ 1), "
+                                               "e.g. 1.4 for 10G14 kt")
+    u.add_argument("--temperature-sd", metavar="C",
+                   help="spread of the air temperature [°C], one standard deviation")
+    u.add_argument("--soh", metavar="F±SD",
+                   help="pack state of health: share of its usable charge it still gives, "
+                        "with a spread, e.g. 0.9±0.05 (or 0.9+-0.05)")
+    u.add_argument("--payload-sd", metavar="KG", help="spread of the payload [kg], one "
+                                                      "standard deviation")
+    p.add_argument("--quiet", action="store_true", help="print only the verdict line")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    json_out = output_path(args.json, "--json")
+    params_out = output_path(args.params_out, "--params-out")
+    firmware = parse_firmware(args.failsafe, params_out)
+    plot_out = plot_path(args.plot)
+    reserve = parse_fraction(args.reserve, "--reserve")
+    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
+                   if args.temperature is not None else None)
+    aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
+    mission = load_mission(args.mission, vehicle_type=aircraft.type)
+    env = mission.environment
+    if args.wind is not None:
+        speed, direction = parse_wind(args.wind)
+        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
+    if args.payload is not None:
+        mission.payload_kg = parse_float(args.payload, "--payload", 0.0, 1000.0)
+    if not mission.legs:
+        raise InputError(f"{args.mission}: the mission has no legs")
+    spreads, mc = (parse_spreads(args), parse_mc(args)) if args.uncertainty else (None, None)
+    chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature)
+    unc = None
+    if args.uncertainty:
+        with flags_for(soh="--soh", gust_factor="--gust", samples="--samples",
+                       confidence="--confidence", wind_sd_ms="--wind-sd",
+                       temperature_sd_c="--temperature-sd", payload_sd_kg="--payload-sd"):
+            unc = monte_carlo(chain, mission, env, spreads, **mc)
+        run_result = unc.nominal
+    else:
+        run_result = chain.run(mission, env, detail=True)
+    result = run_result.mission_result(0)
+    plan = (failsafe_parameters(run_result, firmware, return_charge_mah=None if unc is None
+                                else unc.rtl_charge_p95_mah) if firmware else None)
+    if not args.quiet:
+        print(render(result, mission.name))
+        if unc is not None:
+            print(render_uncertainty(unc))
+        if plan is not None:
+            print(render_failsafe(plan))
+    else:
+        print(result.verdict_line())
+        if unc is not None:
+            print(uncertainty_verdict_line(unc))
+    if json_out:
+        data = result.to_dict()
+        data["mission"] = mission.name
+        data["environment"] = dataclasses.asdict(result.environment)
+        if plan is not None:
+            data["failsafe"] = plan.to_dict()
+        if unc is not None:
+            data["uncertainty"] = unc.to_dict()
+        write_json(data, json_out)
+    if params_out:
+        header = (f"{FIRMWARE_NAMES[plan.firmware]} battery failsafe parameters for "
+                  f"{mission.name}\n{result.aircraft}, {result.battery}\n"
+                  f"reserve {100 * result.reserve_fraction:.0f} % of nominal; worst return "
+                  f"{plan.return_charge_mah:.0f} mAh from {plan.worst_point['distance_home_m']:.0f}"
+                  f" m ({plan.return_source})\nwritten by endurance check --failsafe")
+        files.write_text(params_out, plan.param_file(header), "--params-out")
+    if plot_out:
+        from planner.cli.plots import common as plots
+        title = f"{mission.name}: {result.verdict}" + (
+            "" if unc is None else f"; {unc.verdict} with {100 * unc.confidence:.0f} % "
+                                   f"confidence (P = {100 * unc.p_landing:.1f} %)")
+        plots.save_mission_plot(result, plot_out, title=title, uncertainty=unc)
+    if unc is not None:
+        return 0 if unc.go else 1
+    return 0 if result.go else 1
+
+
+def parse_spreads(args) -> Spreads:
+    """The ``--wind-sd``, ``--gust``, ``--temperature-sd``, ``--soh`` and ``--payload-sd``
+    flags → :class:`~planner.chain.uncertainty.Spreads`."""
+    wind_sd, dir_sd = (0.0, 0.0)
+    if args.wind_sd is not None:
+        try:
+            a, b = args.wind_sd.split("@")
+            wind_sd, dir_sd = float(a), float(b)
+        except ValueError:
+            raise InputError(f"--wind-sd: expected SPEED@DEG (standard deviations in m/s and "
+                             f"degrees), e.g. 2@30, got {args.wind_sd!r}") from None
+        if not (math.isfinite(wind_sd) and 0 <= wind_sd <= 30):
+            raise InputError(f"--wind-sd: speed spread must be in [0, 30] m/s, got "
+                             f"{args.wind_sd!r}")
+        if not (math.isfinite(dir_sd) and 0 <= dir_sd <= 180):
+            raise InputError(f"--wind-sd: direction spread must be in [0, 180] degrees, got "
+                             f"{args.wind_sd!r}")
+    gust = parse_float(args.gust, "--gust", 1.0, 5.0) if args.gust is not None else 1.0
+    t_sd = (parse_float(args.temperature_sd, "--temperature-sd", 0.0, 30.0)
+            if args.temperature_sd is not None else 0.0)
+    soh, soh_sd = 1.0, 0.0
+    if args.soh is not None:
+        text = args.soh.replace("+-", "±").replace("+/-", "±")
+        try:
+            parts = [float(x) for x in text.split("±")]
+        except ValueError:
+            parts = []
+        if len(parts) not in (1, 2):
+            raise InputError(f"--soh: expected F±SD, e.g. 0.9±0.05 (or 0.9+-0.05), got "
+                             f"{args.soh!r}")
+        soh, soh_sd = parts[0], (parts[1] if len(parts) == 2 else 0.0)
+        if not (math.isfinite(soh) and 0 < soh <= 1.5 and math.isfinite(soh_sd)
+                and soh_sd >= 0):
+            raise InputError(f"--soh: expected a state of health in (0, 1.5] and a spread "
+                             f"≥ 0, got {args.soh!r}")
+    pay_sd = (parse_float(args.payload_sd, "--payload-sd", 0.0, 100.0)
+              if args.payload_sd is not None else 0.0)
+    return Spreads(wind_sd_ms=wind_sd, wind_direction_sd_deg=dir_sd, gust_factor=gust,
+                   temperature_sd_c=t_sd, soh=soh, soh_sd=soh_sd, payload_sd_kg=pay_sd)
+
+
+def parse_mc(args) -> dict:
+    """``--samples``, ``--seed``, ``--confidence`` → keyword arguments of
+    :func:`~planner.chain.uncertainty.monte_carlo`."""
+    conf = parse_fraction(args.confidence, "--confidence")
+    if conf <= 0:
+        raise InputError(f"--confidence: must be in (0, 1), got {args.confidence!r}")
+    return {"samples": parse_int(args.samples, "--samples", 20, 1_000_000),
+            "seed": parse_int(args.seed, "--seed", 0, 2**63 - 1), "confidence": conf}
+
+
+def uncertainty_verdict_line(u: UncertaintyResult) -> str:
+    return (f"{u.verdict} with {100 * u.confidence:.0f} % confidence: P(landing with the "
+            f"reserve) = {100 * u.p_landing:.1f} % "
+            f"{'≥' if u.go else '<'} {100 * u.confidence:.0f} % ({u.samples} samples, seed "
+            f"{u.seed})")
+
+
+def render_uncertainty(u: UncertaintyResult) -> str:
+    """The Monte Carlo block: probabilities, percentiles, CVaR and the variance split."""
+    lm, rm = u.landing_mah, u.rtl_margin_mah
+    lines = ["", f"Uncertainty  Monte Carlo through the mission chain: {u.samples} samples, "
+                 f"{u.weather_draws} weather draw{'s' if u.weather_draws > 1 else ''}, seed "
+                 f"{u.seed}",
+             f"  P(landing with the reserve)        {100 * u.p_landing:5.1f} %",
+             f"  P(every return home with it too)   {100 * u.p_all_reserves:5.1f} %",
+             f"  charge left on landing  P5 {lm['p5']:.0f}  P50 {lm['p50']:.0f}  P95 "
+             f"{lm['p95']:.0f} mAh (reserve {u.reserve_mah:.0f} mAh); CVaR5 "
+             f"{u.cvar5_landing_mah:.0f} mAh (mean of the worst 5 %)",
+             f"  return-home margin      P5 {rm['p5']:+.0f}  P50 {rm['p50']:+.0f}  P95 "
+             f"{rm['p95']:+.0f} mAh (smallest along the mission)",
+             "  spread of the landing charge by input (share of its variance, additive "
+             "regression" + (f", R² = {u.r2:.2f}):" if math.isfinite(u.r2) else "):")]
+    width = max(len(src["name"]) for src in u.sources)
+    for src in u.sources:
+        share = "" if src["share"] is None else f"{100 * src['share']:5.1f} %"
+        lines.append(f"    {src['name']:<{width}}  {share:>7}  {src['spread']:<14} "
+                     f"{src['origin']}")
+    if u.driver:
+        lines.append(f"  drives the spread most: {u.driver}")
+    lines.append("")
+    lines.append(uncertainty_verdict_line(u))
+    return "\n".join(lines)
+
+
+FIRMWARE_NAMES = {"ardupilot": "ArduPilot", "px4": "PX4"}
+
+
+def parse_firmware(text: str | None, params_out: str | None) -> str | None:
+    """``--failsafe`` → firmware name (None without it); ``--params-out`` needs it."""
+    if text is None:
+        if params_out is not None:
+            raise InputError("--params-out: needs --failsafe ardupilot or --failsafe px4")
+        return None
+    name = text.strip().lower()
+    if name not in FIRMWARES:
+        raise InputError(f"--failsafe: unknown firmware {text!r}: expected "
+                         f"{' or '.join(FIRMWARES)}")
+    return name
+
+
+def render_failsafe(plan: FailsafePlan) -> str:
+    """The failsafe parameters with one line of derivation each."""
+    w = plan.worst_point
+    lines = ["", f"Failsafe  {FIRMWARE_NAMES[plan.firmware]} battery parameters: worst return "
+                 f"{plan.return_charge_mah:.0f} mAh from {w['distance_home_m']:.0f} m "
+                 f"({w['leg_origin']}, t = {w['time_s']:.0f} s, {plan.return_source})"]
+    width = max(len(p.name) for p in plan.parameters)
+    for p in plan.parameters:
+        value = f"{p.text_value()} {p.unit}".strip()
+        lines.append(f"  {p.name:<{width}} = {value:<10} {p.derivation}")
+    for text in plan.warnings:
+        lines.append(f"Warning   {text}")
+    return "\n".join(lines)
+
+
+def render(r: MissionResult, name: str) -> str:
+    """The per-leg table and summary a pilot reads in the terminal."""
+    env = r.environment
+    lines = [f"Mission   {name}",
+             f"Aircraft  {r.aircraft}, take-off mass {r.takeoff_mass_kg:.3f} kg",
+             f"Battery   {r.battery}: {r.capacity_mah:.0f} mAh nominal, "
+             f"{r.usable_mah:.0f} mAh usable ({r.battery_model} integral model)",
+             f"Weather   wind {env.wind_speed_ms:.1f} m/s from {env.wind_from_deg:.0f}°"
+             + (f", air {env.temperature_c:.0f} °C" if env.temperature_c is not None
+               else ", ISA air")
+             + f", site {env.site_altitude_m:.0f} m AMSL", ""]
+    head = (f"{'#':>3} {'leg':<8} {'time s':>7} {'dist m':>7} {'TAS m/s':>7} {'GS m/s':>6} "
+            f"{'vz m/s':>6} {'power W':>8} {'curr A':>7} {'volt V':>7} {'mAh':>7} "
+            f"{'left %':>6} {'RTL mAh':>8}")
+    lines += [head, "-" * len(head)]
+    unflyable = set(r.unflyable_legs)
+    for i, row in enumerate(r.legs.itertuples(index=False), 1):
+        if i in unflyable:  # the aircraft cannot fly it: its figures mean nothing
+            lines.append(f"{i:>3} {row.kind:<8} {'–':>7} {fmt(row.distance_m, 0, 7)} "
+                         f"{'cannot be flown (see NO-GO below)':>56}")
+            continue
+        left = ("empty" if row.remaining_fraction < 0 else
+                fmt(100 * row.remaining_fraction, 1, 6))
+        lines.append(
+            f"{i:>3} {row.kind:<8} {fmt(row.duration_s, 0, 7)} {fmt(row.distance_m, 0, 7)} "
+            f"{fmt(row.airspeed_ms, 1, 7)} {fmt(row.groundspeed_ms, 1, 6)} "
+            f"{fmt(row.climb_rate_ms, 1, 6)} {fmt(row.power_w, 1, 8)} "
+            f"{fmt(row.current_a, 1, 7)} {fmt(row.voltage_v, 2, 7)} "
+            f"{fmt(row.charge_mah, 0, 7)} {left:>6} "
+            f"{fmt(row.rtl_margin_mah, 0, 8)}")
+    lines.append("-" * len(head))
+    lines.append(f"Total     {r.duration_s / 60:.1f} min, {r.energy_wh:.1f} Wh, "
+                 f"{r.charge_used_mah:.0f} mAh drawn; peak {r.peak_current_a:.1f} A, "
+                 f"lowest loaded voltage {r.min_voltage_v:.2f} V")
+    lines.append(f"Reserve   {r.reserve_mah:.0f} mAh ({100 * r.reserve_fraction:.0f} % of "
+                 f"nominal); smallest return-home margin {r.rtl_min_margin_mah:+.0f} mAh")
+    if r.best_speeds:
+        b = r.best_speeds
+        lines.append(f"Speeds    level flight, still air: max endurance "
+                     f"{b['max_endurance_airspeed_ms']:.1f} m/s ({b['max_endurance_power_w']:.0f} W), "
+                     f"max range {b['max_range_airspeed_ms']:.1f} m/s "
+                     f"({b['max_range_power_w']:.0f} W)")
+    if r.circuit:
+        c = r.circuit
+        lines.append(f"Voltage   {c['model']}: pack {c['pack_temperature_c']:.0f} → "
+                     f"{c['max_temperature_c']:.0f} °C, lowest loaded {c['min_voltage_v']:.2f} V, "
+                     f"sag margin {c['voltage_margin_v']:+.2f} V above the cut-off "
+                     f"(worst: {c['worst_leg_origin']}); cut-off reached after "
+                     f"{c['charge_to_cutoff_mah']:.0f} mAh")
+    if r.point_of_no_return:
+        p = r.point_of_no_return
+        lines.append(f"PNR       point of no return at t = {p['time_s']:.0f} s, "
+                     f"{p['distance_home_m']:.0f} m from home ({p['leg_origin']})")
+    for w in r.warnings:
+        lines.append(f"Warning   {w}")
+    for why in r.reasons:
+        lines.append(f"NO-GO     {why}")
+    lines.append("")
+    lines.append(r.verdict_line())
+    return "\n".join(lines)

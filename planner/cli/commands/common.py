@@ -1,0 +1,159 @@
+"""Argument parsing and output helpers shared by the sub-commands."""
+
+from __future__ import annotations
+
+import json
+import math
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planner.io import files
+from planner.physics.atmosphere import MAX_WIND_MS
+from planner.errors import InputError
+
+
+@contextmanager
+def flags_for(**flags: str):
+    """Name the command-line flags in the library's errors.
+
+    The library's errors name its own parameters (``reserve must be in [0, 1)``); inside
+    this context an :class:`InputError` that starts with one of the given parameter names
+    is raised again with the flag instead (``--reserve must be in [0, 1)``).
+    """
+    try:
+        yield
+    except InputError as exc:
+        text = str(exc)
+        for name, flag in flags.items():
+            if text.startswith(f"{name} "):
+                raise InputError(flag + text[len(name):]) from None
+        raise
+
+
+def parse_wind(text: str, max_speed_ms: float = MAX_WIND_MS) -> tuple[float, float]:
+    """``SPEED@FROM_DEG`` (m/s, degrees the wind blows from) → (speed, direction).
+
+    The speed must be in [0, ``max_speed_ms``] m/s; the default
+    :data:`planner.physics.atmosphere.MAX_WIND_MS` (100 m/s) is several times what a small UAV
+    can fly in. The direction must be a compass bearing in [0, 360] degrees;
+    360 (north, as METAR and aviation reports write it) is returned as 0. Other values
+    are rejected rather than wrapped: ``-90`` or ``400`` is more likely a typo than a
+    bearing.
+    """
+    try:
+        speed_s, direction_s = text.split("@")
+        speed, direction = float(speed_s), float(direction_s)
+    except ValueError:
+        raise InputError(f"--wind: expected SPEED@FROM_DEG, e.g. 6@270 (m/s from the west), "
+                         f"got {text!r}") from None
+    if not (math.isfinite(speed) and 0.0 <= speed <= max_speed_ms):
+        raise InputError(f"--wind: speed must be in [0, {max_speed_ms:g}] m/s, got {text!r}")
+    if not (math.isfinite(direction) and 0.0 <= direction <= 360.0):
+        raise InputError(f"--wind: direction must be a bearing in [0, 360] degrees (the "
+                         f"direction the wind blows from, 0 or 360 = north), got {text!r}")
+    return speed, direction % 360.0
+
+
+def parse_fraction(text: str, option: str) -> float:
+    """``0.2``, ``20%`` or ``20`` → 0.2: a number above 1 is read as per cent."""
+    t = text.strip()
+    try:
+        value = float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
+    except ValueError:
+        raise InputError(f"{option}: expected a fraction such as 0.2 or a percentage such as "
+                         f"20 or 20%, got {text!r}") from None
+    if not t.endswith("%") and 1.0 < value < 100.0:
+        value /= 100.0
+    if not 0.0 <= value < 1.0:
+        raise InputError(f"{option}: must be a fraction in [0, 1) or a percentage below 100, "
+                         f"got {text!r}")
+    return value
+
+
+def parse_float(text: str, option: str, low: float | None = None,
+                high: float | None = None) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{option}: expected a number, got {text!r}") from None
+    if not math.isfinite(value) or (low is not None and value < low) or (
+            high is not None and value > high):
+        raise InputError(f"{option}: expected a number in [{low}, {high}], got {text!r}")
+    return value
+
+
+def parse_int(text: str, option: str, low: int, high: int) -> int:
+    """A whole number in [low, high] (``4`` or ``4.0``), else :class:`InputError`."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value.is_integer() and low <= value <= high):
+        raise InputError(f"{option}: expected a whole number in [{low}, {high}], got {text!r}")
+    return int(value)
+
+
+def _default(obj: Any):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def _clean(obj: Any):
+    """Replace NaN/inf by None so that the JSON is standard."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def write_json(data: dict, path: str | Path, option: str = "--json") -> None:
+    """Write JSON (``-``: standard output), never over an input (:mod:`planner.io.files`)."""
+    files.write_text(path, json.dumps(_clean(data), indent=2, default=_default) + "\n", option)
+
+
+def output_path(path: str | None, option: str) -> str | None:
+    """Check that an output file's folder exists before any work is done (``-`` is
+    standard output)."""
+    if path is None or path == "-":
+        return path
+    parent = Path(path).resolve().parent
+    if not parent.is_dir():
+        raise InputError(f"{option} {path}: folder {parent} does not exist")
+    return path
+
+
+def plot_path(path: str | None, option: str = "--plot") -> str | None:
+    """:func:`output_path` for a figure: also check that matplotlib can write its format."""
+    if path is None:
+        return None
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in formats:
+        raise InputError(f"{option} {path}: expected a figure file ending in "
+                         f"{', '.join('.' + f for f in sorted(formats))}")
+    return output_path(path, option)
+
+
+def fmt(value: float, digits: int = 1, width: int = 0) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-".rjust(width)
+    return f"{value:{width}.{digits}f}"
+
+
+def name_width(names, header: str = "", minimum: int = 10) -> int:
+    """Width of a table's name column: every name shown whole (two logs whose names
+    differ only at the end must not look the same)."""
+    return max([minimum, len(header)] + [len(str(n)) for n in names])

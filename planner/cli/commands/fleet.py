@@ -1,0 +1,104 @@
+"""``endurance fleet``: many logs on Dask → flight table, pack health, fleet accuracy."""
+
+from __future__ import annotations
+
+import sys
+
+from planner.cli.commands.common import parse_float, parse_fraction, parse_int
+from planner.errors import InputError
+from planner.parameters import load_aircraft, load_battery
+
+
+def register(sub) -> None:
+    p = sub.add_parser("fleet", help="many logs on Dask: per-flight table, pack health, "
+                                     "fleet accuracy",
+                       description="Read every log, replay it through the planner's models, "
+                                   "and write DIR/flights.parquet (one row per flight), the "
+                                   "health of each pack with a pack file per pack in "
+                                   "DIR/packs/, and DIR/report.md. A rerun skips the logs "
+                                   "already in the table.")
+    p.add_argument("logs", nargs="+", metavar="LOG_OR_FOLDER",
+                   help="log files (.bin, .px4log, .tlog, .ulg) or folders searched for them")
+    p.add_argument("--aircraft", required=True, nargs="+", action="extend", metavar="A.yaml",
+                   help="aircraft YAML; several for a mixed fleet (each log's aircraft is "
+                        "the --packs CSV's column aircraft, a file's stem or the aircraft's "
+                        "name, else the one of the log's vehicle type)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder (created; may not contain an input)")
+    p.add_argument("--battery", help="the new pack's YAML, for every aircraft (default: each "
+                                     "aircraft's own pack)")
+    p.add_argument("--packs", metavar="PACKS.csv",
+                   help="CSV log,pack[,cycle][,aircraft]: the pack flown in logs that carry no "
+                        "battery serial, and the aircraft that flew them (log = file name)")
+    p.add_argument("--no-calibration", action="store_true",
+                   help="skip the fleet-wide aircraft calibration (and DIR/samples.parquet)")
+    p.add_argument("--workers", default=None,
+                   help="process workers of the local Dask cluster (default: one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing Dask scheduler (tcp://host:8786) instead of a local "
+                        "cluster")
+    p.add_argument("--retire", default="0.8",
+                   help="retirement threshold, state of health (default 0.8 = 80 %%)")
+    p.add_argument("--within", default="50",
+                   help="flag the packs that reach --retire within this many flights "
+                        "(default 50)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from planner.fleet import read_pack_map, run_fleet
+
+    if args.workers is not None and args.scheduler:
+        raise InputError("--workers applies to the local cluster; with --scheduler the "
+                         "cluster's own workers run the logs")
+    workers = parse_int(args.workers, "--workers", 1, 1024) if args.workers else None
+    retire = parse_fraction(args.retire, "--retire")
+    if retire <= 0:
+        raise InputError(f"--retire: expected a state of health in (0, 1), got {args.retire!r}")
+    within = parse_float(args.within, "--within", 0.0, 1.0e6)
+    from pathlib import Path
+
+    from planner.cli.plots.fleet import write_figures
+    from planner.parameters import default_battery_path
+
+    aircraft, packs = {}, {}
+    common = load_battery(args.battery) if args.battery else None
+    for path in dict.fromkeys(args.aircraft):
+        key = Path(path).stem
+        if key in aircraft:
+            raise InputError(f"--aircraft {path}: a second aircraft file named {key}; expected "
+                             "files with different names (the name is the aircraft's key)")
+        aircraft[key] = load_aircraft(path)
+        packs[key] = common if common is not None else (
+            load_battery(default_battery_path(aircraft[key])) if aircraft[key].battery_path
+            else None)
+    pack_map = read_pack_map(args.packs, aircraft) if args.packs else None
+    result = run_fleet(args.logs, out_dir=args.out, aircraft=aircraft, pack=packs,
+                       pack_map=pack_map, workers=workers, scheduler=args.scheduler,
+                       retire=retire, within=within, calibrate=not args.no_calibration,
+                       figures=write_figures)
+    ok = int((result.table["status"] == "ok").sum())
+    print(f"{result.processed} logs summarised in {result.elapsed_s:.1f} s "
+          f"({len(result.failed)} failed"
+          + (f", {len(result.not_replayable)} not replayable" if result.not_replayable else "")
+          + f"), {result.skipped} already in the table; "
+          f"{ok} flights in {result.outputs[0]}")
+    for log, err in result.failed:
+        print(f"failed: {err}", file=sys.stderr)
+    for log, err in result.not_replayable:
+        print(f"not replayed: {err}", file=sys.stderr)
+    for h in result.health:
+        if h.retires_within(within):
+            print(f"pack {h.pack_id}: state of health {100 * h.soh:.1f} %, reaches "
+                  f"{100 * retire:.0f} % in {max(h.flights_to_retire, 0):.0f} flights")
+    for cal in result.calibrations:
+        if cal.aircraft is None:
+            print(f"aircraft {cal.key}: not calibrated ({cal.note})")
+            continue
+        before = cal.validation.get("before", {}).get("energy_error_pct", float("nan"))
+        after = cal.validation.get("after", {}).get("energy_error_pct", float("nan"))
+        print(f"aircraft {cal.key}: calibrated on {cal.train_flights} flights; energy error "
+              f"on {cal.validation_flights} held-out flights {before:+.1f} % as given, "
+              f"{after:+.1f} % calibrated ({cal.file})")
+    print(f"report: {result.outputs[-1]}")
+    return 0

@@ -1,0 +1,134 @@
+"""``endurance replay``: predicted vs measured for a real log."""
+
+from __future__ import annotations
+
+import math
+import sys
+
+from planner.cli.commands.common import (
+    fmt,
+    name_width,
+    output_path,
+    parse_float,
+    parse_fraction,
+    plot_path,
+    write_json,
+)
+from planner.io.flightdata import load_flight_data
+from planner.parameters import load_aircraft, load_battery
+
+
+def register(sub) -> None:
+    p = sub.add_parser("replay", help="predicted vs measured power and charge for real logs",
+                       description="Drive the battery model with the measured power (and, "
+                                   "with --aircraft, the power model with the measured "
+                                   "flight state) and compare with what the battery gave.")
+    p.add_argument("logs", nargs="+", metavar="LOG",
+                   help="log files (.bin, .px4log, .tlog, .ulg) or flight-record CSV")
+    p.add_argument("--aircraft", help="aircraft YAML: enables the power-level comparison")
+    p.add_argument("--battery", help="battery-pack YAML (default: the literature model for "
+                                     "the log's cell count)")
+    p.add_argument("--map", help="column map YAML for CSV data that is not a flight record")
+    p.add_argument("--payload", default="0", help="payload mass [kg] (default 0)")
+    p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
+    p.add_argument("--site-altitude", default="0",
+                   help="site altitude AMSL [m] for ISA density when the log has no "
+                        "pressure and temperature (default 0)")
+    p.add_argument("--json", help="write the comparison as JSON")
+    p.add_argument("--plot", help="write a PNG: measured vs predicted power and charge")
+    p.add_argument("--csv", metavar="F",
+                   help="write the flight record with the per-sample predicted power (W) "
+                        "and charge (mAh) beside the measured ones")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from planner.identify.replay import replay
+
+    json_out = output_path(args.json, "--json")
+    plot_out = plot_path(args.plot)
+    csv_out = output_path(args.csv, "--csv")
+    payload = parse_float(args.payload, "--payload", 0.0, 1000.0)
+    reserve = parse_fraction(args.reserve, "--reserve")
+    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0)
+    aircraft = load_aircraft(args.aircraft) if args.aircraft else None
+    pack = load_battery(args.battery) if args.battery else None
+    if aircraft is not None and pack is None and aircraft.battery_path:
+        from planner.parameters import default_battery_path
+        pack = load_battery(default_battery_path(aircraft))
+    failed: list[str] = []
+    data, metas = load_flight_data(args.logs, column_map=args.map, failed=failed)
+    for message in failed:  # a batch: each bad file named, the others replayed
+        print(f"error: {message}", file=sys.stderr)
+    result = replay(data, metas, pack=pack, aircraft=aircraft, payload_kg=payload,
+                    reserve=reserve, site_altitude_m=site)
+    print(render(result))
+    if json_out:
+        write_json(result.to_dict(), json_out)
+    if csv_out:
+        from planner.io.record import write_record
+        from planner.identify.replay import replay_table
+        from planner.io.record import has_power
+        write_record(replay_table(data, result), csv_out, require_power=has_power(data))
+    if plot_out:
+        from planner.cli.plots import common as plots
+        plots.save_replay_plot(result, plot_out)
+    if failed:
+        print(f"error: {len(failed)} of {len(args.logs)} files could not be read (named "
+              "above); the others were replayed", file=sys.stderr)
+        return 2
+    return 0
+
+
+def render(result) -> str:
+    from planner.io.record import NO_CURRENT
+
+    lines = []
+    w = name_width([e.experiment for e in result.experiments], "experiment")
+    head = (f"{'experiment':<{w}} {'dur s':>6} {'meas mAh':>9} {'pred mAh':>9} "
+            f"{'RMSE mAh':>9} {'final %':>8} {'P RMSE W':>9} {'E err %':>8}")
+    lines += [head, "-" * len(head)]
+    for e in result.experiments:
+        b, p = e.battery, e.power
+        if b is None and p is None and any(n.startswith(NO_CURRENT) for n in e.notes):
+            lines.append(f"{e.experiment:<{w}} {fmt(e.duration_s, 0, 6)}  {NO_CURRENT}")
+            continue
+        lines.append(
+            f"{e.experiment:<{w}} {fmt(e.duration_s, 0, 6)} "
+            f"{fmt(b.measured_final_mah if b else math.nan, 0, 9)} "
+            f"{fmt(b.predicted_final_mah if b else math.nan, 0, 9)} "
+            f"{fmt(b.rmse_mah if b else math.nan, 1, 9)} "
+            f"{fmt(b.final_error_pct if b else math.nan, 2, 8)} "
+            f"{fmt(p.rmse_w if p else math.nan, 1, 9)} "
+            f"{fmt(p.energy_error_pct if p else math.nan, 1, 8)}")
+    lines.append("-" * len(head))
+    for e in result.experiments:
+        if not e.battery and e.notes:
+            lines.append(f"{e.experiment}:")
+        if e.battery:
+            lines.append(f"{e.experiment}: battery model {e.battery.model}")
+            te = e.battery.time_error_s
+            if te:
+                lines.append("  time to reach the final charge, predicted − real, from the "
+                             "prediction at " + ", ".join(
+                                 f"{k.replace('pct', ' %')}: {v:+.0f} s" for k, v in te.items()))
+            if e.battery.reserve_reached_s is not None:
+                lines.append(f"  reserve reached at {e.battery.reserve_reached_s:.0f} s")
+        if e.power:
+            lines.append(f"  power model driven by {e.power.airspeed_source}; density from "
+                         f"{e.power.density_source}")
+            for name, ph in e.power.phases.items():
+                lines.append(f"    {name:<8} {ph['duration_s']:6.0f} s  measured "
+                             f"{ph['measured_w']:7.1f} W  predicted {ph['predicted_w']:7.1f} W "
+                             f" ({ph['error_pct']:+.1f} %)")
+        for note in e.notes:
+            lines.append(f"  note: {note}")
+    o = result.overall
+    if "battery" in o:
+        lines.append(f"Overall battery: RMSE {o['battery']['rmse_mah']:.1f} mAh, mean final "
+                     f"error {o['battery']['final_error_pct']:+.2f} % "
+                     "(measured − predicted, of measured)")
+    if "power" in o:
+        lines.append(f"Overall power: RMSE {o['power']['rmse_w']:.1f} W, energy error "
+                     f"{o['power']['energy_error_pct']:+.1f} % (predicted − measured)")
+    return "\n".join(lines)

@@ -1,0 +1,438 @@
+"""``endurance select`` (rank a pack catalog for a mission) and ``endurance sweep``
+(endurance against battery mass, range against payload)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+
+from planner.io import files
+from planner.cli.commands.common import (
+    flags_for,
+    fmt,
+    name_width,
+    output_path,
+    parse_float,
+    parse_fraction,
+    parse_int,
+    parse_wind,
+    plot_path,
+    write_json,
+)
+from planner.errors import InputError
+from planner.io.mission import load_mission
+from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
+
+
+def register(sub) -> None:
+    p = sub.add_parser("select", help="rank a battery-pack catalog for a mission",
+                       description="Fly the mission with every pack of a catalog (pack mass "
+                                   "included in the take-off mass), check the landing and "
+                                   "return-home reserves, C rating, cell count, take-off "
+                                   "mass and thrust, and rank the packs. Exit 0 = some pack "
+                                   "is feasible, 1 = none is (sorties are proposed), "
+                                   "2 = bad input.")
+    p.add_argument("mission", help="mission file: .yaml, QGroundControl .plan or "
+                                   "Mission Planner .waypoints")
+    p.add_argument("--aircraft", required=True, help="aircraft YAML")
+    p.add_argument("--packs", required=True,
+                   help="catalog YAML with a 'packs:' list, or a folder of pack YAMLs")
+    p.add_argument("--objective", default="mass", choices=("mass", "margin", "price"),
+                   help="rank by lightest pack (default), largest landing margin "
+                        "(as extra hover/loiter time) or lowest price")
+    p.add_argument("--wind", help="SPEED@FROM_DEG, e.g. 6@270 (overrides the mission's)")
+    p.add_argument("--temperature", help="outside air temperature [°C]")
+    p.add_argument("--reserve", default="0.2", help="landing reserve as a fraction of "
+                                                    "nominal capacity (default 0.2)")
+    p.add_argument("--payload", help="payload mass [kg] (overrides the mission's)")
+    p.add_argument("--min-thrust-to-weight", default="1.5",
+                   help="multirotor: least max thrust / take-off weight (default 1.5; "
+                        "needs multirotor.max_thrust_n in the aircraft file)")
+    p.add_argument("--top", help="show only the best N packs in the table (JSON: all)")
+    p.add_argument("--json", help="write the ranked packs as JSON to this file")
+    p.add_argument("--plot", help="write a PNG of pack mass against landing margin")
+    p.add_argument("--no-sorties", action="store_true",
+                   help="when no pack is feasible, do not plan sorties")
+    p.add_argument("--sorties-out", metavar="DIR",
+                   help="write one mission file per sortie into this existing folder, in "
+                        "the mission's own format (.plan, .waypoints or YAML)")
+    p.set_defaults(func=run_select)
+
+    s = sub.add_parser("sweep", help="sizing sweeps: endurance vs battery mass, range vs "
+                                     "payload",
+                       description="battery-mass: hover/loiter time to the reserve against "
+                                   "battery mass for a chemistry's specific energy, with the "
+                                   "optimum mass fraction. payload: still-air range against "
+                                   "payload for a pack. Tables to the terminal or CSV, plots "
+                                   "as PNG.")
+    s.add_argument("kind", choices=("battery-mass", "payload"), help="which sweep")
+    s.add_argument("--aircraft", required=True, help="aircraft YAML")
+    s.add_argument("--battery", help="pack YAML (default: the aircraft's); battery-mass: "
+                                     "gives cells, chemistry, model and specific energy")
+    s.add_argument("--chemistry", choices=("lipo", "liion"),
+                   help="battery-mass: chemistry defaults (LiPo 150 Wh/kg at 3.7 V, Li-ion "
+                        "220 Wh/kg at 3.6 V; assumed typical pack values)")
+    s.add_argument("--specific-energy", help="battery-mass: pack specific energy [Wh/kg]")
+    s.add_argument("--cells", help="battery-mass: cells in series")
+    s.add_argument("--cell-voltage", help="battery-mass: nominal cell voltage [V]")
+    s.add_argument("--range", dest="sweep_range",
+                   help="LO:HI of battery mass (battery-mass) or payload (payload) [kg]")
+    s.add_argument("--points", default=None, help="number of sweep points")
+    s.add_argument("--payload", help="battery-mass: payload [kg] (default 0)")
+    s.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
+    s.add_argument("--temperature", help="outside air temperature [°C]")
+    s.add_argument("--altitude", default=None, help="flight altitude above the site [m]")
+    s.add_argument("--site-altitude", default="0", help="site altitude AMSL [m]")
+    s.add_argument("--wind", help="battery-mass: SPEED@FROM_DEG during the hold")
+    s.add_argument("--csv", help="write the full sweep table as CSV")
+    s.add_argument("--plot", help="write a PNG of the sweep")
+    s.set_defaults(func=run_sweep)
+
+
+# --------------------------------------------------------------------------- select
+
+def run_select(args) -> int:
+    from planner.chain import selection as sel
+    from planner.chain.sizing import plan_long_mission
+
+    json_out = output_path(args.json, "--json")
+    plot_out = plot_path(args.plot)
+    sorties_dir = sorties_folder(args.sorties_out, args.mission, args.no_sorties)
+    reserve = parse_fraction(args.reserve, "--reserve")
+    top = None if args.top is None else parse_int(args.top, "--top", 1, 10**9)
+    min_tw = parse_float(args.min_thrust_to_weight, "--min-thrust-to-weight", 0.0, 20.0)
+    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
+                   if args.temperature is not None else None)
+    payload = (parse_float(args.payload, "--payload", 0.0, 1000.0)
+               if args.payload is not None else None)
+    aircraft = load_aircraft(args.aircraft)
+    packs = load_catalog(args.packs)
+    mission = load_mission(args.mission, vehicle_type=aircraft.type)
+    if not mission.legs:
+        raise InputError(f"{args.mission}: the mission has no legs")
+    env = mission.environment
+    if args.wind is not None:
+        speed, direction = parse_wind(args.wind)
+        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
+    selection = sel.select_pack(mission, aircraft, packs, env, objective=args.objective,
+                                reserve=reserve, temperature_c=temperature,
+                                payload_kg=payload, min_thrust_to_weight=min_tw)
+    e = selection.evaluation
+    plan, plan_error = None, None
+    if selection.best is None and not args.no_sorties:
+        try:
+            plan = plan_long_mission(mission, aircraft, packs, e, env, reserve=reserve,
+                                     temperature_c=temperature, payload_kg=payload)
+        except InputError as exc:
+            plan_error = str(exc)
+    print(render_selection(selection, args.packs, env, top))
+    if plan is not None:
+        print(render_plan(plan))
+        if sorties_dir is not None:
+            for path in write_sorties(plan, args.mission, sorties_dir, aircraft.type):
+                print(f"wrote     {path}")
+    elif plan_error:
+        print(f"\nSorties   not possible: {plan_error}")
+    if json_out:
+        data = selection.to_dict()
+        data["environment"] = dataclasses.asdict(env)
+        data["catalog"] = str(args.packs)
+        data["sorties"] = None if plan is None else plan.to_dict()
+        if plan_error:
+            data["sorties_error"] = plan_error
+        write_json(data, json_out)
+    if plot_out:
+        from planner.cli.plots import select as plots_select
+        plots_select.save_pareto_plot(
+            selection, plot_out,
+            title=f"{mission.name}: {aircraft.name}, {len(e)} packs "
+                  f"({int(e.feasible.sum())} feasible)", plan=plan)
+    return 0 if selection.best is not None else 1
+
+
+def render_selection(selection, catalog, env, top=None) -> str:
+    """The ranked table and summary a pilot reads in the terminal."""
+    e = selection.evaluation
+    what = "hover" if e.aircraft_type == "multirotor" else "loiter"
+    objective = {"mass": "lightest feasible pack", "margin": "largest landing margin",
+                 "price": "cheapest feasible pack"}[selection.objective]
+    lines = [f"Mission   {e.mission_name} ({e.duration_s / 60:.1f} min flown as planned)",
+             f"Aircraft  {e.aircraft_name}, payload {e.payload_kg:.2f} kg"
+             + (f", max take-off {e.max_takeoff_mass_kg:.2f} kg"
+                if e.max_takeoff_mass_kg is not None else ""),
+             (f"Catalog   {catalog}: {len(e)} packs, {int(e.feasible.sum())} feasible; "
+              f"objective: {objective}"),
+             f"Weather   wind {env.wind_speed_ms:.1f} m/s from {env.wind_from_deg:.0f}°"
+             + (f", {env.temperature_c:.0f} °C" if env.temperature_c is not None else ", ISA")
+             + f"; reserve {100 * e.reserve_fraction:.0f} %", ""]
+    order = selection.order if top is None else selection.order[:top]
+    names = [e.packs[i].name + (f" x{e.packs[i].count}" if e.packs[i].count > 1 else "")
+             for i in order]
+    w = name_width(names, "pack", 20)
+    head = (f"{'#':>3} {'pack':<{w}} {'S':>2} {'mAh':>6} {'pack kg':>7} {'TOW kg':>6} "
+            f"{'used mAh':>8} {'margin mAh':>10} {'margin min':>10} {'peak A':>6} "
+            f"{'max A':>6}  status")
+    lines += [head, "-" * len(head)]
+    for r, (i, name) in enumerate(zip(order, names), 1):
+        p = e.packs[i]
+        if e.feasible[i]:
+            status = "OK"
+        else:
+            reasons = e.reasons(i)
+            status = f"{e.binding(i)}: {reasons[0] if reasons else ''}"
+            if len(status) > 70:
+                status = status[:67] + "..."
+        lines.append(
+            f"{r:>3} {name:<{w}} {p.cells_series:>2} {fmt(e.capacity_mah[i], 0, 6)} "
+            f"{fmt(e.pack_mass_kg[i], 3, 7)} {fmt(e.takeoff_mass_kg[i], 2, 6)} "
+            f"{fmt(e.charge_used_mah[i], 0, 8)} {fmt(e.margin_mah[i], 0, 10)} "
+            f"{fmt(e.margin_time_s[i] / 60, 1, 10)} {fmt(e.peak_current_a[i], 1, 6)} "
+            f"{fmt(e.max_current_a[i], 0, 6)}  {status}")
+    if top is not None and top < len(e):
+        lines.append(f"    ... {len(e) - top} more (--top to show them, --json for all)")
+    lines.append("-" * len(head))
+    for note in e.notes:
+        lines.append(f"Note      {note}")
+    lines.append("")
+    if selection.best is not None:
+        b = selection.best
+        p = e.packs[b]
+        lines.append(f"Best      {p.name}" + (f" x{p.count}" if p.count > 1 else "")
+                     + f": {e.pack_mass_kg[b]:.3f} kg, take-off {e.takeoff_mass_kg[b]:.2f} kg,"
+                     f" lands with {100 * e.remaining_fraction[b]:.1f} %, margin "
+                     f"{e.margin_mah[b]:+.0f} mAh"
+                     + (f" = {e.margin_time_s[b] / 60:+.1f} min of {what}"
+                        if math.isfinite(e.margin_time_s[b]) else ""))
+    else:
+        lines.append("NO-GO     no single pack of the catalog flies the mission with the "
+                     "reserves")
+    return "\n".join(lines)
+
+
+def sorties_folder(folder: str | None, mission_path: str, no_sorties: bool):
+    """``--sorties-out``: an existing folder, for a mission format that can be written."""
+    from planner.io.mission.writers import WRITERS
+
+    if folder is None:
+        return None
+    if no_sorties:
+        raise InputError("--sorties-out: cannot be given with --no-sorties")
+    if not Path(folder).is_dir():
+        raise InputError(f"--sorties-out {folder}: not an existing folder (expected the "
+                         "folder to write the sortie mission files into)")
+    suffix = Path(mission_path).suffix.lower()
+    if suffix not in WRITERS:
+        raise InputError(f"--sorties-out: cannot write missions in the format of "
+                         f"{mission_path} (expected .plan, .waypoints, .yaml or .yml)")
+    return Path(folder)
+
+
+def write_sorties(plan, mission_path: str, folder: Path, vehicle_type: str) -> list[Path]:
+    """One mission file per sortie, in the format of ``mission_path``."""
+    from planner.io.mission import writers
+
+    src = Path(mission_path)
+    kind = writers.WRITERS[src.suffix.lower()]
+    out = []
+    for s in plan.sorties:
+        text = (writers.to_yaml(s.mission) if kind == "yaml" else
+                writers.to_waypoints(s.mission) if kind == "waypoints" else
+                writers.to_plan(s.mission, vehicle_type))
+        path = folder / f"{src.stem}_sortie{s.number}{src.suffix}"
+        files.write_text(path, text, "--sorties-out")
+        out.append(path)
+    return out
+
+
+def render_plan(plan) -> str:
+    p = plan.pack
+    lines = ["", f"Sorties   fewest: {plan.count} flight(s) with {p.name}"
+             + (f" x{p.count}" if p.count > 1 else "")
+             + f" ({p.total_mass_kg:.3f} kg); the charge bound allows no fewer than "
+             f"{plan.lower_bound}" + (" — minimal" if plan.minimal else "")]
+    for k, s in enumerate(plan.splits, 1):
+        lines.append(f"Swap {k:<4} in {s.origin}, {100 * s.fraction:.0f} % along the leg "
+                     f"(t = {s.time_s:.0f} s in the plan, {s.east_m:.0f} m E "
+                     f"{s.north_m:.0f} m N, {s.altitude_m:.0f} m up)")
+    for s in plan.sorties:
+        r = s.result
+        lines.append(f"Flight {s.number:<3}{len(s.mission.legs)} legs, "
+                     f"{r.duration_s / 60:.1f} min, {r.charge_used_mah:.0f} mAh, margin "
+                     f"{r.margin_mah:+.0f} mAh: {r.verdict}")
+    for note in plan.notes:
+        lines.append(f"Note      {note}")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- sweep
+
+def _parse_range(text, default):
+    if text is None:
+        return default
+    try:
+        lo_s, hi_s = text.split(":")
+        lo, hi = float(lo_s), float(hi_s)
+    except ValueError:
+        raise InputError(f"--range: expected LO:HI in kg, e.g. 0.2:3, got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo < 0 or hi <= lo:
+        raise InputError(f"--range: expected 0 <= LO < HI, got {text!r}")
+    return lo, hi
+
+
+def run_sweep(args) -> int:
+    from planner.chain import sizing
+    from planner.physics.mission import Environment
+
+    csv_out = output_path(args.csv, "--csv")
+    plot_out = plot_path(args.plot)
+    reserve = parse_fraction(args.reserve, "--reserve")
+    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
+                   if args.temperature is not None else None)
+    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0)
+    env = Environment(temperature_c=temperature, site_altitude_m=site)
+    if args.wind is not None:
+        speed, direction = parse_wind(args.wind)
+        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
+    aircraft = load_aircraft(args.aircraft)
+    battery_path = args.battery or default_battery_path(aircraft)
+    pack = load_battery(battery_path) if battery_path else None
+
+    if args.kind == "battery-mass":
+        altitude = parse_float(args.altitude or "0", "--altitude", 0.0, 10000.0)
+        chem = args.chemistry or (pack.chemistry if pack is not None else "lipo")
+        defaults = sizing.CHEMISTRIES.get(chem, sizing.CHEMISTRIES["lipo"])
+        cell_v = (parse_float(args.cell_voltage, "--cell-voltage", 1.0, 5.0)
+                  if args.cell_voltage else defaults["cell_voltage_v"])
+        if args.cells is not None:
+            try:
+                cells = int(args.cells)
+            except ValueError:
+                raise InputError(f"--cells: expected a whole number, got {args.cells!r}") \
+                    from None
+            if not 1 <= cells <= 40:
+                raise InputError(f"--cells: expected 1..40, got {args.cells!r}")
+        elif pack is not None:
+            cells = pack.cells_series
+        elif aircraft.cells_series_allowed:
+            cells = aircraft.cells_series_allowed[0]
+        else:
+            cells = 4
+        source = "given"
+        if args.specific_energy is not None:
+            e_spec = parse_float(args.specific_energy, "--specific-energy", 10.0, 1000.0)
+        elif pack is not None and args.chemistry is None:
+            e_spec = pack.capacity_mah / 1000.0 * pack.cells_series * cell_v / pack.mass_kg
+            source = f"from {pack.name}"
+        else:
+            e_spec = defaults["specific_energy_wh_per_kg"]
+            source = f"{chem} default (assumed)"
+        model = (pack.model if pack is not None and not pack.model.literature
+                 and pack.cells_series == cells and args.chemistry is None else None)
+        payload = parse_float(args.payload or "0", "--payload", 0.0, 1000.0)
+        m0 = aircraft.empty_mass_kg + payload
+        lo, hi = _parse_range(args.sweep_range, (0.05 * m0, 4.0 * m0))
+        lo = max(lo, 1e-3)
+        n = 200 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
+        with flags_for(reserve="--reserve"):
+            sweep = sizing.endurance_sweep(
+                aircraft, np.linspace(lo, hi, n), specific_energy_wh_per_kg=e_spec,
+                cells_series=cells, cell_voltage_v=cell_v, model=model,
+                usable_fraction=pack.usable_fraction if pack is not None else 1.0,
+                payload_kg=payload, reserve=reserve, environment=env, altitude_m=altitude,
+                temperature_c=temperature)
+        print(render_endurance(sweep, source))
+        if csv_out:
+            _write_csv(sweep.to_frame(), csv_out)
+        if plot_out:
+            from planner.cli.plots import select as plots_select
+            plots_select.save_endurance_plot(sweep, plot_out)
+        return 0
+
+    if args.payload is not None:
+        raise InputError(f"--payload {args.payload}: the payload sweep varies the payload "
+                         "over --range LO:HI (--payload is for the battery-mass sweep)")
+    if pack is None:
+        raise InputError(f"{args.aircraft}: no 'battery' key and no --battery given "
+                         "(the payload sweep needs a pack)")
+    altitude = parse_float(args.altitude or "50", "--altitude", 0.0, 10000.0)
+    free = (aircraft.max_takeoff_mass_kg - aircraft.empty_mass_kg - pack.total_mass_kg
+            if aircraft.max_takeoff_mass_kg is not None else aircraft.empty_mass_kg)
+    lo, hi = _parse_range(args.sweep_range, (0.0, max(free, 0.1 * aircraft.empty_mass_kg)))
+    n = 41 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
+    with flags_for(reserve="--reserve"):
+        sweep = sizing.range_sweep(aircraft, pack, np.linspace(lo, hi, n), reserve=reserve,
+                                   environment=env, altitude_m=altitude,
+                                   temperature_c=temperature)
+    print(render_range(sweep))
+    if csv_out:
+        _write_csv(sweep.to_frame(), csv_out)
+    if plot_out:
+        from planner.cli.plots import select as plots_select
+        plots_select.save_range_plot(sweep, plot_out)
+    return 0
+
+
+def _write_csv(frame, path):
+    files.write_text(path, frame.to_csv(index=False, float_format="%.6g"), "--csv")
+
+
+def _rows(n, shown=15):
+    return np.unique(np.linspace(0, n - 1, min(n, shown)).round().astype(int))
+
+
+def render_endurance(sweep, source) -> str:
+    o = sweep.optimum
+    lines = [f"Aircraft  {sweep.aircraft}, payload {sweep.payload_kg:g} kg",
+             (f"Battery   {sweep.cells_series}S at {sweep.cell_voltage_v:g} V/cell, "
+              f"{sweep.specific_energy_wh_per_kg:.0f} Wh/kg ({source}); reserve "
+              f"{100 * sweep.reserve_fraction:.0f} %"), ""]
+    head = (f"{'battery kg':>10} {'fraction':>8} {'TOW kg':>7} {'mAh':>7} "
+            f"{'power W':>8} {sweep.hold + ' min':>11}  limits")
+    lines += [head, "-" * len(head)]
+    f = sweep.to_frame()
+    for i in _rows(len(f)):
+        r = f.iloc[i]
+        lines.append(f"{r.battery_mass_kg:>10.3f} {r.mass_fraction:>8.2f} "
+                     f"{r.takeoff_mass_kg:>7.2f} {r.capacity_mah:>7.0f} {r.hold_power_w:>8.1f} "
+                     f"{r.endurance_min:>11.1f}  {'ok' if r.feasible else 'exceeded'}")
+    lines.append("-" * len(head))
+    free = (f"{o['battery_mass_kg']:.3f} kg of battery (mass fraction "
+            f"{o['mass_fraction']:.2f}): {o['endurance_s'] / 60:.1f} min of {sweep.hold}")
+    if o.get("constrained_battery_mass_kg") is None:
+        lines.append("Optimum   none: no swept battery mass is within the take-off mass and "
+                     "thrust limits")
+        lines.append(f"Unlimited {free}, beyond the aircraft's limits")
+    elif abs(o["constrained_battery_mass_kg"] - o["battery_mass_kg"]) > 1e-6:
+        mb = o["constrained_battery_mass_kg"]
+        lines.append(f"Optimum   {mb:.3f} kg of battery (mass fraction "
+                     f"{mb / (mb + sweep.takeoff_mass_kg[0] - sweep.battery_mass_kg[0]):.2f}): "
+                     f"{o['constrained_endurance_s'] / 60:.1f} min of {sweep.hold}, "
+                     "the most within the take-off mass and thrust limits")
+        lines.append(f"Unlimited {free}, beyond the aircraft's limits")
+    else:
+        lines.append(f"Optimum   {free}, within the take-off mass and thrust limits")
+    for note in sweep.notes:
+        lines.append(f"Note      {note}")
+    return "\n".join(lines)
+
+
+def render_range(sweep) -> str:
+    lines = [(f"Aircraft  {sweep.aircraft} with {sweep.pack}; reserve "
+              f"{100 * sweep.reserve_fraction:.0f} %"), ""]
+    head = (f"{'payload kg':>10} {'TOW kg':>7} {'power W':>8} {'range km':>9} "
+            f"{'best V m/s':>10} {'best km':>8} {'hold min':>8}  limits")
+    lines += [head, "-" * len(head)]
+    f = sweep.to_frame()
+    for i in _rows(len(f)):
+        r = f.iloc[i]
+        lines.append(f"{r.payload_kg:>10.3f} {r.takeoff_mass_kg:>7.2f} "
+                     f"{r.cruise_power_w:>8.1f} {r.range_km:>9.2f} "
+                     f"{r.best_range_speed_ms:>10.1f} {r.best_range_km:>8.2f} "
+                     f"{r.hold_endurance_s / 60:>8.1f}  {'ok' if r.feasible else 'exceeded'}")
+    lines.append("-" * len(head))
+    for note in sweep.notes:
+        lines.append(f"Note      {note}")
+    return "\n".join(lines)

@@ -1,0 +1,123 @@
+"""Command line: ``endurance <command> ...`` (also ``python -m planner``).
+
+Argparse only; every command calls importable library functions. Exit status
+(DESIGN §7): 0 success (``check``: GO), 1 ``check`` says NO-GO, 2 bad input
+(one line on stderr naming the file, the field and what was expected),
+3 unexpected internal error.
+
+Each command lives in a module of :mod:`planner.cli.commands` with a
+``register(subparsers)`` function that adds its parser and sets ``func`` to a
+callable ``func(args) -> int``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+import traceback
+import warnings
+
+from planner import __version__
+from planner.io import files
+from planner.errors import InputError, ModelError, PlannerError
+
+#: Modules that each register one or more sub-commands, in help order.
+COMMAND_MODULES = (
+    "planner.cli.commands.check",
+    "planner.cli.commands.select",
+    "planner.cli.commands.logs",
+    "planner.cli.commands.replay",
+    "planner.cli.commands.battery",
+    "planner.cli.commands.hybrid",
+    "planner.cli.commands.aircraft",
+    "planner.cli.commands.diagnose",
+    "planner.cli.commands.fleet",
+)
+
+EXIT_OK, EXIT_NOGO, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+#: Exit status when standard output is closed under us: 128 + SIGPIPE, as the shell
+#: reports a process the signal ended.
+EXIT_BROKEN_PIPE = 141
+
+
+class _Parser(argparse.ArgumentParser):
+    """Argparse parser whose usage errors exit 2 with a one-line message."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="endurance",
+        description="UAV mission endurance planner: pre-flight check, pack selection, "
+        "log replay and model diagnosis.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name == name:  # command not built yet
+                continue
+            raise
+        module.register(sub)
+    return parser
+
+
+#: Options (``dest``) that name output files: all checked against every file the command
+#: read before its first write (:mod:`planner.io.files`).
+OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out")
+
+
+def _format_warning(message, category, filename, lineno, line=None):
+    return f"warning: {message}\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; return the exit status."""
+    warnings.formatwarning = _format_warning
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
+    outputs = {f"--{name.replace('_', '-')}": getattr(args, name, None)
+               for name in OUTPUT_ARGS}
+    to_stdout = "-" in outputs.values()
+    saved = sys.stdout
+    try:
+        files.reset(outputs)
+        if to_stdout:
+            # standard output carries that output alone; the command's text goes to stderr
+            files.STDOUT, sys.stdout = saved, sys.stderr
+        return int(args.func(args))
+    except (InputError, ModelError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except PlannerError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        # the reader of the output went away (``endurance … | head``): end quietly, as a
+        # process killed by SIGPIPE would, without a second error while flushing stdout
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
+    except Exception:  # pragma: no cover - the last line of defence
+        traceback.print_exc()
+        print("error: internal error (a bug): please report it with the input files",
+              file=sys.stderr)
+        return EXIT_INTERNAL
+    finally:
+        if to_stdout:
+            sys.stdout, files.STDOUT = saved, None
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,607 @@
+"""Identify an aircraft's power parameters from flights.
+
+The physics model driven by the measured flight state (the mission chain's
+:meth:`~planner.chain.mission_chain.MissionChain.power_at` with the state of
+:func:`planner.chain.flightstate.from_record`) is fitted
+to the measured electric power of the airborne samples by least squares
+(:func:`scipy.optimize.least_squares`):
+
+* multirotor — efficiency η (electrical → shaft), body drag area f and the
+  system load P_S (the figure of merit stays as given: in hover it is not
+  separable from η);
+* fixed-wing — C_D0, K, η and P_S (η is separable from the polar only
+  through climbs and descents; a poorly determined parameter is reported).
+
+Standard errors come from the Jacobian, inflated for the autocorrelation of
+neighbouring samples: the covariance is multiplied by (1 + ρ₁)/(1 − ρ₁), with
+ρ₁ the lag-1 autocorrelation of the residuals (AR(1) effective sample size,
+:func:`planner.identify.stats.covariance`).
+
+A multirotor with ``power_model: rotor_losses`` (:mod:`planner.physics.power.rotor_losses`) is
+fitted by :func:`fit_rotor_losses`:
+
+* the power with the rotors stopped, P_stop (``system_power_w``), is *measured*, as the
+  median power of the rotors-stopped ground samples (within
+  :data:`STOPPED_HEIGHT_M` of the first altitude, ground speed below
+  :data:`STOPPED_SPEED_MS`, power below :data:`STOPPED_POWER_FRACTION` of the median
+  airborne power), and held; without such samples the file's value is held and the
+  report says so;
+* free: the motor no-load loss P_nl, the copper loss P_cu, the profile power ratio r₀
+  (written as ``figure_of_merit`` = 1/(κ + r₀)) and the drag area f; the drive
+  efficiency η_d and the induced factor κ stay as given;
+* least squares in watts on the airborne samples; standard errors cluster-robust with one
+  cluster per flight (:func:`planner.identify.stats.cluster_covariance`; AR(1)-inflated when the
+  training data are one flight);
+* the lead of the power channel over the state channels (``power_lead_s``) is chosen
+  among :data:`LEADS_S` by the training RMS alone;
+* a parameter that ends on one of its bounds is reported as a misfit of the model's form
+  (``at_bound``), not as a value.
+
+Validation never uses samples the fit saw: whole flights are held out where
+there are several (``validate``), else the last 30 % of the single flight's
+time. The error is reported before (the aircraft file as given) and after.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import least_squares
+
+from planner.chain import flightstate
+from planner.io import record
+from planner.chain.mission_chain import MissionChain
+from planner.errors import FitError, InputError
+from planner.parameters import Aircraft
+from planner.physics.power.rotor_losses import (
+    RotorLossesPower,
+    battery_power_from_unit_terms,
+    rotor_losses_components,
+)
+from planner.identify.stats import cluster_covariance, covariance
+
+#: Parameters fitted, start-value source, bounds, per aircraft type.
+PARAMETERS = {
+    "multirotor": {"efficiency": (0.2, 1.0), "drag_area_m2": (0.0, 2.0),
+                   "system_power_w": (0.0, 2000.0)},
+    "fixed_wing": {"cd0": (0.002, 0.3), "k": (0.005, 0.5), "efficiency": (0.1, 1.0),
+                   "system_power_w": (0.0, 2000.0)},
+}
+#: Bounds of the fixed-wing propeller's profile power, fitted with the polar when the
+#: aircraft has a propeller (:mod:`planner.physics.power.propeller`). [W]
+PROPELLER_PROFILE_BOUNDS_W = (0.0, 2000.0)
+#: Free parameters of the rotor_losses model and their bounds (r₀ is fitted as the
+#: profile power ratio; its upper bound is FM = 0.2). [W], [W], [unitless], [m²]
+ROTOR_LOSSES_PARAMETERS = {"no_load_power_w": (0.0, 2000.0),
+                           "copper_loss_power_w": (0.0, 2000.0),
+                           "profile_power_ratio": (0.0, 3.85),
+                           "drag_area_m2": (0.0, 2.0)}
+#: Leads of the power channel over the flight-state channels tried by the fit. [s]
+LEADS_S = (0.0, 0.15, 0.3)
+#: Rotors-stopped ground samples: within this height of the first altitude [m], ...
+STOPPED_HEIGHT_M = 1.0
+#: ... slower than this over ground [m/s], ...
+STOPPED_SPEED_MS = 0.3
+#: ... and drawing less than this share of the median airborne power (the M100's
+#: propellers idling on the ground draw 36 W, 8 % of its 450 W in flight; its
+#: avionics 2–10 W, under 2 %). [unitless]
+STOPPED_POWER_FRACTION = 0.05
+#: Fewest rotors-stopped samples to measure P_stop from. [samples]
+STOPPED_MIN_SAMPLES = 10
+#: A parameter whose standard error exceeds this share of its value is "poorly determined".
+POOR_RELATIVE_STDERR = 0.5
+
+
+def get_param(aircraft: Aircraft, name: str) -> float:
+    if name in ("efficiency", "system_power_w"):
+        return float(getattr(aircraft, name))
+    block = aircraft.multirotor if aircraft.is_multirotor else aircraft.fixed_wing
+    return float(getattr(block, name))
+
+
+def with_params(aircraft: Aircraft, values: dict[str, float]) -> Aircraft:
+    """A copy of ``aircraft`` with the named parameters replaced."""
+    top = {k: v for k, v in values.items() if k in ("efficiency", "system_power_w")}
+    inner = {k: v for k, v in values.items() if k not in top}
+    out = replace(aircraft, **top)
+    if inner:
+        if aircraft.is_multirotor:
+            out = replace(out, multirotor=replace(aircraft.multirotor, **inner))
+        else:
+            out = replace(out, fixed_wing=replace(aircraft.fixed_wing, **inner))
+    return out
+
+
+@dataclass
+class Samples:
+    """Airborne samples of the power fit (stacked over experiments)."""
+
+    experiment: np.ndarray
+    time_s: np.ndarray
+    airspeed: np.ndarray
+    climb_rate: np.ndarray
+    air_density: np.ndarray
+    measured_w: np.ndarray
+    dt: np.ndarray
+    specific_force: np.ndarray | None = None
+
+
+def _check_fittable(exp_id, exp: pd.DataFrame) -> None:
+    """Raise :class:`InputError` unless the experiment has power and flight state."""
+    if record.voltage_only(exp):
+        raise InputError(f"experiment {exp_id}: {record.NO_CURRENT} (battery voltage only): "
+                         "fitting an aircraft needs the measured power")
+    if not record.has_power(exp) or not {"climb_rate_ms", "groundspeed_ms"} & set(exp.columns):
+        raise InputError(f"experiment {exp_id}: needs power and flight state "
+                         "(climb_rate_ms, groundspeed_ms or airspeed_ms) to fit an aircraft")
+
+
+def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
+                     airborne_height_m: float | None = None) -> Samples:
+    """Flight state and measured power of the airborne samples of every experiment
+    (:func:`airborne_mask`)."""
+    parts = []
+    for exp_id, exp in record.experiments(data):
+        exp = exp.reset_index(drop=True)
+        _check_fittable(exp_id, exp)
+        t = exp["time_s"].to_numpy(float)
+        p = exp["power_w"].to_numpy(float)
+        state = flightstate.from_record(exp, site_altitude_m)
+        (v, climb), rho = state.rotor_velocities(), state.air_density
+        ok = airborne_mask(exp, state, airborne_height_m) & np.isfinite(p) & np.isfinite(v)
+        dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
+        parts.append((np.full(ok.sum(), str(exp_id), dtype=object), t[ok], v[ok], climb[ok],
+                      rho[ok], p[ok], dt[ok]))
+    parts = [part for part in parts if len(part[1])]
+    if not parts:
+        raise InputError("no airborne samples in the data (ground tests only?)")
+    cols = [np.concatenate([part[i] for part in parts]) for i in range(7)]
+    return Samples(*cols)
+
+
+def _predict(aircraft: Aircraft, s: Samples, mass: np.ndarray) -> np.ndarray:
+    chain = MissionChain(aircraft, None)
+    force = s.specific_force
+    if force is None or not _is_rotor_losses(aircraft):
+        return chain.power_at(s.airspeed, s.climb_rate, s.air_density, mass)
+    ok = np.isfinite(force)
+    measured = chain.power_at(s.airspeed, s.climb_rate, s.air_density, mass,
+                              thrust=mass * np.where(ok, force, 9.80665))
+    if ok.all():
+        return measured
+    return np.where(ok, measured, chain.power_at(s.airspeed, s.climb_rate, s.air_density,
+                                                 mass))
+
+
+def _is_rotor_losses(aircraft: Aircraft) -> bool:
+    return aircraft.is_multirotor and aircraft.multirotor.power_model == "rotor_losses"
+
+
+def _subset(s: Samples, mask: np.ndarray) -> Samples:
+    return Samples(*(None if getattr(s, f) is None else getattr(s, f)[mask]
+                     for f in Samples.__dataclass_fields__))
+
+
+def split_experiments(s: Samples, validate: list[str] | None, train: list[str] | None):
+    """Training and validation masks: whole flights, else the last 30 % of one flight."""
+    ids = list(dict.fromkeys(s.experiment))
+    if validate or train:
+        unknown = set(validate or []) | set(train or [])
+        unknown -= set(ids)
+        if unknown:
+            raise InputError(f"unknown experiment(s) {sorted(unknown)}; the data has "
+                             f"{', '.join(ids[:10])}{' …' if len(ids) > 10 else ''}")
+        both = set(validate or []) & set(train or [])
+        if both:
+            raise InputError(f"experiment(s) {sorted(both)} both train and validate; expected "
+                             "held-out flights the fit has not seen")
+        val = set(validate or []) or (set(ids) - set(train))
+        trn = set(train or []) or (set(ids) - val)
+        if not trn:
+            raise InputError(f"no training flight left (the data has {', '.join(ids[:10])}); "
+                             "expected at least one")
+        return np.isin(s.experiment, list(trn)), np.isin(s.experiment, list(val)), "given"
+    if len(ids) >= 2:
+        val = set(ids[2::3]) or {ids[-1]}           # every third flight held out
+        trn = set(ids) - val
+        return (np.isin(s.experiment, list(trn)), np.isin(s.experiment, list(val)),
+                "every third flight held out")
+    cut = s.time_s.min() + 0.7 * (s.time_s.max() - s.time_s.min())
+    return s.time_s < cut, s.time_s >= cut, "last 30 % of the flight held out"
+
+
+def _metrics(pred, meas, dt):
+    r = pred - meas
+    e_m = float(np.sum(meas * dt))
+    return {"rmse_w": float(np.sqrt(np.mean(r**2))), "bias_w": float(np.mean(r)),
+            "energy_error_pct": 100.0 * float(np.sum(pred * dt) - e_m) / e_m if e_m else
+            float("nan")}
+
+
+def per_experiment_energy_error(aircraft, s: Samples, mass) -> dict[str, float]:
+    """Energy error (predicted − measured, % of measured) of each flight's airborne part."""
+    pred = _predict(aircraft, s, mass)
+    out = {}
+    for exp_id in dict.fromkeys(s.experiment):
+        m = s.experiment == exp_id
+        e_m = float(np.sum(s.measured_w[m] * s.dt[m]))
+        out[str(exp_id)] = 100.0 * (float(np.sum(pred[m] * s.dt[m])) - e_m) / e_m
+    return out
+
+
+def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
+                 parameters: list[str] | None = None, train: list[str] | None = None,
+                 validate: list[str] | None = None, site_altitude_m: float = 0.0,
+                 airborne_height_m: float | None = None, **kwargs) -> dict[str, Any]:
+    """Fit the aircraft's power parameters to measured flights.
+
+    Parameters
+    ----------
+    data : DataFrame
+        Flight record(s) with power and flight state.
+    aircraft : Aircraft
+        Start values and the fixed parameters.
+    mass_kg : float
+        All-up mass of the flights. [kg]
+    parameters : list of str, optional
+        Which of :data:`PARAMETERS` to fit (default all for the type).
+    train, validate : list of str, optional
+        Experiment ids; default: every third flight validates.
+    site_altitude_m : float
+        Site altitude for the ISA density when the record has no pressure. [m]
+    airborne_height_m : float, optional
+        Airborne = more than this above the experiment's first sample (default: the
+        flight phases other than ground and take-off). [m]
+    **kwargs
+        Passed to :func:`scipy.optimize.least_squares`.
+
+    Returns
+    -------
+    dict
+        ``aircraft`` (the fitted Aircraft), ``parameters``, ``stderr``,
+        ``poorly_determined``, ``train``/``validation`` metrics before and after,
+        ``per_experiment_energy_error_pct`` (before/after, validation flights),
+        ``split``.
+    """
+    if _is_rotor_losses(aircraft):
+        return fit_rotor_losses(data, aircraft, mass_kg=mass_kg, parameters=parameters,
+                                train=train, validate=validate,
+                                site_altitude_m=site_altitude_m,
+                                airborne_height_m=airborne_height_m, **kwargs)
+    table = dict(PARAMETERS[aircraft.type])
+    if not aircraft.is_multirotor and aircraft.fixed_wing.propeller_diameter_m:
+        table["propeller_profile_power_w"] = PROPELLER_PROFILE_BOUNDS_W
+    names = parameters or list(table)
+    unknown = set(names) - set(table)
+    if unknown:
+        raise InputError(f"cannot fit {sorted(unknown)} for a {aircraft.type}; "
+                         f"expected some of {', '.join(table)}")
+    s = airborne_samples(data, site_altitude_m, airborne_height_m)
+    if len(s.measured_w) < 20:
+        raise InputError(f"only {len(s.measured_w)} airborne samples: too few to fit "
+                         "an aircraft (expected at least 20)")
+    trn, val, how = split_experiments(s, validate, train)
+    if trn.sum() < 10:
+        raise InputError("the training split has fewer than 10 airborne samples")
+    s_trn, s_val = _subset(s, trn), _subset(s, val)
+    mass_trn = np.full(len(s_trn.time_s), float(mass_kg))
+    x0 = np.array([get_param(aircraft, n) for n in names])
+    lo = np.array([table[n][0] for n in names])
+    hi = np.array([table[n][1] for n in names])
+    x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
+    scale = np.maximum(np.abs(x0), 1e-3)
+
+    def residual(x):
+        ac = with_params(aircraft, dict(zip(names, x)))
+        return _predict(ac, s_trn, mass_trn) - s_trn.measured_w
+
+    try:
+        sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, **kwargs)
+    except ValueError as exc:
+        raise FitError(f"aircraft fit failed: {exc}") from None
+    if not sol.success:
+        raise FitError(f"aircraft fit did not converge: {sol.message}")
+    fitted = with_params(aircraft, dict(zip(names, sol.x)))
+    stderr, poor = _stderr(sol, names)
+    result = {
+        "aircraft": fitted, "parameters": dict(zip(names, map(float, sol.x))),
+        "start": dict(zip(names, map(float, x0))), "stderr": stderr,
+        "poorly_determined": poor, "split": how,
+        "train_experiments": sorted(set(s_trn.experiment)),
+        "validation_experiments": sorted(set(s_val.experiment)),
+    }
+    result.update(_scores(aircraft, fitted, s, s, trn, val, mass_kg))
+    return result
+
+
+def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg) -> dict:
+    """Power RMSE and energy error of the start and the fitted aircraft on the training
+    and (with at least 2 samples) validation rows, and the per-flight energy error of the
+    validation flights. ``before`` and ``after`` are the samples each aircraft is flown on:
+    the same, unless the fit chose a state lead."""
+    out: dict[str, Any] = {}
+    for name, rows in (("train", trn), ("validation", val)):
+        if name == "validation" and rows.sum() < 2:
+            break
+        b, a = _subset(before, rows), _subset(after, rows)
+        m = np.full(int(rows.sum()), float(mass_kg))
+        out[name] = {"before": _metrics(_predict(aircraft, b, m), b.measured_w, b.dt),
+                     "after": _metrics(_predict(fitted, a, m), a.measured_w, a.dt)}
+        if name == "train":
+            out["samples"] = {"train": int(trn.sum()), "validation": int(val.sum())}
+        else:
+            out["per_experiment_energy_error_pct"] = {
+                "before": per_experiment_energy_error(aircraft, b, m),
+                "after": per_experiment_energy_error(fitted, a, m)}
+    return out
+
+
+def _stderr(sol, names):
+    cov = covariance(sol.jac, sol.fun)
+    if cov.singular:
+        warnings.warn("covariance of the aircraft fit is indeterminate (singular Jacobian)")
+    stderr = dict(zip(names, map(float, cov.stderr)))
+    poor = [k for k, v in zip(names, sol.x) if not np.isfinite(stderr[k])
+            or stderr[k] > POOR_RELATIVE_STDERR * max(abs(v), 1e-12)]
+    if poor:
+        warnings.warn(f"poorly determined by these flights: {', '.join(poor)} "
+                      f"(standard error above {POOR_RELATIVE_STDERR:.0%} of the value)")
+    return stderr, poor
+
+
+# ------------------------------------------------------------------ rotor_losses model
+def _states(data: pd.DataFrame, site_altitude_m: float):
+    """(experiment id, experiment, FlightState) of every experiment with power and state."""
+    out = []
+    for exp_id, exp in record.experiments(data):
+        exp = exp.reset_index(drop=True)
+        _check_fittable(exp_id, exp)
+        out.append((str(exp_id), exp, flightstate.from_record(exp, site_altitude_m)))
+    return out
+
+
+def _height(exp: pd.DataFrame) -> np.ndarray:
+    """Altitude above the experiment's first valid altitude (NaN where unknown). [m]"""
+    alt = exp["altitude_m"].to_numpy(float) if "altitude_m" in exp else np.full(len(exp),
+                                                                                 np.nan)
+    ok = np.isfinite(alt)
+    return alt - alt[ok][0] if ok.any() else alt
+
+
+def airborne_mask(exp: pd.DataFrame, state, airborne_height_m: float | None) -> np.ndarray:
+    """Airborne samples: more than ``airborne_height_m`` above the first sample (the
+    Choudhry et al. 2021 benchmark's definition), else the flight phases other than
+    ``ground`` and ``takeoff`` (:func:`planner.chain.flightstate.flight_phases`)."""
+    if airborne_height_m is None:
+        return (state.phase != "ground") & (state.phase != "takeoff")
+    if "altitude_m" not in exp:
+        raise InputError("an airborne height needs altitude_m in the flight record")
+    with np.errstate(invalid="ignore"):
+        return _height(exp) > airborne_height_m
+
+
+def rotor_losses_samples(states, lead_s: float = 0.0,
+                         airborne_height_m: float | None = None) -> Samples:
+    """Airborne samples with the flight state read ``lead_s`` after each power sample
+    (linear interpolation within the experiment, held at its ends) and the specific
+    force where the record has it (NaN elsewhere)."""
+    parts = []
+    for exp_id, exp, st in states:
+        t = st.time_s
+        ok = airborne_mask(exp, st, airborne_height_m) & np.isfinite(st.measured_power_w)
+
+        def later(x):
+            return x if lead_s == 0.0 or t.size < 2 else np.interp(t + lead_s, t, x)
+
+        force = (later(st.specific_force_ms2) if st.specific_force_ms2 is not None
+                 else np.full(t.size, np.nan))
+        v, climb = st.rotor_velocities()
+        dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
+        parts.append((np.full(ok.sum(), exp_id, dtype=object), t[ok],
+                      later(v)[ok], later(climb)[ok],
+                      later(st.air_density)[ok], st.measured_power_w[ok], dt[ok], force[ok]))
+    parts = [part for part in parts if len(part[1])]
+    if not parts:
+        raise InputError("no airborne samples in the data (ground tests only?)")
+    return Samples(*(np.concatenate([part[i] for part in parts]) for i in range(8)))
+
+
+def stopped_power(states, airborne_power_w: float) -> tuple[float | None, int]:
+    """Median power of the rotors-stopped ground samples (module notes), ≥ 0, and their
+    count; None with fewer than :data:`STOPPED_MIN_SAMPLES`. [W]"""
+    values = []
+    for _, exp, st in states:
+        h = _height(exp)
+        gs = exp["groundspeed_ms"].to_numpy(float) if "groundspeed_ms" in exp else \
+            np.full(len(exp), np.nan)
+        p = st.measured_power_w
+        with np.errstate(invalid="ignore"):
+            ok = ((np.abs(h) < STOPPED_HEIGHT_M) & (gs < STOPPED_SPEED_MS)
+                  & (p < STOPPED_POWER_FRACTION * airborne_power_w) & np.isfinite(p))
+        values.append(p[ok])
+    values = np.concatenate(values) if values else np.array([])
+    if values.size < STOPPED_MIN_SAMPLES:
+        return None, int(values.size)
+    return max(float(np.median(values)), 0.0), int(values.size)
+
+
+def _unit_terms(aircraft: Aircraft, s: Samples, mass: np.ndarray, drag_area: float):
+    """:func:`planner.power.rotor_losses.rotor_losses_components` of the samples at unit
+    r₀, P_nl and P_cu (for :func:`~planner.power.rotor_losses.battery_power_from_unit_terms`),
+    with the arguments :meth:`Aircraft.rotor_losses_power` passes and the measured thrust
+    where the samples have a specific force, as :func:`_predict`."""
+    m = aircraft.multirotor
+
+    def at(thrust):
+        return rotor_losses_components(
+            mass, s.air_density, m.rotors, m.rotor_diameter_m, 1.0, airspeed=s.airspeed,
+            climb_rate=s.climb_rate, drag_area=drag_area, induced_factor=m.induced_factor,
+            profile_power_ratio=1.0, tip_speed=m.tip_speed_ms, no_load_power=1.0,
+            copper_loss_power=1.0, reference_mass=m.reference_mass_kg, thrust=thrust)
+
+    force = s.specific_force
+    if force is None or not np.isfinite(force).any():
+        return at(None)
+    ok = np.isfinite(force)
+    measured = at(mass * np.where(ok, force, 9.80665))
+    if ok.all():
+        return measured
+    trim = at(None)
+    return RotorLossesPower(**{k: np.where(ok, getattr(measured, k), getattr(trim, k))
+                               for k in RotorLossesPower.__dataclass_fields__})
+
+
+def _rotor_losses_aircraft(aircraft: Aircraft, values: dict[str, float]) -> Aircraft:
+    values = dict(values)
+    if "profile_power_ratio" in values:
+        r0 = values.pop("profile_power_ratio")
+        values["figure_of_merit"] = 1.0 / (aircraft.multirotor.induced_factor + r0)
+    return with_params(aircraft, values)
+
+
+def _profile_ratio(aircraft: Aircraft) -> float:
+    from planner.physics.power.momentum import DEFAULT_FIGURE_OF_MERIT
+    m = aircraft.multirotor
+    return 1.0 / (m.figure_of_merit or DEFAULT_FIGURE_OF_MERIT) - m.induced_factor
+
+
+def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
+                     parameters: list[str] | None = None, train: list[str] | None = None,
+                     validate: list[str] | None = None, site_altitude_m: float = 0.0,
+                     airborne_height_m: float | None = None, leads_s=LEADS_S,
+                     **kwargs) -> dict[str, Any]:
+    """Fit the ``rotor_losses`` multirotor model to measured flights (module notes).
+
+    Parameters as :func:`fit_aircraft`; ``parameters`` are names among
+    ``no_load_power_w``, ``copper_loss_power_w``, ``figure_of_merit`` and
+    ``drag_area_m2``; ``airborne_height_m`` selects the airborne samples by height above
+    the first sample instead of the flight phases; ``leads_s`` the leads tried.
+
+    Returns
+    -------
+    dict
+        As :func:`fit_aircraft`, plus ``at_bound`` (parameters ending on a bound: misfit
+        of the model's form), ``stopped_power`` (value, samples, source), ``lead_s``
+        (chosen), ``lead_train_rmse_w`` (per lead tried) and ``profile_power_ratio``.
+    """
+    fm_name = "figure_of_merit"
+    table = ROTOR_LOSSES_PARAMETERS
+    public = ["no_load_power_w", "copper_loss_power_w", fm_name, "drag_area_m2"]
+    chosen = parameters or public
+    unknown = set(chosen) - set(public)
+    if unknown:
+        extra = (" (system_power_w is measured from the rotors-stopped ground samples)"
+                 if "system_power_w" in unknown else "")
+        raise InputError(f"cannot fit {sorted(unknown)} for a rotor_losses multirotor; "
+                         f"expected some of {', '.join(public)}{extra}")
+    names = ["profile_power_ratio" if n == fm_name else n for n in chosen]
+    states = _states(data, site_altitude_m)
+    given_lead = float(aircraft.multirotor.power_lead_s or 0.0)
+    samples = {lead: rotor_losses_samples(states, lead, airborne_height_m)
+               for lead in dict.fromkeys([*leads_s, given_lead])}
+    s0 = samples[given_lead]
+    if len(s0.measured_w) < 20:
+        raise InputError(f"only {len(s0.measured_w)} airborne samples: too few to fit "
+                         "an aircraft (expected at least 20)")
+    trn, val, how = split_experiments(s0, validate, train)
+    if trn.sum() < 10:
+        raise InputError("the training split has fewer than 10 airborne samples")
+    p_air = float(np.median(s0.measured_w))
+    train_ids = set(s0.experiment[trn])
+    p_stop, n_stop = stopped_power([st for st in states if st[0] in train_ids], p_air)
+    if p_stop is None:
+        p_stop_source = (f"held at the file's value: only {n_stop} rotors-stopped ground "
+                         f"sample(s) in the training flights")
+        p_stop = float(aircraft.system_power_w)
+    else:
+        p_stop_source = f"median of {n_stop} rotors-stopped ground samples"
+    base = with_params(aircraft, {"system_power_w": p_stop})
+    start = {"no_load_power_w": base.multirotor.no_load_power_w or 0.1 * p_air,
+             "copper_loss_power_w": base.multirotor.copper_loss_power_w or 0.2 * p_air,
+             "profile_power_ratio": _profile_ratio(base),
+             "drag_area_m2": base.multirotor.drag_area_m2}
+    x0 = np.array([start[n] for n in names])
+    lo = np.array([table[n][0] for n in names])
+    hi = np.array([table[n][1] for n in names])
+    x0 = np.clip(x0, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo))
+    scale = np.array([{"no_load_power_w": 100.0, "copper_loss_power_w": 100.0,
+                       "profile_power_ratio": 0.5, "drag_area_m2": 0.05}[n] for n in names])
+    mass = float(mass_kg)
+    fits = {}
+    for lead in leads_s:
+        s_trn = _subset(samples[lead], trn)
+        m_trn = np.full(len(s_trn.time_s), mass)
+        ref = with_params(base, {"reference_mass_kg": mass, "power_lead_s": lead})
+
+        cache: dict[float, Any] = {}
+
+        def residual(x, s_trn=s_trn, m_trn=m_trn, ref=ref, cache=cache):
+            # the aerodynamics depend on f alone: one evaluation per drag area tried
+            v = dict(zip(names, x))
+            mr = ref.multirotor
+            f = float(v.get("drag_area_m2", mr.drag_area_m2))
+            if f not in cache:
+                if len(cache) > 4:
+                    cache.clear()
+                cache[f] = _unit_terms(ref, s_trn, m_trn, f)
+            pred = battery_power_from_unit_terms(
+                cache[f], v.get("profile_power_ratio", _profile_ratio(ref)),
+                v.get("no_load_power_w", mr.no_load_power_w),
+                v.get("copper_loss_power_w", mr.copper_loss_power_w), mr.drive_efficiency,
+                ref.system_power_w)
+            return pred - s_trn.measured_w
+
+        try:
+            sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, **kwargs)
+        except ValueError as exc:
+            raise FitError(f"aircraft fit failed: {exc}") from None
+        if not sol.success:
+            raise FitError(f"aircraft fit did not converge: {sol.message}")
+        fits[lead] = (float(np.sqrt(np.mean(sol.fun**2))), sol, ref, s_trn)
+    lead = min(fits, key=lambda k: fits[k][0])
+    _, sol, ref, s_trn = fits[lead]
+    fitted = _rotor_losses_aircraft(ref, dict(zip(names, sol.x)))
+    cov = cluster_covariance(sol.jac, sol.fun, s_trn.experiment)
+    if cov.singular:
+        warnings.warn("covariance of the aircraft fit is indeterminate (singular Jacobian)")
+    se = dict(zip(names, map(float, cov.stderr)))
+    values = dict(zip(names, map(float, sol.x)))
+    starts = dict(zip(names, map(float, x0)))
+    span = hi - lo
+    at_bound = [n for n, x, a, b, w in zip(names, sol.x, lo, hi, span)
+                if min(x - a, b - x) <= 1e-4 * w]
+    r0 = values.pop("profile_power_ratio", None)
+    r0_se = se.pop("profile_power_ratio", None)
+    r0_start = starts.pop("profile_power_ratio", None)
+    if r0 is not None:
+        kappa = aircraft.multirotor.induced_factor
+        fm = 1.0 / (kappa + r0)
+        values[fm_name], se[fm_name] = fm, fm * fm * r0_se
+        starts[fm_name] = 1.0 / (kappa + r0_start)
+        at_bound = [fm_name if n == "profile_power_ratio" else n for n in at_bound]
+    values = {n: values[n] for n in chosen}
+    poor = [k for k, v in values.items() if not np.isfinite(se[k])
+            or se[k] > POOR_RELATIVE_STDERR * max(abs(v), 1e-12)]
+    for n in at_bound:
+        warnings.warn(f"{n} ended on its bound: a misfit of the model's form on these "
+                      "flights, not a value")
+    if poor:
+        warnings.warn(f"poorly determined by these flights: {', '.join(poor)} "
+                      f"(standard error above {POOR_RELATIVE_STDERR:.0%} of the value)")
+    result = {
+        "aircraft": fitted, "parameters": values, "start": starts,
+        "stderr": {n: se[n] for n in chosen}, "poorly_determined": poor,
+        "at_bound": at_bound, "split": how,
+        "stopped_power": {"value_w": p_stop, "samples": n_stop, "source": p_stop_source},
+        "lead_s": lead, "lead_train_rmse_w": {f"{k:g}": v[0] for k, v in fits.items()},
+        "profile_power_ratio": r0,
+        "train_experiments": sorted(set(s0.experiment[trn])),
+        "validation_experiments": sorted(set(s0.experiment[val])),
+    }
+    result.update(_scores(aircraft, fitted, samples[given_lead], samples[lead], trn, val,
+                          mass))
+    return result

@@ -1,0 +1,730 @@
+r"""Identify the integral capacity model δ, ε, β from measured discharges.
+
+The fit follows the seed paper [1]_ (eq. 18): least squares on
+
+.. math:: \hat C_j(t_i)^\beta - C_j(t_i)^\beta
+          = \int_0^{t_i} \frac{dt}{\delta P_j(t)^\varepsilon} - C_j(t_i)^\beta
+
+over every sample *i* of every training experiment *j*, where :math:`C` is the
+measured charge drawn (A·s) and :math:`P` the measured electric power (W). The
+model itself is :mod:`planner.physics.battery.integral`; nothing of it is re-implemented
+here. The layout follows pvlib's ``fit_pvefficiency_adr`` (start values, bounds
+and scales declared at the top of :func:`fit_integral`, ``**kwargs`` passed to
+:func:`scipy.optimize.least_squares`) and the failure handling follows scipy's
+``curve_fit``: inputs are checked to be finite, no optimum raises
+:class:`~planner.errors.FitError` with the solver's message, an indeterminate or
+poor covariance gives a warning (:class:`scipy.optimize.OptimizeWarning`).
+
+Choices (documented once, here)
+-------------------------------
+Measured data
+    ``power_w`` is used where given, else ``voltage_v * current_a``. The charge
+    drawn is ``consumed_mah`` (from its first sample) where given, else the
+    trapezoid integral of ``current_a``. A power of zero is a rest: the model
+    draws nothing, while the measured current still counts (a sensor offset
+    shows up there). A column that is absent *or entirely empty* for an
+    experiment counts as absent for it; a column with some missing or infinite
+    samples is an error.
+Default split
+    The seed paper's: the experiments with the lowest and the highest
+    time-averaged power train, all others validate (one or two experiments:
+    all train, nothing validates). ``train=``/``validate=`` override it.
+Parametrisation
+    Internally the fit uses :math:`u = \ln \delta_{ref}` with
+    :math:`\delta_{ref} = \delta P_{ref}^\varepsilon` (the run time scale at the
+    reference power :math:`P_{ref}`, the geometric time-mean power of the
+    training data), ε and β. This removes most of the δ–ε correlation; the
+    results and their covariance are transformed back to δ, ε, β.
+Standard errors
+    Neighbouring samples of one discharge are not independent: the measured
+    charge is integrated current, so current noise makes its error a random
+    walk, and the lag-1 autocorrelation of the residuals is close to 1. The
+    plain :math:`s^2 (J^T J)^{-1}` would be far too small, and an AR(1)
+    effective sample size :math:`n(1-\rho)/(1+\rho)` still under-states the
+    spread about twofold for such data (checked on synthetic data). The
+    covariance is therefore a sandwich for a random-walk residual, per
+    experiment *j*: :math:`r_i = \sum_{k \le i} e_k` with independent
+    increments of variance :math:`\sigma_j^2 \Delta t_k`, so
+
+    .. math:: \Sigma = (J^T J)^{-1} \Big[\sum_j \sigma_j^2 \sum_k \Delta t_k\,
+              T_k T_k^T\Big] (J^T J)^{-1}, \qquad T_k = \sum_{i \ge k} J_i .
+
+    :math:`\sigma_j^2` is the mean of :math:`(r_{i+m} - r_i)^2/(t_{i+m} - t_i)`
+    with the lag *m* = :data:`RW_LAG_FRACTION` (1 %) of the experiment's
+    samples (at least 1): long enough to see through short-range correlation
+    of the increments (the trapezoid rule makes them MA(1), which halves the
+    one-step variance), short against the record. On model-generated data the
+    errors divided by these standard errors have unit spread. Smooth model
+    error on real data is treated as a random walk of the same size, which
+    errs on the safe (large) side. The plain i.i.d. value and the residuals'
+    lag-1 autocorrelation are reported for comparison.
+Poorly determined
+    A parameter whose relative standard error exceeds
+    :data:`RELATIVE_STDERR_LIMIT` (10 %), a Jacobian that is singular or whose
+    column-normalised condition number exceeds :data:`CONDITION_LIMIT`, or a
+    parameter that ends on a bound: a warning, and the parameter is listed in
+    ``result["poorly_determined"]``.
+Metrics (per experiment, every split)
+    RMSE of :math:`r = C - \hat C` [mAh] ([UAV23] eq. 29); final normalised error
+    :math:`R = r_{final} / C_{final} \cdot 100` [%] (eq. 30); time error
+    [s] (eq. 20): predicted minus measured time to draw the measured final
+    charge. Where the model has not drawn that charge by the end of the record,
+    the predicted time is extrapolated at the experiment's mean stress rate
+    (exact for a constant power). A positive time error means the model is slow
+    to draw the charge: it over-predicts endurance.
+
+References
+----------
+.. [1] "Battery Testing and Discharge Model Validation for Electric Unmanned
+   Aerial Vehicles (UAV)," Sensors, vol. 23, no. 15, 6937, 2023,
+   doi: 10.3390/s23156937.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Collection, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import OptimizeWarning, least_squares
+
+from planner.io import record as rec
+from planner.physics.battery import integral
+from planner.errors import FitError, InputError
+from planner.identify.stats import jacobian_covariance
+from planner.physics.units import AS_PER_MAH
+
+__all__ = [
+    "CONDITION_LIMIT",
+    "MIN_DURATION_S",
+    "MIN_SAMPLES",
+    "RELATIVE_STDERR_LIMIT",
+    "Experiment",
+    "ExperimentMetrics",
+    "default_split",
+    "experiment_metrics",
+    "fit_integral",
+    "load_records",
+    "prepare_experiments",
+]
+
+#: An experiment needs at least this many samples ... [unitless]
+MIN_SAMPLES = 10
+#: ... and at least this duration to be fitted or scored. [s]
+MIN_DURATION_S = 60.0
+#: Power samples between this negative value and 0 are sensor noise at rest,
+#: below it they are charging, which the model does not describe. [W]
+NEGATIVE_POWER_TOLERANCE_W = 0.5
+#: Relative standard error above which a parameter is "poorly determined". [unitless]
+RELATIVE_STDERR_LIMIT = 0.10
+#: Lag of the differences that estimate the random-walk diffusion, as a
+#: fraction of an experiment's samples (at least one sample). [unitless]
+RW_LAG_FRACTION = 0.01
+#: Condition number of the column-normalised Jacobian above which the fit is
+#: "ill-conditioned". [unitless]
+CONDITION_LIMIT = 1e6
+
+_PARAMS = ("delta", "epsilon", "beta")
+
+
+# --------------------------------------------------------------------------- data
+
+@dataclass(frozen=True, eq=False)
+class Experiment:
+    """One discharge, ready to fit (SI units, time from 0).
+
+    Attributes
+    ----------
+    name : str
+        Experiment id.
+    source : str or None
+        File (or other source) it came from, for messages.
+    time_s : ndarray
+        Time since the first sample. [s]
+    power_w : ndarray
+        Electric power drawn; ``<= 0`` is a rest. [W]
+    charge_as : ndarray
+        Measured charge drawn since the first sample. [A s]
+    voltage_v : ndarray or None
+        Pack terminal voltage where measured. [V]
+    current_a : ndarray or None
+        Pack current where measured (discharge positive). [A]
+    """
+
+    name: str
+    source: str | None
+    time_s: np.ndarray
+    power_w: np.ndarray
+    charge_as: np.ndarray
+    voltage_v: np.ndarray | None = None
+    current_a: np.ndarray | None = None
+
+    @property
+    def duration_s(self) -> float:
+        """[s]"""
+        return float(self.time_s[-1])
+
+    @property
+    def mean_power_w(self) -> float:
+        """Time-averaged power, rests included. [W]"""
+        p = np.clip(self.power_w, 0.0, None)
+        return float(np.trapezoid(p, self.time_s) / self.duration_s)
+
+    @property
+    def final_charge_as(self) -> float:
+        """[A s]"""
+        return float(self.charge_as[-1])
+
+    @property
+    def label(self) -> str:
+        return f"{self.source}: experiment '{self.name}'" if self.source else \
+            f"experiment '{self.name}'"
+
+
+def load_records(paths: Sequence[str | os.PathLike]) -> list[tuple[str, pd.DataFrame]]:
+    """Read flight-record CSV files (DESIGN §4) for fitting.
+
+    Each file is read with :func:`planner.io.record.read_record` (no derived
+    columns: missing samples must be seen, not bridged). A file without an
+    ``experiment`` column is one experiment named after the file stem.
+
+    Returns
+    -------
+    list of (source, DataFrame)
+    """
+    out = []
+    for path in paths:
+        df = rec.read_record(path, derive=False)
+        if "experiment" not in df.columns:
+            df = df.assign(experiment=Path(path).stem)
+        out.append((str(path), df))
+    return out
+
+
+def _frames(record) -> list[tuple[str | None, pd.DataFrame]]:
+    if isinstance(record, pd.DataFrame):
+        return [(None, record)]
+    if isinstance(record, (str, os.PathLike)):
+        return load_records([record])
+    if isinstance(record, Sequence) and record and all(isinstance(r, Experiment)
+                                                       for r in record):
+        return record  # type: ignore[return-value]
+    out: list[tuple[str | None, pd.DataFrame]] = []
+    for item in record:
+        if isinstance(item, pd.DataFrame):
+            out.append((None, item))
+        elif isinstance(item, tuple) and len(item) == 2:
+            out.append(item)
+        else:
+            out.extend(load_records([item]))
+    return out
+
+
+def _column(sub: pd.DataFrame, name: str) -> np.ndarray | None:
+    """The column as floats, or None when absent or entirely empty."""
+    if name not in sub.columns:
+        return None
+    values = sub[name].to_numpy(dtype=float)
+    if np.isnan(values).all():
+        return None
+    return values
+
+
+def _row(sub: pd.DataFrame, i: int, source: str | None) -> str:
+    """Name sample ``i`` of an experiment as :mod:`planner.io.record` does (CSV: file line)."""
+    label = sub.index[i]
+    if source and str(source).lower().endswith((".csv", ".csv.gz")) and isinstance(label,
+                                                                                  (int, np.integer)):
+        return f"row {label + 1} (line {label + 2})"
+    return f"row {label!r}"
+
+
+def _finite(values: np.ndarray, column: str, where: str, sub: pd.DataFrame,
+            source: str | None) -> None:
+    bad = ~np.isfinite(values)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"{where}: column '{column}' {_row(sub, i, source)}: "
+                         f"expected a finite number, got {float(values[i]):g}")
+
+
+def _experiment(name: str, source: str | None, sub: pd.DataFrame) -> Experiment:
+    where = f"{source}: experiment '{name}'" if source else f"experiment '{name}'"
+    t = sub["time_s"].to_numpy(dtype=float)
+    _finite(t, "time_s", where, sub, source)
+    if len(t) < MIN_SAMPLES or t[-1] - t[0] < MIN_DURATION_S:
+        raise InputError(f"{where}: too short to fit: {len(t)} samples over "
+                         f"{t[-1] - t[0] if len(t) else 0:g} s (need at least {MIN_SAMPLES} "
+                         f"samples and {MIN_DURATION_S:g} s)")
+    if np.any(np.diff(t) < 0):
+        i = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
+        raise InputError(f"{where}: column 'time_s' {_row(sub, i, source)}: time goes "
+                         "backwards; expected rows in time order")
+    voltage = _column(sub, "voltage_v")
+    current = _column(sub, "current_a")
+    power = _column(sub, "power_w")
+    consumed = _column(sub, "consumed_mah")
+    if power is None:
+        if voltage is None or current is None:
+            raise InputError(f"{where}: no power: need column 'power_w' or both "
+                             "'voltage_v' and 'current_a'")
+        _finite(voltage, "voltage_v", where, sub, source)
+        _finite(current, "current_a", where, sub, source)
+        power = voltage * current
+    else:
+        if voltage is not None and current is not None:  # fill gaps from V·I
+            power = np.where(np.isnan(power), voltage * current, power)
+        _finite(power, "power_w", where, sub, source)
+    if consumed is not None:
+        _finite(consumed, "consumed_mah", where, sub, source)
+        charge = (consumed - consumed[0]) * AS_PER_MAH
+    elif current is not None:
+        _finite(current, "current_a", where, sub, source)
+        charge = rec.cumulative_trapezoid(current, t)
+    else:
+        raise InputError(f"{where}: no charge measurement: need column 'current_a' "
+                         "(integrated) or 'consumed_mah'")
+    negative = power < -NEGATIVE_POWER_TOLERANCE_W
+    if negative.any():
+        i = int(np.flatnonzero(negative)[0])
+        raise InputError(f"{where}: column 'power_w' {_row(sub, i, source)}: negative power "
+                         f"{power[i]:g} W (charging); the model describes discharge only: "
+                         "expected power >= 0 W (0 = rest)")
+    if not np.any(power > 0):
+        raise InputError(f"{where}: the load is never on (power <= 0 W throughout)")
+    if not charge[-1] > 0:
+        raise InputError(f"{where}: the measured charge drawn is {charge[-1]:g} A·s at the end; "
+                         "expected a discharge (current positive)")
+    return Experiment(name=name, source=source, time_s=t - t[0],
+                      power_w=np.where(power > 0, power, 0.0), charge_as=charge,
+                      voltage_v=voltage, current_a=current)
+
+
+def prepare_experiments(record, source: str | None = None,
+                        only: Collection[str] | None = None) -> list[Experiment]:
+    """Split a flight record into checked :class:`Experiment` objects.
+
+    Parameters
+    ----------
+    record : DataFrame, path, or sequence of DataFrames / paths / (source, DataFrame)
+        Flight record(s), DESIGN §4.
+    source : str, optional
+        Name of a DataFrame's origin for messages.
+    only : collection of str, optional
+        Keep only these experiment ids; the others are neither checked nor
+        returned (e.g. short tests that neither train nor validate).
+
+    Raises
+    ------
+    InputError
+        No power, no charge measurement, an experiment too short (fewer than
+        :data:`MIN_SAMPLES` samples or shorter than :data:`MIN_DURATION_S`),
+        negative (charging) power, non-finite values, or the same experiment id
+        twice; the message names the file and the experiment.
+    """
+    frames = _frames(record)
+    if frames and isinstance(frames[0], Experiment):
+        return list(frames)  # type: ignore[arg-type]
+    out: list[Experiment] = []
+    seen: dict[str, str | None] = {}
+    for src, df in frames:
+        src = src if src is not None else source
+        df = rec.validate_record(df, src)
+        if rec.voltage_only(df):
+            raise InputError(f"{src or 'data'}: missing required column 'current_a' "
+                             f"({rec.NO_CURRENT}: a battery fit needs the current or power)")
+        for key, sub in rec.experiments(df):
+            name = str(key) if key is not None else (Path(src).stem if src else "1")
+            if name in seen:
+                raise InputError(f"{src or '<DataFrame>'}: experiment id '{name}' appears again "
+                                 f"(already in {seen[name] or 'an earlier table'}); "
+                                 "expected unique experiment ids")
+            seen[name] = src
+            if only is None or name in only:
+                out.append(_experiment(name, src, sub))
+    if not out and only is not None and seen:
+        raise InputError(f"{source or next(iter(seen.values())) or '<DataFrame>'}: no experiment "
+                         f"named {', '.join(map(repr, sorted(only)))}; the data hold "
+                         f"{', '.join(map(repr, list(seen)[:8]))}{' …' if len(seen) > 8 else ''}")
+    if not out:
+        names = [str(src) for src, _ in frames if src is not None] or [source or "<DataFrame>"]
+        raise InputError(f"{', '.join(names)}: no samples to fit")
+    return out
+
+
+def default_split(experiments: Sequence[Experiment]) -> tuple[list[str], list[str]]:
+    """The seed paper's split: lowest and highest mean power train, the rest validate."""
+    names = [e.name for e in experiments]
+    if len(names) <= 2:
+        return names, []
+    power = np.array([e.mean_power_w for e in experiments])
+    lo, hi = int(np.argmin(power)), int(np.argmax(power))
+    if lo == hi:  # all equal
+        hi = (lo + 1) % len(names)
+    train = [names[i] for i in sorted({lo, hi})]
+    return train, [n for n in names if n not in train]
+
+
+def _resolve_split(experiments, train, validate) -> tuple[list[str], list[str]]:
+    names = [e.name for e in experiments]
+
+    def check(chosen, option):
+        chosen = list(chosen)
+        unknown = [c for c in chosen if c not in names]
+        if unknown:
+            raise InputError(f"{option}: no experiment named {', '.join(map(repr, unknown))} "
+                             f"(experiments: {', '.join(names)})")
+        return chosen
+
+    if train is None and validate is None:
+        return default_split(experiments)
+    if train is not None:
+        train = check(train, "train")
+    if validate is not None:
+        validate = check(validate, "validate")
+    if train is None:
+        train = [n for n in names if n not in validate]
+    if validate is None:
+        validate = [n for n in names if n not in train]
+    both = sorted(set(train) & set(validate))
+    if both:
+        raise InputError(f"experiment(s) {', '.join(both)} given for both training and "
+                         "validation; expected disjoint sets")
+    if not train:
+        raise InputError("no training experiment: expected at least one")
+    return train, validate
+
+
+# --------------------------------------------------------------------------- metrics
+
+@dataclass(frozen=True)
+class ExperimentMetrics:
+    """How well the model predicts one experiment ([UAV23] eq. 20, 29, 30)."""
+
+    experiment: str
+    """Experiment id."""
+    split: str
+    """``"train"``, ``"validate"`` or ``"unused"``."""
+    samples: int
+    """Number of samples. [unitless]"""
+    duration_s: float
+    """Length of the record. [s]"""
+    mean_power_w: float
+    """Time-averaged power, rests included. [W]"""
+    final_charge_mah: float
+    """Measured charge drawn at the end, :math:`C_{final}`. [mAh]"""
+    predicted_final_charge_mah: float
+    """Model charge drawn at the end, :math:`\\hat C_{final}`. [mAh]"""
+    rmse_mah: float
+    """Root-mean-square of :math:`r = C - \\hat C` over the samples (eq. 29). [mAh]"""
+    final_error_pct: float
+    """:math:`r_{final}/C_{final} \\cdot 100` (eq. 30). [%]"""
+    time_error_s: float
+    """Predicted minus measured time to draw :math:`C_{final}` (eq. 20). [s]"""
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _time_error(exp: Experiment, stress: np.ndarray, beta: float) -> float:
+    target = float(integral.stress_from_charge(exp.final_charge_as, beta))
+    t = exp.time_s
+    if stress[-1] >= target:
+        i = int(np.searchsorted(stress, target, side="left"))
+        if i == 0:
+            t_hat = float(t[0])
+        else:
+            s0, s1 = stress[i - 1], stress[i]
+            frac = (target - s0) / (s1 - s0) if s1 > s0 else 1.0
+            t_hat = float(t[i - 1] + frac * (t[i] - t[i - 1]))
+    else:
+        mean_rate = stress[-1] / exp.duration_s
+        t_hat = exp.duration_s + (target - stress[-1]) / mean_rate if mean_rate > 0 else np.inf
+    return t_hat - exp.duration_s
+
+
+def experiment_metrics(exp: Experiment, delta: float, epsilon: float, beta: float,
+                       split: str = "unused") -> ExperimentMetrics:
+    """Score the model δ, ε, β on one experiment ([UAV23] eq. 20, 29, 30)."""
+    c_hat = integral.charge(exp.time_s, exp.power_w, delta, epsilon, beta)
+    r = exp.charge_as - c_hat
+    stress = integral.stress_from_charge(c_hat, beta)
+    c_final = exp.final_charge_as
+    return ExperimentMetrics(
+        experiment=exp.name, split=split, samples=len(exp.time_s),
+        duration_s=exp.duration_s, mean_power_w=exp.mean_power_w,
+        final_charge_mah=c_final / AS_PER_MAH,
+        predicted_final_charge_mah=float(c_hat[-1]) / AS_PER_MAH,
+        rmse_mah=float(np.sqrt(np.mean(r**2))) / AS_PER_MAH,
+        final_error_pct=float(r[-1] / c_final * 100.0),
+        time_error_s=float(_time_error(exp, np.asarray(stress, float), beta)))
+
+
+# --------------------------------------------------------------------------- fit
+
+class _Stack:
+    """Training experiments concatenated for vectorised cumulative integrals."""
+
+    def __init__(self, experiments: Sequence[Experiment], p_ref: float):
+        self.t = np.concatenate([e.time_s for e in experiments])
+        self.p = np.concatenate([e.power_w for e in experiments])
+        self.c = np.concatenate([e.charge_as for e in experiments])
+        lengths = np.array([len(e.time_s) for e in experiments])
+        starts = np.concatenate(([0], np.cumsum(lengths)[:-1]))
+        dt = np.diff(self.t)
+        dt[starts[1:] - 1] = 0.0  # no integral across experiments
+        self.half_dt = 0.5 * dt
+        self.start_of = np.repeat(starts, lengths)
+        self.starts, self.lengths = starts, lengths
+        on = self.p > 0
+        self.log_p = np.where(on, np.log(np.where(on, self.p / p_ref, 1.0)), 0.0)
+        self.p_ref = p_ref
+        c = np.clip(self.c, 0.0, None)
+        self.log_c = np.where(c > 0, np.log(np.where(c > 0, c, 1.0)), 0.0)
+
+    def cumulative(self, y: np.ndarray) -> np.ndarray:
+        """Trapezoid integral of ``y`` from each experiment's start (axis 0)."""
+        inc = self.half_dt.reshape((-1,) + (1,) * (y.ndim - 1)) * (y[1:] + y[:-1])
+        cs = np.concatenate((np.zeros((1,) + y.shape[1:]), np.cumsum(inc, axis=0)))
+        return cs - cs[self.start_of]
+
+    def rate(self, u: float, epsilon: float) -> np.ndarray:
+        delta = np.exp(u) * self.p_ref ** (-epsilon)
+        return np.asarray(integral.stress_rate(self.p, delta, epsilon), float)
+
+
+def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | None = None,
+                 validate: Sequence[str] | None = None, source: str | None = None,
+                 **kwargs) -> dict[str, Any]:
+    r"""
+    Fit the integral capacity model to measured discharges ([UAV23] eq. 18).
+
+    Parameters
+    ----------
+    record : DataFrame, path, or sequence of DataFrames / paths / :class:`Experiment`
+        Flight record(s) with ``time_s``, power (``power_w`` or ``voltage_v``
+        and ``current_a``) and charge (``current_a`` or ``consumed_mah``);
+        several experiments are told apart by ``experiment`` (DESIGN §4).
+    beta : float, optional
+        Hold β at this value (e.g. 0.9648, the seed paper's) and fit δ, ε only.
+    train, validate : sequence of str, optional
+        Experiment ids to fit on and to score only. Default: the seed paper's
+        split (lowest and highest mean power train, the rest validate); giving
+        one of them makes the other "all the rest".
+    source : str, optional
+        Name of a DataFrame's origin, for messages.
+    **kwargs
+        Passed to :func:`scipy.optimize.least_squares` (e.g. ``max_nfev``,
+        ``ftol``, ``x_scale``).
+
+    Returns
+    -------
+    dict
+        ``delta``, ``epsilon``, ``beta`` — the model keywords, so that
+        ``integral.charge(t, p, **{k: fit[k] for k in ("delta", "epsilon",
+        "beta")})`` works; ``stderr`` (dict, same keys; 0 for a held
+        parameter) and ``correlation`` (3×3 list, order δ, ε, β);
+        ``fixed`` (held parameter names); ``train``, ``validate`` (ids);
+        ``metrics`` (list of :class:`ExperimentMetrics`, every experiment);
+        ``poorly_determined`` (parameter names) and ``well_determined``;
+        diagnostics ``reference_power_w`` [W], ``samples``,
+        ``residual_rms`` [(A s)^β], ``stderr_method``, ``stderr_iid`` (the
+        plain i.i.d. standard errors, for comparison), ``autocorrelation``
+        (lag-1 ρ of the residuals), ``condition_number``, ``nfev``,
+        ``message``.
+
+    Raises
+    ------
+    InputError
+        Bad data (see :func:`prepare_experiments`) or an unknown experiment id.
+    FitError
+        The solver found no optimum (its message is given).
+
+    Warns
+    -----
+    scipy.optimize.OptimizeWarning
+        A parameter is poorly determined (relative standard error above
+        :data:`RELATIVE_STDERR_LIMIT`, singular or ill-conditioned Jacobian,
+        or a parameter on its bound).
+
+    Notes
+    -----
+    Residual of sample *i* of training experiment *j*:
+    :math:`\int_0^{t_i} dt/(\delta P_j^\varepsilon) - C_j(t_i)^\beta`, with
+    the integral by the trapezoid rule, as :func:`planner.physics.battery.integral.charge`
+    computes it. Every sample weighs the same. See the module notes for the
+    parametrisation, the standard errors and the thresholds.
+    """
+    # start values, bounds and scales (δ's start is solved in closed form)
+    P0 = {"epsilon": -1.03, "beta": integral.LITERATURE_BETA}
+    BOUNDS = {"log_delta_ref": (-np.inf, np.inf), "epsilon": (-3.0, 0.5), "beta": (0.5, 1.5)}
+    SCALES = {"log_delta_ref": 0.01, "epsilon": 0.01, "beta": 0.01}
+
+    experiments = prepare_experiments(record, source)
+    train, validate = _resolve_split(experiments, train, validate)
+    by_name = {e.name: e for e in experiments}
+    fit_on = [by_name[n] for n in train]
+    fix_beta = beta is not None
+    if fix_beta and not (BOUNDS["beta"][0] <= beta <= BOUNDS["beta"][1]):
+        raise ValueError(f"beta must be in {list(BOUNDS['beta'])}, got {beta}")
+
+    # reference power: geometric time-mean of the training power (load on)
+    num = sum(np.trapezoid(np.where(e.power_w > 0, np.log(np.where(e.power_w > 0, e.power_w,
+                                                                     1.0)), 0.0), e.time_s)
+              for e in fit_on)
+    den = sum(np.trapezoid((e.power_w > 0).astype(float), e.time_s) for e in fit_on)
+    p_ref = float(np.exp(num / den)) if den > 0 else 100.0
+    stack = _Stack(fit_on, p_ref)
+    names = ["log_delta_ref", "epsilon"] + ([] if fix_beta else ["beta"])
+
+    def unpack(x):
+        return x[0], x[1], (beta if fix_beta else x[2])
+
+    # closed-form δ_ref for the start ε, β: S ∝ 1/δ_ref is linear
+    b0 = beta if fix_beta else P0["beta"]
+    s_unit = stack.cumulative(stack.rate(0.0, P0["epsilon"]))
+    y0 = np.asarray(integral.stress_from_charge(stack.c, b0), float)
+    inv = np.dot(s_unit, y0) / np.dot(s_unit, s_unit)
+    x0 = np.array([-np.log(inv), P0["epsilon"]] + ([] if fix_beta else [b0]))
+    y_scale = float(np.max(np.abs(y0))) or 1.0
+
+    def residual(x):
+        u, eps, b = unpack(x)
+        s = stack.cumulative(stack.rate(u, eps))
+        return (s - np.asarray(integral.stress_from_charge(stack.c, b), float)) / y_scale
+
+    def jacobian(x):
+        u, eps, b = unpack(x)
+        rate = stack.rate(u, eps)
+        cols = [-rate, -stack.log_p * rate]
+        s_cols = stack.cumulative(np.stack(cols, axis=1))
+        out = [s_cols[:, 0], s_cols[:, 1]]
+        if not fix_beta:
+            cb = np.asarray(integral.stress_from_charge(stack.c, b), float)
+            out.append(-cb * stack.log_c)
+        return np.stack(out, axis=1) / y_scale
+
+    lower = np.array([BOUNDS[n][0] for n in names])
+    upper = np.array([BOUNDS[n][1] for n in names])
+    kwargs.setdefault("x_scale", np.array([SCALES[n] for n in names]))
+    kwargs.setdefault("jac", jacobian)
+    kwargs.setdefault("method", "trf")
+    try:
+        res = least_squares(residual, x0, bounds=(lower, upper), **kwargs)
+    except ValueError as exc:  # e.g. residuals not finite at the start
+        raise FitError(f"fit_integral: no optimum found: {exc}") from None
+    if res.status <= 0 or not np.all(np.isfinite(res.x)):
+        raise FitError(f"fit_integral: no optimum found: {res.message}")
+
+    u, eps, b = unpack(res.x)
+    delta = float(np.exp(u) * p_ref ** (-eps))
+
+    # covariance in the fitted coordinates: random-walk sandwich per experiment
+    r = res.fun * y_scale
+    n, p = r.size, len(names)
+    jac = jacobian(res.x) * y_scale
+    base = jacobian_covariance(jac)
+    bread, cond, singular = base.matrix, base.condition, base.singular
+    rss = float(np.dot(r, r))
+    meat = np.zeros((p, p))
+    num = den = 0.0
+    for a, m in zip(stack.starts, stack.lengths):
+        rj, jj, tj = r[a:a + m], jac[a:a + m], stack.t[a:a + m]
+        lag = max(1, round(RW_LAG_FRACTION * m))
+        span = tj[lag:] - tj[:-lag]
+        ok = span > 0
+        s2 = float(np.mean((rj[lag:] - rj[:-lag])[ok] ** 2 / span[ok])) if ok.any() else 0.0
+        tails = np.cumsum(jj[::-1], axis=0)[::-1][1:]
+        meat += s2 * (tails * np.diff(tj)[:, None]).T @ tails
+        seg = rj - rj.mean()
+        num += float(np.dot(seg[1:], seg[:-1]))
+        den += float(np.dot(seg, seg))
+    rho = num / den if den > 0 else 0.0
+    if singular:
+        cov_x = cov_iid = bread
+    else:
+        cov_x = bread @ meat @ bread
+        cov_iid = bread * (rss / (n - p) if n > p else np.inf)
+
+    # back to δ, ε, β: δ = exp(u) P_ref^-ε
+    g = np.zeros((3, p))
+    g[0, 0], g[0, 1] = delta, -delta * np.log(p_ref)
+    g[1, 1] = 1.0
+    if not fix_beta:
+        g[2, 2] = 1.0
+    def natural(c):
+        if singular:
+            return np.where(g @ g.T != 0, np.inf, 0.0)
+        return g @ c @ g.T
+
+    cov = natural(cov_x)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    sd_iid = np.sqrt(np.clip(np.diag(natural(cov_iid)), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    values = {"delta": delta, "epsilon": float(eps), "beta": float(b)}
+    stderr = {k: float(sd[i]) for i, k in enumerate(_PARAMS)}
+    free = ["delta", "epsilon"] + ([] if fix_beta else ["beta"])
+
+    poorly: list[str] = []
+    reasons: list[str] = []
+    if singular:
+        poorly = list(free)
+        reasons.append("the Jacobian is singular (the training data cannot tell the "
+                       "parameters apart)")
+    elif cond > CONDITION_LIMIT:
+        poorly = list(free)
+        reasons.append(f"the Jacobian is ill-conditioned (condition number {cond:.3g} "
+                       f"> {CONDITION_LIMIT:g})")
+    for k in free:
+        rel = stderr[k] / abs(values[k]) if values[k] else np.inf
+        if rel > RELATIVE_STDERR_LIMIT and k not in poorly:
+            poorly.append(k)
+            reasons.append(f"{k} has a relative standard error of {100 * rel:.3g} % "
+                           f"(> {100 * RELATIVE_STDERR_LIMIT:g} %)")
+    for i, name in enumerate(names):
+        if np.isfinite(lower[i]) and (np.isclose(res.x[i], lower[i], atol=1e-6)
+                                      or np.isclose(res.x[i], upper[i], atol=1e-6)):
+            k = "epsilon" if name == "epsilon" else "beta"
+            if k not in poorly:
+                poorly.append(k)
+            reasons.append(f"{k} ended on its bound {res.x[i]:g}")
+    if poorly:
+        hints = []
+        if "epsilon" in poorly or "delta" in poorly:
+            hints.append("train on experiments at clearly different powers")
+        if "beta" in poorly and not fix_beta:
+            hints.append("or hold beta fixed (beta=0.9648, --fix-beta)")
+        warnings.warn("fit_integral: poorly determined parameter(s) "
+                      f"{', '.join(poorly)}: {'; '.join(reasons)}"
+                      + (f"; {' '.join(hints)}" if hints else ""),
+                      OptimizeWarning, stacklevel=2)
+
+    split_of = {n: "train" for n in train} | {n: "validate" for n in validate}
+    metrics = [experiment_metrics(e, delta, float(eps), float(b), split_of.get(e.name, "unused"))
+               for e in experiments]
+    return {
+        **values,
+        "stderr": stderr,
+        "correlation": np.where(np.isfinite(corr), corr, np.nan).tolist(),
+        "fixed": ["beta"] if fix_beta else [],
+        "train": list(train),
+        "validate": list(validate),
+        "metrics": metrics,
+        "poorly_determined": poorly,
+        "well_determined": not poorly,
+        "reference_power_w": p_ref,
+        "samples": int(n),
+        "residual_rms": float(np.sqrt(rss / n)),
+        "stderr_method": "random-walk sandwich",
+        "stderr_iid": {k: float(sd_iid[i]) for i, k in enumerate(_PARAMS)},
+        "autocorrelation": float(rho),
+        "condition_number": float(cond),
+        "nfev": int(res.nfev),
+        "message": str(res.message),
+    }

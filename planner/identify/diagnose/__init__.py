@@ -1,0 +1,891 @@
+"""Diagnose: show what the simulation gets wrong, name the cause, extend the model,
+measure the gain (DESIGN §6).
+
+>>> result = diagnose(record, pack, aircraft)          # doctest: +SKIP
+>>> print(result.summary())                            # doctest: +SKIP
+>>> result.to_dict()["findings"]                       # doctest: +SKIP
+
+Three levels are examined, each where the data allows:
+
+* **cut-off** (``cutoff``) — the energy each discharge delivered to its cut-off
+  voltage, where six or more run from a full pack to one cut-off: the direct evidence
+  of a capacity, where ``capacity_fade`` and ``temperature`` are tested
+  (:mod:`planner.identify.diagnose.cutoff`); elsewhere the output says a capacity loss cannot
+  be seen;
+* **capacity** — the measured charge drawn against the integral model driven by
+  the measured power (needs power and current or consumed charge);
+* **power** — the measured electric power against the aircraft's physics model
+  driven by the measured flight state (needs ``aircraft`` and a flight state:
+  climb rate, ground speed or airspeed; a multirotor flies its rotor disks' axial
+  speed where the record has ``axial_speed_ms``).
+
+On each level the baseline's own parameters are calibrated first (δ, ε, β;
+η and drag), every effect of :mod:`planner.identify.diagnose.effects` is fitted on
+training splits and scored on held-out splits, and only effects whose held-out
+gain is statistically and practically significant are reported, ranked by that
+gain. The splits and statistics are documented in :mod:`planner.identify.diagnose.search`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from planner.io import record as rec
+from planner.identify import stats
+from planner.physics.battery import integral
+from planner.identify.diagnose import cutoff as CO
+from planner.identify.diagnose import search as S
+from planner.identify.diagnose.effects import EFFECTS, make_effects
+from planner.errors import FitError, InputError, ModelError
+from planner.parameters import Aircraft, BatteryPack, IntegralModel
+from planner.physics.units import AS_PER_MAH
+
+__all__ = ["EFFECTS", "DiagnoseResult", "diagnose"]
+
+
+
+@dataclass
+class LevelReport:
+    """One level's baseline, search result and final fits (for output and plots)."""
+
+    name: str
+    result: S.LevelResult
+    base_values: dict[str, float]
+    base_stderr: dict[str, float]
+    final_values: dict[str, float]
+    final_stderr: dict[str, float]
+    rmse_as_given: float
+    final_error_as_given: float
+    findings: list[dict[str, Any]]
+
+
+@dataclass
+class DiagnoseResult:
+    """What ``diagnose`` found.
+
+    Attributes
+    ----------
+    levels : dict of str to LevelReport
+        ``"capacity"`` and/or ``"power"``, the levels that ran.
+    findings : list of dict
+        The significant effects, ranked by held-out gain (DESIGN §6 fields).
+    skipped : list of dict
+        Effects not tested, with the reason (``effect``, ``level``, ``reason``).
+    notes : list of str
+        Levels not run, experiments not used, and why.
+    pack, aircraft : BatteryPack, Aircraft or None
+        The definitions given (start values).
+    sources : list of str
+        The data files, where known.
+    withheld : list of dict
+        Effects that passed the held-out tests but are not causes: physically impossible
+        parameters (``kind`` ``implausible``), a driver the data cannot tell from time,
+        depth of discharge or another effect (``confounded``), or an impossible baseline
+        (``baseline``); each with ``why`` and ``where`` the misfit shows.
+    not_identifiable : list of dict
+        Effects these data cannot tell apart whatever the fit says (``effects``, the
+        candidates; ``level``; ``why``), e.g. a current-sensor offset and a constant load
+        when the power is the logged voltage times the logged current.
+    """
+
+    levels: dict[str, LevelReport]
+    findings: list[dict[str, Any]]
+    skipped: list[dict[str, str]]
+    notes: list[str]
+    pack: BatteryPack | None
+    aircraft: Aircraft | None
+    sources: list[str] = field(default_factory=list)
+    withheld: list[dict[str, Any]] = field(default_factory=list)
+    not_identifiable: list[dict[str, Any]] = field(default_factory=list)
+
+    # ------------------------------------------------------------------ JSON
+    def baseline(self, name: str) -> dict[str, Any]:
+        lv = self.levels[name]
+        base = lv.result.baseline
+        level = lv.result.level
+        out = {"level": name, "rmse": base.rmse, "unit": level.unit,
+               "final_error_pct": base.final_error_pct,
+               "rmse_as_given": lv.rmse_as_given,
+               "final_error_pct_as_given": lv.final_error_as_given,
+               "parameters": _with_stderr(lv.base_values, lv.base_stderr),
+               "experiments": level.n_experiments, "split": level.split.to_dict()}
+        if name == "cutoff":
+            out["rmse_note"] = ("held-out error of the energy delivered to the cut-off, "
+                                "ln(E/Ê) × 100, one unit per held-out discharge; final error: "
+                                "Σ|E − Ê| / Σ E")
+        elif name == "capacity":
+            out["window_s"] = level.window_s
+            out["beta_fitted"] = bool(level.fit_beta)
+            out["rmse_note"] = ("held-out cumulative C − Ĉ from the start of each held-out "
+                                "segment; final error: Σ|r_final| / Σ C over those segments")
+        else:
+            out["bin_s"] = level.bin_s
+            out["rmse_note"] = (f"held-out RMSE of {level.bin_s:.1f}-s means of the airborne "
+                                "power; final error: Σ|energy error| / Σ energy over held-out "
+                                "segments")
+        return out
+
+    @property
+    def primary_level(self) -> str | None:
+        for name in ("capacity", "power", "cutoff"):
+            if name in self.levels:
+                return name
+        return None
+
+    def unexplained(self) -> str | None:
+        parts = []
+        for name, lv in self.levels.items():
+            final = lv.result.final
+            level = lv.result.level
+            if name == "cutoff":        # one row per discharge: no series to be slow in
+                continue
+            rows = final.heldout_rows
+            resid = final.heldout_row_resid
+            order = np.argsort(rows, kind="stable")
+            rho = stats.lag1_autocorrelation(resid[order], level.row_group[rows[order]])
+            if rho > 0.5:
+                what = (f"{level.window_s:.0f}-s windows" if name == "capacity"
+                        else f"{level.bin_s:.1f}-s bins")
+                worst = _worst_experiment(level, rows, resid)
+                parts.append(f"{_title(name)} level: held-out error {final.rmse:.3g} {level.unit} "
+                             f"remains with slow structure (lag-1 autocorrelation {rho:.2f} "
+                             f"between {what}), largest in experiment {worst}; none of the "
+                             "tested effects explains it")
+        for w in self.withheld:
+            if w["kind"] == "confounded":
+                parts.append(f"{_title(w['level'])} level: a misfit that {w['effect']} would "
+                             f"absorb, not named: {w['why']} (candidates: "
+                             f"{', '.join(w['candidates'])})")
+            else:
+                parts.append(f"{_title(w['level'])} level: a misfit of the model's form "
+                             f"against {w['where']}, not a cause: {w['effect']} would need "
+                             f"parameters that are physically impossible ({w['why']})"
+                             if w["kind"] == "implausible" else
+                             f"{_title(w['level'])} level: {w['effect']} not named: {w['why']}")
+        return "; ".join(parts) if parts else None
+
+    def extended(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for name, lv in self.levels.items():
+            r = lv.result
+            b, f = r.baseline, r.final
+            out[name] = {"effects": [e.name for e, _ in r.selected], "rmse_before": b.rmse,
+                         "rmse_after": f.rmse,
+                         "gain_pct": 100 * (1 - f.rmse / b.rmse) if b.rmse > 0 else 0.0,
+                         "final_error_pct_before": b.final_error_pct,
+                         "final_error_pct_after": f.final_error_pct,
+                         "unit": r.level.unit,
+                         "parameters": _with_stderr(lv.final_values, lv.final_stderr)}
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON of DESIGN §6 (plus ``baselines``, ``extended``, ``candidates``,
+        ``skipped``, ``withheld``, ``not_identifiable``, ``selection`` and ``notes``)."""
+        primary = self.primary_level
+        candidates = []
+        for name, lv in self.levels.items():
+            for key, cmp in lv.result.candidates.items():
+                candidates.append({"effect": cmp.effect, "level": name,
+                                   "against": ["baseline", *cmp.against],
+                                   "significant": cmp.significant,
+                                   "heldout": _heldout(cmp), "evidence": cmp.evidence(),
+                                   "why_not": cmp.reasons})
+            for key, why in lv.result.failed.items():
+                candidates.append({"effect": key, "level": name, "significant": False,
+                                   "error": why})
+        return {
+            "baseline": self.baseline(primary) if primary else None,
+            "findings": self.findings,
+            "unexplained": self.unexplained(),
+            "withheld": [{k: v for k, v in w.items()} for w in self.withheld],
+            "not_identifiable": [dict(x) for x in self.not_identifiable],
+            "baselines": [self.baseline(n) for n in self.levels],
+            "extended": self.extended(),
+            "candidates": candidates,
+            "skipped": self.skipped,
+            "selection": {
+                "splits": {n: lv.result.level.split.rule for n, lv in self.levels.items()},
+                "training_test": "likelihood ratio n_eff ln(RSS0/RSS1) ~ chi2(added "
+                                 "parameters), n_eff = n(1-rho)/(1+rho); median p over folds",
+                "alpha_train": S.ALPHA_TRAIN,
+                "heldout_test": "one-sided Wilcoxon signed-rank on per-unit held-out squared "
+                                "error, baseline minus extended",
+                "alpha_heldout": S.ALPHA_HELDOUT,
+                "min_gain_pct": S.MIN_GAIN_PCT,
+                "combination": "greedy: best passing effect joins, the rest are scored again",
+            },
+            "notes": self.notes,
+            "data": self.sources,
+        }
+
+    # ------------------------------------------------------------------ text
+    def summary(self) -> str:
+        lines = []
+        for name, lv in self.levels.items():
+            b = lv.result.baseline
+            unit = lv.result.level.unit
+            if name == "cutoff":
+                v = lv.base_values
+                rate = (f", {v['energy_per_a_pct']:+.3g} %/A" if "energy_per_a_pct" in v
+                        else "")
+                what = (f"energy to the cut-off {v['energy_at_cutoff_wh']:.4g} W h at "
+                        f"{v['reference_current_a']:.3g} A mean current{rate}, "
+                        f"{lv.result.level.n_rows} discharges")
+            elif name == "capacity":
+                v = lv.base_values
+                what = (f"integral model recalibrated (δ {v['delta']:.4g}, ε {v['epsilon']:.4g}, "
+                        f"β {v['beta']:.4g}{'' if lv.result.level.fit_beta else ' held'})")
+            else:
+                v = lv.base_values
+                shape = ", ".join(f"{k} {v[k]:.3g}" for k in lv.result.level.shape)
+                what = f"power model recalibrated (η {v['efficiency']:.3g}, {shape})"
+            lines.append(f"Baseline, {_title(name)} level: {what}: held-out error "
+                         f"{_num(b.rmse)} {unit}, "
+                         f"final error {_num(b.final_error_pct, 2)} % "
+                         f"(as given: {_num(lv.rmse_as_given)} {unit})")
+        if not self.levels:
+            lines.append("No level could run: " + "; ".join(self.notes))
+        if self.findings:
+            lines.append("Findings (held-out; ranked by the gain in the error of the charge or "
+                         "energy at the end of the held-out segments):")
+            for i, f in enumerate(self.findings, 1):
+                h = f["heldout"]
+                lines.append(f"  {i}. {f['headline']}; held-out error {_num(h['rmse_before'])} → "
+                             f"{_num(h['rmse_after'])} {f['unit']} ({h['gain_pct']:.0f} % "
+                             f"better)")
+                lines.append(f"     {f['cause']}")
+        elif self.levels:
+            lines.append("No significant effect: the calibrated model explains the data as well "
+                         "as any tested extension.")
+        for name, ext in self.extended().items():
+            if ext["effects"]:
+                title = _title(name)
+                lines.append(f"Extended {title} model ({' + '.join(ext['effects'])}): held-out "
+                             f"error {_num(ext['rmse_before'])} → {_num(ext['rmse_after'])} "
+                             f"{ext['unit']}, final error {_num(ext['final_error_pct_before'], 2)}"
+                             f" → {_num(ext['final_error_pct_after'], 2)} %")
+        for s in self.skipped:
+            lines.append(f"  not tested at the {_title(s['level'])} level: {s['effect']}: "
+                         f"{s['reason']}")
+        for x in self.not_identifiable:
+            lines.append(f"Not identifiable on these data: {' or '.join(x['effects'])}: "
+                         f"{x['why']}")
+        un = self.unexplained()
+        if un:
+            lines.append(f"Unexplained: {un}")
+        for note in self.notes:
+            lines.append(f"note: {note}")
+        return "\n".join(lines)
+
+    # ------------------------------------------------------------------ extended definitions
+    def extended_pack(self) -> BatteryPack | None:
+        """The pack with the calibrated and extended integral model (None without the level)."""
+        lv = self.levels.get("capacity")
+        if lv is None or self.pack is None:
+            return None
+        v = dict(lv.final_values)
+        effects = {e.name: e for e, _ in lv.result.selected}
+        cut = self.levels.get("cutoff")
+        if cut is not None:      # the capacity effects found on the energy to the cut-off
+            effects |= {e.name: e for e, _ in cut.result.selected}
+            v |= {k: x for k, x in cut.final_values.items()
+                  if k in ("temperature_coefficient_per_c", "fade_per_cycle")}
+        kw = {}
+        if "temperature" in effects:
+            kw["temperature_coefficient_per_c"] = float(np.clip(
+                v["temperature_coefficient_per_c"], -0.2, 0.2))
+            kw["reference_temperature_c"] = float(effects["temperature"].reference_c)
+        if "capacity_fade" in effects:
+            kw["fade_per_cycle"] = float(np.clip(v["fade_per_cycle"], -0.01, 0.05))
+            kw["cycle"] = float(np.max(effects["capacity_fade"].cycles))
+        names = ", ".join(effects) or "no effect found"
+        model = IntegralModel(v["delta"], v["epsilon"], v["beta"], literature=False,
+                              source=f"endurance diagnose ({names}) on "
+                                     f"{', '.join(self.sources) or 'the given data'}", **kw)
+        return replace(self.pack, model=model)
+
+    def extended_aircraft(self) -> Aircraft | None:
+        """The aircraft with the calibrated and extended power parameters."""
+        from planner.identify.aircraft_fit import with_params
+
+        lv = self.levels.get("power")
+        if lv is None or self.aircraft is None:
+            return None
+        v = lv.final_values
+        values = {k: float(v[k]) for k in lv.result.level.shape}
+        values["efficiency"] = float(np.clip(v["efficiency"], 1e-3, 1.0))
+        if "system_power_w" in v:
+            values["system_power_w"] = float(max(v["system_power_w"], 0.0))
+        ac = with_params(self.aircraft, values)
+        for f in self.findings:
+            if f.get("effect") == "efficiency_curve":
+                p = f["parameters"]
+                ac = replace(ac, efficiency=float(p["efficiency_at_reference"]),
+                             efficiency_slope=float(p["efficiency_slope"]),
+                             efficiency_reference_power_w=float(
+                                 p["reference_mechanical_power_w"]))
+        names = ", ".join(e.name for e, _ in lv.result.selected) or "no effect found"
+        return replace(ac, source=f"endurance diagnose ({names}) on "
+                                  f"{', '.join(self.sources) or 'the given data'}; start values "
+                                  f"from {self.aircraft.path or self.aircraft.name}")
+
+
+def _title(level: str) -> str:
+    """A level's name in text (the JSON keeps the key: ``cutoff``)."""
+    return "cut-off" if level == "cutoff" else level
+
+
+def _num(x, digits=None) -> str:
+    if x is None or not math.isfinite(x):
+        return "-"
+    if digits is None:
+        digits = 1 if abs(x) >= 10 else (2 if abs(x) >= 1 else 3)
+    return f"{x:.{digits}f}"
+
+
+def _with_stderr(values: dict[str, float], stderr: dict[str, float]) -> dict[str, float]:
+    out = {}
+    for k, v in values.items():
+        out[k] = v
+        if k in stderr:
+            out[f"{k}_stderr"] = stderr[k]
+    return out
+
+
+def _heldout(cmp: S.Comparison) -> dict[str, float]:
+    return {"rmse_before": cmp.rmse_before, "rmse_after": cmp.rmse_after,
+            "gain_pct": cmp.gain_pct, "final_error_pct_before": cmp.final_error_pct_before,
+            "final_error_pct_after": cmp.final_error_pct_after,
+            "final_gain_pp": cmp.final_error_pct_before - cmp.final_error_pct_after}
+
+
+def _worst_experiment(level, rows, resid) -> str:
+    e = level.row_group[rows]
+    ss = np.bincount(e, weights=resid**2, minlength=level.n_experiments)
+    nn = np.bincount(e, minlength=level.n_experiments)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ms = ss / nn
+    return str(level.names[int(np.nanargmax(ms))])
+
+
+# ============================================================================ data
+
+def _load(data, column_map) -> tuple[pd.DataFrame, list[dict], list[str]]:
+    from planner.io.flightdata import load_flight_data
+
+    if isinstance(data, pd.DataFrame):
+        df = rec.complete_record(rec.validate_record(data))
+        if "experiment" not in df.columns:
+            df = df.assign(experiment="1")
+        return df, [{}], []
+    if isinstance(data, (str, os.PathLike)):
+        data = [data]
+    paths = list(data)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        df, metas = load_flight_data(paths, column_map=column_map)
+    for w in caught:  # what the readers skipped or read as missing; not library noise
+        if w.category is UserWarning:
+            warnings.warn(str(w.message), stacklevel=2)
+    return df, metas, [str(p) for p in paths]
+
+
+def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
+    out = []
+    for key, sub in rec.experiments(df):
+        name = str(key)
+        t = sub["time_s"].to_numpy(float)
+        if len(t) < 10 or t[-1] - t[0] < S.MIN_EXPERIMENT_S:
+            notes.append(f"experiment {name}: too short for the capacity level ({len(t)} "
+                         f"samples, {t[-1] - t[0] if len(t) else 0:.0f} s; needs 10 samples and "
+                         f"{S.MIN_EXPERIMENT_S:g} s)")
+            continue
+        t = t - t[0]
+        p = S._interp_nan(t, sub["power_w"].to_numpy(float)) if "power_w" in sub else None
+        if p is None or not np.isfinite(p).all():
+            notes.append(f"experiment {name}: no power, not used at the capacity level")
+            continue
+        if "consumed_mah" in sub and np.isfinite(sub["consumed_mah"].to_numpy(float)).any():
+            c = S._interp_nan(t, sub["consumed_mah"].to_numpy(float))
+            c = (c - c[0]) * AS_PER_MAH
+        elif "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).any():
+            c = rec.cumulative_trapezoid(sub["current_a"].to_numpy(float), t)
+        else:
+            notes.append(f"experiment {name}: no current or consumed charge, not used at the "
+                         "capacity level")
+            continue
+        p = np.clip(p, 0.0, None)
+        if not np.any(p > 0) or not c[-1] > 0:
+            notes.append(f"experiment {name}: no discharge (power or charge drawn is zero), "
+                         "not used at the capacity level")
+            continue
+        temp = None
+        if "temperature_c" in sub:
+            tc = sub["temperature_c"].to_numpy(float)
+            if np.isfinite(tc).mean() > 0.5:
+                temp = S._interp_nan(t, tc)
+        cycle = None
+        if "cycle" in sub:
+            cy = sub["cycle"].to_numpy(float)
+            if np.isfinite(cy).any():
+                cycle = float(cy[np.isfinite(cy)][0])
+        current = None
+        if "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).mean() > 0.5:
+            current = S._interp_nan(t, sub["current_a"].to_numpy(float))
+        voltage = None
+        if "voltage_v" in sub and np.isfinite(sub["voltage_v"].to_numpy(float)).mean() > 0.5:
+            voltage = S._interp_nan(t, sub["voltage_v"].to_numpy(float))
+        out.append({"name": name, "t": t, "p": p, "c": c, "temperature": temp, "cycle": cycle,
+                    "current": current, "voltage": voltage})
+    return out
+
+
+def _literature_pack(df: pd.DataFrame, metas: list[dict], notes: list[str]) -> BatteryPack:
+    from planner.identify.replay import detect_cells
+
+    cells = next((m.get("battery_cells") for m in metas if m.get("battery_cells")), None)
+    if not cells and "voltage_v" in df:
+        cells = detect_cells(df["voltage_v"])
+    if not cells:
+        raise InputError("no battery given and no pack voltage to find the cell count from: "
+                         "give --battery B.yaml")
+    cap = next((m.get("battery_capacity_mah") for m in metas if m.get("battery_capacity_mah")),
+               None)
+    if cap:
+        notes.append(f"no battery file: literature start values δ₀({cells}), ε₀({cells}) and "
+                     f"the log's {cap:.0f} mAh")
+        return BatteryPack(name=f"literature {cells}S {cap:.0f} mAh", cells_series=int(cells),
+                           capacity_mah=float(cap), mass_kg=0.0)
+    notes.append(f"no battery file and no capacity in the log: literature start values "
+                 f"δ₀({cells}), ε₀({cells}), β held")
+    # capacity unknown: a nominal charge far above what was drawn keeps β held
+    return BatteryPack(name=f"literature {cells}S", cells_series=int(cells),
+                       capacity_mah=1e7, mass_kg=0.0,
+                       model=IntegralModel.from_literature(int(cells)))
+
+
+#: A selected effect whose key parameter lies closer than this many standard errors to
+#: "no effect" in the all-data fit is dropped (its held-out gain came from elsewhere).
+MIN_Z = 2.0
+#: Multiple correlation of an effect's driver with time and depth of discharge (or with
+#: another effect's driver) at or above which the data cannot tell them apart: the driver
+#: then has less than 1 − 0.9² = 19 % of its variation of its own. [unitless]
+CONFOUND_R = 0.9
+#: Range of a calibrated propulsion efficiency (battery to useful power). [unitless]
+EFFICIENCY_RANGE = (0.05, 1.0)
+
+
+def _explained(x: np.ndarray, columns: list[np.ndarray]) -> float:
+    """Share of the variance of ``x`` that a linear fit on ``columns`` explains (R²)."""
+    x = np.asarray(x, float)
+    ok = np.isfinite(x)
+    for c in columns:
+        ok &= np.isfinite(c)
+    if ok.sum() < len(columns) + 3:
+        return 0.0
+    X = np.column_stack([np.ones(ok.sum())] + [np.asarray(c, float)[ok] for c in columns])
+    xo = x[ok]
+    var = float(np.var(xo))
+    if var <= 0:
+        return 1.0
+    coef, *_ = np.linalg.lstsq(X, xo, rcond=None)
+    return float(1.0 - np.var(xo - X @ coef) / var)
+
+
+def _driver(level, effect, state) -> np.ndarray | None:
+    if effect.driver_is_time:
+        return None
+    if level.name == "cutoff":
+        return np.asarray(effect.cutoff_column(level), float)
+    if level.name == "capacity":
+        return np.asarray(effect.window_driver(level), float)
+    return np.asarray(effect.bin_driver(level, state), float)
+
+
+def _confound(level, effect, state, others) -> tuple[str, list[str]] | None:
+    """Why ``effect`` cannot be told apart from time, depth of discharge or another
+    selected effect in these data (module notes), and the candidates; None if it can."""
+    regime = getattr(effect, "regime_confound", None)
+    if regime is not None:
+        found = regime(level, state)
+        if found:
+            return found
+    x = _driver(level, effect, state)
+    if x is None:
+        return None
+    confounders = level.confounders()
+    r2 = _explained(x, [y for _, y in confounders])
+    if r2 >= CONFOUND_R**2:
+        labels = " and ".join(label for label, _ in confounders)
+        return (f"{100 * r2:.0f} % of the variation of its driver ({effect.driver_label}) "
+                f"follows {labels}: the data cannot tell {effect.name} from a misfit that "
+                f"grows with them", [effect.name] + [label for label, _ in confounders])
+    for other in others:
+        y = _driver(level, other, state)
+        if y is None or other.name == effect.name:
+            continue
+        r2 = _explained(x, [y])
+        if r2 >= CONFOUND_R**2:
+            return (f"{100 * r2:.0f} % of the variation of its driver follows the driver of "
+                    f"{other.name}: the data cannot tell the two apart",
+                    [effect.name, other.name])
+    return None
+
+
+def _run_level(level, effects, notes) -> S.LevelResult | None:
+    """Search, then hold the selected effects to the honesty rules on all the data.
+
+    After the search, the selected model is fitted on all the data and an effect is
+    withheld (never named as a cause) when its key parameter is within :data:`MIN_Z`
+    standard errors of no effect, when its parameters are physically impossible
+    (:meth:`planner.diagnose.effects.Effect.implausible`), or when its driver cannot be
+    told apart from time, depth of discharge or another selected effect's driver
+    (:data:`CONFOUND_R`); the model is refitted without it until what remains holds.
+    """
+    try:
+        res = S.search(level, effects)
+        res.withheld = []
+        all_rows = np.ones(level.n_rows, bool)
+        res.base_fit = level.fit([], all_rows)
+        while True:
+            chosen = [e for e, _ in res.selected]
+            res.final_fit = level.fit(chosen, all_rows, start=res.base_fit) if chosen else \
+                res.base_fit
+            if not chosen:
+                break
+            values, stderr = level.physical(res.final_fit, chosen)
+            drop = {}
+            for e in chosen:
+                params = e.parameters(values, stderr, level, res.final_fit.state)
+                z = e.z_score(params)
+                if math.isfinite(z) and z < MIN_Z:
+                    notes.append(f"{_title(level.name)} level: {e.name} passed the held-out "
+                                 "tests but "
+                                 f"its parameter is only {z:.1f} standard errors from no "
+                                 "effect in the fit on all the data: not reported")
+                    drop[e.name] = None
+                    continue
+                why = e.implausible(params, level)
+                if why:
+                    drop[e.name] = {"effect": e.name, "level": level.name,
+                                    "kind": "implausible", "why": why,
+                                    "where": e.driver_label, "parameters": params}
+                    continue
+                state = res.final_fit.state | {"values": res.final_fit.values()}
+                conf = _confound(level, e, state,
+                                 [o for o in chosen if o.name != e.name])
+                if conf:
+                    drop[e.name] = {"effect": e.name, "level": level.name,
+                                    "kind": "confounded", "why": conf[0],
+                                    "candidates": conf[1], "where": e.driver_label,
+                                    "parameters": params}
+            if not drop:
+                break
+            res.withheld += [w for w in drop.values() if w is not None]
+            res.selected = [(e, c) for e, c in res.selected if e.name not in drop]
+        return res
+    except (FitError, ModelError, np.linalg.LinAlgError) as exc:
+        notes.append(f"{_title(level.name)} level: could not be calibrated ({exc})")
+        return None
+
+
+def _as_given_capacity(level, pack) -> tuple[float, float]:
+    m = pack.model
+    r = np.empty_like(level.t)          # the file's model, restarted at each experiment
+    for a, b in zip(level.exp_start, level.exp_end):
+        r[a:b + 1] = level.c[a:b + 1] - integral.charge(level.t[a:b + 1], level.p[a:b + 1],
+                                                        m.delta, m.epsilon, m.beta)
+    samples = np.arange(len(level.t))
+    seg = np.empty_like(samples)
+    for k in range(level.split.n_folds):
+        idx = np.flatnonzero(level.sample_fold == k)
+        seg[idx] = level._segment_start(idx)
+    rs = r - r[seg]
+    finals = []
+    for s in np.unique(seg):
+        idx = samples[seg == s]
+        dc = level.c[idx[-1]] - level.c[s]
+        if dc > 0:
+            finals.append((abs(rs[idx[-1]]), dc))
+    return float(np.sqrt(np.mean(rs**2))) / AS_PER_MAH, S._weighted_final(finals)
+
+
+def _as_given_power(level, aircraft) -> tuple[float, float]:
+    rows = np.arange(level.n_rows)
+    pred = np.asarray(aircraft.battery_power(
+        np.maximum(level.base_inputs["airspeed"], getattr(level, "v_min", 0.0)),
+        level.base_inputs["climb"], level.rho_std, level.mass), float)
+    r = level.measured - pred
+    finals = []
+    for e in range(level.n_experiments):
+        m = level.exp[rows] == e
+        em = float(np.sum(level.measured[m] * level.dt_bin[m]))
+        if em > 0:
+            finals.append((abs(em - float(np.sum(pred[m] * level.dt_bin[m]))), em))
+    return float(np.sqrt(np.mean(r**2))), S._weighted_final(finals)
+
+
+def _findings(name: str, lv_result: S.LevelResult, level, values, stderr) -> list[dict]:
+    out = []
+    state = lv_result.final_fit.state if lv_result.final_fit else {}
+    for e, step in lv_result.selected:
+        params = e.parameters(values, stderr, level, state)
+        alone = lv_result.candidates.get(e.name, step)
+        out.append({
+            "effect": e.name,
+            "level": name,
+            "cause": e.cause(params, level),
+            "parameters": params,
+            "evidence": step.evidence() | {"gain_alone_pct": alone.gain_pct},
+            "added_after": list(step.against),
+            "heldout": _heldout(step),
+            "unit": level.unit,
+            "headline": e.headline(params, level),
+            "driver": e.driver_label,
+        })
+    return out
+
+
+def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = None,
+             **opts) -> DiagnoseResult:
+    """Find what the models get wrong on measured data, name the cause, measure the gain.
+
+    Parameters
+    ----------
+    data : DataFrame, path or list of paths
+        Flight record(s) (DESIGN §4) or logs any reader takes.
+    pack : BatteryPack, optional
+        The pack flown: start values of the integral model. Default: the
+        literature model for the cell count of the log (as ``replay``).
+    aircraft : Aircraft, optional
+        Enables the power level (with a flight state in the data).
+    **opts
+        ``payload_kg`` (0), ``mass_kg`` (all-up mass; default aircraft + pack +
+        payload), ``site_altitude_m`` (0, for the standard density),
+        ``effects`` (names to test; default all), ``column_map`` (for CSV data
+        that is not a flight record).
+
+    Returns
+    -------
+    DiagnoseResult
+    """
+    allowed = {"payload_kg", "mass_kg", "site_altitude_m", "effects", "column_map"}
+    unknown = set(opts) - allowed
+    if unknown:
+        raise TypeError(f"diagnose() got unexpected option(s) {sorted(unknown)}; expected "
+                        f"{sorted(allowed)}")
+    df, metas, sources = _load(data, opts.get("column_map"))
+    notes: list[str] = []
+    if pack is None:
+        pack = _literature_pack(df, metas, notes)
+    wanted = make_effects(opts.get("effects"))
+    skipped: list[dict[str, str]] = []
+    levels: dict[str, LevelReport] = {}
+
+    # ---------------------------------------------------------------- capacity
+    cap_effects = [e for e in wanted if e.level == "capacity"]
+    exps = _capacity_experiments(df, notes)
+    cut_effects = [e for e in make_effects([e.name for e in cap_effects])
+                   if hasattr(e, "cutoff_column")]
+    cut_names = {e.name for e in cut_effects}
+    cut_exps, cut_what = CO.select(exps, pack) if exps else ([], "no experiment")
+    if cut_effects and len(cut_exps) >= CO.MIN_CUTOFF_EXPERIMENTS:
+        cut_level = CO.CutoffLevel(cut_exps, pack)
+        notes.append(f"cut-off level: {cut_what}")
+        res = _run_level(cut_level, cut_effects, notes)
+        if res is not None:
+            bv, bs = cut_level.physical(res.base_fit, [])
+            fv, fs = cut_level.physical(res.final_fit, [e for e, _ in res.selected])
+            rg, fg = cut_level.as_given()
+            rep_ = LevelReport("cutoff", res, bv, bs, fv, fs, rg, fg, [])
+            rep_.findings = _findings("cutoff", res, cut_level, fv, fs)
+            levels["cutoff"] = rep_
+            skipped += [{"effect": k, "level": "cutoff", "reason": v}
+                        for k, v in res.skipped.items()]
+            # direct evidence first: the capacity effects are tested on the energy to the
+            # cut-off, not again on the charge per unit energy
+            skipped += [{"effect": e.name, "level": "capacity",
+                         "reason": "tested at the cut-off level instead, on the energy each "
+                                   "discharge delivered to its cut-off (the direct evidence "
+                                   "of the capacity)"} for e in cap_effects
+                        if e.name in cut_names]
+            cap_effects = [e for e in cap_effects if e.name not in cut_names]
+    elif cut_effects and exps:
+        cut_what = (f"only {len(cut_exps)} experiment(s) run from a full pack to a common "
+                    f"cut-off (needs {CO.MIN_CUTOFF_EXPERIMENTS})" if cut_exps else cut_what)
+        skipped += [{"effect": e.name, "level": "cutoff", "reason": cut_what}
+                    for e in cut_effects]
+    cap_level = None
+    if not exps:
+        notes.append("capacity level not run: no experiment with power and charge drawn"
+                     + (f" ({rec.NO_CURRENT}: battery voltage only)"
+                        if rec.voltage_only(df) else ""))
+    else:
+        try:
+            cap_level = S.CapacityLevel(exps, pack)
+        except (FitError, ModelError, ValueError) as exc:
+            notes.append(f"capacity level not run: {exc}")
+        if cap_level is not None and cap_level.n_rows < S.MIN_ROWS:
+            notes.append(f"capacity level not run: only {cap_level.n_rows} windows of "
+                         f"{cap_level.window_s:.0f} s (needs {S.MIN_ROWS})")
+            cap_level = None
+    if cap_level is not None:
+        res = _run_level(cap_level, cap_effects, notes)
+        if res is not None:
+            bv, bs = cap_level.physical(res.base_fit, [])
+            fv, fs = cap_level.physical(res.final_fit, [e for e, _ in res.selected])
+            rg, fg = _as_given_capacity(cap_level, pack)
+            rep = LevelReport("capacity", res, bv, bs, fv, fs, rg, fg, [])
+            rep.findings = _findings("capacity", res, cap_level, fv, fs)
+            levels["capacity"] = rep
+            skipped += [{"effect": k, "level": "capacity", "reason": v}
+                        for k, v in res.skipped.items()]
+    if cap_level is None:
+        skipped += [{"effect": e.name, "level": "capacity", "reason": "capacity level not run"}
+                    for e in cap_effects]
+
+    # ---------------------------------------------------------------- power
+    pw_effects = [e for e in wanted if e.level == "power"]
+    pw_level = None
+    if aircraft is None:
+        why = "no aircraft given (--aircraft): power level not run"
+        if pw_effects:
+            notes.append(why)
+    elif not {"climb_rate_ms", "groundspeed_ms", "airspeed_ms"} & set(df.columns) or \
+            "power_w" not in df:
+        why = "no flight state (climb rate, ground speed or airspeed) or power in the data"
+        notes.append(f"power level not run: {why}")
+    else:
+        mass = opts.get("mass_kg")
+        if mass is None:
+            mass = aircraft.empty_mass_kg + pack.total_mass_kg + float(opts.get("payload_kg", 0))
+        exps_p = [(str(k), sub) for k, sub in rec.experiments(df)]
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                pw_level = S.PowerLevel(exps_p, aircraft, float(mass),
+                                        float(opts.get("site_altitude_m", 0.0)))
+            notes += pw_level.notes
+            if pw_level.n_rows < S.MIN_ROWS:
+                notes.append(f"power level not run: only {pw_level.n_rows} airborne bins "
+                             f"(needs {S.MIN_ROWS})")
+                pw_level = None
+        except (FitError, ModelError) as exc:
+            notes.append(f"power level not run: {exc}")
+            pw_level = None
+        why = "power level not run"
+    if pw_level is not None:
+        res = _run_level(pw_level, pw_effects, notes)
+        if res is not None:
+            bv, bs = pw_level.physical(res.base_fit, [])
+            eta = bv.get("efficiency", float("nan"))
+            if not (EFFICIENCY_RANGE[0] < eta <= EFFICIENCY_RANGE[1]):
+                # the calibration itself is impossible: what the effects would absorb is
+                # the misfit of the model's form, not a cause
+                res.withheld += [{"effect": e.name, "level": "power", "kind": "baseline",
+                                  "why": "the calibrated power model is physically impossible",
+                                  "where": e.driver_label, "parameters": {}}
+                                 for e, _ in res.selected]
+                res.selected = []
+                res.final_fit = res.base_fit
+                notes.append(f"power level: the calibrated baseline needs an efficiency of "
+                             f"{eta:.2f}, outside ({EFFICIENCY_RANGE[0]:g}, "
+                             f"{EFFICIENCY_RANGE[1]:g}]: the power model's form does not fit "
+                             "these flights; no cause is named at this level")
+            fv, fs = pw_level.physical(res.final_fit, [e for e, _ in res.selected])
+            rg, fg = _as_given_power(pw_level, aircraft)
+            rep = LevelReport("power", res, bv, bs, fv, fs, rg, fg, [])
+            rep.findings = _findings("power", res, pw_level, fv, fs)
+            levels["power"] = rep
+            skipped += [{"effect": k, "level": "power", "reason": v}
+                        for k, v in res.skipped.items()]
+    else:
+        skipped += [{"effect": e.name, "level": "power", "reason": why} for e in pw_effects]
+
+    # one currency for both levels: the held-out error of the charge (capacity) or energy
+    # (power) at the end of each held-out segment, in % of what was drawn; within a level
+    # the order the greedy search added them is kept (each one's gain is over the model
+    # before it), and the levels are merged by that common gain
+    findings = sorted((f for lv in levels.values() for f in lv.findings),
+                      key=lambda f: -f["heldout"]["final_gain_pp"])
+    for lv in levels.values():
+        order = [f["effect"] for f in lv.findings]
+        pos = [i for i, f in enumerate(findings) if f["level"] == lv.name]
+        for i, eff in zip(pos, order):
+            findings[i] = next(f for f in lv.findings if f["effect"] == eff)
+    withheld = [w for lv in levels.values() for w in lv.result.withheld]
+    blind = [_offset_or_load(df, levels, findings)]
+    if cut_effects and "cutoff" not in levels and "capacity" in levels:
+        blind.append({
+            "effects": sorted(cut_names), "level": "cutoff",
+            "why": (f"a loss of usable capacity (an ageing or a cold pack) shows where a "
+                    f"discharge reaches its cut-off voltage; here {cut_what}. The charge drawn "
+                    "per unit of energy, which the capacity level tests instead, barely "
+                    "changes when the capacity shrinks: no finding there measures a capacity "
+                    "loss")})
+    return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources, withheld,
+                          [b for b in blind if b])
+
+
+#: Largest median relative difference between the logged power and voltage × current
+#: for the power to count as computed from the logged current. [unitless]
+POWER_FROM_CURRENT_TOL = 1e-3
+
+
+def _offset_or_load(df: pd.DataFrame, levels: dict, findings: list[dict]) -> dict | None:
+    """A current-sensor offset and a constant load, when the data cannot tell them apart.
+
+    When the logged power is the logged voltage times the logged current (the readers
+    and column maps compute it so where no power is logged), an offset b of the current
+    sensor enters the charge drawn *and* the power: the integral model, driven by that
+    power, predicts the extra charge b·t itself, so the capacity level cannot see it;
+    the power level sees b·V, which — with V within some ±10 % over a flight — is a
+    constant load. And the current at rest is the avionics' draw plus b. Unless a
+    current offset was named (a charge counter that drifts apart from the current it
+    counts, which the power does not carry), the output says so, naming both.
+    """
+    if any(f["effect"] == "current_offset" for f in findings):
+        return None
+    if not {"power_w", "voltage_v", "current_a"} <= set(df.columns):
+        return None
+    p = df["power_w"].to_numpy(float)
+    vi = df["voltage_v"].to_numpy(float) * df["current_a"].to_numpy(float)
+    ok = np.isfinite(p) & np.isfinite(vi) & (np.abs(vi) > 1.0)
+    if ok.sum() < 10 or np.median(np.abs(p[ok] - vi[ok]) / np.abs(vi[ok])) > \
+            POWER_FROM_CURRENT_TOL:
+        return None
+    effects = ["current_offset", "system_power"]
+    tested = [name for name in ("capacity", "power") if name in levels]
+    if not tested:
+        return None
+    why = ("the power is the logged voltage × the logged current, so an offset b of the "
+           "current sensor is in the power too: the capacity level predicts the extra charge "
+           "b·t from that power itself, and at the power level b·V is a constant load "
+           "(the voltage varies little); the current at rest is the avionics' draw plus b. "
+           "A constant load found (or missing) at the power level may be a current-sensor "
+           "offset of load / voltage, and the other way round: calibrate the sensor's zero "
+           "with the load off and the avionics unplugged to tell them apart")
+    out = {"effects": effects, "level": " and ".join(tested), "why": why}
+    cap = levels.get("capacity")
+    rest = getattr(cap.result.level, "rest_current", None) if cap else None
+    if rest is not None:
+        out["rest_current_a"], out["rest_current_a_stderr"] = rest
+    return out
+
+
+def load_definitions(battery: str | Path | None, aircraft: str | Path | None):
+    """Load the pack and aircraft files (the aircraft's default pack when no battery)."""
+    from planner.parameters import default_battery_path, load_aircraft, load_battery
+
+    ac = load_aircraft(aircraft) if aircraft else None
+    if battery is None and ac is not None and ac.battery_path:
+        battery = default_battery_path(ac)
+    return (load_battery(battery) if battery else None), ac

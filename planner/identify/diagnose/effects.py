@@ -1,0 +1,987 @@
+r"""The candidate effects of ``diagnose`` (DESIGN §6): one class per effect.
+
+Each effect is an *extension* of a baseline model with physically meaningful
+parameters; at zero extension the baseline is recovered exactly (the models are
+nested, which the selection statistics need). An effect declares the channels of
+the flight record (DESIGN §4) it needs, says why it is skipped when they are
+absent (or when they do not vary, so that the effect cannot be told from the
+baseline's own calibration), and names its cause in plain words.
+
+Capacity level
+--------------
+The baseline is the integral model of :mod:`planner.physics.battery.integral` driven by
+the measured power: :math:`\hat C(t) = A\,G(t)` with
+:math:`G = S_1^{1/\beta}`, :math:`S_1 = \int (P/P_{ref})^{-\varepsilon} dt` and
+:math:`A = (\delta P_{ref}^\varepsilon)^{-1/\beta}`. Every capacity effect adds one
+column that is linear in its parameter (the search solves the linear
+coefficients in closed form, ``A`` included):
+
+``temperature``
+    :math:`\hat C = A \int (1 + k\,h(T))\, dG`, :math:`h = \max(T_{ref} - T, 0)`:
+    each increment of charge drawn is scaled by the pack temperature at that
+    moment; for a constant temperature this is
+    :meth:`planner.parameters.IntegralModel.charge_scale`. :math:`k` [1/°C];
+    :math:`T_{ref}` = :data:`REFERENCE_TEMPERATURE_C` (25 °C, the rating temperature of
+    cell data sheets): the extension models the cold only, so a cell's self-heating above
+    it is not a driver (a reference at the hottest sample made self-heated cells "cold"
+    and the driver follow the C-rate).
+``capacity_fade``
+    :math:`\hat C = A\,(1 + \varphi\, n)\, G` with :math:`n` the experiment's
+    ``cycle`` (else its position in the data, 0, 1, 2, …: then :math:`\varphi`
+    is per experiment, and the output says so). :math:`\varphi` [1/cycle];
+    δ then belongs to cycle 0, as ``charge_scale`` expects.
+At the cut-off level (:mod:`planner.identify.diagnose.cutoff`) the same two effects scale the
+energy a discharge delivers to its cut-off by :math:`1/(1 + k\bar h)` and
+:math:`1/(1 + \varphi n)`, :math:`\bar h` the charge-weighted mean hinge of the discharge:
+the direct evidence of a capacity (where discharges reach the cut-off, they are tested
+there and not on the charge per unit energy).
+``current_offset``
+    measured charge :math:`= \hat C + b\,t`: a current sensor that reads
+    :math:`b` too high drifts linearly in time, also while the load is off. [A]
+
+Combined capacity effects add their columns; the products of two extensions
+(second order, e.g. :math:`k\varphi`) are neglected.
+
+Power level
+-----------
+The baseline is the aircraft's physics model
+(:meth:`planner.parameters.Aircraft.battery_power`) driven by the measured
+flight state, written as :math:`P = M(\theta)/\eta + P_S` with :math:`M` the
+mechanical (shaft or required) power; :math:`1/\eta` is solved in closed form
+and the shape parameters θ (multirotor drag area; fixed-wing C_D0 and K) by
+least squares. The effects change the model's inputs or add a linear column:
+
+``wind``
+    airspeed :math:`|\vec v_g - \vec w|` from the ground velocity (``groundspeed_ms``,
+    ``course_deg``) and a steady wind :math:`\vec w = (w_N, w_E)` [m/s]: the
+    power then depends on the direction of travel. Needs the course and no
+    measured airspeed (a measured airspeed already contains the wind).
+``air_density``
+    :math:`\rho = \rho_{std}\,(\rho_{meas}/\rho_{std})^a` with
+    :math:`\rho_{meas} = p/(R T)` from ``pressure_pa`` and
+    ``ambient_temperature_c`` (the ISA temperature at the pressure altitude when
+    no temperature is logged) and :math:`\rho_{std}` the ISA density at the site
+    altitude. :math:`a` = 1 is momentum theory; 0 is the baseline.
+``payload_change``
+    mass :math:`m_0 + \Delta m` from a change time on [kg, s]. One mass step
+    shared by the flights; its time is located in each flight.
+``system_power``
+    :math:`P_S` fitted (the baseline holds the aircraft file's value). [W]
+``efficiency_curve``
+    :math:`1/\eta(M) = c_0 + c_1 (M/M_{ref} - 1)`, reported as
+    :math:`\eta(M) \approx \eta_0 + \eta_1 (M/M_{ref} - 1)` with
+    :math:`\eta_0 = 1/c_0`, :math:`\eta_1 = -c_1/c_0^2`; :math:`M_{ref}` is the
+    median mechanical power of the training data. A copper loss
+    :math:`R I^2` gives exactly this form with :math:`\eta_1 < 0`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from planner.identify import stats
+from planner.chain.flightstate import inplane_speed
+
+__all__ = [
+    "CAPACITY_EFFECTS",
+    "EFFECTS",
+    "POWER_EFFECTS",
+    "AirDensity",
+    "CapacityFade",
+    "CurrentOffset",
+    "Effect",
+    "EfficiencyCurve",
+    "PayloadChange",
+    "SystemPower",
+    "Temperature",
+    "Wind",
+    "make_effects",
+]
+
+#: Reference of the cold-pack hinge max(T_ref − T, 0): the data-sheet rating temperature.
+REFERENCE_TEMPERATURE_C = 25.0
+#: Below this spread of the hinge max(T_ref − T, 0) a temperature effect cannot be told
+#: from δ. [°C]
+MIN_TEMPERATURE_SPREAD_C = 3.0
+#: Below this spread of ln(ρ_meas/ρ_std) a density effect cannot be told from η. [unitless]
+MIN_LOG_DENSITY_SPREAD = 0.01
+#: Below this coefficient of variation of the mechanical power a constant load or an
+#: efficiency curve cannot be told from η. [unitless]
+MIN_LOAD_VARIATION = 0.05
+#: Power below this share of the median on-load power counts as rest or idle. [unitless]
+LOW_LOAD = 0.1
+#: Least share of the time at rest or idle for a current offset to be told from δ. [unitless]
+MIN_LOW_LOAD_SHARE = 0.02
+#: Smallest payload change that counts, as a share of the all-up mass. [unitless]
+MIN_MASS_STEP = 0.03
+#: Mean resultant length of the course above which the flight went one way only. [unitless]
+MAX_COURSE_CONCENTRATION = 0.8
+#: Shortest share of the airborne bins that must be moving (≥ 2 m/s) to see the wind.
+MIN_MOVING_SHARE = 0.2
+
+# Physical bounds of the effects' parameters: a fit beyond them is an unexplained misfit of
+# the model's form, never a cause (see :meth:`Effect.implausible`).
+#: Largest rise of the charge drawn per °C of cold: lithium cells lose some 0.5–1 % of
+#: capacity per °C below room temperature (Zhang, Xu and Jow 2003: about 35 % of the
+#: energy at −20 °C); 3 %/°C leaves room for the added resistance. [1/°C]
+MAX_TEMPERATURE_COEFF = 0.03
+#: Largest fade over the data: a pack past 30 % more charge per Wh is retired (the usual
+#: end of life is 80 % of the capacity, i.e. 25 % more charge). [unitless]
+MAX_FADE_SPAN = 0.3
+#: Largest current-sensor zero error, as a share of the median current. [unitless]
+MAX_OFFSET_SHARE = 0.1
+#: Largest steady wind, as a share of the maximum airspeed (it must still make way). [unitless]
+MAX_WIND_SHARE = 0.8
+#: Range of the density exponent of the power (momentum theory: induced power ∝ ρ^-1/2 at
+#: constant thrust; profile power ∝ ρ). [unitless]
+DENSITY_EXPONENT_RANGE = (0.0, 2.0)
+#: Largest payload drop as a share of the all-up mass. [unitless]
+MAX_DROP_SHARE = 0.5
+#: Largest constant load as a share of the lowest airborne power (the rotors need the
+#: rest). [unitless]
+MAX_SYSTEM_SHARE = 0.5
+#: Allowance above the ground power for a constant load (sensor noise, heaters). [W]
+GROUND_POWER_MARGIN_W = 5.0
+
+
+def _compass(deg: float) -> str:
+    names = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+    return names[int(((deg % 360) + 22.5) // 45) % 8]
+
+
+def _pm(value: float, se: float, digits: int) -> str:
+    if se is None or not math.isfinite(se):
+        return f"{value:.{digits}f}"
+    return f"{value:.{digits}f} ± {se:.{digits}f}"
+
+
+class Effect:
+    """One candidate effect: what it needs, how it extends the model, its cause.
+
+    Attributes
+    ----------
+    name : str
+        The stable vocabulary of ``findings[].effect`` (DESIGN §6).
+    level : str
+        ``"capacity"`` or ``"power"``.
+    needs : tuple of str
+        Flight-record channels it uses (beyond what the level itself needs).
+    driver_label : str
+        What the residual is plotted against, with its unit.
+    """
+
+    name: ClassVar[str] = ""
+    level: ClassVar[str] = ""
+    needs: ClassVar[tuple[str, ...]] = ()
+    driver_label: ClassVar[str] = "time [s]"
+    #: Nonlinear parameters (power level).
+    nonlinear: ClassVar[tuple[str, ...]] = ()
+
+    def extra_dof(self, state: dict) -> int:
+        """Parameters the training test counts beyond the fitted ones."""
+        return 0
+
+    def skip_reason(self, level) -> str | None:
+        """Why the effect cannot be tested on this level's data (None = testable)."""
+        return None
+
+    def practical(self, fits, level) -> str | None:
+        """Why the fitted extension is too small to matter physically (None = it is not)."""
+        return None
+
+    #: The effect's driver is time itself (a drift, a step in time): it is not tested for
+    #: confounding with time (its form — a linear drift through rests, a step — is what
+    #: tells it apart).
+    driver_is_time: ClassVar[bool] = False
+
+    def implausible(self, p: dict[str, float], level) -> str | None:
+        """Why the fitted parameters (of :meth:`parameters`) are physically impossible or
+        have the wrong sign; None when they are plausible. An implausible fit is never
+        reported as a cause (module notes of :mod:`planner.identify.diagnose`)."""
+        return None
+
+    #: The parameter (of :meth:`parameters`) that is 0 (or ``null_key``) without the effect.
+    key: ClassVar[str] = ""
+
+    def z_score(self, p: dict[str, float]) -> float:
+        """Distance of the key parameter from "no effect", in standard errors."""
+        se = p.get(self.key + "_stderr", float("nan"))
+        null = p.get("file_system_power_w", 0.0) if self.name == "system_power" else 0.0
+        if not se or not math.isfinite(se):
+            return float("nan")
+        return abs(p[self.key] - null) / se
+
+    def parameters(self, values: dict[str, float], stderr: dict[str, float], level,
+                   state: dict) -> dict[str, float]:
+        """Reported parameters (physical units) with ``<name>_stderr`` entries."""
+        raise NotImplementedError
+
+    def cause(self, p: dict[str, float], level) -> str:
+        """The cause in plain words, with the fitted numbers."""
+        raise NotImplementedError
+
+    def headline(self, p: dict[str, float], level) -> str:
+        """A short pilot's line (no held-out numbers; the caller adds them)."""
+        return self.cause(p, level)
+
+    def __repr__(self) -> str:
+        return f"<effect {self.name}>"
+
+
+# ============================================================================ capacity
+
+class CapacityEffect(Effect):
+    level = "capacity"
+    #: Name of the linear coefficient this effect adds (its column's coefficient).
+    coefficient: ClassVar[str] = ""
+    #: The coefficient is relative to the charge scale A (a factor on the charge drawn).
+    relative: ClassVar[bool] = True
+
+    def prepare(self, cap) -> None:
+        """Fix data-dependent constants (reference temperature, cycles)."""
+
+    def cumulative(self, cap, G: np.ndarray, dG: np.ndarray) -> np.ndarray:
+        """The effect's column, cumulative per sample like ``G`` (0 at each start)."""
+        raise NotImplementedError
+
+    def window_driver(self, cap) -> np.ndarray:
+        """Driver value of each window (for plots and evidence)."""
+        return cap.window_time
+
+
+class Temperature(CapacityEffect):
+    key = "temperature_coefficient_per_c"
+    name = "temperature"
+    needs = ("temperature_c",)
+    coefficient = "temperature_coefficient_per_c"
+    driver_label = "pack temperature [°C]"
+
+    def prepare(self, cap) -> None:
+        temp = cap.temperature
+        self.reference_c = REFERENCE_TEMPERATURE_C
+        self.hinge = None if temp is None else np.maximum(self.reference_c - temp, 0.0)
+
+    def cutoff_column(self, level) -> np.ndarray:
+        """Charge-weighted mean hinge of each discharge (cut-off level). [°C]"""
+        return level.charge_mean(self.hinge)
+
+    def skip_reason(self, cap) -> str | None:
+        if cap.temperature is None:
+            missing = cap.temperature_missing
+            return ("no pack temperature (temperature_c) in the data" if not missing else
+                    "no pack temperature (temperature_c) for experiment(s) "
+                    + ", ".join(missing[:5]) + (" …" if len(missing) > 5 else ""))
+        self.prepare(cap)
+        h = self.cutoff_column(cap) if cap.name == "cutoff" else self.hinge
+        spread = float(np.nanmax(h) - np.nanmin(h))
+        if spread < MIN_TEMPERATURE_SPREAD_C:
+            what = ("the discharges' mean temperature" if cap.name == "cutoff"
+                    else "the pack temperature")
+            return (f"{what} varies by only {spread:.1f} °C below "
+                    f"{self.reference_c:.0f} °C (needs {MIN_TEMPERATURE_SPREAD_C:g} °C): its "
+                    "effect cannot be told from the calibration")
+        return None
+
+    def cumulative(self, cap, G, dG):
+        h = self.hinge
+        mid = 0.5 * (h[1:] + h[:-1])
+        return cap.cumulate(mid * dG)
+
+    def window_driver(self, cap):
+        return cap.window_mean(cap.temperature)
+
+    def parameters(self, values, stderr, cap, state):
+        k = values[self.coefficient]
+        return {"temperature_coefficient_per_c": k,
+                "temperature_coefficient_per_c_stderr": stderr[self.coefficient],
+                "reference_temperature_c": self.reference_c,
+                "percent_per_c": 100.0 * k,
+                "percent_per_c_stderr": 100.0 * stderr[self.coefficient]}
+
+    def implausible(self, p, cap):
+        k = p["temperature_coefficient_per_c"]
+        if k <= 0:
+            return (f"the fit has a cold pack drawing less charge per Wh ({100 * k:+.2f} %/°C "
+                    "below the reference): cold lithium cells give less charge for the same "
+                    "energy, never more")
+        if k > MAX_TEMPERATURE_COEFF:
+            return (f"{100 * k:.1f} %/°C is beyond any lithium cell "
+                    f"(at most {100 * MAX_TEMPERATURE_COEFF:g} %/°C)")
+        return None
+
+    def cause(self, p, cap):
+        k = p["percent_per_c"]
+        t_lo = float(np.nanmin(cap.temperature))
+        ref = p["reference_temperature_c"]
+        if cap.name == "cutoff":
+            cold = float(np.nanmax(self.cutoff_column(cap)))
+            loss = 100.0 * (1.0 - 1.0 / (1.0 + p["temperature_coefficient_per_c"] * cold))
+            return (f"Cold pack: the energy delivered to the cut-off falls as the pack is "
+                    f"colder; the charge scale rises {k:.2f} %/°C (±"
+                    f"{p['percent_per_c_stderr']:.2f}) below {ref:.0f} °C, so the coldest "
+                    f"discharges (mean {ref - cold:.0f} °C) delivered {loss:.1f} % less energy "
+                    "before the cut-off (less usable capacity and more resistance in the "
+                    "cold)")
+        if k >= 0:
+            return (f"Cold pack: the charge drawn per Wh rises {abs(k):.2f} %/°C below "
+                    f"{ref:.0f} °C (±{p['percent_per_c_stderr']:.2f}); at {t_lo:.0f} °C the "
+                    f"pack draws {k * max(ref - t_lo, 0):.1f} % more charge for the same "
+                    "energy (less usable capacity and more resistance in the cold)")
+        return (f"Cold pack draws less: the charge drawn per Wh falls {abs(k):.2f} %/°C "
+                f"below {ref:.0f} °C (±{p['percent_per_c_stderr']:.2f}); unusual for a "
+                "LiPo, check the temperature sensor")
+
+    def headline(self, p, cap):
+        k = p["percent_per_c"]
+        word = "rises" if k >= 0 else "falls"
+        if cap.name == "cutoff":
+            return (f"Cold pack: {abs(k):.2f} % less energy to the cut-off per °C below "
+                    f"{p['reference_temperature_c']:.0f} °C")
+        return (f"Cold pack: charge drawn per Wh {word} {abs(k):.2f} %/°C below "
+                f"{p['reference_temperature_c']:.0f} °C")
+
+
+class CapacityFade(CapacityEffect):
+    key = "fade_per_cycle"
+    name = "capacity_fade"
+    needs = ("cycle",)
+    coefficient = "fade_per_cycle"
+    driver_label = "charge cycle (or experiment order) [cycles]"
+
+    def prepare(self, cap) -> None:
+        self.cycles = cap.cycles
+        self.source = cap.cycle_source
+
+    def skip_reason(self, cap) -> str | None:
+        if cap.n_experiments < 3:
+            return (f"needs at least 3 experiments of one pack to see it age, got "
+                    f"{cap.n_experiments}")
+        self.prepare(cap)
+        if len(np.unique(self.cycles)) < 3:
+            return "the cycle count takes fewer than 3 different values"
+        return None
+
+    def cumulative(self, cap, G, dG):
+        return self.cycles[cap.exp_index] * G
+
+    def cutoff_column(self, level) -> np.ndarray:
+        """The cycle of each discharge (cut-off level). [cycles]"""
+        return self.cycles
+
+    def window_driver(self, cap):
+        return self.cycles[cap.window_exp].astype(float)
+
+    def parameters(self, values, stderr, cap, state):
+        f = values[self.coefficient]
+        return {"fade_per_cycle": f, "fade_per_cycle_stderr": stderr[self.coefficient],
+                "cycle": float(np.max(self.cycles)),
+                "cycle_from_experiment_order": float(self.source != "cycle")}
+
+    def implausible(self, p, cap):
+        f = p["fade_per_cycle"]
+        if f <= 0:
+            return (f"the fit has the pack drawing less charge as it ages ({100 * f:+.3f} % per "
+                    "cycle): an ageing pack gives less charge for the same energy, never more")
+        span = f * (float(np.max(self.cycles)) - float(np.min(self.cycles)))
+        if span > MAX_FADE_SPAN:
+            return (f"{100 * span:.0f} % more charge over the data is beyond a pack still in "
+                    f"use (at most {100 * MAX_FADE_SPAN:g} %)")
+        return None
+
+    def cause(self, p, cap):
+        f = 100 * p["fade_per_cycle"]
+        se = 100 * p["fade_per_cycle_stderr"]
+        lo, hi = float(np.min(self.cycles)), float(np.max(self.cycles))
+        per = "charge cycle" if self.source == "cycle" else (
+            "experiment (no cycle count in the data: experiments taken in the order they "
+            "appear, one cycle each)")
+        word = "rises" if f >= 0 else "falls"
+        if cap.name == "cutoff":
+            loss = 100.0 * (1.0 - 1.0 / (1.0 + p["fade_per_cycle"] * (hi - lo)))
+            return (f"Ageing pack: the energy delivered to the cut-off falls as the pack "
+                    f"ages; the charge scale rises {f:.3f} % (±{se:.3f}) per {per}, so at "
+                    f"cycle {hi:.0f} the pack delivers {loss:.1f} % less energy than at cycle "
+                    f"{lo:.0f} (capacity loss and resistance growth)")
+        return (f"Ageing pack: the charge drawn for the same energy {word} {abs(f):.3f} % "
+                f"(±{se:.3f}) per {per}; {100 * p['fade_per_cycle'] * (hi - lo):+.1f} % "
+                f"from cycle {lo:.0f} to {hi:.0f}")
+
+    def headline(self, p, cap):
+        f = 100 * p["fade_per_cycle"]
+        unit = "cycle" if self.source == "cycle" else "experiment"
+        if cap.name == "cutoff":
+            return f"Ageing pack: {f:.3f} % less energy to the cut-off per {unit}"
+        return f"Ageing pack: charge drawn per Wh {'rises' if f >= 0 else 'falls'} " \
+               f"{abs(f):.3f} % per {unit}"
+
+
+class CurrentOffset(CapacityEffect):
+    key = "current_offset_a"
+    name = "current_offset"
+    needs = ()
+    coefficient = "current_offset_a"
+    relative = False
+    driver_label = "time since start [s]"
+    driver_is_time = True
+
+    def implausible(self, p, cap):
+        b, se = p["current_offset_a"], p["current_offset_a_stderr"]
+        if abs(b) > MAX_OFFSET_SHARE * cap.median_current_a:
+            return (f"a bias of {b:+.2f} A is {100 * abs(b) / cap.median_current_a:.0f} % of the "
+                    f"median current ({cap.median_current_a:.1f} A): beyond a sensor's zero "
+                    f"error (at most {100 * MAX_OFFSET_SHARE:g} %)")
+        rest = cap.rest_current
+        if rest is not None:
+            # direct evidence first: the logged current while the load is off
+            mean, sem = rest
+            z = abs(b - mean) / math.hypot(se if math.isfinite(se) else 0.0, sem)
+            if z > 3.0:
+                return (f"the logged current at rest is {mean:+.3f} ± {sem:.3f} A, not the "
+                        f"fitted bias {b:+.3f} A: the drift is not a sensor zero error")
+        return None
+
+    def skip_reason(self, cap) -> str | None:
+        share = cap.low_load_fraction
+        if share < MIN_LOW_LOAD_SHARE:
+            return (f"the load is never (nearly) off: only {100 * share:.1f} % of the time below "
+                    f"{100 * LOW_LOAD:.0f} % of the median power (needs "
+                    f"{100 * MIN_LOW_LOAD_SHARE:g} %): a sensor bias cannot be told from the "
+                    "calibration without rests or idle periods")
+        return None
+
+    def cumulative(self, cap, G, dG):
+        return cap.time_since_start
+
+    def parameters(self, values, stderr, cap, state):
+        b = values[self.coefficient]
+        return {"current_offset_a": b, "current_offset_a_stderr": stderr[self.coefficient],
+                "drift_mah_per_hour": b * 1000.0,
+                "drift_mah_per_hour_stderr": stderr[self.coefficient] * 1000.0}
+
+    def cause(self, p, cap):
+        b = p["current_offset_a"]
+        rest = cap.rest_fraction
+        extra = (f" (the record rests {100 * rest:.0f} % of the time, where the drift shows "
+                 "alone)" if rest > 0.01 else "")
+        return (f"Current sensor bias: the logged current reads {abs(b):.3f} A "
+                f"(±{p['current_offset_a_stderr']:.3f}) too {'high' if b > 0 else 'low'}, "
+                f"so the logged charge drifts {abs(b) * 1000:.0f} mAh per hour, also while the "
+                f"load is off{extra}; calibrate the sensor's zero")
+
+    def headline(self, p, cap):
+        b = p["current_offset_a"]
+        return (f"Current sensor bias: logged current {abs(1000 * b):.0f} mA too "
+                f"{'high' if b > 0 else 'low'}, charge drifts {abs(b) * 1000:.0f} mAh/h")
+
+
+# ============================================================================ power
+
+class PowerEffect(Effect):
+    level = "power"
+    #: (start, low, high, scale) of each nonlinear parameter.
+    bounds: ClassVar[dict[str, tuple[float, float, float, float]]] = {}
+    #: Linear column names this effect adds.
+    linear: ClassVar[tuple[str, ...]] = ()
+
+    def start(self, pw) -> dict[str, tuple[float, float, float, float]]:
+        return dict(self.bounds)
+
+    def transform(self, inputs: dict, values: dict, pw, state: dict) -> dict:
+        """Return the model inputs (airspeed, density, mass per bin) with the effect."""
+        return inputs
+
+    def columns(self, M: np.ndarray, pw, state: dict) -> list[np.ndarray]:
+        return []
+
+    def bin_driver(self, pw, state: dict) -> np.ndarray:
+        return pw.time
+
+
+class Wind(PowerEffect):
+    key = "wind_speed_ms"
+    name = "wind"
+    needs = ("groundspeed_ms", "course_deg")
+    nonlinear = ("wind_n_ms", "wind_e_ms")
+    bounds: ClassVar[dict] = {"wind_n_ms": (0.0, -25.0, 25.0, 1.0),
+                              "wind_e_ms": (0.0, -25.0, 25.0, 1.0)}
+    driver_label = "course over ground [deg]"
+
+    def skip_reason(self, pw) -> str | None:
+        if pw.airspeed_measured:
+            return ("airspeed is measured: the power model already sees the air the "
+                    "aircraft flies in, whatever the wind")
+        if not pw.has_course:
+            return ("no direction of travel (course_deg) in the data: a wind cannot be told "
+                    "from how power depends on it")
+        moving = pw.moving
+        if moving.mean() < MIN_MOVING_SHARE:
+            return (f"the aircraft moves (≥ 2 m/s) in only {100 * moving.mean():.0f} % of "
+                    "the airborne time: too little to see a wind")
+        a = np.radians(pw.course[moving])
+        r = float(np.hypot(np.mean(np.cos(a)), np.mean(np.sin(a))))
+        if r > MAX_COURSE_CONCENTRATION:
+            return ("the aircraft flew in one direction only (course concentration "
+                    f"{r:.2f}): a wind cannot be told from the calibration")
+        return None
+
+    def transform(self, inputs, values, pw, state):
+        wn = pw.logged_wind_n + values["wind_n_ms"]
+        we = pw.logged_wind_e + values["wind_e_ms"]
+        v = np.hypot(pw.vn - wn, pw.ve - we)
+        if getattr(pw, "rotor_axial", False):     # the speed in the rotor disks' plane
+            v = inplane_speed(v, pw.climb, inputs["climb"])
+        out = dict(inputs)
+        out["airspeed"] = np.where(pw.course_known, v, inputs["airspeed"])
+        return out
+
+    def bin_driver(self, pw, state):
+        return pw.course
+
+    def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
+        r"""Why the fitted wind cannot be told from a mass change in flight, and the
+        candidates; None when it can.
+
+        A steady wind changes the airspeed by :math:`\Delta v = |\vec v_g - \vec w| - |\vec
+        v_g - \vec w_0|` (:math:`\vec w_0` the logged wind, or calm). On an out-and-back
+        route it is one sign on the way out and the other on the way back: a step at the
+        turnaround, which a payload dropped (or picked up) there fits as well. The test is
+        the one of the other confounds (:data:`planner.identify.diagnose.CONFOUND_R`): the share of
+        the within-flight variance of :math:`\Delta v` over the moving bins that one step
+        per flight (its best place) explains.
+        """
+        from planner.identify.diagnose import CONFOUND_R
+
+        values = state.get("values", {})
+        if "wind_n_ms" not in values:
+            return None
+        wn0, we0 = pw.logged_wind_n, pw.logged_wind_e
+        dv = (np.hypot(pw.vn - wn0 - values["wind_n_ms"], pw.ve - we0 - values["wind_e_ms"])
+              - np.hypot(pw.vn - wn0, pw.ve - we0))
+        m = pw.moving
+        sse = sst = 0.0
+        for e in np.unique(pw.exp[m]):
+            x = dv[m & (pw.exp == e)]
+            if x.size < 6:
+                continue
+            x = x - x.mean()
+            sst += float(np.dot(x, x))
+            # best single step: the split that leaves the least squared error
+            n = x.size
+            k = np.arange(1, n)
+            cs = np.cumsum(x)[:-1]
+            gain = cs**2 / k + cs**2 / (n - k)     # between-segment sum of squares
+            sse += float(np.dot(x, x) - gain.max())
+        if sst <= 0:
+            return None
+        r2 = 1.0 - sse / sst
+        if r2 < CONFOUND_R**2:
+            return None
+        return (f"{100 * r2:.0f} % of the wind's change of the airspeed within each flight is "
+                "one step (out and back): a mass change in flight at that point fits the same "
+                "power pattern, so the data cannot tell the wind from a payload dropped or "
+                "picked up there", [self.name, "payload_change"])
+
+    def parameters(self, values, stderr, pw, state):
+        wn, we = values["wind_n_ms"], values["wind_e_ms"]
+        sn, se = stderr["wind_n_ms"], stderr["wind_e_ms"]
+        speed = math.hypot(wn, we)
+        frm = math.degrees(math.atan2(-we, -wn)) % 360.0
+        s_speed = math.sqrt((wn * sn) ** 2 + (we * se) ** 2) / speed if speed > 0 else \
+            math.hypot(sn, se)
+        s_dir = math.degrees(math.sqrt((we * sn) ** 2 + (wn * se) ** 2) / speed**2) \
+            if speed > 0 else 180.0
+        return {"wind_n_ms": wn, "wind_n_ms_stderr": sn, "wind_e_ms": we,
+                "wind_e_ms_stderr": se, "wind_speed_ms": speed, "wind_speed_ms_stderr": s_speed,
+                "wind_from_deg": frm, "wind_from_deg_stderr": min(s_dir, 180.0),
+                "logged_wind_added": float(pw.has_logged_wind)}
+
+    def implausible(self, p, pw):
+        vmax = pw.aircraft.max_airspeed_ms
+        if p["wind_speed_ms"] > MAX_WIND_SHARE * vmax:
+            return (f"a steady wind of {p['wind_speed_ms']:.1f} m/s is more than "
+                    f"{100 * MAX_WIND_SHARE:g} % of the aircraft's maximum airspeed "
+                    f"({vmax:.0f} m/s): it could not have flown the record")
+        return None
+
+    def cause(self, p, pw):
+        extra = " beyond the autopilot's own wind estimate" if pw.has_logged_wind else ""
+        return (f"Steady wind{extra}: {_pm(p['wind_speed_ms'], p['wind_speed_ms_stderr'], 1)} "
+                f"m/s from {p['wind_from_deg']:.0f}° ({_compass(p['wind_from_deg'])}); airspeed "
+                "differs from groundspeed, so the power depends on the direction of travel "
+                f"(check with --wind {p['wind_speed_ms']:.1f}@{p['wind_from_deg']:.0f})")
+
+    def headline(self, p, pw):
+        return (f"Wind: {p['wind_speed_ms']:.1f} m/s from {p['wind_from_deg']:.0f}° "
+                f"({_compass(p['wind_from_deg'])}), power depends on the direction of travel")
+
+
+class AirDensity(PowerEffect):
+    key = "density_exponent"
+    name = "air_density"
+    needs = ("pressure_pa",)
+    nonlinear = ("density_exponent",)
+    bounds: ClassVar[dict] = {"density_exponent": (0.0, -2.0, 4.0, 0.1)}
+    driver_label = "measured air density [kg/m³]"
+
+    def skip_reason(self, pw) -> str | None:
+        if not pw.has_pressure:
+            return ("no static pressure (pressure_pa) in the data: the air density cannot be "
+                    "measured")
+        spread = float(np.std(np.log(pw.rho_meas / pw.rho_std)))
+        if spread < MIN_LOG_DENSITY_SPREAD:
+            mean = float(np.mean(pw.rho_meas))
+            return (f"the measured air density varies by only {100 * spread:.1f} % (mean "
+                    f"{mean:.3f} kg/m³): a constant density is absorbed by the efficiency")
+        return None
+
+    def transform(self, inputs, values, pw, state):
+        out = dict(inputs)
+        out["air_density"] = pw.rho_std * np.exp(values["density_exponent"] * pw.log_rho_ratio)
+        return out
+
+    def bin_driver(self, pw, state):
+        return pw.rho_meas
+
+    def parameters(self, values, stderr, pw, state):
+        return {"density_exponent": values["density_exponent"],
+                "density_exponent_stderr": stderr["density_exponent"],
+                "density_min_kg_m3": float(np.min(pw.rho_meas)),
+                "density_max_kg_m3": float(np.max(pw.rho_meas)),
+                "standard_density_kg_m3": float(np.mean(pw.rho_std)),
+                "temperature_logged": float(pw.has_air_temperature)}
+
+    def implausible(self, p, pw):
+        a = p["density_exponent"]
+        if not DENSITY_EXPONENT_RANGE[0] <= a <= DENSITY_EXPONENT_RANGE[1]:
+            return (f"the power follows the density with exponent {a:.2f}, outside "
+                    f"[{DENSITY_EXPONENT_RANGE[0]:g}, {DENSITY_EXPONENT_RANGE[1]:g}] (momentum "
+                    "theory: rotor power falls as the density rises, exponent near 0.5–1)")
+        return None
+
+    def cause(self, p, pw):
+        how = "pressure and temperature" if pw.has_air_temperature else \
+            "pressure (ISA temperature)"
+        return (f"Air density differs from standard: {p['density_min_kg_m3']:.3f}–"
+                f"{p['density_max_kg_m3']:.3f} kg/m³ from the measured {how}, against "
+                f"{p['standard_density_kg_m3']:.3f} assumed; the power follows it with "
+                f"exponent {_pm(p['density_exponent'], p['density_exponent_stderr'], 2)} "
+                "(1 = as momentum theory predicts)")
+
+    def headline(self, p, pw):
+        return (f"Air density {p['density_min_kg_m3']:.2f}–{p['density_max_kg_m3']:.2f} kg/m³, "
+                "not standard: power follows the measured density")
+
+
+class PayloadChange(PowerEffect):
+    key = "mass_step_kg"
+    name = "payload_change"
+    #: A change within a flight explains only variation within it (the flight's own
+    #: constant mass is projected out where the change is located): its training test
+    #: compares the residuals net of each flight's mean (:func:`planner.diagnose.search.compare`).
+    within_experiment = True
+    needs = ()
+    nonlinear = ("mass_step_kg",)
+    bounds: ClassVar[dict] = {"mass_step_kg": (0.0, -10.0, 10.0, 0.05)}
+    driver_label = "time since start [s]"
+    driver_is_time = True
+
+    def implausible(self, p, pw):
+        if p.get("flights_with_change", 0) < 1:
+            return "no flight has a change time: the step is never applied"
+        dm = p["mass_step_kg"]
+        if dm < 0 and -dm > MAX_DROP_SHARE * pw.mass0:
+            return (f"a drop of {-dm:.2f} kg is more than {100 * MAX_DROP_SHARE:g} % of the "
+                    f"all-up mass ({pw.mass0:.2f} kg)")
+        mtow = pw.aircraft.max_takeoff_mass_kg
+        if dm > 0 and mtow is not None and pw.mass0 + dm > mtow:
+            return (f"a pick-up of {dm:.2f} kg takes the aircraft to "
+                    f"{pw.mass0 + dm:.2f} kg, above its maximum take-off mass {mtow:.2f} kg")
+        return None
+
+    def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
+        """Why the located steps cannot be told from a change of flight regime, and the
+        candidates; None when they can.
+
+        A mass step switches the model's mass on at the change time of each flight. When
+        the change times sit where the flight changes regime — at the end of the climb or
+        the start of the descent — the step's indicator is (almost) the indicator of the
+        regime: a power model whose climb or descent power is wrong fits the same step. The
+        test is the one of the other confounds (:data:`planner.identify.diagnose.CONFOUND_R`): the
+        share of the variance of the step indicator, over the airborne bins of the flights
+        with a change, that a linear fit on the regime indicators (climbing, descending:
+        the altitude-checked climb rate beyond ±:data:`planner.chain.flightstate.CLIMB_THRESHOLD_MS`)
+        explains. Ground speed is deliberately not a regime here: with a wind it varies
+        with the direction of travel, which a wind effect explains.
+        """
+        from planner.identify.diagnose import CONFOUND_R
+        from planner.chain.flightstate import CLIMB_THRESHOLD_MS
+
+        mask = state.get("step_mask")
+        times = state.get("change_time_s", {})
+        located = [pw.names.index(k) for k, v in times.items() if v is not None]
+        if mask is None or not located:
+            return None
+        rows = np.isin(pw.exp, located)
+        y = np.asarray(mask, float)[rows]
+        if np.var(y) <= 0:
+            return None
+        climb = pw.climb[rows]
+        X = np.column_stack([np.ones(y.size), climb > CLIMB_THRESHOLD_MS,
+                             climb < -CLIMB_THRESHOLD_MS]).astype(float)
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        r2 = float(1.0 - np.var(y - X @ coef) / np.var(y))
+        if r2 >= CONFOUND_R**2:
+            return (f"{100 * r2:.0f} % of the variation of its step (on after the change time "
+                    f"in {len(located)} flight(s)) follows the flight regime (climbing, level, "
+                    "descending): the data cannot tell a mass change from a power model whose "
+                    "climb or descent power is wrong",
+                    [self.name, "the power model's climb or descent power"])
+        return self._wind_confound(pw, np.asarray(mask, float), located)
+
+    def _wind_confound(self, pw, mask, located) -> tuple[str, list[str]] | None:
+        r"""The step against a steady wind, where the data can test one: a wind
+        :math:`\vec w` changes the airspeed by about :math:`-\hat v_g \cdot \vec w`, i.e.
+        by a combination of the cosine and sine of the course. When that explains
+        :data:`planner.identify.diagnose.CONFOUND_R`² of the step's within-flight variation over the
+        moving bins (out-and-back routes, the change at the turnaround), the data cannot
+        tell the two apart."""
+        from planner.identify.diagnose import CONFOUND_R
+
+        if not getattr(pw, "has_course", False) or Wind().skip_reason(pw) is not None:
+            return None
+        rows = pw.moving & np.isin(pw.exp, located)
+        if rows.sum() < 10:
+            return None
+        c = np.radians(pw.course[rows])
+        exp = pw.exp[rows]
+        y, xc, xs = (stats.within_groups(v, exp) for v in (mask[rows], np.cos(c), np.sin(c)))
+        sst = float(np.dot(y, y))
+        if sst <= 0:
+            return None
+        X = np.column_stack([xc, xs])
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        r2 = float(1.0 - np.sum((y - X @ coef) ** 2) / sst)
+        if r2 < CONFOUND_R**2:
+            return None
+        return (f"{100 * r2:.0f} % of the variation of its step within the flights follows the "
+                "direction of travel (out and back): a steady wind fits the same power pattern, "
+                "so the data cannot tell a mass change from a wind",
+                [self.name, "wind"])
+
+    def start(self, pw):
+        m0 = float(np.median(pw.mass))
+        return {"mass_step_kg": (0.0, -0.9 * m0, 2.0 * m0, 0.05 * m0)}
+
+    def extra_dof(self, state):
+        return sum(1 for v in state.get("change_time_s", {}).values() if v is not None)
+
+    def practical(self, fits, pw) -> str | None:
+        steps = [abs(f.values()["mass_step_kg"]) for f in fits]
+        step = float(np.median(steps))
+        if step < MIN_MASS_STEP * pw.mass0:
+            return (f"mass step {step:.3f} kg is below {100 * MIN_MASS_STEP:g} % of the "
+                    f"all-up mass ({pw.mass0:.2f} kg): not a payload")
+        return None
+
+    def transform(self, inputs, values, pw, state):
+        step = state.get("step_mask")
+        if step is None:
+            return inputs
+        out = dict(inputs)
+        out["mass"] = inputs["mass"] + values["mass_step_kg"] * step
+        return out
+
+    def bin_driver(self, pw, state):
+        return pw.time
+
+    def parameters(self, values, stderr, pw, state):
+        out = {"mass_step_kg": values["mass_step_kg"],
+               "mass_step_kg_stderr": stderr["mass_step_kg"]}
+        times = state.get("change_time_s", {})
+        located = {k: v for k, v in times.items() if v is not None}
+        out["flights_with_change"] = float(len(located))
+        if located:
+            out["change_time_min_s"] = float(min(located.values()))
+            out["change_time_max_s"] = float(max(located.values()))
+        out["changes_at_end_of_climb"] = float(sum(
+            _end_of_climb(pw, pw.names.index(k), v) for k, v in located.items()))
+        for k, v in list(located.items())[:20]:
+            out[f"change_time_s[{k}]"] = float(v)
+        return out
+
+    def cause(self, p, pw, state=None):
+        dm = p["mass_step_kg"]
+        what = "dropped" if dm < 0 else "picked up"
+        n = int(p.get("flights_with_change", 0))
+        when = "" if not n else (f"at {p['change_time_min_s']:.0f} s" if n == 1 else
+                                 f"in {n} flights ({p['change_time_min_s']:.0f}–"
+                                 f"{p['change_time_max_s']:.0f} s after their start)")
+        text = (f"Mass changed in flight: {_pm(abs(dm), p['mass_step_kg_stderr'], 2)} kg "
+                f"{what} {when}; the power steps with it, which the flight state does not "
+                "explain")
+        n_climb = int(p.get("changes_at_end_of_climb", 0))
+        if n_climb and n_climb >= 0.5 * p["flights_with_change"]:
+            text += (f". Caution: {n_climb} of {int(p['flights_with_change'])} change time(s) "
+                     "fall at the end of a climb: the power model's climb may be wrong instead")
+        return text
+
+    def headline(self, p, pw):
+        dm = p["mass_step_kg"]
+        return f"Payload {'drop' if dm < 0 else 'pick-up'} of {abs(dm):.2f} kg in flight"
+
+
+def _end_of_climb(pw, exp: int, tc: float, window_s: float = 30.0) -> bool:
+    """Whether a change at ``tc`` follows a climb (> 1 m/s) and precedes level flight."""
+    m = pw.exp == exp
+    before = m & (pw.time < tc) & (pw.time >= tc - window_s)
+    after = m & (pw.time >= tc) & (pw.time < tc + window_s)
+    if not before.any() or not after.any():
+        return False
+    return bool(np.mean(pw.climb[before]) > 1.0 and abs(np.mean(pw.climb[after])) < 0.5)
+
+
+class SystemPower(PowerEffect):
+    key = "system_power_w"
+    name = "system_power"
+    needs = ()
+    linear = ("system_power_w",)
+    driver_label = "modelled battery power [W]"
+
+    def skip_reason(self, pw) -> str | None:
+        if pw.load_variation < MIN_LOAD_VARIATION:
+            return (f"the mechanical power varies by only {100 * pw.load_variation:.1f} %: a "
+                    "constant load cannot be told from the efficiency")
+        return None
+
+    def columns(self, M, pw, state):
+        return [np.ones_like(M)]
+
+    def bin_driver(self, pw, state):
+        return state.get("modelled_w", pw.measured)
+
+    def parameters(self, values, stderr, pw, state):
+        ps = values["system_power_w"]
+        return {"system_power_w": ps, "system_power_w_stderr": stderr["system_power_w"],
+                "file_system_power_w": pw.file_system_power_w,
+                "missing_w": ps - pw.file_system_power_w}
+
+    def implausible(self, p, pw):
+        ps, se = p["system_power_w"], p["system_power_w_stderr"]
+        if ps < 0:
+            return f"a constant load of {ps:.1f} W is negative"
+        air = float(np.percentile(pw.measured, 5))
+        if ps > MAX_SYSTEM_SHARE * air:
+            return (f"a constant load of {ps:.0f} W would be {100 * ps / air:.0f} % of the "
+                    f"lowest airborne power ({air:.0f} W, 5th percentile): the rotors' own "
+                    "power cannot be that small")
+        ground = pw.ground_power_w
+        if ground is not None:
+            high = ground[1] + 3.0 * (se if math.isfinite(se) else 0.0) + GROUND_POWER_MARGIN_W
+            if ps > high:
+                return (f"a constant load of {ps:.0f} W where the aircraft draws "
+                        f"{ground[0]:.0f}–{ground[1]:.0f} W on the ground (rotors stopped or "
+                        "idle): what is missing is drawn only while the rotors turn, not a "
+                        "constant load")
+        return None
+
+    def cause(self, p, pw):
+        miss = p["missing_w"]
+        return (f"A constant electrical load of {_pm(p['system_power_w'], p['system_power_w_stderr'], 1)}"
+                f" W (avionics, payload, heater) where the aircraft file has "
+                f"{p['file_system_power_w']:.1f} W: {abs(miss):.1f} W "
+                f"{'missing from' if miss > 0 else 'too much in'} the model")
+
+    def headline(self, p, pw):
+        return (f"Constant load {p['system_power_w']:.0f} W (file {p['file_system_power_w']:.0f} W)"
+                " missing from the model")
+
+
+class EfficiencyCurve(PowerEffect):
+    key = "efficiency_slope"
+    name = "efficiency_curve"
+    needs = ()
+    linear = ("efficiency_slope_coefficient",)
+    driver_label = "modelled mechanical power [W]"
+
+    def skip_reason(self, pw) -> str | None:
+        if pw.load_variation < MIN_LOAD_VARIATION:
+            return (f"the mechanical power varies by only {100 * pw.load_variation:.1f} %: an "
+                    "efficiency curve cannot be told from a constant efficiency")
+        return None
+
+    def columns(self, M, pw, state):
+        ref = state["reference_mechanical_w"]
+        return [M * (M / ref - 1.0)]
+
+    def practical(self, fits, pw) -> str | None:
+        # 1/η = c0 + c1 (M/M_ref − 1): c1 < 0 is an efficiency that rises with load, which
+        # is what a constant loss looks like (that is the system_power effect)
+        c1 = float(np.median([f.values()["efficiency_slope_coefficient"] for f in fits]))
+        if c1 < 0:
+            return ("the efficiency rises with load, which is what a constant electrical load "
+                    "looks like: see system_power")
+        return None
+
+    def bin_driver(self, pw, state):
+        return state.get("mechanical_w", pw.measured)
+
+    def parameters(self, values, stderr, pw, state):
+        # values carry eta0/eta1 already converted by the search (delta method)
+        p_lo, p_hi = state.get("mechanical_range_w", (np.nan, np.nan))
+        ref = state["reference_mechanical_w"]
+        e0, e1 = values["efficiency_at_reference"], values["efficiency_slope"]
+        def eta(m):
+            return 1.0 / (1.0 / e0 - e1 / e0**2 * (m / ref - 1.0))
+        return {"efficiency_at_reference": e0,
+                "efficiency_at_reference_stderr": stderr["efficiency_at_reference"],
+                "efficiency_slope": e1, "efficiency_slope_stderr": stderr["efficiency_slope"],
+                "reference_mechanical_power_w": ref,
+                "mechanical_power_low_w": p_lo, "mechanical_power_high_w": p_hi,
+                "efficiency_at_low": eta(p_lo), "efficiency_at_high": eta(p_hi)}
+
+    def implausible(self, p, pw):
+        for k in ("efficiency_at_low", "efficiency_at_reference", "efficiency_at_high"):
+            e = p[k]
+            if not (math.isfinite(e) and 0.0 < e <= 1.0):
+                return (f"the efficiency curve reaches {e:.2f} over the flown range, outside "
+                        "(0, 1]")
+        return None
+
+    def cause(self, p, pw):
+        word = "falls" if p["efficiency_slope"] < 0 else "rises"
+        return (f"Propulsion efficiency {word} with load instead of being constant: "
+                f"{100 * p['efficiency_at_low']:.0f} % at {p['mechanical_power_low_w']:.0f} W, "
+                f"{100 * p['efficiency_at_reference']:.0f} % at "
+                f"{p['reference_mechanical_power_w']:.0f} W and "
+                f"{100 * p['efficiency_at_high']:.0f} % at {p['mechanical_power_high_w']:.0f} W "
+                f"of mechanical power (slope {_pm(p['efficiency_slope'], p['efficiency_slope_stderr'], 3)}"
+                " per unit of P/P_ref)")
+
+    def headline(self, p, pw):
+        word = "falls" if p["efficiency_slope"] < 0 else "rises"
+        return (f"Efficiency {word} with load: {100 * p['efficiency_at_low']:.0f} % → "
+                f"{100 * p['efficiency_at_high']:.0f} % from {p['mechanical_power_low_w']:.0f} to "
+                f"{p['mechanical_power_high_w']:.0f} W")
+
+
+CAPACITY_EFFECTS = (Temperature, CapacityFade, CurrentOffset)
+POWER_EFFECTS = (Wind, AirDensity, PayloadChange, SystemPower, EfficiencyCurve)
+#: The vocabulary, in DESIGN §6 order.
+EFFECTS = {cls.name: cls for cls in (Temperature, CapacityFade, CurrentOffset, Wind, AirDensity,
+                                     PayloadChange, SystemPower, EfficiencyCurve)}
+
+
+def make_effects(names=None) -> list[Effect]:
+    """Fresh effect objects for ``names`` (default: the whole vocabulary)."""
+    from planner.errors import InputError
+
+    names = list(EFFECTS) if names is None else list(names)
+    unknown = [n for n in names if n not in EFFECTS]
+    if unknown:
+        raise InputError(f"unknown effect(s) {', '.join(unknown)}; expected some of "
+                         f"{', '.join(EFFECTS)}")
+    return [EFFECTS[n]() for n in names]
+

@@ -1,0 +1,1481 @@
+r"""The search of ``diagnose``: baseline calibration, time-respecting splits,
+selection statistics and the greedy combination of effects.
+
+Splits (the rule, documented once here)
+---------------------------------------
+Never random samples. With **several experiments** whole experiments are held
+out: they are dealt in the order they appear into K = min(4, n) folds
+(experiment *i* to fold *i* mod K) and each fold is held out in turn (K-fold
+cross-validation over whole experiments). With **one experiment** its record
+is cut into 12 contiguous blocks of equal duration, dealt into 4 folds the
+same way (blocks *k*, *k* + 4, *k* + 8 held out together), so that every
+held-out block has training data before and after it. Every model — the
+baseline and each extension — is fitted on the training folds and scored on
+the held-out fold; the held-out predictions of all folds are pooled.
+
+Units of the tests: the held-out blocks; with fewer than 24 experiments each
+experiment is cut into ⌈24/n⌉ contiguous blocks, so that there are at least 24.
+
+What is fitted
+--------------
+Capacity level: the window *increments* of the measured charge,
+:math:`\Delta C_w = C(t_{w,1}) - C(t_{w,0})` over contiguous windows of about
+:data:`TARGET_WINDOWS` per data set (5–120 s), weighted by
+:math:`1/\sqrt{\Delta t_w}`. The measured charge is integrated current, so its
+error is a random walk whose increments are nearly independent; fitting the
+increments keeps the least-squares statistics honest (fitting the cumulative
+charge would make neighbouring residuals almost perfectly correlated). The
+baseline's free parameters are δ, ε and β (β only when some experiment draws at
+least :data:`FIT_BETA_MIN_DEPTH` of the nominal charge, else held at the pack's
+value). Held-out error: the cumulative residual :math:`C - \hat C` from the
+start of each held-out segment (experiment or block) [mAh].
+
+Power level: the airborne samples (phases of :func:`planner.chain.flightstate.flight_phases`
+other than ground and take-off) averaged over bins of B seconds (at least 1 s;
+longer when there are more than :data:`MAX_BINS` bins; at most 10 s), within
+the test units. The baseline's free parameters are the efficiency η and the
+shape parameters (multirotor drag area; fixed-wing C_D0, K); the system load
+stays at the aircraft file's value (fitting it is the ``system_power`` effect).
+Held-out error: RMSE of the bin means [W].
+
+Selection statistics and thresholds
+-----------------------------------
+An effect (added to the current model) is reported only when all hold:
+
+1. **Training likelihood-ratio test.** In each fold,
+   :math:`LR = n_{eff} \ln(RSS_0/RSS_1)` on the training rows, with the
+   effective sample size :math:`n_{eff} = n (1-\rho)/(1+\rho)` from the lag-1
+   autocorrelation ρ of the extended model's training residuals; compared with
+   :math:`\chi^2` of the added degrees of freedom (a payload change also counts
+   each located change time). The median p-value over the folds must be below
+   :data:`ALPHA_TRAIN` (0.05). For a payload change, which explains only variation
+   *within* a flight (it is located net of the flight's own constant mass), RSS and ρ
+   are those of the training residuals net of each flight's mean: a flight flown with an
+   unrecorded payload is a level shift of that flight, which neither model is asked to
+   explain and which would otherwise swamp the test (on real M100 flights, whose payload
+   per flight is not in the data, it did: ``benchmarks/bench_diagnose_real.py``).
+2. **Practical held-out gain.** The pooled held-out RMSE falls by at least
+   :data:`MIN_GAIN_PCT` (5 %).
+3. **Paired held-out test.** One-sided paired randomisation (sign-flip) test on
+   the per-unit differences of held-out squared error, baseline minus extended
+   (capacity level: the cumulative residual restarted at each unit's start),
+   p below :data:`ALPHA_HELDOUT` (0.05); exact up to 16 units, else 20 000
+   seeded sign patterns.
+4. **The effect's own physical floor**, where it has one: a payload change of
+   at least 3 % of the all-up mass; an efficiency curve must fall with load (one
+   that rises is a constant loss, i.e. ``system_power``).
+5. **Consistency on all the data.** After the search, the selected model is
+   fitted on all the data; an effect whose key parameter is less than 2
+   standard errors from "no effect" there is dropped (and a note says so).
+
+Greedy combination: all testable effects are scored against the calibrated
+baseline; the one with the largest held-out gain among those that pass joins
+the model; the remaining ones are scored again against the extended model, and
+so on until none passes. When none passes alone, the pairs of promising ones
+(gain and training test passed) are tried together, for two effects that mask
+each other; a pair joins when it passes and each member passes on top of the
+other. Capacity- and power-level effects are searched separately (they explain
+different residuals). Reported parameters and their standard errors come from
+the final fit on all the data, with the covariance :math:`s^2 (J^TJ)^{-1}`
+inflated by :math:`(1+\rho)/(1-\rho)` for the autocorrelation of the residuals.
+
+Change points (``payload_change``)
+----------------------------------
+The change time of an experiment is located on the data of it the fit may see:
+the training blocks of a time-block split; an experiment held out whole is
+located on its own record with the mass step learned on the training
+experiments (a drop is an event of the flight; only its size is learned), one
+interleaved half of its bins locating the change applied to the other half.
+The flights of a data set need not weigh what was given (an unrecorded payload
+per flight): a change is located against a mass that differs for the whole
+flight, i.e. the step's column :math:`s\,1\{t \ge t_c\}` and the residual are
+both taken net of the flight's constant-mass column :math:`s` (the power's
+sensitivity to the mass), so that a step near the start or end of a flight —
+which is a flight flown heavier or lighter — is not a change. A change is
+placed only where it lowers that squared error by more than :math:`k \ln(n)`
+long-run residual variances (a BIC-like threshold, :math:`\ln n` per fitted
+parameter: :math:`k = 2` for the time and the size, :math:`k = 1` on a held-out
+flight, whose step size was learned on the other flights), else the flight has
+none.
+
+Climb rate
+----------
+Where the record has an altitude, the logged climb rate is checked against the
+altitude's rate of change over :data:`CLIMB_WINDOW_S` windows; when they differ
+by more than :data:`MAX_CLIMB_DISAGREEMENT_MS` RMS (the DJI M100 data's
+``velocity_z`` is not a vertical speed in forward flight: it reads 1–3 m/s at
+constant altitude), the power model is driven by the altitude's rate of change
+(direct evidence first) and a note says so.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import chi2
+
+from planner.physics import atmosphere
+from planner.identify import stats
+from planner.errors import FitError, ModelError
+from planner.identify.aircraft_fit import with_params
+from planner.chain.flightstate import CLIMB_THRESHOLD_MS, flight_phases, inplane_speed
+from planner.physics.units import AS_PER_MAH
+
+#: Folds of the cross-validation. [unitless]
+N_FOLDS = 4
+#: Blocks a single experiment is cut into. [unitless]
+N_BLOCKS_SINGLE = 12
+#: Least number of test units (held-out blocks). [unitless]
+MIN_UNITS = 24
+#: Least held-out RMSE gain for an effect to be reported. [%]
+MIN_GAIN_PCT = 5.0
+#: Level of the one-sided paired test on held-out units. [unitless]
+ALPHA_HELDOUT = 0.05
+#: Level of the training likelihood-ratio test. [unitless]
+ALPHA_TRAIN = 0.05
+#: Least number of units with a non-zero difference for the paired test. [unitless]
+MIN_TEST_UNITS = 6
+#: Target number of capacity windows over the data set. [unitless]
+TARGET_WINDOWS = 500
+#: Most power bins before the bin width grows (up to 10 s). [unitless]
+MAX_BINS = 1000
+#: β is fitted only when some experiment draws this share of the nominal charge. [unitless]
+FIT_BETA_MIN_DEPTH = 0.1
+#: Shortest experiment used. [s]
+MIN_EXPERIMENT_S = 30.0
+#: Least number of windows (capacity) or bins (power) for a level to run. [unitless]
+MIN_ROWS = 24
+#: Ground speed above which the aircraft counts as moving. [m/s]
+MOVING_MS = 2.0
+#: Least number of samples at rest for the rest current to count as direct evidence.
+MIN_REST_SAMPLES = 30
+#: Least number of ground samples for the ground power to bound a constant load.
+MIN_GROUND_SAMPLES = 10
+#: Window over which the logged climb rate is checked against the altitude. [s]
+CLIMB_WINDOW_S = 5.0
+#: Largest RMS difference between the logged climb rate and the altitude's rate of change
+#: (both over :data:`CLIMB_WINDOW_S` windows) for the power model to be driven by the
+#: logged climb rate: the speed :func:`planner.chain.flightstate.flight_phases` calls a climb.
+#: Autopilot logs agree within 0.07–0.17 m/s; beyond 0.5 m/s the climb power alone
+#: (m g v_c / η) is misstated by some 8 % of the hover power of a 3.6-kg quadrotor. [m/s]
+MAX_CLIMB_DISAGREEMENT_MS = CLIMB_THRESHOLD_MS
+
+
+# ============================================================================ split
+
+@dataclass(frozen=True)
+class Unit:
+    """A contiguous block of one experiment, the unit of the held-out tests."""
+
+    exp: int
+    t0: float
+    t1: float
+    fold: int
+
+
+@dataclass
+class Split:
+    """Folds and test units (see the module notes for the rule)."""
+
+    units: list[Unit]
+    n_folds: int
+    whole_experiments: bool
+    rule: str
+
+    def assign(self, exp: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Unit index of each sample (experiment index ``exp``, time ``t``)."""
+        out = np.full(len(t), -1, dtype=int)
+        by_exp: dict[int, list[int]] = {}
+        for i, u in enumerate(self.units):
+            by_exp.setdefault(u.exp, []).append(i)
+        for e, idx in by_exp.items():
+            m = exp == e
+            edges = np.array([self.units[i].t0 for i in idx[1:]])
+            pos = np.searchsorted(edges, t[m], side="right")
+            out[m] = np.asarray(idx)[pos]
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"rule": self.rule, "folds": self.n_folds, "units": len(self.units),
+                "whole_experiments": self.whole_experiments}
+
+
+def make_split(spans: list[tuple[float, float]]) -> Split:
+    """Folds and units for experiments spanning ``spans`` = [(t_first, t_last), …]."""
+    n = len(spans)
+    units: list[Unit] = []
+    if n >= 2:
+        k = min(N_FOLDS, n)
+        m = max(1, math.ceil(MIN_UNITS / n))
+        for j, (a, b) in enumerate(spans):
+            for i in range(m):
+                units.append(Unit(j, a + (b - a) * i / m, a + (b - a) * (i + 1) / m, j % k))
+        rule = (f"whole experiments held out: {n} experiments dealt in order into {k} folds "
+                f"(experiment i to fold i mod {k}), each fold held out in turn; "
+                f"test units: {m} contiguous block(s) per experiment")
+        return Split(units, k, True, rule)
+    a, b = spans[0]
+    m = N_BLOCKS_SINGLE
+    for i in range(m):
+        units.append(Unit(0, a + (b - a) * i / m, a + (b - a) * (i + 1) / m, i % N_FOLDS))
+    rule = (f"one experiment: {m} contiguous time blocks of {(b - a) / m:.0f} s dealt into "
+            f"{N_FOLDS} folds (block i to fold i mod {N_FOLDS}), each fold held out in turn; "
+            "never random samples")
+    return Split(units, N_FOLDS, False, rule)
+
+
+# ============================================================================ helpers
+
+def _long_run_variance(r: np.ndarray) -> float:
+    """Long-run variance σ²(1+ρ)/(1−ρ) of a residual series, robust to a step in it.
+
+    σ² from differences at a lag beyond the short-range correlation, ρ from the lag-1
+    differences; a single step touches only a few of either.
+    """
+    n = len(r)
+    lag = max(1, min(10, n // 4))
+    s2 = float(np.mean((r[lag:] - r[:-lag]) ** 2)) / 2.0
+    if s2 <= 0:
+        return 0.0
+    v1 = float(np.mean(np.diff(r) ** 2))
+    rho = min(max(1.0 - v1 / (2.0 * s2), 0.0), 0.95)
+    return s2 * (1 + rho) / (1 - rho)
+
+
+def _covariance(jac: np.ndarray, resid: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    return stats.covariance(jac, resid, groups).matrix
+
+
+def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    return coef
+
+
+@dataclass
+class Fit:
+    """One fitted model (one fold, or all the data)."""
+
+    effects: tuple[str, ...]
+    nl_names: list[str]
+    nl: np.ndarray
+    lin_names: list[str]
+    coef: np.ndarray
+    train: np.ndarray                 # bool over rows
+    train_resid: np.ndarray           # weighted training residuals (rows order)
+    state: dict = field(default_factory=dict)
+
+    @property
+    def rss(self) -> float:
+        return float(np.dot(self.train_resid, self.train_resid))
+
+    def values(self) -> dict[str, float]:
+        return dict(zip(self.nl_names + self.lin_names,
+                        map(float, np.r_[self.nl, self.coef])))
+
+
+# ============================================================================ capacity
+
+def experiment_channels(exps: list[dict]):
+    """The capacity effects' channels of a set of experiments: the pack temperature of
+    every sample (None unless every experiment has one), the names of the experiments
+    without, each experiment's cycle and where it came from (``"cycle"``, else
+    ``"experiment order"``: 0, 1, 2, …)."""
+    temps = [e.get("temperature") for e in exps]
+    missing = [e["name"] for e, tc in zip(exps, temps) if tc is None]
+    temperature = None if missing else np.concatenate(temps)
+    cyc = [e.get("cycle") for e in exps]
+    if all(c is not None for c in cyc):
+        return temperature, missing, np.asarray(cyc, float), "cycle"
+    return temperature, missing, np.arange(len(exps), dtype=float), "experiment order"
+
+
+class CapacityLevel:
+    """Measured charge against the integral model driven by the measured power.
+
+    Parameters
+    ----------
+    exps : list of dict
+        One per experiment: ``name``, ``t`` [s from 0], ``p`` [W, ≤ 0 = rest],
+        ``c`` [A s, measured charge from 0], ``temperature`` [°C] or None,
+        ``cycle`` or None.
+    pack : BatteryPack
+        Start values (δ, ε, β) and the nominal capacity.
+    """
+
+    name = "capacity"
+    unit = "mAh"
+
+    def __init__(self, exps: list[dict], pack):
+        self.pack = pack
+        self.names = [e["name"] for e in exps]
+        self.n_experiments = len(exps)
+        lengths = np.array([len(e["t"]) for e in exps])
+        self.exp_start = np.r_[0, np.cumsum(lengths)[:-1]]
+        self.exp_end = self.exp_start + lengths - 1
+        self.exp_index = np.repeat(np.arange(len(exps)), lengths)
+        self.start_of = self.exp_start[self.exp_index]
+        self.t = np.concatenate([e["t"] for e in exps])
+        self.p = np.concatenate([e["p"] for e in exps])
+        self.c = np.concatenate([e["c"] for e in exps])
+        n = len(self.t)
+        dt = np.diff(self.t)
+        self.cross = np.zeros(n - 1, bool)
+        self.cross[self.exp_start[1:] - 1] = True
+        dt[self.cross] = 0.0
+        self.half_dt = 0.5 * dt
+        on = self.p > 0
+        self.on = on.astype(float)
+        logp = np.log(np.where(on, self.p, 1.0))
+        w = np.r_[self.half_dt, 0] + np.r_[0, self.half_dt]
+        self.p_ref = float(np.exp(np.sum(logp * w * on) / max(np.sum(w * on), 1e-9)))
+        self.logp = np.where(on, logp - math.log(self.p_ref), 0.0)
+        self.time_since_start = self.t.copy()
+        total = float(np.sum(dt))
+        self.rest_fraction = float(np.sum(dt * (self.p[:-1] <= 0))) / total if total else 0.0
+        med_on = float(np.median(self.p[on])) if on.any() else 0.0
+        low = self.p[:-1] <= 0.1 * med_on
+        self.low_load_fraction = float(np.sum(dt * low)) / total if total else 0.0
+
+        # direct evidence of the current sensor's zero: the logged current at rest
+        currents = [e.get("current") for e in exps]
+        if all(i is not None for i in currents):
+            i_all = np.concatenate(currents)
+            rest = (self.p <= 0) & np.isfinite(i_all)
+            self.median_current_a = float(np.nanmedian(i_all[on])) if on.any() else 0.0
+            self.rest_current = None
+            if rest.sum() >= MIN_REST_SAMPLES:
+                r = i_all[rest]
+                n_eff = r.size / stats.ar1_inflation(stats.lag1_autocorrelation(r))
+                self.rest_current = (float(r.mean()), float(r.std(ddof=1) / math.sqrt(n_eff)))
+        else:
+            rate = np.diff(self.c) / np.where(dt > 0, dt, np.inf)
+            self.median_current_a = float(np.median(rate[self.p[:-1] > 0])) if on.any() else 0.0
+            self.rest_current = None
+        (self.temperature, self.temperature_missing, self.cycles,
+         self.cycle_source) = experiment_channels(exps)
+
+        self.final_charge_as = np.array([e["c"][-1] for e in exps])
+        depth = float(np.max(self.final_charge_as)) / max(pack.capacity_as, 1e-9)
+        self.fit_beta = depth >= FIT_BETA_MIN_DEPTH
+        self.split = make_split([(float(e["t"][0]), float(e["t"][-1])) for e in exps])
+        self.sample_unit = self.split.assign(self.exp_index, self.t)
+        self.sample_fold = np.array([u.fold for u in self.split.units])[self.sample_unit]
+        self._windows()
+
+    # ---------------------------------------------------------------- layout
+    def _windows(self) -> None:
+        total = float(np.sum(2 * self.half_dt))
+        med_dt = float(np.median(np.diff(self.t)[~self.cross])) if len(self.t) > 1 else 1.0
+        width = min(max(total / TARGET_WINDOWS, 3 * med_dt, 5.0), 120.0)
+        self.window_s = width
+        w0, w1 = [], []
+        for e in range(self.n_experiments):
+            a, b = self.exp_start[e], self.exp_end[e]
+            t = self.t[a:b + 1]
+            units = self.sample_unit[a:b + 1]
+            bounds = {0, len(t) - 1}
+            bounds.update((np.flatnonzero(np.diff(units) != 0) + 1).tolist())
+            ub = sorted(bounds)
+            for s0, s1 in itertools.pairwise(ub):
+                k = max(1, round((t[s1] - t[s0]) / width))
+                edges = np.searchsorted(t, np.linspace(t[s0], t[s1], k + 1))
+                bounds.update(int(min(max(x, s0), s1)) for x in edges)
+            ub = np.array(sorted(bounds))
+            ub = ub[np.r_[True, np.diff(ub) > 0]]
+            w0.append(a + ub[:-1])
+            w1.append(a + ub[1:])
+        self.w0 = np.concatenate(w0)
+        self.w1 = np.concatenate(w1)
+        self.window_exp = self.exp_index[self.w0]
+        self.window_unit = self.sample_unit[self.w0]
+        self.window_fold = np.array([self.split.units[u].fold for u in self.window_unit])
+        self.window_dt = self.t[self.w1] - self.t[self.w0]
+        self.window_time = 0.5 * (self.t[self.w1] + self.t[self.w0])
+        self.weights = 1.0 / np.sqrt(np.maximum(self.window_dt, 1e-6))
+        self.y = self.c[self.w1] - self.c[self.w0]
+        self.n_rows = len(self.w0)
+        self.row_group = self.window_exp
+        self.row_unit = self.window_unit
+        self.row_fold = self.window_fold
+
+    def cumulate(self, interval_values: np.ndarray) -> np.ndarray:
+        """Cumulative sum per experiment of per-interval values (n − 1) → per sample."""
+        x = np.where(self.cross, 0.0, interval_values)
+        cs = np.r_[0.0, np.cumsum(x)]
+        return cs - cs[self.start_of]
+
+    def window_mean(self, x: np.ndarray) -> np.ndarray:
+        cs = np.r_[0.0, np.cumsum(x)]
+        return (cs[self.w1 + 1] - cs[self.w0]) / (self.w1 - self.w0 + 1)
+
+    # ---------------------------------------------------------------- model
+    def _nl_start(self, start: Fit | None) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+        m = self.pack.model
+        names = ["epsilon"] + (["beta"] if self.fit_beta else [])
+        x0 = np.array([m.epsilon] + ([m.beta] if self.fit_beta else []), float)
+        if start is not None:
+            x0 = np.array([start.values()[k] for k in names])
+        lo = np.array([-3.0] + ([0.5] if self.fit_beta else []))
+        hi = np.array([0.5] + ([1.5] if self.fit_beta else []))
+        return names, np.clip(x0, lo + 1e-6, hi - 1e-6), lo, hi
+
+    def _beta(self, x: np.ndarray) -> float:
+        return float(x[1]) if self.fit_beta else float(self.pack.model.beta)
+
+    def G(self, x: np.ndarray) -> np.ndarray:
+        rate = np.exp(-x[0] * self.logp) * self.on
+        S = self.cumulate(self.half_dt * (rate[1:] + rate[:-1]))
+        return np.maximum(S, 0.0) ** (1.0 / self._beta(x))
+
+    def design(self, x: np.ndarray, effects) -> np.ndarray:
+        """Per-sample cumulative columns: G, then one per effect."""
+        G = self.G(x)
+        dG = np.diff(G)
+        dG[self.cross] = 0.0
+        return np.column_stack([G] + [e.cumulative(self, G, dG) for e in effects])
+
+    def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        names, x0, lo, hi = self._nl_start(start)
+        for e in effects:
+            e.prepare(self)
+        rows = np.flatnonzero(train)
+        wt = self.weights[rows]
+        y = self.y[rows] * wt
+        i0, i1 = self.w0[rows], self.w1[rows]
+        cache: dict = {}
+
+        def solve(x):
+            X = self.design(x, effects)
+            Xw = (X[i1] - X[i0]) * wt[:, None]
+            coef = _lstsq(Xw, y)
+            cache["coef"] = coef
+            return y - Xw @ coef
+
+        res = least_squares(solve, x0, bounds=(lo, hi), x_scale=np.full(len(x0), 0.01),
+                            diff_step=1e-4, xtol=1e-8, ftol=1e-10, max_nfev=200)
+        resid = solve(res.x)
+        coef = cache["coef"]
+        if not coef[0] > 0:
+            raise FitError("capacity baseline: the fitted charge scale is not positive: the "
+                           "measured charge does not follow the measured power")
+        lin = ["scale"] + [e.coefficient + "__raw" for e in effects]
+        return Fit(tuple(e.name for e in effects), names, res.x, lin, coef, train, resid)
+
+    def predict_samples(self, fit: Fit, effects) -> np.ndarray:
+        """Predicted cumulative charge at every sample. [A s]"""
+        return self.design(fit.nl, effects) @ fit.coef
+
+    def row_residuals(self, fit: Fit, effects, rows: np.ndarray,
+                      X: np.ndarray | None = None) -> np.ndarray:
+        X = self.design(fit.nl, effects) if X is None else X
+        Xw = X[self.w1[rows]] - X[self.w0[rows]]
+        return (self.y[rows] - Xw @ fit.coef) * self.weights[rows]
+
+    def prepare_heldout(self, fit: Fit, effects, heldout: np.ndarray) -> None:
+        """Nothing to locate at the capacity level."""
+
+    def heldout(self, fit: Fit, effects, fold: int) -> dict[str, Any]:
+        """Held-out residuals of one fold: rows, samples (reset per segment), final errors."""
+        X = self.design(fit.nl, effects)
+        rows = np.flatnonzero(self.row_fold == fold)
+        row_r = self.row_residuals(fit, effects, rows, X)
+        samples = np.flatnonzero(self.sample_fold == fold)
+        r = self.c - X @ fit.coef
+        seg = self._segment_start(samples)
+        rs = r[samples] - r[seg]
+        # test-unit loss: cumulative residual restarted at each unit's first sample
+        ufirst = self._unit_first(samples)
+        loss = (r[samples] - r[ufirst]) ** 2
+        finals = []
+        for s in np.unique(seg):
+            idx = samples[seg == s]
+            last = idx[-1]
+            # include the shared boundary sample of the next block where it exists
+            dc = self.c[last] - self.c[s]
+            if dc > 0:
+                finals.append((abs(r[last] - r[s]), dc))
+        return {"rows": rows, "row_resid": row_r, "samples": samples, "sample_resid": rs,
+                "finals": finals, "loss_units": self.sample_unit[samples], "loss": loss}
+
+    def _unit_first(self, samples: np.ndarray) -> np.ndarray:
+        units = self.sample_unit[samples]
+        change = np.r_[True, units[1:] != units[:-1]]
+        starts = samples[change]
+        return starts[np.cumsum(change) - 1]
+
+    def _segment_start(self, samples: np.ndarray) -> np.ndarray:
+        if self.split.whole_experiments:
+            return self.start_of[samples]
+        return self._unit_first(samples)
+
+    # ---------------------------------------------------------------- reporting
+    def covariance(self, fit: Fit, effects) -> tuple[np.ndarray, np.ndarray]:
+        """Covariance of [nl…, coef…] of an all-data fit."""
+        rows = np.flatnonzero(fit.train)
+        X0 = self.design(fit.nl, effects)
+        wt = self.weights[rows]
+        Xw = (X0[self.w1[rows]] - X0[self.w0[rows]]) * wt[:, None]
+        r0 = self.y[rows] * wt - Xw @ fit.coef
+        jac = [-Xw[:, j] for j in range(Xw.shape[1])]
+        jnl = []
+        for j in range(len(fit.nl)):
+            h = 1e-5
+            x = fit.nl.copy()
+            x[j] += h
+            X = self.design(x, effects)
+            r = self.y[rows] * wt - ((X[self.w1[rows]] - X[self.w0[rows]]) * wt[:, None]) @ fit.coef
+            jnl.append((r - r0) / h)
+        J = np.column_stack(jnl + jac)
+        return _covariance(J, r0, self.row_group[rows]), np.r_[fit.nl, fit.coef]
+
+    def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
+        """δ, ε, β and each effect's coefficient, with standard errors."""
+        cov, x = self.covariance(fit, effects)
+        k = len(fit.nl)
+        names = ["delta", "epsilon", "beta"] + [e.coefficient for e in effects]
+
+        def conv(v):
+            eps = v[0]
+            beta = v[1] if self.fit_beta else self.pack.model.beta
+            A = v[k]
+            delta = A ** (-beta) * self.p_ref ** (-eps)
+            return [delta, eps, beta] + [v[k + 1 + i] / (A if e.relative else 1.0)
+                                         for i, e in enumerate(effects)]
+
+        vals, se = stats.delta_method(conv, x, cov)
+        if not self.fit_beta:
+            se[2] = 0.0
+        return dict(zip(names, map(float, vals))), dict(zip(names, map(float, se)))
+
+    def confounders(self) -> list[tuple[str, np.ndarray]]:
+        """What an effect's driver must not follow (per window): time since the start and
+        the depth of discharge (charge drawn so far)."""
+        depth = 0.5 * (self.c[self.w0] + self.c[self.w1])
+        return [("the time since the start", self.window_time),
+                ("the depth of discharge", depth)]
+
+    def row_driver_residual(self, resid: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Held-out window residual as an excess current [mA]."""
+        return resid / self.weights[rows] / np.maximum(self.window_dt[rows], 1e-9) * 1000.0
+
+
+# ============================================================================ power
+
+def _finite_col(sub, name: str, n: int) -> np.ndarray:
+    if name in sub.columns:
+        return sub[name].to_numpy(float)
+    return np.full(n, np.nan)
+
+
+class PowerLevel:
+    """Measured electric power against the aircraft's physics model.
+
+    Parameters
+    ----------
+    exps : list of (name, DataFrame)
+        The experiments (flight record columns, DESIGN §4).
+    aircraft : Aircraft
+    mass_kg : float
+        All-up mass at the start of every flight. [kg]
+    site_altitude_m : float
+        Site altitude for the standard (ISA) density. [m]
+    """
+
+    name = "power"
+    unit = "W"
+
+    def __init__(self, exps, aircraft, mass_kg: float, site_altitude_m: float = 0.0):
+        self.aircraft = aircraft
+        self.file_system_power_w = float(aircraft.system_power_w)
+        self.mass0 = float(mass_kg)
+        self.names = []
+        cols = {k: [] for k in ("exp", "t", "p", "gs", "course", "climb", "air", "wn", "we",
+                                "pres", "temp", "alt_rate", "climb_smooth", "axial")}
+        spans = []
+        self.notes: list[str] = []
+        ground = []
+        for name, sub in exps:
+            sub = sub.reset_index(drop=True)
+            n = len(sub)
+            t = sub["time_s"].to_numpy(float)
+            t = t - t[0]
+            p = sub["power_w"].to_numpy(float)
+            gs = _finite_col(sub, "groundspeed_ms", n)
+            climb = _finite_col(sub, "climb_rate_ms", n)
+            phase = flight_phases(p, sub.get("climb_rate_ms"), sub.get("groundspeed_ms"), t,
+                                  sub.get("altitude_m"))
+            ok = (phase != "ground") & (phase != "takeoff") & np.isfinite(p)
+            ground.append(p[(phase == "ground") & np.isfinite(p)])
+            if ok.sum() < 10:
+                self.notes.append(f"experiment {name}: no airborne samples, not used at the power "
+                                  "level")
+                continue
+            e = len(self.names)
+            self.names.append(name)
+            spans.append((float(t[ok][0]), float(t[ok][-1])))
+            cols["exp"].append(np.full(ok.sum(), e))
+            cols["t"].append(t[ok])
+            cols["p"].append(p[ok])
+            cols["gs"].append(np.abs(np.nan_to_num(gs[ok])))
+            cols["course"].append(_finite_col(sub, "course_deg", n)[ok])
+            cols["climb"].append(np.nan_to_num(climb[ok]))
+            alt = _finite_col(sub, "altitude_m", n)
+            rate, smooth = _altitude_rate(t, alt, np.nan_to_num(climb))
+            cols["alt_rate"].append(rate[ok])
+            cols["climb_smooth"].append(smooth[ok])
+            cols["air"].append(_finite_col(sub, "airspeed_ms", n)[ok])
+            cols["axial"].append(_finite_col(sub, "axial_speed_ms", n)[ok])
+            cols["wn"].append(_finite_col(sub, "wind_n_ms", n)[ok])
+            cols["we"].append(_finite_col(sub, "wind_e_ms", n)[ok])
+            pres = _finite_col(sub, "pressure_pa", n)
+            temp = _finite_col(sub, "ambient_temperature_c", n)
+            cols["pres"].append(_interp_nan(t, pres)[ok])
+            cols["temp"].append(_interp_nan(t, temp)[ok])
+        if not self.names:
+            raise FitError("no airborne samples in the data")
+        ground = np.concatenate(ground) if ground else np.zeros(0)
+        #: Measured power on the ground (5th, 95th percentile), what is drawn with the
+        #: rotors stopped or idle; None without enough ground samples. [W]
+        self.ground_power_w = ((float(np.percentile(ground, 5)),
+                                float(np.percentile(ground, 95)))
+                               if ground.size >= MIN_GROUND_SAMPLES else None)
+        s = {k: np.concatenate(v) for k, v in cols.items()}
+        self.climb_source = "logged climb rate"
+        #: RMS difference of the logged climb rate and the altitude's rate of change. [m/s]
+        self.climb_disagreement_ms = _climb_disagreement(s["climb_smooth"], s["alt_rate"])
+        if self.climb_disagreement_ms is not None and \
+                self.climb_disagreement_ms > MAX_CLIMB_DISAGREEMENT_MS:
+            has = np.isfinite(s["alt_rate"])
+            s["climb"] = np.where(has, s["alt_rate"], s["climb"])
+            self.climb_source = "rate of change of the logged altitude"
+            self.notes.append(
+                "power level: the logged climb rate (climb_rate_ms) disagrees with the rate of "
+                f"change of the logged altitude by {self.climb_disagreement_ms:.2f} m/s RMS over "
+                f"{CLIMB_WINDOW_S:g}-s windows (more than the "
+                f"{MAX_CLIMB_DISAGREEMENT_MS:g} m/s that counts as a climb): the altitude is the "
+                "direct measure of climbing, so the power model is driven by its rate of "
+                "change instead")
+        self.n_experiments = len(self.names)
+        self.split = make_split(spans)
+        unit = self.split.assign(s["exp"], s["t"])
+        total = sum(b - a for a, b in spans)
+        dts = np.diff(s["t"])
+        med_dt = float(np.median(dts[dts > 0])) if np.any(dts > 0) else 1.0
+        width = min(max(1.0, med_dt, total / MAX_BINS), 10.0)
+        self.bin_s = width
+        u0 = np.array([self.split.units[u].t0 for u in unit])
+        key = unit.astype(np.int64) * 10**7 + np.floor((s["t"] - u0) / width).astype(np.int64)
+        _, inv, count = np.unique(key, return_inverse=True, return_counts=True)
+        nb = len(count)
+
+        def mean(x, valid=None):
+            valid = np.isfinite(x) if valid is None else valid
+            num = np.bincount(inv, weights=np.where(valid, x, 0.0), minlength=nb)
+            den = np.bincount(inv, weights=valid.astype(float), minlength=nb)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                return num / den, den
+
+        course = s["course"]
+        # the ground velocity is known where the course is, and where the aircraft is
+        # (nearly) still over ground whatever the course says
+        known = np.isfinite(course) | (s["gs"] < 0.5)
+        a = np.radians(np.where(np.isfinite(course), course, 0.0))
+        vn, kn = mean(s["gs"] * np.cos(a), known)
+        ve, _ = mean(s["gs"] * np.sin(a), known)
+        keep = count >= 0.5 * np.median(count)
+        self.count = count[keep].astype(float)
+        self.dt_bin = self.count * med_dt
+        take = lambda x: x[keep]
+        self.exp = take(np.bincount(inv, weights=s["exp"], minlength=nb) / count).round().astype(int)
+        self.row_group = self.exp
+        self.row_unit = take(np.bincount(inv, weights=unit, minlength=nb) / count).round() \
+            .astype(int)
+        self.row_fold = np.array([self.split.units[u].fold for u in self.row_unit])
+        self.time = take(mean(s["t"])[0])
+        self.measured = take(mean(s["p"])[0])
+        self.gs = take(mean(s["gs"])[0])
+        self.climb = take(mean(s["climb"])[0])
+        self.course_known = take(kn) >= 0.5 * take(count.astype(float))
+        self.vn = np.where(self.course_known, take(np.nan_to_num(vn)), 0.0)
+        self.ve = np.where(self.course_known, take(np.nan_to_num(ve)), 0.0)
+        self.course = np.degrees(np.arctan2(self.ve, self.vn)) % 360.0
+        moving_samples = s["gs"] >= MOVING_MS
+        self.has_course = bool(moving_samples.any() and
+                               np.isfinite(course[moving_samples]).mean() > 0.5)
+        self.moving = (self.gs >= MOVING_MS) & self.course_known
+        air, na = mean(s["air"])
+        self.airspeed_measured = bool(np.isfinite(s["air"]).mean() > 0.5)
+        self.airspeed = take(np.where(na > 0, air, np.nan))
+        wn, _ = mean(s["wn"])
+        we, _ = mean(s["we"])
+        self.has_logged_wind = bool(np.isfinite(s["wn"]).mean() > 0.5 and (
+            np.nanmax(np.abs(s["wn"])) + np.nanmax(np.abs(s["we"])) > 0))
+        self.logged_wind_n = take(np.nan_to_num(wn)) if self.has_logged_wind else 0.0
+        self.logged_wind_e = take(np.nan_to_num(we)) if self.has_logged_wind else 0.0
+        self.rho_std = np.full(keep.sum(), float(atmosphere.density(site_altitude_m)))
+        pres, _ = mean(s["pres"])
+        temp, _ = mean(s["temp"])
+        pres, temp = take(pres), take(temp)
+        self.has_pressure = bool(np.isfinite(pres).mean() > 0.9 and np.nanmin(pres) > 1000)
+        self.has_air_temperature = bool(np.isfinite(temp).mean() > 0.9)
+        if self.has_pressure:
+            pres = _fill(pres)
+            if self.has_air_temperature:
+                rho = atmosphere.density(temperature_c=_fill(temp), pressure_pa=pres)
+            else:
+                h = atmosphere.pressure_altitude(pres)
+                rho = atmosphere.density(h, pressure_pa=pres)
+            self.rho_meas = np.asarray(rho, float)
+        else:
+            self.rho_meas = self.rho_std.copy()
+        self.log_rho_ratio = np.log(self.rho_meas / self.rho_std)
+        self.mass = np.full(keep.sum(), self.mass0)
+        self.n_rows = int(keep.sum())
+        # base airspeed
+        if self.airspeed_measured:
+            v = np.where(np.isfinite(self.airspeed), self.airspeed, self.gs)
+        else:
+            v = np.where(self.course_known, np.hypot(self.vn - self.logged_wind_n,
+                                                     self.ve - self.logged_wind_e), self.gs)
+        self.base_inputs = {"airspeed": np.abs(v), "climb": self.climb,
+                            "air_density": self.rho_std, "mass": self.mass}
+        axial, n_axial = mean(s["axial"])
+        #: A multirotor flies its rotor disks' axial and in-plane speed where the record
+        #: has the velocity along the thrust axis (FlightState.rotor_velocities).
+        self.rotor_axial = bool(aircraft.is_multirotor and np.isfinite(s["axial"]).mean() > 0.5)
+        if self.rotor_axial:
+            ax = _fill(take(np.where(n_axial > 0, axial, np.nan)))
+            self.base_inputs["airspeed"] = inplane_speed(v, self.climb, ax)
+            self.base_inputs["climb"] = ax
+            self.notes.append("power level: the rotor model flies the disks' axial speed "
+                              "(axial_speed_ms) and their in-plane speed")
+        self._table = None
+        self._warm: dict = {}
+        self._shape_name = "drag_area_m2"
+        if aircraft.is_multirotor:
+            self.shape = {"drag_area_m2": (aircraft.multirotor.drag_area_m2, 0.0, 2.0, 0.01)}
+        else:
+            fw = aircraft.fixed_wing
+            self.shape = {"cd0": (fw.cd0, 0.002, 0.3, 0.005), "k": (fw.k, 0.005, 0.5, 0.01)}
+            self.v_min = fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            M0 = self.mechanical({k: v[0] for k, v in self.shape.items()}, self.base_inputs,
+                                 np.arange(self.n_rows))
+        self.load_variation = float(np.std(M0) / np.mean(M0)) if np.mean(M0) > 0 else 0.0
+
+    # ---------------------------------------------------------------- model
+    def _drag_table(self):
+        """Cubic spline of the mechanical power against the drag area at the base inputs.
+
+        The baseline and the effects that only add linear columns evaluate the rotor
+        model at the measured inputs; only the drag area changes between evaluations, and
+        the power is smooth in it: a spline through 9 drag areas replaces the model there
+        (its error is checked against the model at a tenth point).
+        """
+        from scipy.interpolate import CubicSpline
+
+        f0 = self.aircraft.multirotor.drag_area_m2
+        top = max(0.3, 4.0 * f0)
+        grid = np.linspace(0.0, top, 9)
+        rows = np.arange(self.n_rows)
+        M = np.array([self._model(self._shape_name, f, self.base_inputs, rows) for f in grid])
+        spline = CubicSpline(grid, M, axis=0)
+        check = 0.37 * top
+        err = np.max(np.abs(spline(check) - self._model(self._shape_name, check,
+                                                         self.base_inputs, rows)))
+        return (spline, top) if err < 1e-3 * max(float(np.max(np.abs(M))), 1.0) else None
+
+    def _model(self, name, value, inputs, rows):
+        return self.mechanical({name: value}, inputs, rows, table=False)
+
+    def mechanical(self, shape: dict[str, float], inputs: dict, rows: np.ndarray,
+                   table: bool = True) -> np.ndarray:
+        if table and self.aircraft.is_multirotor and inputs is self.base_inputs:
+            if self._table is None:
+                self._table = self._drag_table() or False
+            if self._table:
+                spline, top = self._table
+                f = shape[self._shape_name]
+                if 0.0 <= f <= top:
+                    return spline(f)[rows]
+        ac = with_params(self.aircraft, {**shape, "efficiency": 1.0, "system_power_w": 0.0})
+        v = inputs["airspeed"][rows]
+        if not self.aircraft.is_multirotor:
+            v = np.maximum(v, self.v_min)
+        return np.asarray(ac.battery_power(v, inputs["climb"][rows],
+                                           inputs["air_density"][rows], inputs["mass"][rows]),
+                          float)
+
+    def _inputs(self, effects, values, state) -> dict:
+        inputs = self.base_inputs
+        for e in effects:
+            inputs = e.transform(inputs, values, self, state)
+        return inputs
+
+    def _spec(self, effects):
+        spec = dict(self.shape)
+        for e in effects:
+            spec.update(e.start(self))
+        lin = ["inverse_efficiency"] + [n for e in effects for n in e.linear]
+        return spec, lin
+
+    def _y(self, effects) -> np.ndarray:
+        fixed = 0.0 if any(e.name == "system_power" for e in effects) else self.file_system_power_w
+        return self.measured - fixed
+
+    def _columns(self, M, effects, state):
+        return np.column_stack([M] + [c for e in effects for c in e.columns(M, self, state)])
+
+    def _evaluate(self, x, names, effects, state, rows):
+        values = dict(zip(names, x))
+        inputs = self._inputs(effects, values, state)
+        shape = {k: values[k] for k in self.shape}
+        return self.mechanical(shape, inputs, rows)
+
+    def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        spec, lin = self._spec(effects)
+        names = list(spec)
+        x0 = np.array([spec[k][0] for k in names], float)
+        lo = np.array([spec[k][1] for k in names], float)
+        hi = np.array([spec[k][2] for k in names], float)
+        scale = np.array([spec[k][3] for k in names], float)
+        state: dict = {}
+        reuse_steps = False
+        tkey = hash(train.tobytes())
+        warm = {k: self._warm[(tkey, k)] for k in names if (tkey, k) in self._warm}
+        if start is not None:
+            sv = start.values()
+            x0 = np.array([sv.get(k, warm.get(k, x0[i])) for i, k in enumerate(names)])
+            keep = ("reference_mechanical_w", "change_time_s", "step_mask")
+            state.update({k: v for k, v in start.state.items() if k in keep})
+            reuse_steps = "change_time_s" in start.state
+        x0 = np.clip(x0, lo + 1e-9 * scale, hi - 1e-9 * scale)
+        rows = np.flatnonzero(train)
+        y_all = self._y(effects)
+        y = y_all[rows]
+        groups = self.exp[rows]
+        if any(e.name == "efficiency_curve" for e in effects) and \
+                "reference_mechanical_w" not in state:
+            M = self._evaluate(x0, names, [e for e in effects if e.name != "payload_change"],
+                               state, rows)
+            state["reference_mechanical_w"] = float(np.median(M))
+        cache: dict = {}
+
+        def solve(x, st=state, thin=1):
+            r_, y_ = (rows, y) if thin == 1 else (rows[::thin], y[::thin])
+            M = self._evaluate(x, names, effects, st, r_)
+            X = self._columns(M, effects, st)
+            coef = _lstsq(X, y_)
+            if thin == 1:
+                cache["coef"], cache["M"] = coef, M
+            return X @ coef - y_
+
+        payload = next((e for e in effects if e.name == "payload_change"), None)
+        if payload is not None and not reuse_steps:
+            self._locate(payload, effects, names, x0, state, rows, y, groups, fixed_step=None)
+            k = names.index("mass_step_kg")
+            x0[k] = np.clip(state.pop("initial_step", 0.0), lo[k] + 1e-6, hi[k] - 1e-6)
+        wind = any(e.name == "wind" for e in effects)
+        starts = [x0]
+        if wind and (start is None or "wind_n_ms" not in start.nl_names) and \
+                "wind_n_ms" not in warm:
+            starts = self._wind_grid(x0, names, solve)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            res = None
+            for xs in starts:
+                trial = least_squares(solve, np.clip(xs, lo, hi), bounds=(lo, hi),
+                                      x_scale=scale, diff_step=1e-4, xtol=1e-5, ftol=1e-6,
+                                      max_nfev=100)
+                if res is None or trial.cost < res.cost:
+                    res = trial
+            x = res.x
+            if payload is not None and not reuse_steps:  # locate again with the fit, refit
+                k = names.index("mass_step_kg")
+                solve(x)
+                self._locate(payload, effects, names, x, state, rows, y, groups,
+                             fixed_step=float(x[k]), coef=cache["coef"])
+                res = least_squares(solve, x, bounds=(lo, hi), x_scale=scale, diff_step=1e-4,
+                                    xtol=1e-5, ftol=1e-6, max_nfev=60)
+                x = res.x
+            r = solve(x)
+        coef = cache["coef"]
+        M = cache["M"]
+        state["mechanical_range_w"] = (float(np.percentile(M, 5)), float(np.percentile(M, 95)))
+        # later fits on the same training rows start effects' parameters from here
+        self._warm.update({(tkey, k): float(v) for k, v in zip(names, x)
+                           if k not in self.shape})
+        return Fit(tuple(e.name for e in effects), names, x, lin, coef, train, r, state)
+
+    def _wind_grid(self, x0, names, solve) -> list[np.ndarray]:
+        """Start points for the wind: the best two of a grid of 8 directions × 3 speeds
+        (and calm) that lie in different directions."""
+        kn, ke = names.index("wind_n_ms"), names.index("wind_e_ms")
+        trials = []
+        for speed in (0.0, 3.0, 6.0, 10.0):
+            for ang in (range(0, 360, 45) if speed > 0 else [0]):
+                x = x0.copy()
+                x[kn] = speed * math.cos(math.radians(ang))
+                x[ke] = speed * math.sin(math.radians(ang))
+                trials.append((float(np.sum(solve(x, thin=3) ** 2)), ang, x))
+        trials.sort(key=lambda v: v[0])
+        starts = [trials[0][2]]
+        for rss, ang, x in trials[1:]:
+            if abs((ang - trials[0][1] + 180) % 360 - 180) >= 45:
+                starts.append(x)
+                break
+        return starts
+
+    def _locate(self, payload, effects, names, x, state, rows, y, groups, fixed_step,
+                coef=None, step_known=False):
+        """Locate the change time in each experiment with training rows (see the module notes)."""
+        base = [e for e in effects if e.name != "payload_change"]
+        bnames = [k for k in names if k != "mass_step_kg"]
+        xb = np.array([x[names.index(k)] for k in bnames])
+        values = dict(zip(bnames, xb))
+        st = {k: v for k, v in state.items() if k != "step_mask"}
+        inputs = self._inputs(base, values, st)
+        shape = {k: values[k] for k in self.shape}
+        M = self.mechanical(shape, inputs, rows)
+        X = self._columns(M, base, st)
+        # residual of the model without the step: refitted at the start, else with the
+        # coefficients of the full model (the payload effect adds no linear column)
+        coef = _lstsq(X, y) if coef is None else coef
+        r = y - X @ coef
+        dm = 0.05 * self.mass0
+        bumped = dict(inputs)
+        bumped["mass"] = inputs["mass"] + dm
+        s = (self.mechanical(shape, bumped, rows) - M) / dm * coef[0]
+        times = state.get("change_time_s", {})
+        change = self._scan(rows, r, s, groups, fixed_step, step_known)
+        times = dict(times)
+        times.update(change)
+        state["change_time_s"] = times
+        state["step_mask"] = self._step_mask(times)
+        if fixed_step is None:
+            num = den = 0.0
+            for e, tc in change.items():
+                if tc is None:
+                    continue
+                m = (self.exp[rows] == self.names.index(e)) & (self.time[rows] >= tc)
+                num += float(np.dot(s[m], r[m]))
+                den += float(np.dot(s[m], s[m]))
+            state["initial_step"] = num / den if den > 0 else 0.0
+
+    def _scan(self, rows, r, s, groups, fixed_step, step_known=False
+              ) -> dict[str, float | None]:
+        out: dict[str, float | None] = {}
+        per: dict[int, tuple] = {}
+        for e in np.unique(groups):
+            m = np.flatnonzero(groups == e)
+            n = len(m)
+            lo = max(3, int(0.05 * n))
+            hi = n - max(3, int(0.05 * n))
+            if hi <= lo:
+                out[self.names[e]] = None
+                continue
+            # against a mass that differs for the whole flight: the step's column
+            # s·1{t ≥ t_c} and the residual are both taken net of the flight's own
+            # constant-mass column s (projection), so that a step explains only a change
+            # within the flight, never a flight flown heavier or lighter than the given
+            # mass (module notes)
+            sm, rm = s[m], r[m]
+            ss = float(np.dot(sm, sm))
+            if ss <= 0:
+                out[self.names[e]] = None
+                continue
+            rp = rm - sm * (float(np.dot(sm, rm)) / ss)
+            num = np.cumsum((sm * rp)[::-1])[::-1]
+            den_raw = np.cumsum((sm**2)[::-1])[::-1]
+            den = den_raw - den_raw**2 / ss
+            # a change point must beat a BIC-like threshold: 2 ln(n) times the residual
+            # variance inflated for autocorrelation (else noise always "finds" one)
+            # (per fitted parameter ln(n): the time and the size; only the time when the
+            # size was learned on other flights, step_known)
+            penalty = (1.0 if step_known else 2.0) * math.log(n) * _long_run_variance(rp)
+            per[e] = (m, num, den, lo, hi, penalty)
+        step = fixed_step
+        for it in range(3 if fixed_step is None else 1):
+            if step is None:
+                chosen = {}
+                for e, (m, num, den, lo, hi, _) in per.items():
+                    red = num[lo:hi] ** 2 / np.maximum(den[lo:hi], 1e-12)
+                    chosen[e] = lo + int(np.argmax(red))
+                tot_n = sum(per[e][1][j] for e, j in chosen.items())
+                tot_d = sum(per[e][2][j] for e, j in chosen.items())
+                step = tot_n / tot_d if tot_d > 0 else 0.0
+            for e, (m, num, den, lo, hi, penalty) in per.items():
+                red = 2 * step * num[lo:hi] - step**2 * den[lo:hi]
+                j = int(np.argmax(red))
+                out[self.names[e]] = float(self.time[rows[m[lo + j]]]) if red[j] > penalty \
+                    else None
+            if fixed_step is None and it < 2:
+                tot_n = tot_d = 0.0
+                for e, (m, num, den, lo, hi, _) in per.items():
+                    tc = out[self.names[e]]
+                    if tc is not None:
+                        j = int(np.searchsorted(self.time[rows[m]], tc))
+                        tot_n += num[j]
+                        tot_d += den[j]
+                step = tot_n / tot_d if tot_d > 0 else step
+        return out
+
+    def _step_mask(self, times: dict) -> np.ndarray:
+        mask = np.zeros(self.n_rows)
+        for name, tc in times.items():
+            if tc is None:
+                continue
+            e = self.names.index(name)
+            mask[(self.exp == e) & (self.time >= tc)] = 1.0
+        return mask
+
+    def predict(self, fit: Fit, effects, rows: np.ndarray) -> np.ndarray:
+        M = self._evaluate(fit.nl, fit.nl_names, effects, fit.state, rows)
+        X = self._columns(M, effects, fit.state)
+        fixed = 0.0 if any(e.name == "system_power" for e in effects) else \
+            self.file_system_power_w
+        return X @ fit.coef + fixed
+
+    def prepare_heldout(self, fit: Fit, effects, heldout: np.ndarray) -> None:
+        """Locate the change time of held-out whole flights by cross-fitting.
+
+        A held-out flight's change time is a per-flight parameter: it must not be found on
+        the samples that score it. Its bins are split into two interleaved halves; the
+        change time located on one half (with the mass step learned on the training
+        flights) sets the mass of the other half, and the other way round.
+        """
+        payload = next((e for e in effects if e.name == "payload_change"), None)
+        if payload is None:
+            return
+        rows = np.flatnonzero(heldout)
+        new = [e for e in np.unique(self.exp[rows]) if self.names[e] not in
+               fit.state.get("change_time_s", {})]
+        if not new:
+            return
+        rows = rows[np.isin(self.exp[rows], new)]
+        k = fit.nl_names.index("mass_step_kg")
+        y_all = self._y(effects)
+        # position of each bin within its flight: even and odd bins are the two halves
+        position = np.zeros(rows.size, int)
+        for e in new:
+            m = self.exp[rows] == e
+            position[m] = np.arange(m.sum())
+        mask = np.array(fit.state.get("step_mask", np.zeros(self.n_rows)), float)
+        for half in (0, 1):
+            locate, apply = rows[position % 2 == half], rows[position % 2 != half]
+            st = {key: v for key, v in fit.state.items() if key != "step_mask"}
+            st["change_time_s"] = {}
+            self._locate(payload, effects, fit.nl_names, fit.nl, st, locate, y_all[locate],
+                         self.exp[locate], fixed_step=float(fit.nl[k]), coef=fit.coef,
+                         step_known=True)
+            times = st["change_time_s"]
+            for e in new:
+                tc = times.get(self.names[e])
+                m = apply[self.exp[apply] == e]
+                mask[m] = 0.0 if tc is None else (self.time[m] >= tc).astype(float)
+        fit.state["step_mask"] = mask
+
+    def heldout(self, fit: Fit, effects, fold: int) -> dict[str, Any]:
+        rows = np.flatnonzero(self.row_fold == fold)
+        pred = self.predict(fit, effects, rows)
+        r = self.measured[rows] - pred
+        finals = []
+        for key in np.unique(self.row_unit[rows] if not self.split.whole_experiments
+                             else self.exp[rows]):
+            m = (self.row_unit[rows] == key) if not self.split.whole_experiments else \
+                (self.exp[rows] == key)
+            e_meas = float(np.sum(self.measured[rows][m] * self.dt_bin[rows][m]))
+            e_pred = float(np.sum(pred[m] * self.dt_bin[rows][m]))
+            if e_meas > 0:
+                finals.append((abs(e_meas - e_pred), e_meas))
+        return {"rows": rows, "row_resid": r, "samples": rows, "sample_resid": r,
+                "finals": finals, "predicted": pred, "loss_units": self.row_unit[rows],
+                "loss": r**2}
+
+    def covariance(self, fit: Fit, effects):
+        rows = np.flatnonzero(fit.train)
+        y = self._y(effects)[rows]
+        M = self._evaluate(fit.nl, fit.nl_names, effects, fit.state, rows)
+        X = self._columns(M, effects, fit.state)
+        r0 = X @ fit.coef - y
+        cols = []
+        for j in range(len(fit.nl)):
+            hi = self._spec(effects)[0][fit.nl_names[j]][2]
+            h = 1e-4 * max(abs(fit.nl[j]), 0.01)
+            x = fit.nl.copy()
+            x[j] = x[j] + h if x[j] + h <= hi else x[j] - h
+            step = x[j] - fit.nl[j]
+            Mj = self._evaluate(x, fit.nl_names, effects, fit.state, rows)
+            cols.append((self._columns(Mj, effects, fit.state) @ fit.coef - y - r0) / step)
+        J = np.column_stack(cols + [X[:, j] for j in range(X.shape[1])])
+        return _covariance(J, r0, self.exp[rows]), np.r_[fit.nl, fit.coef]
+
+    def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
+        cov, x = self.covariance(fit, effects)
+        k = len(fit.nl)
+        names = list(fit.nl_names) + ["efficiency"]
+        extra = [n for e in effects for n in e.linear]
+        eff_curve = "efficiency_slope_coefficient" in extra
+
+        def conv(v):
+            out = list(v[:k])
+            a = v[k]
+            out.append(1.0 / a)
+            for i, n in enumerate(extra):
+                c = v[k + 1 + i]
+                if n == "efficiency_slope_coefficient":
+                    out += [1.0 / a, -c / a**2]
+                else:
+                    out.append(c)
+            return out
+
+        for n in extra:
+            names += (["efficiency_at_reference", "efficiency_slope"]
+                      if n == "efficiency_slope_coefficient" else [n])
+        vals, se = stats.delta_method(conv, x, cov)
+        values = dict(zip(names, map(float, vals)))
+        stderr = dict(zip(names, map(float, se)))
+        if eff_curve:
+            values.setdefault("efficiency", values["efficiency_at_reference"])
+        return values, stderr
+
+    def confounders(self) -> list[tuple[str, np.ndarray]]:
+        """What an effect's driver must not follow (per bin): the time since the start and
+        the energy drawn so far in the flight."""
+        energy = np.zeros(self.n_rows)
+        for e in range(self.n_experiments):
+            m = self.exp == e
+            energy[m] = np.cumsum(self.measured[m] * self.dt_bin[m])
+        return [("the time since the start", self.time), ("the energy drawn so far", energy)]
+
+    def row_driver_residual(self, resid: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        return resid
+
+
+def _altitude_rate(t: np.ndarray, alt: np.ndarray, climb: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Rate of change of the altitude and the logged climb rate, both as means over
+    centred windows of :data:`CLIMB_WINDOW_S` (NaN where the altitude is not known).
+
+    The windowed altitude rate is (h(t + w/2) − h(t − w/2)) / w, the exact mean of the
+    true vertical speed over the window; the logged climb rate is averaged over the same
+    window (trapezoidal integral), so that the two are compared like for like.
+    """
+    n = len(t)
+    nan = np.full(n, np.nan)
+    ok = np.isfinite(alt)
+    if ok.sum() < 10 or n < 10 or t[-1] - t[0] < 2 * CLIMB_WINDOW_S:
+        return nan, nan
+    h = np.interp(t, t[ok], alt[ok])
+    half = 0.5 * CLIMB_WINDOW_S
+    a = np.clip(t - half, t[0], t[-1])
+    b = np.clip(t + half, t[0], t[-1])
+    width = b - a
+    good = width >= CLIMB_WINDOW_S - 1e-9
+    rate = np.where(good, (np.interp(b, t, h) - np.interp(a, t, h)) / np.maximum(width, 1e-9),
+                    np.nan)
+    z = np.r_[0.0, np.cumsum(0.5 * (climb[1:] + climb[:-1]) * np.diff(t))]
+    smooth = np.where(good, (np.interp(b, t, z) - np.interp(a, t, z)) / np.maximum(width, 1e-9),
+                      np.nan)
+    return rate, smooth
+
+
+def _climb_disagreement(climb: np.ndarray, rate: np.ndarray) -> float | None:
+    """RMS difference between the windowed logged climb rate and the windowed rate of
+    change of the altitude [m/s]; None without enough samples with altitude."""
+    ok = np.isfinite(climb) & np.isfinite(rate)
+    if ok.sum() < MIN_ROWS:
+        return None
+    return float(np.sqrt(np.mean((climb[ok] - rate[ok]) ** 2)))
+
+
+def _interp_nan(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    ok = np.isfinite(y)
+    if ok.sum() == 0 or ok.all():
+        return y
+    return np.interp(t, t[ok], y[ok])
+
+
+def _fill(x: np.ndarray) -> np.ndarray:
+    ok = np.isfinite(x)
+    if ok.all():
+        return x
+    idx = np.arange(len(x))
+    return np.interp(idx, idx[ok], x[ok])
+
+
+# ============================================================================ scoring
+
+def _weighted_final(finals) -> float:
+    """Final error of the held-out segments: Σ|error at the end| / Σ charge (energy) drawn,
+    in % (a short segment that draws little does not dominate)."""
+    if not finals:
+        return float("nan")
+    a = np.asarray(finals, float)
+    return float(100.0 * a[:, 0].sum() / a[:, 1].sum())
+
+
+@dataclass
+class Score:
+    """Cross-validated score of one model (a set of effects) on one level."""
+
+    effects: tuple[str, ...]
+    fits: list[Fit]
+    rmse: float
+    final_error_pct: float
+    unit_loss: np.ndarray
+    heldout_rows: np.ndarray
+    heldout_row_resid: np.ndarray
+    heldout_samples: np.ndarray
+    heldout_sample_resid: np.ndarray
+    train_rss: list[float]
+    train_n: list[int]
+    train_rho: list[float]
+    dof: list[int]
+    #: The same, of the training residuals net of each experiment's mean (the test of an
+    #: effect that explains only variation within an experiment).
+    train_rss_within: list[float] = field(default_factory=list)
+    train_rho_within: list[float] = field(default_factory=list)
+
+
+def cross_validate(level, effects, base: Score | None = None) -> Score:
+    """Fit ``effects`` on each fold's training split, score on its held-out split."""
+    n_units = len(level.split.units)
+    unit_loss = np.zeros(n_units)
+    has = np.zeros(n_units, bool)
+    fits, rows_all, rr_all, samples_all, sr_all, finals = [], [], [], [], [], []
+    rss, nn, rho, dof, rss_w, rho_w = [], [], [], [], [], []
+    for k in range(level.split.n_folds):
+        train = level.row_fold != k
+        if not train.any() or not (~train).any():
+            raise FitError(f"{level.name} level: fold {k} has no training or no held-out data")
+        start = base.fits[k] if base is not None else None
+        fit = level.fit(effects, train, start=start)
+        n_params = len(fit.nl) + len(fit.coef)
+        dof.append(n_params + sum(e.extra_dof(fit.state) for e in effects))
+        level.prepare_heldout(fit, effects, ~train)
+        h = level.heldout(fit, effects, k)
+        fits.append(fit)
+        rows_all.append(h["rows"])
+        rr_all.append(h["row_resid"])
+        samples_all.append(h["samples"])
+        sr_all.append(h["sample_resid"])
+        finals += h["finals"]
+        np.add.at(unit_loss, h["loss_units"], h["loss"])
+        has[h["loss_units"]] = True
+        rss.append(fit.rss)
+        nn.append(int(train.sum()))
+        rho.append(stats.lag1_autocorrelation(fit.train_resid, level.row_group[train]))
+        wr = stats.within_groups(fit.train_resid, level.row_group[train])
+        rss_w.append(float(np.dot(wr, wr)))
+        rho_w.append(stats.lag1_autocorrelation(wr, level.row_group[train]))
+    sr = np.concatenate(sr_all)
+    scale = AS_PER_MAH if level.name == "capacity" else 1.0
+    unit_loss[~has] = np.nan
+    return Score(tuple(e.name for e in effects), fits,
+                 float(np.sqrt(np.mean(sr**2))) / scale,
+                 _weighted_final(finals),
+                 unit_loss, np.concatenate(rows_all), np.concatenate(rr_all),
+                 np.concatenate(samples_all), sr, rss, nn, rho, dof, rss_w, rho_w)
+
+
+#: Random sign patterns of the paired test (exact enumeration up to 2**16 patterns).
+SIGN_FLIPS = 20000
+
+
+def sign_flip_test(d: np.ndarray) -> float:
+    """One-sided paired randomisation test of ``sum(d) > 0`` (signs of d flipped at random).
+
+    Under the null hypothesis (the extension does not predict the held-out units better)
+    each unit's difference is as likely negative as positive; the p-value is the share of
+    sign patterns whose sum reaches the observed one. Exact for up to 16 units, else
+    :data:`SIGN_FLIPS` seeded random patterns.
+    """
+    d = np.asarray(d, float)
+    n = len(d)
+    if n == 0:
+        return 1.0
+    obs = float(d.sum())
+    if n <= 16:
+        signs = 1 - 2 * ((np.arange(2**n)[:, None] >> np.arange(n)) & 1)
+    else:
+        signs = np.random.default_rng(12345).choice([-1.0, 1.0], size=(SIGN_FLIPS, n))
+    sums = signs @ d
+    return float((np.sum(sums >= obs - 1e-12 * abs(obs)) + 1) / (len(sums) + 1))
+
+
+@dataclass
+class Comparison:
+    """Evidence for one extension against the current model."""
+
+    effect: str
+    rmse_before: float
+    rmse_after: float
+    gain_pct: float
+    final_error_pct_before: float
+    final_error_pct_after: float
+    lr_statistic: float
+    lr_p_value: float
+    effective_samples: float
+    added_parameters: int
+    paired_p_value: float
+    units: int
+    units_improved: int
+    significant: bool
+    reasons: list[str]
+    against: tuple[str, ...] = ()
+
+    def evidence(self) -> dict[str, float]:
+        return {"lr_statistic": self.lr_statistic, "lr_p_value": self.lr_p_value,
+                "effective_samples": self.effective_samples,
+                "added_parameters": float(self.added_parameters),
+                "paired_p_value": self.paired_p_value, "test_units": float(self.units),
+                "test_units_improved": float(self.units_improved)}
+
+
+def compare(effect, before: Score, after: Score, level=None) -> Comparison:
+    """The three selection criteria of the module notes (plus the effect's own practical
+    floor, e.g. a payload change of at least 3 % of the mass)."""
+    gain = 100.0 * (1.0 - after.rmse / before.rmse) if before.rmse > 0 else 0.0
+    d = before.unit_loss - after.unit_loss
+    d = d[np.isfinite(d)]
+    nz = d[np.abs(d) > 1e-12 * max(float(np.nanmax(np.abs(before.unit_loss))), 1e-300)]
+    p_pair = sign_flip_test(nz) if len(nz) >= MIN_TEST_UNITS else 1.0
+    lrs, ps, neffs = [], [], []
+    within = bool(getattr(effect, "within_experiment", False))
+    for k in range(len(before.fits)):
+        n = after.train_n[k]
+        rho = (after.train_rho_within if within else after.train_rho)[k]
+        neff = n * (1 - rho) / (1 + rho)
+        r0, r1 = ((before.train_rss_within[k], after.train_rss_within[k]) if within else
+                  (before.train_rss[k], after.train_rss[k]))
+        lr = neff * math.log(r0 / r1) if r0 > 0 and r1 > 0 else 0.0
+        df = max(after.dof[k] - before.dof[k], 1)
+        lrs.append(lr)
+        ps.append(float(chi2.sf(max(lr, 0.0), df)))
+        neffs.append(neff)
+    p_train = float(np.median(ps))
+    reasons = []
+    floor = effect.practical(after.fits, level) if hasattr(effect, "practical") else None
+    if floor:
+        reasons.append(floor)
+    if gain < MIN_GAIN_PCT:
+        reasons.append(f"held-out gain {gain:.1f} % < {MIN_GAIN_PCT:g} %")
+    if p_pair >= ALPHA_HELDOUT:
+        reasons.append(f"paired held-out test p = {p_pair:.3g} ≥ {ALPHA_HELDOUT:g}")
+    if p_train >= ALPHA_TRAIN:
+        reasons.append(f"training likelihood-ratio p = {p_train:.3g} ≥ {ALPHA_TRAIN:g}")
+    name = effect if isinstance(effect, str) else effect.name
+    return Comparison(name, before.rmse, after.rmse, gain, before.final_error_pct,
+                      after.final_error_pct, float(np.median(lrs)), p_train,
+                      float(np.median(neffs)), int(np.median(np.array(after.dof)
+                                                             - np.array(before.dof))),
+                      p_pair, len(d), int(np.sum(d > 0)), not reasons, reasons)
+
+
+@dataclass
+class LevelResult:
+    """Everything the search found on one level."""
+
+    level: Any
+    baseline: Score
+    final: Score
+    selected: list[tuple[Any, Comparison]]
+    candidates: dict[str, Comparison]
+    skipped: dict[str, str]
+    failed: dict[str, str]
+    final_fit: Fit | None = None
+    base_fit: Fit | None = None
+    #: Effects that passed the held-out tests but are not named as causes (implausible,
+    #: confounded), each a dict with ``effect``, ``kind``, ``why`` and ``where``.
+    withheld: list[dict] = field(default_factory=list)
+
+
+def _pair_step(level, chosen, current, round_scores, candidates):
+    """Two effects that mask each other: when no single effect passes, try the pairs of
+    promising ones (held-out gain ≥ the minimum and training test passed on their own).
+    A pair joins when the pair passes against the current model and each member passes
+    against the model with the other."""
+    promising = sorted((v for v in round_scores.values()
+                        if v[2].gain_pct >= MIN_GAIN_PCT and v[2].lr_p_value < ALPHA_TRAIN),
+                       key=lambda v: -v[2].gain_pct)[:3]
+    best = None
+    for i in range(len(promising)):
+        for j in range(i + 1, len(promising)):
+            (a, sa, _), (b, sb, _) = promising[i], promising[j]
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    both = cross_validate(level, chosen + [a, b], base=current)
+            except (FitError, ModelError, np.linalg.LinAlgError, ValueError):
+                continue
+            joint = compare(a, current, both, level)
+            cmp_b = compare(b, sa, both, level)      # b on top of a
+            cmp_a = compare(a, sb, both, level)      # a on top of b
+            for c, other in ((cmp_b, a), (cmp_a, b)):
+                c.against = tuple(x.name for x in chosen) + (other.name,)
+                candidates[f"{c.effect} (after {' + '.join(c.against)})"] = c
+            if joint.significant and cmp_a.significant and cmp_b.significant:
+                gain = 100.0 * (1.0 - both.rmse / current.rmse)
+                if best is None or gain > best[2]:
+                    first, second = (a, cmp_a), (b, cmp_b)
+                    if cmp_b.gain_pct > cmp_a.gain_pct:
+                        first, second = second, first
+                    best = ([first, second], both, gain)
+    return None if best is None else best[:2]
+
+
+def search(level, effects: list) -> LevelResult:
+    """Calibrate the baseline, then add effects greedily (see the module notes)."""
+    skipped, testable = {}, []
+    for e in effects:
+        why = e.skip_reason(level)
+        if why:
+            skipped[e.name] = why
+        else:
+            testable.append(e)
+    baseline = cross_validate(level, [])
+    current, chosen = baseline, []
+    candidates: dict[str, Comparison] = {}
+    failed: dict[str, str] = {}
+    selected: list[tuple[Any, Comparison]] = []
+    remaining = list(testable)
+    while remaining:
+        round_scores = {}
+        for e in remaining:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    sc = cross_validate(level, chosen + [e], base=current)
+            except (FitError, ModelError, np.linalg.LinAlgError, ValueError) as exc:
+                failed[e.name] = str(exc)
+                continue
+            cmp = compare(e, current, sc, level)
+            cmp.against = tuple(c.name for c in chosen)
+            round_scores[e.name] = (e, sc, cmp)
+            key = e.name if not chosen else f"{e.name} (after {' + '.join(cmp.against)})"
+            candidates[key] = cmp
+        passing = [v for v in round_scores.values() if v[2].significant]
+        if not passing:
+            pair = _pair_step(level, chosen, current, round_scores, candidates)
+            if pair is None:
+                break
+            for e, cmp in pair[0]:
+                selected.append((e, cmp))
+                chosen.append(e)
+            current = pair[1]
+            remaining = [r for r in remaining if r not in chosen and r.name not in failed]
+            continue
+        e, sc, cmp = max(passing, key=lambda v: v[2].gain_pct)
+        selected.append((e, cmp))
+        chosen.append(e)
+        current = sc
+        remaining = [r for r in remaining if r is not e and r.name not in failed]
+    return LevelResult(level, baseline, current, selected, candidates, skipped, failed)

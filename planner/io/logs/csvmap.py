@@ -1,0 +1,255 @@
+"""CSV files (any column names) → flight record, through a column map YAML.
+
+A map says, per flight-record column, which CSV column it comes from and how
+to scale it; plus how to find the time and the experiment id, and columns
+derived from several CSV columns. ``planner/io/logs/maps/dji_m100.yaml`` is the
+map of the DJI Matrice 100 data set. Without a map the CSV must already be a
+flight record (:data:`FIELD_MAP`, the identity map, is used).
+
+Map schema (YAML)::
+
+    name: free text                    # optional
+    source: free text                  # optional: where the data and the map come from
+    experiment: flight                 # CSV column with the experiment id
+                                       # (or {column: flight}); absent = the file stem
+    time:                              # required
+      column: time
+      scale: 1.0                       # to seconds (0.001 for ms, 1e-6 for µs)
+      offset: 0.0
+      zero: true                       # time_s from 0 at each experiment's first row
+    columns:                           # record column ← CSV column · scale + offset
+      voltage_v: {column: battery_voltage, scale: 1.0, offset: 0.0}
+      altitude_m: {column: position_z, relative: true, missing: [0]}
+                                       # relative: minus its first valid value per
+                                       # experiment; missing: raw values meaning "none"
+    derived:                           # from several CSV columns
+      groundspeed_ms: {op: hypot, of: [velocity_x, velocity_y], scale: 1.0}
+      power_w: {op: product, of: [battery_voltage, battery_current]}
+      course_deg: {op: course, of: [v_north, v_east]}
+      climb_rate_ms: {op: enu_up, of: [vx, vy, vz, qx, qy, qz, qw]}
+                                       # enu_up / enu_horizontal / enu_course: a body-frame
+                                       # velocity rotated by the attitude quaternion
+                                       # (x, y, z, w: scalar last, as ROS logs it) into
+                                       # east-north-up: its up component, its horizontal
+                                       # speed, its course (deg from north)
+    extra:                             # CSV columns kept under a new name (not in §4)
+      anemometer_speed_ms: {column: wind_speed}
+    meta: {vehicle_type: multirotor, battery_capacity_mah: 4500, battery_cells: 6}
+
+Time base
+---------
+The CSV rows are the samples; nothing is interpolated. Rows keep their file
+order; time must not go backwards within an experiment (checked by
+:func:`planner.io.record.validate_record`, which names the row).
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from planner.io import files
+from planner.errors import InputError
+from planner.io.logs._common import Meta
+from planner.io.logs.columnmap import MAPS_DIR, ROTATE_OPS, load_map
+from planner.io.record import COLUMNS, add_consumed, drop_truncated_last_line, validate_record
+
+__all__ = ["FIELD_MAP", "MAPS_DIR", "load_map", "read_csv_log"]
+
+#: Default (identity) map: a flight-record CSV, every column under its own name.
+FIELD_MAP: dict[str, dict] = {name: {"column": name, "scale": 1.0, "offset": 0.0}
+                              for name in COLUMNS if name not in ("experiment", "time_s")}
+
+
+#: Below this speed the course is undefined (hovering): NaN. [m/s]
+MIN_COURSE_SPEED_MS = 0.2
+
+
+def _course(north: np.ndarray, east: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """Course [deg from north, clockwise] of a velocity; NaN below
+    :data:`MIN_COURSE_SPEED_MS` of ``speed``."""
+    course = np.degrees(np.arctan2(east, north)) % 360.0
+    course[speed < MIN_COURSE_SPEED_MS] = np.nan
+    return course
+
+
+def _enu(op: str, v_body: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
+    """Up component, horizontal speed or course [deg from north] of a body-frame velocity
+    rotated into east-north-up by the attitude quaternion (x, y, z, w). Rows with a missing
+    value or a quaternion far from unit length give NaN; a course is NaN below 0.2 m/s."""
+    from scipy.spatial.transform import Rotation
+
+    norm = np.linalg.norm(quat_xyzw, axis=1)
+    ok = np.isfinite(v_body).all(axis=1) & np.isfinite(norm) & (np.abs(norm - 1.0) < 0.1)
+    out = np.full(len(v_body), np.nan)
+    if not ok.any():
+        return out
+    w = Rotation.from_quat(quat_xyzw[ok]).apply(v_body[ok])
+    east, north, up = w[:, 0], w[:, 1], w[:, 2]
+    if op == "enu_up":
+        out[ok] = up
+    elif op == "enu_horizontal":
+        out[ok] = np.hypot(east, north)
+    else:
+        out[ok] = _course(north, east, np.hypot(east, north))
+    return out
+
+
+def _per_experiment_first(values: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
+    """``values`` minus its first finite value within each experiment."""
+    out = values.copy()
+    for rows in groups:
+        v = values[rows]
+        ok = np.flatnonzero(np.isfinite(v))
+        if len(ok):
+            out[rows] = v - v[ok[0]]
+    return out
+
+
+def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | None = None,
+                 require_battery: bool = True) -> tuple[pd.DataFrame, dict]:
+    """Read a CSV file into the flight record through a column map.
+
+    Parameters
+    ----------
+    path : str or path
+        The CSV file (``.csv`` or ``.csv.gz``).
+    map : path, name or dict, optional
+        The column map (see the module docstring); ``None`` reads the file as
+        a flight-record CSV.
+    require_battery : bool, default True
+        Require ``power_w`` or both ``voltage_v`` and ``current_a``.
+
+    Returns
+    -------
+    (DataFrame, dict)
+        The flight record (``power_w`` = V·I and ``consumed_mah`` = ∫I dt
+        added when absent) and the metadata.
+    """
+    path = Path(path)
+    meta = Meta(str(path), "csv")
+    cmap = load_map(map) if map is not None else None
+    try:
+        raw = pd.read_csv(files.input_path(path, "log", "CSV log"), low_memory=False)
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except pd.errors.EmptyDataError:
+        raise InputError(f"{path}: empty file") from None
+    except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OSError, EOFError) as exc:
+        raise InputError(f"{path}: not a readable CSV file ({type(exc).__name__}: "
+                         f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
+    raw.columns = [str(c).strip() for c in raw.columns]
+    raw = drop_truncated_last_line(raw, path)
+
+    if cmap is None:
+        from planner.io.record import complete_record
+        df = validate_record(raw, path, require_power=require_battery, csv_lines=True)
+        df = complete_record(df)
+        for c in df.columns:
+            if c in FIELD_MAP:
+                meta["channels"][c] = c
+        meta["samples"] = len(df)
+        return df, meta.values
+
+    where = cmap["where"]
+
+    def need(col: str, role: str) -> pd.Series:
+        if col not in raw.columns:
+            close = difflib.get_close_matches(col, list(raw.columns), n=2)
+            hint = f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
+            raise InputError(f"{path}: column '{col}' named in {where} ({role}) is not in "
+                             f"the file{hint}")
+        return raw[col]
+
+    def numeric(col: str, role: str) -> np.ndarray:
+        s = need(col, role)
+        num = pd.to_numeric(s, errors="coerce")
+        bad = num.isna() & s.notna()
+        if bad.any():
+            first = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputError(f"{path}: column '{col}' row {first + 1} (line {first + 2}): "
+                             f"expected a number, got {s.iloc[first]!r}")
+        return num.to_numpy(float)
+
+    n = len(raw)
+    out: dict[str, np.ndarray] = {}
+    if cmap["experiment"]:
+        out["experiment"] = need(cmap["experiment"], "experiment").astype("str").to_numpy(object)
+    else:
+        out["experiment"] = np.full(n, path.name.split(".")[0], dtype=object)
+    groups = list(pd.Series(out["experiment"]).groupby(out["experiment"], sort=False)
+                  .indices.values()) if n else []
+
+    tspec = cmap["time"]
+    t = numeric(tspec["column"], "time") * tspec["scale"] + tspec["offset"]
+    if tspec["zero"]:
+        t = _per_experiment_first(t, groups)
+    out["time_s"] = t
+    meta["channels"]["time_s"] = tspec["column"]
+
+    for ours, spec in cmap["columns"].items():
+        if ours == "mode":
+            out[ours] = need(spec["column"], ours).astype("str").to_numpy(object)
+        else:
+            v = numeric(spec["column"], ours)
+            for m in spec["missing"]:
+                v = np.where(v == m, np.nan, v)
+            v = v * spec["scale"] + spec["offset"]
+            if spec["relative"]:
+                v = _per_experiment_first(v, groups)
+            out[ours] = v
+        meta["channels"][ours] = spec["column"]
+    for ours, spec in cmap["derived"].items():
+        a, b, *rest = (numeric(c, ours) for c in spec["of"])
+        op = spec["op"]
+        if op in ROTATE_OPS:
+            v = _enu(op, np.column_stack([a, b, rest[0]]), np.column_stack(rest[1:]))
+            if op == "enu_course":
+                spec = {**spec, "scale": 1.0}
+        elif op == "hypot":
+            v = np.hypot(a, b) if not rest else np.sqrt(a * a + b * b + rest[0] ** 2)
+        elif op == "product":
+            v = a * b
+        elif op == "sum":
+            v = a + b
+        elif op == "difference":
+            v = a - b
+        else:  # course from (north, east)
+            v = _course(a, b, np.hypot(a, b) * spec["scale"])
+            spec = {**spec, "scale": 1.0}
+        out[ours] = v * spec["scale"] + spec["offset"]
+        meta["channels"][ours] = f"{op}({', '.join(spec['of'])})"
+    for name, spec in cmap["extra"].items():
+        out[name] = numeric(spec["column"], name) * spec["scale"] + spec["offset"]
+        meta["channels"][name] = spec["column"]
+
+    df = pd.DataFrame(out)
+    df = validate_record(df, path, require_power=require_battery, csv_lines=True)
+    if "power_w" not in df and "voltage_v" in df and "current_a" in df:
+        df["power_w"] = df["voltage_v"].to_numpy(float) * df["current_a"].to_numpy(float)
+        meta["channels"]["power_w"] = "voltage_v * current_a"
+    if "consumed_mah" not in df and "current_a" in df:
+        df = add_consumed(df)
+        meta["channels"]["consumed_mah"] = "trapezoid integral of current_a per experiment"
+    known = [c for c in COLUMNS if c in df.columns]
+    df = df[known + [c for c in df.columns if c not in COLUMNS]]
+
+    for key, value in cmap["meta"].items():
+        meta[key] = value
+    meta["map"] = where
+    meta["experiments"] = int(df["experiment"].nunique()) if len(df) else 0
+    meta["samples"] = len(df)
+    durations = df.groupby("experiment", sort=False)["time_s"].agg(lambda s: s.iloc[-1] - s.iloc[0])
+    meta["duration_s"] = float(durations.sum()) if len(df) else 0.0
+    for c in df.columns:
+        if c in ("experiment", "time_s"):
+            continue
+        dt = df.groupby("experiment", sort=False)["time_s"].diff().to_numpy(float)
+        dt = dt[np.isfinite(dt) & (dt > 0)]
+        meta["rates_hz"][c] = float(1.0 / np.median(dt)) if len(dt) else None
+    return df, meta.values
+

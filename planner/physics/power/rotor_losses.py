@@ -1,0 +1,321 @@
+r"""Multirotor battery power with the motors' own losses: momentum theory plus Drela's motor.
+
+Layer 1: pure, vectorised functions in SI units (floats, ndarrays or pandas Series,
+broadcasting; NaN samples propagate; physically impossible parameters raise
+:class:`planner.errors.ModelError` naming the parameter).
+
+The model separates what is drawn with the rotors stopped from what the propulsion
+draws while it turns:
+
+.. math::
+
+    P_{batt} = P_{stop} + s\,\frac{\max(P_{shaft}, P_{floor})
+               + P_{nl}\,\hat\Omega + P_{cu}\,\hat Q^2}{\eta_d}
+
+* :math:`P_{stop}` — avionics and payload electronics, the power seen on the ground with
+  the rotors stopped (``system_power_w`` of the aircraft file); :math:`s = 1` while the
+  rotors turn (every airborne sample), 0 with the rotors stopped.
+* :math:`P_{shaft} = \kappa T v_i + P_0 + \tfrac12\rho V^3 f + W\dot h` — the rotors'
+  aerodynamic power, term by term as in :mod:`planner.physics.power.momentum` (Glauert inflow,
+  Leishman's vortex-ring curve, profile power :math:`r_0 T v_h (1 + 4.65\mu^2)`, body
+  parasite power, climb power) [1]_, [2]_. ESCs do not regenerate: it is floored, at zero
+  by default (:math:`P_{floor} = 0`), or at the idle-speed floor of the momentum model.
+* :math:`P_{nl}\hat\Omega` — the motors' no-load loss (iron and friction losses,
+  :math:`I_0 V`), proportional to rotor speed. For a fixed-pitch propeller
+  :math:`T = C_T\rho\Omega^2D^4`, so :math:`\Omega \propto \sqrt{T/\rho}` and
+  :math:`\hat\Omega = \sqrt{(T/\rho)/(T_{ref}/\rho_{ref})}`, normalised at the reference
+  hover (:math:`T_{ref} = m_{ref}g`, :math:`\rho_{ref}` = 1.225 kg/m³) [3]_, [4]_.
+* :math:`P_{cu}\hat Q^2` — the copper loss :math:`I^2R`: current is proportional to the
+  motor torque, and for a fixed-pitch propeller :math:`Q = C_Q\rho\Omega^2D^5 \propto T`,
+  so :math:`\hat Q = T/T_{ref}` [3]_, [4]_.
+* :math:`\eta_d` — what is left between battery and motors (ESC switching, wiring).
+
+With :math:`P_{nl} = P_{cu} = 0`, :math:`\eta_d = \eta`, :math:`P_{stop} = P_S` and the
+idle-speed floor it is exactly :func:`planner.power.momentum.momentum_battery_power`.
+
+References
+----------
+.. [1] J. G. Leishman, Principles of Helicopter Aerodynamics, 2nd ed. Cambridge, U.K.:
+   Cambridge Univ. Press, 2006: ch. 2 (momentum theory, vortex-ring curve, §2.14) and
+   ch. 5 (Glauert's inflow, profile power :math:`1 + 4.65\mu^2`).
+.. [2] H. Glauert, "A general theory of the autogyro," Aeronautical Research Committee,
+   R&M 1111, 1926.
+.. [3] M. Drela, "First-order DC electric motor model," MIT Aero & Astro, Feb. 2007:
+   :math:`P_{elec} = P_{shaft} + I_0 V + I^2 R`, :math:`Q = (I - I_0)/K_v`.
+.. [4] O. Gur and A. Rosen, "Optimizing electric propulsion systems for unmanned aerial
+   vehicles," Journal of Aircraft 46(4), 1340–1353, 2009, doi:10.2514/1.41027 (motor
+   losses of a UAV propulsion system: no-load and copper losses against rotor speed and
+   torque).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from planner.physics.atmosphere import G, _require, _restore
+from planner.errors import ModelError
+from planner.physics.power.momentum import (
+    DEFAULT_FIGURE_OF_MERIT,
+    DEFAULT_ROTOR_CT,
+    PROFILE_K,
+    _induced_from_components,
+)
+
+__all__ = ["REFERENCE_DENSITY", "RotorLossesPower", "battery_power_from_unit_terms",
+           "rotor_losses_battery_power", "rotor_losses_components"]
+
+REFERENCE_DENSITY = 1.225
+"""Air density of the reference hover at which :math:`\\hat\\Omega = \\hat Q = 1`:
+ISA sea level. [kg m⁻³]"""
+
+
+@dataclass(frozen=True)
+class RotorLossesPower:
+    """Power budget of :func:`rotor_losses_components`, term by term.
+
+    Each field has the kind of the inputs (float, ndarray or Series).
+    """
+
+    induced: Any
+    """Induced power :math:`\\kappa T v_i`. [W]"""
+    profile: Any
+    """Blade profile power :math:`r_0 T v_h (1 + 4.65\\mu^2)`. [W]"""
+    parasite: Any
+    """Body parasite power :math:`\\tfrac12\\rho V^3 f`. [W]"""
+    climb: Any
+    """Climb power :math:`W \\dot h` (negative in descent). [W]"""
+    shaft: Any
+    """Aerodynamic shaft power before the floor (may be < 0 in a fast descent). [W]"""
+    no_load: Any
+    """Motor no-load loss :math:`P_{nl}\\hat\\Omega`. [W]"""
+    copper: Any
+    """Motor copper loss :math:`P_{cu}\\hat Q^2`. [W]"""
+    battery: Any
+    """Battery (discharge) power. [W]"""
+    thrust: Any
+    """Total thrust :math:`T`. [N]"""
+    rotor_speed_ratio: Any
+    """:math:`\\hat\\Omega`, rotor speed over that of the reference hover. [unitless]"""
+
+
+def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficiency=0.95,
+                            airspeed=0.0, climb_rate=0.0, drag_area=0.0, induced_factor=1.15,
+                            figure_of_merit=None, profile_power_ratio=None, tip_speed=None,
+                            stopped_power=0.0, no_load_power=0.0, copper_loss_power=0.0,
+                            reference_mass=None, reference_density=REFERENCE_DENSITY,
+                            thrust=None, load_factor=1.0, rotors_turning=True,
+                            min_rotor_speed_ratio=0.0, gravity=G):
+    r"""
+    Multirotor battery power with motor no-load and copper losses, term by term.
+
+    Parameters
+    ----------
+    mass : numeric
+        All-up mass. [kg]
+    air_density : numeric
+        Air density. [kg m⁻³]
+    rotors : int
+        Number of equal rotors :math:`N`. [unitless]
+    diameter : numeric
+        Rotor diameter. [m]
+    drive_efficiency : numeric, default 0.95
+        Battery-to-motor efficiency :math:`\eta_d` (ESC, wiring), in (0, 1]. [unitless]
+    airspeed : numeric, default 0
+        Horizontal true airspeed :math:`V`, ≥ 0. [m s⁻¹]
+    climb_rate : numeric, default 0
+        Vertical speed :math:`\dot h`, up positive. [m s⁻¹]
+    drag_area : numeric, default 0
+        Body equivalent flat-plate area :math:`f`, ≥ 0. [m²]
+    induced_factor : numeric, default 1.15
+        Induced-power factor :math:`\kappa \ge 1`. [unitless]
+    figure_of_merit, profile_power_ratio : numeric, optional
+        Hover figure of merit or :math:`r_0 = P_{0,h}/(T v_h)`, one or neither (default
+        FM 0.6), as in :func:`planner.power.momentum.momentum_power_components`.
+        [unitless]
+    tip_speed : numeric, optional
+        Blade tip speed; None: :math:`v_h\sqrt{2/C_T}`, :math:`C_T` = 0.01. [m s⁻¹]
+    stopped_power : numeric, default 0
+        :math:`P_{stop}`, drawn with the rotors stopped, ≥ 0. [W]
+    no_load_power : numeric, default 0
+        :math:`P_{nl}`, motor no-load loss at the reference hover, ≥ 0. [W]
+    copper_loss_power : numeric, default 0
+        :math:`P_{cu}`, motor copper loss at the reference hover, ≥ 0. [W]
+    reference_mass : numeric, optional
+        Mass of the reference hover (default: ``mass``). [kg]
+    reference_density : numeric, default 1.225
+        Air density of the reference hover. [kg m⁻³]
+    thrust : numeric, optional
+        Measured total thrust (e.g. mass × accelerometer specific force); default the
+        trim thrust :math:`\sqrt{(nW)^2 + D^2}`. [N]
+    load_factor : numeric, default 1
+        Weight-balancing thrust over weight (turns), ≥ 1. [unitless]
+    rotors_turning : bool or array of bool, default True
+        :math:`s`: False where the rotors are stopped (only :math:`P_{stop}` drawn).
+    min_rotor_speed_ratio : float, default 0
+        Idle rotor speed over hover rotor speed setting the shaft-power floor
+        :math:`r^3 W v_h(W)(\kappa + r_0)`; 0 floors the shaft power at zero. [unitless]
+    gravity : float, default 9.80665
+        [m s⁻²]
+
+    Returns
+    -------
+    components : RotorLossesPower
+
+    Notes
+    -----
+    .. math::
+
+        P_{batt} = P_{stop} + s\,\frac{\max(P_{shaft}, P_{floor})
+                   + P_{nl}\sqrt{\frac{T/\rho}{T_{ref}/\rho_{ref}}}
+                   + P_{cu}\left(\frac{T}{T_{ref}}\right)^2}{\eta_d}
+
+    :math:`P_{shaft} = \kappa T v_i + r_0 T v_h (1 + 4.65\mu^2) + \tfrac12\rho V^3 f +
+    W\dot h` ([1]_ ch. 2 and 5; :math:`v_i` from
+    :func:`planner.power.momentum.induced_velocity`'s Glauert / vortex-ring solution with
+    the axial inflow :math:`V_z = (DV + W\dot h)/T`); the motor terms follow Drela's
+    first-order motor model [3]_ (:math:`I_0V \propto \Omega`, :math:`I^2R \propto Q^2`)
+    with :math:`\Omega \propto \sqrt{T/\rho}` and :math:`Q \propto T` of a fixed-pitch
+    propeller, as Gur & Rosen [4]_ model UAV motor losses.
+    """
+    m = _require(mass, "mass", gt=0.0, unit="kg")
+    rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
+    n_rot = _require(rotors, "rotors", ge=1.0)
+    if np.any(n_rot != np.round(n_rot)):
+        raise ModelError(f"rotors must be a whole number >= 1, got {rotors}")
+    d = _require(diameter, "diameter", gt=0.0, unit="m")
+    eta = _require(drive_efficiency, "drive_efficiency", gt=0.0, le=1.0)
+    v = _require(airspeed, "airspeed", ge=0.0, unit="m/s")
+    vc = np.asarray(climb_rate, dtype=float)
+    f = _require(drag_area, "drag_area", ge=0.0, unit="m²")
+    kappa = _require(induced_factor, "induced_factor", ge=1.0)
+    p_stop = _require(stopped_power, "stopped_power", ge=0.0, unit="W")
+    p_nl = _require(no_load_power, "no_load_power", ge=0.0, unit="W")
+    p_cu = _require(copper_loss_power, "copper_loss_power", ge=0.0, unit="W")
+    m_ref = m if reference_mass is None else _require(reference_mass, "reference_mass",
+                                                      gt=0.0, unit="kg")
+    rho_ref = _require(reference_density, "reference_density", gt=0.0, unit="kg/m³")
+    n = _require(load_factor, "load_factor", ge=1.0)
+    r = _require(min_rotor_speed_ratio, "min_rotor_speed_ratio", ge=0.0, le=1.0)
+    if figure_of_merit is not None and profile_power_ratio is not None:
+        raise ModelError("give figure_of_merit or profile_power_ratio, not both")
+    if profile_power_ratio is not None:
+        r0 = _require(profile_power_ratio, "profile_power_ratio", ge=0.0)
+    else:
+        fm = DEFAULT_FIGURE_OF_MERIT if figure_of_merit is None else figure_of_merit
+        fm = _require(fm, "figure_of_merit", gt=0.0, le=1.0)
+        r0 = 1.0 / fm - kappa
+        if np.any(r0 < 0.0):
+            raise ModelError(
+                f"figure_of_merit must be <= 1/induced_factor (profile power >= 0), "
+                f"got figure_of_merit={figure_of_merit}, induced_factor={induced_factor}")
+    if tip_speed is not None:
+        vtip = _require(tip_speed, "tip_speed", gt=0.0, unit="m/s")
+
+    weight = m * gravity
+    area = n_rot * 0.25 * np.pi * d**2
+    drag = 0.5 * rho * v**2 * f
+    if thrust is None:
+        t = np.sqrt((n * weight) ** 2 + drag**2)
+    else:
+        t = _require(thrust, "thrust", ge=0.0, unit="N")
+    vh = np.sqrt(t / (2.0 * rho * area))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        axial = np.where(t > 0.0, (drag * v + weight * vc) / np.where(t > 0.0, t, 1.0), 0.0)
+        inplane = np.sqrt(np.maximum(v**2 + vc**2 - axial**2, 0.0))
+    vi = _induced_from_components(vh, axial, inplane)
+    if tip_speed is None:
+        vtip = vh * np.sqrt(2.0 / DEFAULT_ROTOR_CT)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mu = np.where(vtip > 0.0, inplane / np.where(vtip > 0.0, vtip, 1.0), 0.0)
+
+    induced = kappa * t * vi
+    profile = r0 * t * vh * (1.0 + PROFILE_K * mu**2)
+    parasite = drag * v
+    climb = weight * vc
+    shaft = induced + profile + parasite + climb
+    vh_weight = np.sqrt(weight / (2.0 * rho * area))
+    floor = r**3 * weight * vh_weight * (kappa + r0)
+
+    t_ref = m_ref * gravity
+    speed = np.sqrt((t / rho) / (t_ref / rho_ref))
+    torque = t / t_ref
+    no_load = p_nl * speed
+    copper = p_cu * torque**2
+    battery = _battery(shaft, floor, no_load, copper, eta, p_stop, rotors_turning)
+
+    inputs = (mass, air_density, rotors, diameter, drive_efficiency, airspeed, climb_rate,
+              drag_area, induced_factor, stopped_power, no_load_power, copper_loss_power,
+              load_factor)
+    if thrust is not None:
+        inputs = inputs + (thrust,)
+
+    def kind(value):
+        return _restore(np.broadcast_to(value, np.broadcast(battery, value).shape), *inputs)
+
+    return RotorLossesPower(
+        induced=kind(induced), profile=kind(profile), parasite=kind(parasite),
+        climb=kind(climb), shaft=kind(shaft), no_load=kind(no_load), copper=kind(copper),
+        battery=kind(battery), thrust=kind(t), rotor_speed_ratio=kind(speed))
+
+
+def _battery(shaft, floor, no_load, copper, eta, p_stop, turning):
+    """P_stop + s (max(P_shaft, P_floor) + no-load + copper loss)/η_d (module notes)."""
+    drive = (np.maximum(shaft, floor) + no_load + copper) / eta
+    return p_stop + np.where(np.asarray(turning, dtype=bool), drive, 0.0)
+
+
+def battery_power_from_unit_terms(unit: RotorLossesPower, profile_power_ratio, no_load_power,
+                                  copper_loss_power, drive_efficiency, stopped_power=0.0):
+    r"""
+    Battery power of rotors turning from the terms of a unit evaluation.
+
+    The induced, parasite and climb power, thrust and rotor speed do not depend on
+    :math:`r_0`, :math:`P_{nl}`, :math:`P_{cu}`, :math:`\eta_d` or :math:`P_{stop}`;
+    the profile power and the two losses are proportional to :math:`r_0`,
+    :math:`P_{nl}` and :math:`P_{cu}`. A fit that varies only these reuses one
+    evaluation of the aerodynamics.
+
+    Parameters
+    ----------
+    unit : RotorLossesPower
+        :func:`rotor_losses_components` with ``profile_power_ratio=1``,
+        ``no_load_power=1``, ``copper_loss_power=1`` and the shaft floored at zero
+        (``min_rotor_speed_ratio=0``), rotors turning.
+    profile_power_ratio, no_load_power, copper_loss_power, drive_efficiency, \
+stopped_power : numeric
+        :math:`r_0` [unitless], :math:`P_{nl}` [W], :math:`P_{cu}` [W],
+        :math:`\eta_d` [unitless], :math:`P_{stop}` [W].
+
+    Returns
+    -------
+    power : ndarray
+        The same as :func:`rotor_losses_battery_power` with these parameters. [W]
+    """
+    shaft = (np.asarray(unit.induced) + profile_power_ratio * np.asarray(unit.profile)
+             + np.asarray(unit.parasite) + np.asarray(unit.climb))
+    return _battery(shaft, 0.0, no_load_power * np.asarray(unit.no_load),
+                    copper_loss_power * np.asarray(unit.copper), drive_efficiency,
+                    stopped_power, True)
+
+
+def rotor_losses_battery_power(mass, air_density, rotors, diameter, drive_efficiency=0.95,
+                               **kwargs):
+    r"""
+    Battery power of a multirotor with motor no-load and copper losses.
+
+    Parameters
+    ----------
+    mass, air_density, rotors, diameter, drive_efficiency, **kwargs
+        As in :func:`rotor_losses_components`.
+
+    Returns
+    -------
+    power : numeric
+        :math:`P_{batt}`, see :func:`rotor_losses_components` (module references
+        [1]_–[4]_: Leishman, Glauert, Drela 2007, Gur & Rosen 2009). [W]
+    """
+    return rotor_losses_components(mass, air_density, rotors, diameter, drive_efficiency,
+                                   **kwargs).battery
