@@ -18,6 +18,7 @@ import numpy as np
 
 from planner.io import schema as S
 from planner.physics.battery import integral
+from planner.physics.battery.chemistry import CHEMISTRY_NAMES
 from planner.physics.battery.circuit import CircuitParameters
 from planner.physics.battery.thermal import ThermalParameters
 from planner.errors import InputError
@@ -47,7 +48,7 @@ BATTERY_KEYS = {
     "model": S.Key(S.MAPPING),
     "circuit": S.Key(S.MAPPING),
     "thermal": S.Key(S.MAPPING),
-    "chemistry": S.Key(S.TEXT, default="lipo"),
+    "chemistry": S.Key(S.TEXT, default="lipo", choices=CHEMISTRY_NAMES),
     "price": S.non_negative(high=1.0e9),  # any currency; keeps totals finite
     "count": S.Key(S.INTEGER, default=1, low=1, high=16),
     "source": S.Key(S.TEXT),
