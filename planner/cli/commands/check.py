@@ -19,7 +19,14 @@ from planner.cli.commands.common import (
     write_json,
 )
 from planner.errors import InputError
-from planner.chain.failsafe import FIRMWARES, FailsafePlan, failsafe_parameters
+from planner.chain.failsafe import (
+    FIRMWARES,
+    PX4_STABLE_VERSION,
+    FailsafePlan,
+    failsafe_parameters,
+    parse_firmware_version,
+    px4_release,
+)
 from planner.io.mission import load_mission
 from planner.parameters import load_aircraft_and_battery
 from planner.chain.uncertainty import Spreads, UncertaintyResult, monte_carlo
@@ -46,9 +53,14 @@ def register(sub) -> None:
     p.add_argument("--failsafe", metavar="FIRMWARE",
                    help="derive the battery failsafe parameters of this firmware from the "
                         "mission's worst return home: ardupilot or px4")
+    p.add_argument("--firmware-version", metavar="VERSION",
+                   help="with --failsafe px4: the PX4 release whose threshold ranges and "
+                        "failsafe hold apply, e.g. v1.14.3 (default: the current stable "
+                        f"release, v{'.'.join(map(str, PX4_STABLE_VERSION))})")
     p.add_argument("--params-out", help="write the failsafe parameters as a Mission Planner "
                                         "/ MAVProxy .param file (ardupilot) or a "
-                                        "QGroundControl parameter file (px4)")
+                                        "QGroundControl parameter file (px4); not written "
+                                        "when the failsafe plan is NO-GO")
     u = p.add_argument_group("probabilistic verdict (Monte Carlo through the mission chain)")
     u.add_argument("--uncertainty", action="store_true",
                    help="draw the uncertain inputs and give P(landing with the reserve); "
@@ -78,6 +90,7 @@ def run(args) -> int:
     json_out = output_path(args.json, "--json")
     params_out = output_path(args.params_out, "--params-out")
     firmware = parse_firmware(args.failsafe, params_out)
+    version = parse_version(args.firmware_version, firmware)
     plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
     temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
@@ -105,7 +118,8 @@ def run(args) -> int:
         run_result = chain.run(mission, env, detail=True)
     result = run_result.mission_result(0)
     plan = (failsafe_parameters(run_result, firmware, return_charge_mah=None if unc is None
-                                else unc.rtl_charge_p95_mah) if firmware else None)
+                                else unc.rtl_charge_p95_mah, firmware_version=version)
+            if firmware else None)
     if not args.quiet:
         print(render(result, mission.name))
         if unc is not None:
@@ -125,7 +139,7 @@ def run(args) -> int:
         if unc is not None:
             data["uncertainty"] = unc.to_dict()
         write_json(data, json_out)
-    if params_out:
+    if params_out and plan.go:
         header = (f"{FIRMWARE_NAMES[plan.firmware]} battery failsafe parameters for "
                   f"{mission.name}\n{result.aircraft}, {result.battery}\n"
                   f"reserve {100 * result.reserve_fraction:.0f} % of nominal; worst return "
@@ -138,6 +152,8 @@ def run(args) -> int:
             "" if unc is None else f"; {unc.verdict} with {100 * unc.confidence:.0f} % "
                                    f"confidence (P = {100 * unc.p_landing:.1f} %)")
         plots.save_mission_plot(result, plot_out, title=title, uncertainty=unc)
+    if plan is not None and not plan.go:
+        return 1
     if unc is not None:
         return 0 if unc.go else 1
     return 0 if result.go else 1
@@ -244,18 +260,41 @@ def parse_firmware(text: str | None, params_out: str | None) -> str | None:
     return name
 
 
+def parse_version(text: str | None, firmware: str | None):
+    """``--firmware-version`` → (major, minor, patch) for ``--failsafe px4`` (None without
+    it)."""
+    if text is None:
+        return None
+    if firmware != "px4":
+        raise InputError("--firmware-version: selects the PX4 release of --failsafe px4 "
+                         "(the ArduPilot derivation follows one source, AP_BattMonitor)")
+    try:
+        version = parse_firmware_version(text)
+        px4_release(version)
+        return version
+    except InputError as exc:
+        raise InputError(f"--firmware-version: {exc}") from None
+
+
 def render_failsafe(plan: FailsafePlan) -> str:
-    """The failsafe parameters with one line of derivation each."""
+    """The failsafe parameters with one line of derivation each, and the plan's verdict."""
     w = plan.worst_point
-    lines = ["", f"Failsafe  {FIRMWARE_NAMES[plan.firmware]} battery parameters: worst return "
-                 f"{plan.return_charge_mah:.0f} mAh from {w['distance_home_m']:.0f} m "
-                 f"({w['leg_origin']}, t = {w['time_s']:.0f} s, {plan.return_source})"]
+    release = f" {plan.firmware_version}" if plan.firmware_version else ""
+    lines = ["", f"Failsafe  {FIRMWARE_NAMES[plan.firmware]}{release} battery parameters: "
+                 f"worst return {plan.return_charge_mah:.0f} mAh from "
+                 f"{w['distance_home_m']:.0f} m ({w['leg_origin']}, t = {w['time_s']:.0f} s, "
+                 f"{plan.return_source})"]
     width = max(len(p.name) for p in plan.parameters)
     for p in plan.parameters:
         value = f"{p.text_value()} {p.unit}".strip()
         lines.append(f"  {p.name:<{width}} = {value:<10} {p.derivation}")
     for text in plan.warnings:
         lines.append(f"Warning   {text}")
+    for text in plan.reasons:
+        lines.append(f"NO-GO     failsafe plan: {text}")
+    if not plan.go:
+        lines.append("NO-GO     no failsafe parameters of this firmware land with the reserve "
+                     "(no parameter file is written)")
     return "\n".join(lines)
 
 
