@@ -39,9 +39,11 @@ equivalent-circuit model (:mod:`planner.physics.battery.circuit`), with per-chem
 * ``k`` = 0.006 /°C for the LiCoO2, NMC and NCA cells (LiPo, LiHV, Li-ion): the circuit
   model's default, consistent with the roughly 65 % of room-temperature energy that Zhang,
   Xu and Jow [ZXJ03]_ report for commercial Li-ion cells at −20 °C. For LiFePO4
-  ``k`` = 0.0004 /°C, measured: the A123 LiFePO4 cell of Plett's ESC toolbox data [PL15]_
-  gives at C/30 98.2 % of its 25 °C charge at −25 °C (2.023 against 2.060 A h); at that
-  rate the loss is thermodynamic only — the rate-dependent part comes from R0(T).
+  ``k`` = 0.0005 /°C, from measurement: the A123 LiFePO4 cell of Plett's ESC toolbox data
+  [PL15]_ gives at C/30 98.2 % of its 25 °C charge at −25 °C (2.023 against 2.060 A h) and
+  99.05 % at 5 °C, the steepest loss per degree; 0.0005 /°C keeps the law at or under every
+  measured temperature. At that rate the loss is thermodynamic only — the rate-dependent
+  part comes from R0(T).
 * :math:`E_a`: for LiPo and LiHV the graphite exchange-current activation energy of the
   LiCoO2/graphite Kokam pouch cell of PyBaMM's ``Marquis2019`` set (Dualfoil), 37.48 kJ/mol
   (LiHV: *assumed* equal to LiPo); for NMC that of the LG M50 graphite electrode of Chen et
@@ -272,7 +274,7 @@ CHEMISTRIES: dict[str, Chemistry] = {
                             source="Lithium Werks APR18650M1B, Sunil et al. 2025"),
         "pseudo-OCV of a Lithium Werks APR18650M1B cell at C/32 (LiFePO4/graphite), "
         "breakpoints of Sunil, Pattipati and Balasingam 2025",
-        3.60, 2.00, 0.0004, 31_700.0,
+        3.60, 2.00, 0.0005, 31_700.0,
         "k and Ea measured on the A123 LiFePO4 cell of Plett's ESC toolbox data (C/30 "
         "capacity and 1-s step resistance, −25 to 25 °C)"),
 }
