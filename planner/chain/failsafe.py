@@ -421,7 +421,8 @@ class _Inputs:
         return self.reserve + self.unusable
 
     def charge(self, what: str) -> np.ndarray:
-        """Per-point charge of an action (``return``, ``land_here``, ``return_or_sequence``). [mAh]"""
+        """Per-point charge of an action: ``return``, ``land_here`` or
+        ``return_or_sequence``. [mAh]"""
         if what == "return_or_sequence":
             seq = self.charges.get("sequence")
             return self.charges["return"] if seq is None else np.maximum(
@@ -501,7 +502,13 @@ def _inputs(result, i, return_charge_mah) -> _Inputs:
     seq_text = "the mission has no landing sequence (it does not end in a loiter or descent)"
     if k_seq is not None:
         seq = _sequence_charge(result, i, k_seq, current)
-        charges["sequence"] = np.where(impossible, -np.inf, seq)
+        blocked = ~np.isfinite(seq)
+        if (blocked & ~impossible).any():
+            k = int(np.argmax(blocked & ~impossible))
+            warnings.append(f"the landing sequence cannot be reached from t = "
+                            f"{pts['time_s'][k]:.0f} s (the wind or the pack's power limit "
+                            "forbids it); the thresholds cover the other points only")
+        charges["sequence"] = np.where(impossible | blocked, -np.inf, seq)
         seq_text = (f"landing sequence from {result.table.origin[k_seq] or f'leg {k_seq + 1}'}"
                     f" ({len(result.table) - k_seq} legs)")
     leg_power = d["power_w"][i, pts["leg"]]
@@ -541,8 +548,10 @@ def _level(inp: _Inputs, name: str, action: Action, extra=None) -> dict:
         q = q + extra
     charge, j, where = _worst(inp, q)
     what = {"return": "the return home", "land_here": "the descent where it is",
-            "return_or_sequence": "the larger of the return home and the "
-                                  + inp.sequence_text}[action.charge]
+            "return_or_sequence": ("the return home (" + inp.sequence_text + ")"
+                                   if inp.charges.get("sequence") is None else
+                                   "the larger of the return home and the "
+                                   + inp.sequence_text)}[action.charge]
     text = f"{what}, {charge:.0f} mAh from the worst point ({where})"
     return {"name": name, "action": action.name, "value": action.value, "does": action.does,
             "charge_mah": charge, "point": j, "text": text, "where": _where(inp, j)}
@@ -793,7 +802,7 @@ def _plan(inp: _Inputs, firmware, params, first, second, trigger_drawn, second_d
                             "failsafe would fire at take-off")
     drawn = inp.result.detail["charge_end_mah"][inp.i]
     crossed = np.flatnonzero(drawn > trigger_drawn)
-    if crossed.size and crossed[0] < len(drawn) - 1:
+    if plan.go and crossed.size and crossed[0] < len(drawn) - 1:
         k = int(crossed[0])
         origin = inp.result.table.origin[k] or f"leg {k + 1}"
         plan.warnings.append(f"the first failsafe level ({trigger_drawn:.0f} mAh drawn) is "
