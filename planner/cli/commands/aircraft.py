@@ -8,7 +8,14 @@ from pathlib import Path
 import yaml
 
 from planner.io import files
-from planner.cli.commands.common import fmt, output_path, parse_float, write_json
+from planner.cli.commands.common import (
+    add_battery_instance,
+    battery_instance,
+    fmt,
+    output_path,
+    parse_float,
+    write_json,
+)
 from planner.io.flightdata import load_flight_data
 from planner.errors import InputError
 from planner.parameters import default_battery_path, load_aircraft, load_battery
@@ -31,6 +38,7 @@ def register(sub) -> None:
     p.add_argument("--mass", help="all-up mass [kg] (overrides aircraft + pack + payload)")
     p.add_argument("--map", help="column map for CSV data that is not a flight record "
                                  "(e.g. dji_m100)")
+    add_battery_instance(p)
     p.add_argument("--parameters", help="comma-separated subset to fit")
     p.add_argument("--train", help="comma-separated experiments to fit on")
     p.add_argument("--validate", help="comma-separated experiments to hold out")
@@ -61,7 +69,8 @@ def run(args) -> int:
             raise InputError(f"{args.aircraft}: no pack known: give --battery or --mass")
         mass = (aircraft.empty_mass_kg + load_battery(path).total_mass_kg
                 + parse_float(args.payload, "--payload", 0.0, 1000.0))
-    data, _ = load_flight_data(args.data, column_map=args.map)
+    data, _ = load_flight_data(args.data, column_map=args.map,
+                               battery_instance=battery_instance(args))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = fit_aircraft(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
