@@ -455,7 +455,7 @@ def fit_fixed_wing(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                    validate: list[str] | None = None, site_altitude_m: float = 0.0,
                    aspect_ratio: float | None = None, smoothing_s: float = SMOOTHING_S,
                    trim_s: float = TRIM_S, acceleration: bool = True) -> dict[str, Any]:
-    """Fit a fixed wing's polar and propulsive efficiency by the energy-rate balance.
+    r"""Fit a fixed wing's polar and propulsive efficiency by the energy-rate balance.
 
     Parameters
     ----------
