@@ -10,7 +10,10 @@ to the measured electric power of the airborne samples by least squares
   system load P_S (the figure of merit stays as given: in hover it is not
   separable from η);
 * fixed-wing — C_D0, K, η and P_S (η is separable from the polar only
-  through climbs and descents; a poorly determined parameter is reported).
+  through climbs and descents; a poorly determined parameter is reported). This steady
+  fit suits flights flown by the steady model (the fleet's simulated flights); the
+  ``fit-aircraft`` command fits real fixed-wing flights by the energy-rate balance
+  instead (:func:`planner.identify.fixed_wing_fit.fit_fixed_wing`).
 
 Standard errors come from the Jacobian, inflated for the autocorrelation of
 neighbouring samples: the covariance is multiplied by (1 + ρ₁)/(1 − ρ₁), with

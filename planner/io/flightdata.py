@@ -30,7 +30,7 @@ def _is_record_csv(path: Path) -> bool:
     return "time_s" in head.columns
 
 
-def _read_one(p: Path, column_map, require_battery: bool):
+def _read_one(p: Path, column_map, require_battery: bool, battery_instance: int | None = None):
     if not p.exists():
         raise InputError(f"{p}: file not found")
     if column_map is None and _is_record_csv(p):
@@ -42,17 +42,21 @@ def _read_one(p: Path, column_map, require_battery: bool):
         opts = {"require_battery": require_battery}
         if column_map is not None:
             opts["map"] = column_map
+        if battery_instance is not None:
+            opts["battery_instance"] = battery_instance
         return read_log(p, **opts)
 
 
 def load_flight_data(paths, *, column_map=None, require_battery: bool = True,
-                     failed: list[str] | None = None) -> tuple[pd.DataFrame, list[dict]]:
+                     failed: list[str] | None = None, battery_instance: int | None = None
+                     ) -> tuple[pd.DataFrame, list[dict]]:
     """Read one or more data files into one flight record.
 
     Parameters
     ----------
     paths : path or list of paths
-        Flight-record CSV files or logs (.bin, .px4log, .tlog, .ulg, mapped CSV).
+        Flight-record CSV files or logs (.bin, .px4log, .tlog, .ulg, mapped CSV, a folder
+        or zip of PX4 topic CSV files).
     column_map : path or dict, optional
         Column map for CSV files that are not flight records
         (:mod:`planner.io.logs.csvmap`).
@@ -62,6 +66,9 @@ def load_flight_data(paths, *, column_map=None, require_battery: bool = True,
         A batch: a file that cannot be read appends its one-line error to this list and
         the others are read (an error only when none can be). Without it the first bad
         file raises.
+    battery_instance : int, optional
+        The ``battery_status`` instance of PX4 topic exports (folders or zips of
+        ``ulog2csv`` files; :mod:`planner.io.logs.ulog2csv`).
 
     Returns
     -------
@@ -75,7 +82,7 @@ def load_flight_data(paths, *, column_map=None, require_battery: bool = True,
     first_error: InputError | None = None
     for p in map(Path, paths):
         try:
-            df, meta = _read_one(p, column_map, require_battery)
+            df, meta = _read_one(p, column_map, require_battery, battery_instance)
         except InputError as exc:
             if failed is None:
                 raise

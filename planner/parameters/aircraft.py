@@ -68,6 +68,8 @@ AIRCRAFT_KEYS = {
     "fixed_wing": S.Key(S.MAPPING),
     "multirotor": S.Key(S.MAPPING),
     "source": S.Key(S.TEXT),
+    # what fit-aircraft said of its fit: "ok", or "misfit: <parameter> ..." (read, not used)
+    "fit_status": S.Key(S.TEXT),
 }
 
 FIXED_WING_KEYS = {
@@ -525,6 +527,15 @@ def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None
 def load_aircraft(path: str | Path) -> Aircraft:
     """Load and validate an aircraft YAML file."""
     return aircraft_from_mapping(S.load_yaml(path), str(path))
+
+
+def aspect_ratio_of(path: str | Path) -> float | None:
+    """The ``fixed_wing.aspect_ratio`` an aircraft file gives, if any (the loaded
+    :class:`Aircraft` keeps only K): the fixed-wing fit's Oswald factor needs it."""
+    data = S.load_yaml(path)
+    block = data.get("fixed_wing") if isinstance(data, dict) else None
+    ar = block.get("aspect_ratio") if isinstance(block, dict) else None
+    return float(ar) if isinstance(ar, (int, float)) and not isinstance(ar, bool) else None
 
 
 def default_battery_path(aircraft: Aircraft) -> Path | None:

@@ -8,7 +8,15 @@ from pathlib import Path
 import yaml
 
 from planner.io import files
-from planner.cli.commands.common import fmt, output_path, parse_float, write_json
+from planner.cli.commands.common import (
+    add_battery_instance,
+    battery_instance,
+    fmt,
+    output_path,
+    parse_float,
+    plot_path,
+    write_json,
+)
 from planner.io.flightdata import load_flight_data
 from planner.errors import InputError
 from planner.parameters import default_battery_path, load_aircraft, load_battery
@@ -20,9 +28,12 @@ def register(sub) -> None:
                                    "area, P_S; multirotor with power_model rotor_losses: "
                                    "P_stop measured on the ground, motor no-load and copper "
                                    "losses, figure of merit, drag area, power lead; "
-                                   "fixed-wing: C_D0, K, η, P_S) to the measured "
+                                   "fixed-wing: C_D0, K, η by the energy-rate balance, P_S "
+                                   "measured in the glides) to the measured "
                                    "power of logged flights, and validate on flights (or the "
-                                   "last 30 %% of one flight) the fit never saw.")
+                                   "last 30 %% of one flight) the fit never saw. Exit 1 when "
+                                   "a fixed-wing parameter ends on its physical bound "
+                                   "(a misfit, written as fit_status).")
     p.add_argument("data", nargs="+", metavar="DATA", help="logs or flight-record CSV files")
     p.add_argument("--aircraft", required=True, help="aircraft YAML (start values)")
     p.add_argument("--out", required=True, help="write the fitted aircraft YAML here")
@@ -31,6 +42,7 @@ def register(sub) -> None:
     p.add_argument("--mass", help="all-up mass [kg] (overrides aircraft + pack + payload)")
     p.add_argument("--map", help="column map for CSV data that is not a flight record "
                                  "(e.g. dji_m100)")
+    add_battery_instance(p)
     p.add_argument("--parameters", help="comma-separated subset to fit")
     p.add_argument("--train", help="comma-separated experiments to fit on")
     p.add_argument("--validate", help="comma-separated experiments to hold out")
@@ -40,6 +52,8 @@ def register(sub) -> None:
                                              "each flight's first sample (default: the "
                                              "flight phases other than ground and take-off)")
     p.add_argument("--json", help="write the fit report as JSON")
+    p.add_argument("--plot", help="fixed wing: write a PNG of the fitted power curve and "
+                                  "polar over the energy-rate corrected samples")
     p.set_defaults(func=run)
 
 
@@ -51,8 +65,12 @@ def run(args) -> int:
     from planner.identify.aircraft_fit import fit_aircraft
 
     json_out = output_path(args.json, "--json")
+    plot_out = plot_path(args.plot)
     output_path(args.out, "--out")
     aircraft = load_aircraft(args.aircraft)
+    fixed_wing = aircraft.type == "fixed_wing"
+    if plot_out and not fixed_wing:
+        raise InputError("--plot: the figure is drawn for a fixed wing's fit")
     if args.mass is not None:
         mass = parse_float(args.mass, "--mass", 0.01, 10000.0)
     else:
@@ -61,31 +79,51 @@ def run(args) -> int:
             raise InputError(f"{args.aircraft}: no pack known: give --battery or --mass")
         mass = (aircraft.empty_mass_kg + load_battery(path).total_mass_kg
                 + parse_float(args.payload, "--payload", 0.0, 1000.0))
-    data, _ = load_flight_data(args.data, column_map=args.map)
+    data, _ = load_flight_data(args.data, column_map=args.map,
+                               battery_instance=battery_instance(args))
+    opts = {"airborne_height_m": None if args.airborne_height is None else
+            parse_float(args.airborne_height, "--airborne-height", 0.0, 1000.0)}
+    fit = fit_aircraft
+    if fixed_wing:
+        # real fixed-wing flights: the energy-rate fit (planner.identify.fixed_wing_fit)
+        from planner.identify.fixed_wing_fit import fit_fixed_wing
+        from planner.parameters.aircraft import aspect_ratio_of
+        if opts.pop("airborne_height_m") is not None:
+            raise InputError("--airborne-height: a fixed wing is airborne above its minimum "
+                             "airspeed (its stall speed)")
+        fit, opts = fit_fixed_wing, {"aspect_ratio": aspect_ratio_of(args.aircraft)}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = fit_aircraft(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
-                              train=_list(args.train), validate=_list(args.validate),
-                              site_altitude_m=parse_float(args.site_altitude, "--site-altitude",
-                                                          -500, 9000),
-                              airborne_height_m=None if args.airborne_height is None else
-                              parse_float(args.airborne_height, "--airborne-height", 0.0, 1000.0))
+        result = fit(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
+                     train=_list(args.train), validate=_list(args.validate),
+                     site_altitude_m=parse_float(args.site_altitude, "--site-altitude",
+                                                 -500, 9000), **opts)
     for w in caught:
         print(f"warning: {w.message}")
-    print(render(result, mass))
+    if fixed_wing:
+        from planner.cli.commands import fixed_wing_report
+        print(fixed_wing_report.render(result, mass))
+    else:
+        print(render(result, mass))
     fitted = result["aircraft"]
     mapping = fitted.to_mapping(folder=Path(args.out).parent)
     src = ", ".join(str(d) for d in args.data)
     mapping["source"] = (f"fit-aircraft on {src} ({result['split']}; "
                          f"{result['samples']['train']} airborne samples; mass {mass:.3f} kg); "
                          f"start values from {args.aircraft}")
+    if fixed_wing:
+        from planner.identify.fixed_wing_fit import fitted_mapping
+        mapping = fitted_mapping(mapping, result)
     files.write_text(args.out, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
                      "--out")
     if json_out:
-        report = {k: v for k, v in result.items() if k != "aircraft"}
+        report = {k: v for k, v in result.items() if k not in ("aircraft", "samples_table")}
         report["mass_kg"] = mass
         write_json(report, json_out)
-    return 0
+    if plot_out:
+        from planner.cli.commands import fixed_wing_report
+        fixed_wing_report.save_plot(result, mass, plot_out)
+    return 1 if result.get("fit_status", "ok") != "ok" else 0
 
 
 def render(r, mass) -> str:

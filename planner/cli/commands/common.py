@@ -157,3 +157,19 @@ def name_width(names, header: str = "", minimum: int = 10) -> int:
     """Width of a table's name column: every name shown whole (two logs whose names
     differ only at the end must not look the same)."""
     return max([minimum, len(header)] + [len(str(n)) for n in names])
+
+
+#: Help of the option that picks a PX4 topic export's battery instance.
+BATTERY_INSTANCE_HELP = ("battery_status instance of a PX4 topic export (a folder or zip of "
+                         "ulog2csv CSV files); default: the one that carries the current")
+
+
+def add_battery_instance(parser) -> None:
+    """The ``--battery-instance N`` option of the commands that read logs."""
+    parser.add_argument("--battery-instance", metavar="N", help=BATTERY_INSTANCE_HELP)
+
+
+def battery_instance(args) -> int | None:
+    """The parsed ``--battery-instance`` (None when not given)."""
+    text = getattr(args, "battery_instance", None)
+    return None if text is None else parse_int(text, "--battery-instance", 0, 255)

@@ -10,7 +10,14 @@ from pathlib import Path
 import yaml
 
 from planner.io import files
-from planner.cli.commands.common import output_path, parse_float, plot_path, write_json
+from planner.cli.commands.common import (
+    add_battery_instance,
+    battery_instance,
+    output_path,
+    parse_float,
+    plot_path,
+    write_json,
+)
 from planner.errors import InputError
 from planner.parameters import aircraft_from_mapping, battery_from_mapping
 
@@ -33,6 +40,7 @@ def register(sub) -> None:
     p.add_argument("--aircraft", help="aircraft YAML: enables the power-level effects")
     p.add_argument("--map", help="column map for CSV data that is not a flight record "
                                  "(e.g. dji_m100)")
+    add_battery_instance(p)
     p.add_argument("--json", help="write the findings as JSON (DESIGN §6); - for standard "
                                   "output")
     p.add_argument("--plot", help="write a PNG: residuals against time and against each "
@@ -64,7 +72,8 @@ def run(args) -> int:
     if out and pack is None and aircraft is None:
         raise InputError("--out needs --battery or --aircraft (the definition to extend)")
     result = diagnose(list(args.data), pack, aircraft, payload_kg=payload, mass_kg=mass,
-                      site_altitude_m=site, effects=effects, column_map=args.map)
+                      site_altitude_m=site, effects=effects, column_map=args.map,
+                      battery_instance=battery_instance(args))
     print(result.summary())
     if json_out:
         write_json(result.to_dict(), json_out)

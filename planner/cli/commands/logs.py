@@ -9,7 +9,8 @@ from planner.errors import InputError
 
 
 def export(log: str | Path, csv: str | Path, *, map: str | Path | None = None,
-           require_battery: bool = True) -> tuple[str, dict]:
+           require_battery: bool = True, battery_instance: int | None = None
+           ) -> tuple[str, dict]:
     """Read ``log`` and write its flight record to ``csv``.
 
     Returns the one-line summary and the reader's metadata.
@@ -20,6 +21,8 @@ def export(log: str | Path, csv: str | Path, *, map: str | Path | None = None,
     opts = {"require_battery": require_battery}
     if map is not None:
         opts["map"] = map
+    if battery_instance is not None:
+        opts["battery_instance"] = battery_instance
     df, meta = read_log(log, **opts)
     if len(df) == 0:
         raise InputError(f"{log}: no samples to export")
@@ -42,8 +45,10 @@ def export(log: str | Path, csv: str | Path, *, map: str | Path | None = None,
 
 
 def _run(args: argparse.Namespace) -> int:
+    from planner.cli.commands.common import battery_instance
     summary, _ = export(args.log, args.csv, map=args.map,
-                        require_battery=not args.allow_no_battery)
+                        require_battery=not args.allow_no_battery,
+                        battery_instance=battery_instance(args))
     print(summary)
     return 0
 
@@ -51,13 +56,17 @@ def _run(args: argparse.Namespace) -> int:
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "export", help="any supported log -> flight record CSV",
-        description="Read an ArduPilot .bin, PX4 .px4log/.ulg, MAVLink .tlog or a CSV file "
-        "(with --map) and write the flight record (DESIGN §4) as CSV. One row per battery "
-        "sample; the other channels are interpolated onto the battery times.")
-    p.add_argument("log", metavar="LOG", help="log file (.bin, .px4log, .ulg, .tlog, .csv)")
+        description="Read an ArduPilot .bin, PX4 .px4log/.ulg, MAVLink .tlog, a PX4 topic "
+        "export (a folder or zip of pyulog ulog2csv files) or a CSV file (with --map) and "
+        "write the flight record (DESIGN §4) as CSV. One row per battery sample; the other "
+        "channels are interpolated onto the battery times.")
+    p.add_argument("log", metavar="LOG", help="log file (.bin, .px4log, .ulg, .tlog, .csv) or "
+                                              "a folder or zip of PX4 topic CSV files")
     p.add_argument("--csv", required=True, metavar="F", help="flight-record CSV to write")
     p.add_argument("--map", metavar="MAP.yaml", default=None,
                    help="column map for a CSV input (e.g. planner/io/logs/maps/dji_m100.yaml)")
     p.add_argument("--allow-no-battery", action="store_true",
                    help="export a log without battery voltage/current (kinematics only)")
+    from planner.cli.commands.common import add_battery_instance
+    add_battery_instance(p)
     p.set_defaults(func=_run)

@@ -6,6 +6,8 @@ import math
 import sys
 
 from planner.cli.commands.common import (
+    add_battery_instance,
+    battery_instance,
     fmt,
     name_width,
     output_path,
@@ -24,11 +26,13 @@ def register(sub) -> None:
                                    "with --aircraft, the power model with the measured "
                                    "flight state) and compare with what the battery gave.")
     p.add_argument("logs", nargs="+", metavar="LOG",
-                   help="log files (.bin, .px4log, .tlog, .ulg) or flight-record CSV")
+                   help="log files (.bin, .px4log, .tlog, .ulg, a folder or zip of PX4 topic "
+                        "CSV files) or flight-record CSV")
     p.add_argument("--aircraft", help="aircraft YAML: enables the power-level comparison")
     p.add_argument("--battery", help="battery-pack YAML (default: the literature model for "
                                      "the log's cell count)")
     p.add_argument("--map", help="column map YAML for CSV data that is not a flight record")
+    add_battery_instance(p)
     p.add_argument("--payload", default="0", help="payload mass [kg] (default 0)")
     p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
     p.add_argument("--site-altitude", default="0",
@@ -57,7 +61,8 @@ def run(args) -> int:
         from planner.parameters import default_battery_path
         pack = load_battery(default_battery_path(aircraft))
     failed: list[str] = []
-    data, metas = load_flight_data(args.logs, column_map=args.map, failed=failed)
+    data, metas = load_flight_data(args.logs, column_map=args.map, failed=failed,
+                                   battery_instance=battery_instance(args))
     for message in failed:  # a batch: each bad file named, the others replayed
         print(f"error: {message}", file=sys.stderr)
     result = replay(data, metas, pack=pack, aircraft=aircraft, payload_kg=payload,

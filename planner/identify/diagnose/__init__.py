@@ -378,7 +378,7 @@ def _worst_experiment(level, rows, resid) -> str:
 
 # ============================================================================ data
 
-def _load(data, column_map) -> tuple[pd.DataFrame, list[dict], list[str]]:
+def _load(data, column_map, battery_instance=None) -> tuple[pd.DataFrame, list[dict], list[str]]:
     from planner.io.flightdata import load_flight_data
 
     if isinstance(data, pd.DataFrame):
@@ -391,7 +391,8 @@ def _load(data, column_map) -> tuple[pd.DataFrame, list[dict], list[str]]:
     paths = list(data)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        df, metas = load_flight_data(paths, column_map=column_map)
+        df, metas = load_flight_data(paths, column_map=column_map,
+                                     battery_instance=battery_instance)
     for w in caught:  # what the readers skipped or read as missing; not library noise
         if w.category is UserWarning:
             warnings.warn(str(w.message), stacklevel=2)
@@ -671,18 +672,19 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
         ``payload_kg`` (0), ``mass_kg`` (all-up mass; default aircraft + pack +
         payload), ``site_altitude_m`` (0, for the standard density),
         ``effects`` (names to test; default all), ``column_map`` (for CSV data
-        that is not a flight record).
+        that is not a flight record), ``battery_instance`` (of PX4 topic exports).
 
     Returns
     -------
     DiagnoseResult
     """
-    allowed = {"payload_kg", "mass_kg", "site_altitude_m", "effects", "column_map"}
+    allowed = {"payload_kg", "mass_kg", "site_altitude_m", "effects", "column_map",
+               "battery_instance"}
     unknown = set(opts) - allowed
     if unknown:
         raise TypeError(f"diagnose() got unexpected option(s) {sorted(unknown)}; expected "
                         f"{sorted(allowed)}")
-    df, metas, sources = _load(data, opts.get("column_map"))
+    df, metas, sources = _load(data, opts.get("column_map"), opts.get("battery_instance"))
     notes: list[str] = []
     if pack is None:
         pack = _literature_pack(df, metas, notes)

@@ -11,6 +11,7 @@ PX4 legacy sdlog2 .px4log :func:`dataflash.read_dataflash` same framing, TIME me
 MAVLink telemetry .tlog   :func:`tlog.read_tlog`           8-byte time + ``FE``/``FD``
 PX4 ULog .ulg             :func:`ulog.read_ulog`           ``ULog\\x01\\x12\\x35``
 CSV (+ column map)        :func:`csvmap.read_csv_log`      ``.csv``/``.csv.gz``
+PX4 ulog2csv export       :func:`ulog2csv.read_ulog2csv`   a folder or ``.zip``
 ========================  ==============================  ==========================
 
 Each reader has one module-level ``FIELD_MAP``: flight-record column ← message
@@ -63,6 +64,7 @@ FORMATS = {
     "tlog": ("planner.io.logs.tlog", "read_tlog", (".tlog",)),
     "ulog": ("planner.io.logs.ulog", "read_ulog", (".ulg",)),
     "csv": ("planner.io.logs.csvmap", "read_csv_log", (".csv", ".csv.gz", ".txt")),
+    "ulog2csv": ("planner.io.logs.ulog2csv", "read_ulog2csv", (".zip",)),
 }
 
 
@@ -83,7 +85,8 @@ def _looks_like_text(head: bytes) -> bool:
 
 
 def detect_format(path: str | os.PathLike, *, csv_ok: bool = False) -> str:
-    """Name of the reader for ``path``: ``dataflash``, ``tlog``, ``ulog`` or ``csv``.
+    """Name of the reader for ``path``: ``dataflash``, ``tlog``, ``ulog``, ``csv`` or
+    ``ulog2csv`` (a folder or zip: PX4 topic CSV files).
 
     A text file is taken as CSV when its name ends in ``.csv``, ``.csv.gz`` or
     ``.txt``, or with ``csv_ok`` (a column map was given).
@@ -95,6 +98,8 @@ def detect_format(path: str | os.PathLike, *, csv_ok: bool = False) -> str:
     """
     from planner.io import files
 
+    if os.path.isdir(path) or str(path).lower().endswith(".zip"):
+        return "ulog2csv"
     path = files.input_path(path, "log", "log file")
     try:
         with open(path, "rb") as fh:
@@ -106,6 +111,8 @@ def detect_format(path: str | os.PathLike, *, csv_ok: bool = False) -> str:
     name = path.name.lower()
     if head.startswith(ULOG_MAGIC):
         return "ulog"
+    if head.startswith(b"PK\x03\x04"):
+        return "ulog2csv"
     if head[:3] == b"\xa3\x95\x80" or (head[:2] == b"\xa3\x95" and b"\xa3\x95\x80" in head):
         return "dataflash"
     if _looks_like_tlog(head):
@@ -145,6 +152,8 @@ def read_log(path: str | os.PathLike, **opts) -> tuple[pd.DataFrame, dict]:
         current raise :class:`InputError`, or (False) read the other channels
         on the fastest stream's times. ``map`` (path, shipped map name or dict):
         the column map of a CSV file (see :mod:`planner.io.logs.csvmap`).
+        ``battery_instance`` (int or None): the ``battery_status`` instance of a PX4
+        topic export (see :mod:`planner.io.logs.ulog2csv`).
 
     Returns
     -------
@@ -159,7 +168,7 @@ def read_log(path: str | os.PathLike, **opts) -> tuple[pd.DataFrame, dict]:
     """
     import importlib
 
-    allowed = {"require_battery", "map"}
+    allowed = {"require_battery", "map", "battery_instance"}
     unknown = set(opts) - allowed
     if unknown:
         raise TypeError(f"read_log() got unexpected option(s) {sorted(unknown)}; "
@@ -170,6 +179,11 @@ def read_log(path: str | os.PathLike, **opts) -> tuple[pd.DataFrame, dict]:
             raise InputError(f"{path}: a column map applies to CSV files only "
                              f"(this is a {fmt} log)")
         opts.pop("map")
+    if opts.get("battery_instance") is not None and fmt != "ulog2csv":
+        raise InputError(f"{path}: a battery instance applies to a PX4 topic export (a "
+                         f"folder or zip of ulog2csv files); this is a {fmt} log")
+    if fmt != "ulog2csv":
+        opts.pop("battery_instance", None)
     module, func, _ = FORMATS[fmt]
     reader = getattr(importlib.import_module(module), func)
     return reader(path, **opts)
