@@ -6,8 +6,19 @@ then one mission item per line, tab-separated::
     index  current  frame  command  p1  p2  p3  p4  lat  lon  alt  autocontinue
 
 The item with index 0 is home, its altitude above mean sea level. Any run of
-whitespace is accepted as the separator. Blank lines are skipped. Commands and
-frames are interpreted by :func:`planner.mission.route.mav_items_to_steps`.
+whitespace is accepted as the separator. Blank lines and lines starting with ``#``
+are skipped, as pymavlink's ``MAVWPLoader`` skips them (``mavwp.py``
+``_read_waypoints_v110``; MAVProxy writes such comments, QGroundControl refuses them).
+The index column is not used for the sequence: items are numbered by their position,
+as ``MAVWPLoader.add`` renumbers them and the vehicle receives them, so a ``DO_JUMP``
+target is a position. Commands and frames are interpreted by
+:func:`planner.io.mission.route.mav_items_to_steps`.
+
+Row 0 is taken as home, as QGroundControl and ArduPilot take it (ArduPilot overwrites
+it with the vehicle's home at upload). A file whose row 0 is another command (a
+take-off, as MAVSDK writes it) has no home: its relative altitudes are read against
+that row's position with a warning; absolute (AMSL) altitudes cannot be, and are
+refused.
 
 Latitude, longitude and altitude must be finite numbers (``nan`` or ``inf``
 is refused; 0, 0 is "the current position"); param1..param4 may be ``nan``
@@ -17,13 +28,15 @@ is refused; 0, 0 is "the current position"); param1..param4 may be ``nan``
 from __future__ import annotations
 
 import math
+import warnings
+from dataclasses import replace
 from pathlib import Path
 
 from planner.io import files
 from planner.physics.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
-from planner.physics.mission import Environment, Mission, too_many
-from planner.io.mission.route import MavItem, mav_items_to_steps, route_to_legs
+from planner.physics.mission import Environment, Mission, NavDefaults, too_many
+from planner.io.mission.route import POSITIONED_CMDS, MavItem, cmd_name, fly_mav_items
 
 HEADER = "QGC WPL 110"
 FIELDS = ("index", "current", "frame", "command", "param1", "param2", "param3", "param4",
@@ -59,7 +72,8 @@ def _parse_line(text: str, lineno: int, where: Path) -> MavItem:
                              f"{raw!r} (expected a finite number)")
     params = tuple(values[k] for k in FIELDS[4:11])
     return MavItem(seq=values["index"], command=values["command"], frame=values["frame"],
-                   params=params, origin=f"line {lineno}")
+                   params=params, origin=f"line {lineno}",
+                   autocontinue=values["autocontinue"])
 
 
 def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
@@ -73,7 +87,8 @@ def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
     """
     path = Path(path)
     lines = _read_text(path).splitlines()
-    numbered = [(n, line) for n, line in enumerate(lines, start=1) if line.strip()]
+    numbered = [(n, line) for n, line in enumerate(lines, start=1)
+                if line.strip() and not line.startswith("#")]
     if not numbered:
         raise InputError(f"{path}: empty file (expected the header {HEADER!r})")
     if (msg := too_many(str(path), "mission items", len(numbered) - 2)) is not None:
@@ -111,29 +126,51 @@ def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
             raise InputError(f"{path}: {item.origin}: index {item.seq} already used at "
                              f"{seen[item.seq]} (expected unique indices)")
         seen[item.seq] = item.origin
+    # the vehicle numbers the items by position (pymavlink MAVWPLoader.add: w.seq = count)
+    rest = [replace(item, seq=k) for k, item in enumerate(rest, start=1)]
+    if home.command not in (0, 16):
+        amsl = next((item for item in rest if item.frame in (0, 5)
+                     and item.command in POSITIONED_CMDS), None)
+        if amsl is not None:
+            raise InputError(
+                f"{path}: {home.origin}: item 0 is {cmd_name(home.command)}, not the home "
+                "position, and the file has no other: QGroundControl and ArduPilot take "
+                "item 0 as home (ArduPilot overwrites it with the vehicle's home), so it is "
+                f"never flown, and the absolute altitudes of {amsl.origin} (frame "
+                f"{amsl.frame}, above mean sea level) have no take-off point to be read "
+                "against (expected item 0 a NAV_WAYPOINT (16) at the home position, "
+                "altitude above mean sea level, as Mission Planner writes it)")
+        warnings.warn(f"{path}: {home.origin}: item 0 is {cmd_name(home.command)}, taken as "
+                      "the home position as QGroundControl and ArduPilot take it (not "
+                      "flown)", stacklevel=2)
     return home, rest
 
 
-def load_wpl(path: str | Path, *, vehicle_type: str | None = None) -> Mission:
+def load_wpl(path: str | Path, *, vehicle_type: str | None = None,
+             defaults: NavDefaults | None = None) -> Mission:
     """Load a Mission Planner ``.waypoints`` file.
 
     Parameters
     ----------
     path : str or Path
     vehicle_type : {"multirotor", "fixed_wing"} or None
-        See :func:`planner.mission.route.mav_items_to_steps`.
+        See :func:`planner.io.mission.route.mav_items_to_steps`.
+    defaults : NavDefaults or None
+        The aircraft's speeds and rates (:func:`planner.io.mission.route.route_to_legs`).
 
     Returns
     -------
     Mission
         Named after the file; home from index 0; the environment's site
         altitude is the home altitude. The file carries no default speed, so
-        legs before the first ``DO_CHANGE_SPEED`` use the aircraft's.
+        legs before the first ``DO_CHANGE_SPEED`` use the aircraft's. Items are
+        flown by ArduPilot's rules (the format's firmware). ``Mission.file`` keeps
+        the items to write sorties back.
     """
     path = Path(path)
     home, items = read_wpl(path)
     lat, lon, alt = home.params[4], home.params[5], home.params[6]
-    steps = mav_items_to_steps(items, alt, where=str(path), vehicle_type=vehicle_type)
-    legs = route_to_legs(steps, lat, lon, where=str(path))
+    legs, file = fly_mav_items(items, home, where=str(path), fmt="waypoints",
+                               vehicle_type=vehicle_type, firmware=None, defaults=defaults)
     return Mission(name=path.stem, legs=legs, environment=Environment(site_altitude_m=alt),
-                   home=(lat, lon, alt), source=str(path))
+                   home=(lat, lon, alt), source=str(path), file=file)

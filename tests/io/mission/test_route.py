@@ -124,7 +124,8 @@ def test_hold_loiters_and_land(tmp_path):
     assert kinds(m) == ["climb", "cruise", "hover", "cruise", "loiter", "loiter", "descend"]
     hover, loiter_time, loiter_turns, land = m.legs[2], m.legs[4], m.legs[5], m.legs[6]
     assert hover.duration_s == 15 and hover.end_en_m == m.legs[1].end_en_m
-    assert (loiter_time.duration_s, loiter_time.loiter_radius_m) == (60, 35)
+    # ArduPlane circles a LOITER_TIME at its own WP_LOITER_RAD: param3 gives the direction
+    assert (loiter_time.duration_s, loiter_time.loiter_radius_m) == (60, None)
     assert loiter_turns.duration_s == pytest.approx(2 * 2 * math.pi * 50 / 12)
     assert loiter_turns.end_en_m == loiter_time.end_en_m       # 0, 0 = current position
     assert land.end_en_m == loiter_turns.end_en_m and land.end_alt_m == 0

@@ -93,9 +93,9 @@ def test_sorties_out_bad_input_exits_2(long_survey, tmp_path, capsys):
                    "--sorties-out", str(tmp_path / "missing")])
     err = capsys.readouterr().err
     assert status == 2 and "--sorties-out" in err and "not an existing folder" in err
-    txt = tmp_path / "m.txt"
-    txt.write_text((long_survey / "survey.waypoints").read_text())
-    status = main(["select", str(txt), "--aircraft", str(SOLO), "--packs", str(CATALOG),
+    other = tmp_path / "m.mission"
+    other.write_text((long_survey / "survey.waypoints").read_text())
+    status = main(["select", str(other), "--aircraft", str(SOLO), "--packs", str(CATALOG),
                    "--sorties-out", str(tmp_path)])
     err = capsys.readouterr().err
     assert status == 2 and "cannot write missions in the format" in err
