@@ -81,10 +81,7 @@ def load_mission(path: str | Path, *, vehicle_type: str | None = None,
     # a file that is refused gives one line: its warnings are said only once it is read
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
-        if loader is load_yaml_mission:
-            mission = loader(path, vehicle_type=vehicle_type)
-        else:
-            mission = loader(path, vehicle_type=vehicle_type, defaults=defaults)
+        mission = loader(path, vehicle_type=vehicle_type, defaults=defaults)
     for w in said:
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if len(mission.legs) > LEGS_PER_ITEM * MAX_ITEMS:

@@ -1,7 +1,8 @@
 """QGroundControl ``.plan`` files (JSON), read as QGroundControl loads them.
 
 Schema (QGroundControl ``PlanMasterController.cc``, ``MissionController.cc``,
-``SimpleMissionItem.cc``; https://docs.qgroundcontrol.com/master/en/qgc-dev-guide/file_formats/plan.html)::
+``SimpleMissionItem.cc``;
+https://docs.qgroundcontrol.com/master/en/qgc-dev-guide/file_formats/plan.html)::
 
     {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
      "mission": {"plannedHomePosition": [lat, lon, alt_amsl],

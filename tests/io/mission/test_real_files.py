@@ -418,7 +418,8 @@ def test_route_below_home_is_refused_unless_in_the_terrain_frame(tmp_path, real,
             "3\t0\t3\t20\t0\t0\t0\t0\t0\t0\t0\t1"]
     path = tmp_path / "t.waypoints"
     path.write_text("\n".join(rows) + "\n")
-    assert load_mission(path, defaults=solo).legs[1].end_alt_m == 30
+    with pytest.warns(UserWarning, match="terrain-relative altitude treated as relative"):
+        assert load_mission(path, defaults=solo).legs[1].end_alt_m == 30
     path.write_text("\n".join(rows).replace("\t10\t16\t", "\t3\t16\t").replace(
         "10.0\t30\t1\n3", "10.0\t-20\t1\n3") + "\n")
     with pytest.raises(InputError, match=r"line 4 \(item 2\): MAV_CMD_NAV_WAYPOINT \(16\) "
