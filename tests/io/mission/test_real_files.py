@@ -434,3 +434,16 @@ def test_planning_speed_warning_for_every_qgc_plan(real, solo):
     assert all(leg.speed_ms is None for leg in mission.legs)
     assert any("mission.hoverSpeed 5 m/s is QGroundControl's planning speed" in s
                for s in said)
+
+
+@pytest.mark.parametrize("name", ["dronekit_mpmission.txt", "ap_plane_cmac_turns.txt",
+                                  "mavsdk_qgroundcontrol_sample_wrong_overall_version.plan",
+                                  "mavsdk_mission_planner_sample.txt"])
+def test_check_on_a_refused_real_file_exits_2_with_one_line(real, name, capsys):
+    from planner.cli.main import main
+    path = real / name
+    aircraft = X8 if name.startswith("ap_plane") else SOLO
+    status = main(["check", str(path), "--aircraft", str(aircraft)])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1 and str(path) in err, err
+    assert re.search(EXPECTED[name], err), err
