@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import replace
 from pathlib import Path
 
 from planner.io import files
@@ -48,7 +47,8 @@ def _read_text(path: Path) -> str:
     return files.read_text(path, "mission", "mission file", encoding="utf-8-sig")
 
 
-def _parse_line(text: str, lineno: int, where: Path) -> MavItem:
+def _parse_line(text: str, lineno: int, where: Path, position: int) -> tuple[int, MavItem]:
+    """The line's index field and its item, numbered by its ``position`` in the file."""
     fields = text.rstrip("\r\n").split("\t")
     if len(fields) != len(FIELDS):
         fields = text.split()
@@ -71,9 +71,10 @@ def _parse_line(text: str, lineno: int, where: Path) -> MavItem:
             raise InputError(f"{where}: line {lineno} (item {values['index']}): {name} is "
                              f"{raw!r} (expected a finite number)")
     params = tuple(values[k] for k in FIELDS[4:11])
-    return MavItem(seq=values["index"], command=values["command"], frame=values["frame"],
-                   params=params, origin=f"line {lineno}",
-                   autocontinue=values["autocontinue"])
+    return values["index"], MavItem(seq=position, command=values["command"],
+                                    frame=values["frame"], params=params,
+                                    origin=f"line {lineno}",
+                                    autocontinue=values["autocontinue"])
 
 
 def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
@@ -97,13 +98,14 @@ def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
     if first.split() != HEADER.split():
         raise InputError(f"{path}: line {n0}: expected the header {HEADER!r}, "
                          f"got {first.strip()[:40]!r}")
-    items = [_parse_line(line, n, path) for n, line in numbered[1:]]
-    if not items:
+    # the vehicle numbers the items by position (pymavlink MAVWPLoader.add: w.seq = count)
+    parsed = [_parse_line(line, n, path, k) for k, (n, line) in enumerate(numbered[1:])]
+    if not parsed:
         raise InputError(f"{path}: no mission items (expected home at index 0, then the "
                          "mission items)")
-    home, rest = items[0], items[1:]
-    if home.seq != 0:
-        raise InputError(f"{path}: {home.origin}: first item has index {home.seq} "
+    home, rest = parsed[0][1], [item for _, item in parsed[1:]]
+    if parsed[0][0] != 0:
+        raise InputError(f"{path}: {home.origin}: first item has index {parsed[0][0]} "
                          "(expected 0, the home position)")
     if not all(math.isfinite(v) for v in home.params[4:7]):
         raise InputError(f"{path}: {home.origin}: home latitude, longitude and altitude must "
@@ -121,13 +123,11 @@ def read_wpl(path: str | Path) -> tuple[MavItem, list[MavItem]]:
                          f"sea level is outside the atmosphere model (expected {lo:g} to "
                          f"{hi:g} m)")
     seen = {0: home.origin}
-    for item in rest:
-        if item.seq in seen:
-            raise InputError(f"{path}: {item.origin}: index {item.seq} already used at "
-                             f"{seen[item.seq]} (expected unique indices)")
-        seen[item.seq] = item.origin
-    # the vehicle numbers the items by position (pymavlink MAVWPLoader.add: w.seq = count)
-    rest = [replace(item, seq=k) for k, item in enumerate(rest, start=1)]
+    for index, item in parsed[1:]:
+        if index in seen:
+            raise InputError(f"{path}: {item.origin}: index {index} already used at "
+                             f"{seen[index]} (expected unique indices)")
+        seen[index] = item.origin
     if home.command not in (0, 16):
         amsl = next((item for item in rest if item.frame in (0, 5)
                      and item.command in POSITIONED_CMDS), None)
