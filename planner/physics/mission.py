@@ -19,6 +19,7 @@ Leg kinds
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -71,6 +72,11 @@ class Leg:
         Turn radius of a ``loiter``. [m]
     origin : str
         Where the leg came from, for messages (``"legs[3]"``, ``"line 7"``).
+    item : int or None
+        Index of the mission-file item the leg flies, in the reader's list of the items
+        as flown (``Mission.file``; a ``DO_JUMP`` repeat is a new index); ``None`` for a
+        leg the planner made (a sortie's transit) or a YAML leg. Lets a sortie be
+        written back with the file's own items.
     """
 
     kind: str
@@ -84,6 +90,7 @@ class Leg:
     duration_s: float | None = None
     loiter_radius_m: float | None = None
     origin: str = ""
+    item: int | None = None
 
     @property
     def distance_m(self) -> float:
@@ -142,6 +149,10 @@ class Mission:
         Home point where known (waypoint missions).
     source : str
         File the mission was read from.
+    file : object or None
+        What the reader kept of a waypoint file to write it back (the items as flown,
+        the vehicle, firmware, geofence and rally points): a
+        :class:`planner.io.mission.route.MissionFile`; ``None`` for a YAML mission.
     """
 
     name: str
@@ -150,3 +161,65 @@ class Mission:
     payload_kg: float = 0.0
     home: tuple[float, float, float] | None = None
     source: str = ""
+    file: Any = None
+
+
+#: ArduCopter's default circle rate, ``CIRCLE_RATE`` (``AC_CIRCLE_RATE_DEFAULT``,
+#: libraries/AC_WPNav/AC_Circle.h). [deg/s]
+CIRCLE_RATE_DPS = 20.0
+#: ArduCopter's default circle radius, ``CIRCLE_RADIUS`` (``AC_CIRCLE_RADIUS_DEFAULT``
+#: 1000 cm, AC_Circle.h), used by a ``LOITER_TURNS`` of radius 0. [m]
+CIRCLE_RADIUS_M = 10.0
+#: ArduCopter's default waypoint acceleration, ``WPNAV_ACCEL`` 250 cm/s² (Copter 4.1 and
+#: later, libraries/AC_WPNav/AC_WPNav.h ``WPNAV_ACCELERATION``). [m/s²]
+WPNAV_ACCEL_MS2 = 2.5
+
+
+@dataclass(frozen=True)
+class NavDefaults:
+    """What the aircraft flies where a mission file does not say: its navigation defaults.
+
+    A mission file names speeds only where it changes them (``DO_CHANGE_SPEED``); the
+    firmware flies its own parameters elsewhere (ArduCopter ``WPNAV_SPEED``,
+    ``WPNAV_SPEED_UP``/``_DN``; PX4 ``MPC_XY_CRUISE``, ``MPC_Z_V_AUTO_UP``/``_DN``;
+    ArduPlane ``AIRSPEED_CRUISE``, ``WP_LOITER_RAD``), which the aircraft file stands for.
+    The readers use them to give a loiter in turns its duration, to bound the climb of a
+    leg, and the writers to fly a sortie's transit at the aircraft's own speed.
+
+    Attributes
+    ----------
+    vehicle_type : {"multirotor", "fixed_wing"}
+    cruise_speed_ms : float
+        Horizontal speed (multirotor: ground speed; fixed-wing: airspeed). [m/s]
+    climb_rate_ms, descent_rate_ms : float
+        Vertical speeds, both > 0. [m/s]
+    loiter_radius_m : float or None
+        Fixed-wing loiter radius (ArduPlane ``WP_LOITER_RAD``). [m]
+    circle_rate_dps : float
+        Multirotor circle rate (ArduCopter ``CIRCLE_RATE``). [deg/s]
+    circle_radius_m : float
+        Multirotor circle radius of a ``LOITER_TURNS`` of radius 0 (``CIRCLE_RADIUS``). [m]
+    accel_ms2 : float
+        Multirotor horizontal acceleration limit (``WPNAV_ACCEL``). [m/s²]
+    """
+
+    vehicle_type: str
+    cruise_speed_ms: float
+    climb_rate_ms: float
+    descent_rate_ms: float
+    loiter_radius_m: float | None = None
+    circle_rate_dps: float = CIRCLE_RATE_DPS
+    circle_radius_m: float = CIRCLE_RADIUS_M
+    accel_ms2: float = WPNAV_ACCEL_MS2
+
+    @classmethod
+    def of(cls, aircraft: Any) -> NavDefaults:
+        """From an aircraft (:class:`planner.parameters.Aircraft` or any object with its
+        ``type``, ``cruise_speed_ms``, ``climb_rate_ms``, ``descent_rate_ms`` and, for a
+        fixed-wing aircraft, ``fixed_wing.loiter_radius_m``)."""
+        fw = getattr(aircraft, "fixed_wing", None)
+        return cls(vehicle_type=aircraft.type, cruise_speed_ms=float(aircraft.cruise_speed_ms),
+                   climb_rate_ms=float(aircraft.climb_rate_ms),
+                   descent_rate_ms=float(aircraft.descent_rate_ms),
+                   loiter_radius_m=(float(fw.loiter_radius_m) if fw is not None
+                                    and getattr(fw, "loiter_radius_m", None) else None))

@@ -27,7 +27,7 @@ from planner.chain.failsafe import (
     parse_firmware_version,
     px4_release,
 )
-from planner.io.mission import load_mission
+from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import load_aircraft_and_battery
 from planner.chain.uncertainty import Spreads, UncertaintyResult, monte_carlo
 
@@ -96,7 +96,7 @@ def run(args) -> int:
     temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
                    if args.temperature is not None else None)
     aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
-    mission = load_mission(args.mission, vehicle_type=aircraft.type)
+    mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     env = mission.environment
     if args.wind is not None:
         speed, direction = parse_wind(args.wind)

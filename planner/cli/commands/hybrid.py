@@ -8,7 +8,7 @@ import numpy as np
 
 from planner.cli.commands.common import output_path, parse_float, parse_int, parse_wind, write_json
 from planner.errors import InputError
-from planner.io.mission import load_mission
+from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import load_aircraft_and_battery
 
 
@@ -38,7 +38,7 @@ def run(args) -> int:
 
     json_out = output_path(args.json, "--json")
     aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
-    mission = load_mission(args.mission, vehicle_type=aircraft.type)
+    mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     env = mission.environment
     if args.wind:
         speed, direction = parse_wind(args.wind)

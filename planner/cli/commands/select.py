@@ -23,7 +23,7 @@ from planner.cli.commands.common import (
     write_json,
 )
 from planner.errors import InputError
-from planner.io.mission import load_mission
+from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
 
 
@@ -36,7 +36,7 @@ def register(sub) -> None:
                                    "is feasible, 1 = none is (sorties are proposed), "
                                    "2 = bad input.")
     p.add_argument("mission", help="mission file: .yaml, QGroundControl .plan or "
-                                   "Mission Planner .waypoints")
+                                   "Mission Planner .waypoints/.txt")
     p.add_argument("--aircraft", required=True, help="aircraft YAML")
     p.add_argument("--packs", required=True,
                    help="catalog YAML with a 'packs:' list, or a folder of pack YAMLs")
@@ -110,7 +110,7 @@ def run_select(args) -> int:
                if args.payload is not None else None)
     aircraft = load_aircraft(args.aircraft)
     packs = load_catalog(args.packs)
-    mission = load_mission(args.mission, vehicle_type=aircraft.type)
+    mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
     env = mission.environment
@@ -132,7 +132,8 @@ def run_select(args) -> int:
     if plan is not None:
         print(render_plan(plan))
         if sorties_dir is not None:
-            for path in write_sorties(plan, args.mission, sorties_dir, aircraft.type):
+            for path in write_sorties(plan, args.mission, sorties_dir,
+                                      NavDefaults.of(aircraft)):
                 print(f"wrote     {path}")
     elif plan_error:
         print(f"\nSorties   not possible: {plan_error}")
@@ -226,21 +227,20 @@ def sorties_folder(folder: str | None, mission_path: str, no_sorties: bool):
     suffix = Path(mission_path).suffix.lower()
     if suffix not in WRITERS:
         raise InputError(f"--sorties-out: cannot write missions in the format of "
-                         f"{mission_path} (expected .plan, .waypoints, .yaml or .yml)")
+                         f"{mission_path} (expected .plan, .waypoints, .txt, .yaml or .yml)")
     return Path(folder)
 
 
-def write_sorties(plan, mission_path: str, folder: Path, vehicle_type: str) -> list[Path]:
-    """One mission file per sortie, in the format of ``mission_path``."""
+def write_sorties(plan, mission_path: str, folder: Path, defaults) -> list[Path]:
+    """One mission file per sortie, in the format of ``mission_path``, flying the speeds
+    the sortie was planned at (``defaults``: the aircraft's own)."""
     from planner.io.mission import writers
 
     src = Path(mission_path)
-    kind = writers.WRITERS[src.suffix.lower()]
+    write = writers.WRITE[writers.WRITERS[src.suffix.lower()]]
     out = []
     for s in plan.sorties:
-        text = (writers.to_yaml(s.mission) if kind == "yaml" else
-                writers.to_waypoints(s.mission) if kind == "waypoints" else
-                writers.to_plan(s.mission, vehicle_type))
+        text = write(s.mission, defaults=defaults)
         path = folder / f"{src.stem}_sortie{s.number}{src.suffix}"
         files.write_text(path, text, "--sorties-out")
         out.append(path)

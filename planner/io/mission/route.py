@@ -1,37 +1,76 @@
 """Waypoint route -> mission legs: the one conversion every waypoint format shares.
 
-A route is a list of :class:`RouteStep` (take off, fly to a waypoint, hold,
-loiter, change speed, return to launch, land). The YAML ``waypoints:`` form
-builds steps directly; QGroundControl ``.plan`` and Mission Planner
-``.waypoints`` files are first read into MAVLink mission items
-(:class:`MavItem`), which :func:`mav_items_to_steps` turns into steps
-(expanding ``DO_JUMP``). :func:`route_to_legs` then flies the steps from home
-and emits :class:`~planner.physics.mission.Leg` objects, so the same route gives
-the same legs whatever file it came from.
+A route is a list of :class:`RouteStep` (take off, fly to a waypoint, fly an arc, hold,
+loiter, loiter to an altitude, change speed, return to launch, land). The YAML
+``waypoints:`` form builds steps directly; QGroundControl ``.plan`` and Mission Planner
+``.waypoints`` files are first read into MAVLink mission items (:class:`MavItem`), which
+:func:`fly_mav_items` flies as the firmware does: :func:`expand_jumps` unrolls
+``DO_JUMP`` and ``DO_JUMP_TAG``, :func:`mav_items_to_steps` turns the items into steps,
+and :func:`route_to_legs` flies the steps from home and emits
+:class:`~planner.physics.mission.Leg` objects, so the same route gives the same legs
+whatever file it came from.
 
-Conventions
------------
-- Take-off is a vertical climb from the current position to the take-off
-  altitude; the take-off item's latitude/longitude is not flown to.
-- A navigation item whose latitude and longitude are both 0 (or unset: NaN,
-  ``null`` in a ``.plan``) means
-  "the current position"; if its relative altitude is also 0, the current
-  altitude is kept (ArduPilot's convention).
-- A waypoint less than :data:`MIN_CRUISE_M` away horizontally becomes a
-  ``climb``/``descend`` (or nothing, if the altitude does not change either).
-- Return-to-launch flies home at the current altitude, then descends to 0.
+How each command is flown (the firmware source followed is named)
+-----------------------------------------------------------------
+- ``NAV_TAKEOFF`` / ``NAV_VTOL_TAKEOFF``: a vertical climb from the current position to
+  the take-off altitude; the item's latitude/longitude is not flown to.
+- A navigation item whose latitude and longitude are both 0 (or unset: NaN, ``null`` in
+  a ``.plan``) means "the current position"; if its relative altitude is also 0, the
+  current altitude is kept (ArduCopter ``ModeAuto::loc_from_cmd``).
+- ``NAV_WAYPOINT`` / ``NAV_SPLINE_WAYPOINT``: a cruise to the point, then param1 seconds of
+  hover (ignored by ArduPlane). A waypoint less than :data:`MIN_CRUISE_M` away
+  horizontally is a ``climb``/``descend`` (or nothing if the altitude does not change).
+- A cruise climbs or descends no faster than the aircraft can: where the file asks for
+  more (a waypoint high above a near one), the leg is split into the cruise at the
+  aircraft's climb (or descent) rate and, at the point, the rest of the climb (ArduCopter
+  limits each axis of the waypoint leg, ``AC_WPNav`` ``WPNAV_SPEED_UP``/``_DN``, and
+  finishes a ``LOITER_TO_ALT`` climb over the point, ``ModeAuto::loiter_to_alt_run``;
+  ArduPlane reaches the point low and climbs on). This needs the aircraft's rates
+  (:class:`~planner.physics.mission.NavDefaults`, or ``DO_CHANGE_SPEED`` types 2 and 3).
+- ``NAV_ARC_WAYPOINT`` (36): a circular arc in the east/north plane from the current
+  position to the point, param1 degrees of central angle (positive clockwise; more than
+  360° is a helix), the altitude changing linearly (MAVLink ``common.xml``; ArduCopter
+  4.7, autotest ``WPArcs``), flown as straight pieces of at most :data:`ARC_STEP_DEG`
+  (their length is within 0.03 % of the arc's), a multirotor's speed held to
+  ``sqrt(ACCEL_C · radius)`` with ``ACCEL_C`` = 2 ``WPNAV_ACCEL`` (``SCurve.cpp``). Its
+  first implementation put the angle in param2 (ArduPilot's ``ArcWPMissionTest.txt``
+  before it moved to param1): a param2 angle is read when param1 is 0. ArduPlane has no
+  case for it in ``start_command``, so ``AP_Mission`` skips it: a fixed-wing aircraft flies
+  straight on to the next item.
+- ``NAV_LOITER_TIME``: a multirotor hovers over the point (ArduCopter
+  ``ModeAuto::do_loiter_time`` re-uses the unlimited loiter, a position hold); a fixed-wing
+  aircraft circles at its own loiter radius (ArduPlane ``verify_loiter_time``: "mission
+  radius is always aparm.loiter_radius"; PX4 fixed-wing: param3).
+- ``NAV_LOITER_TURNS``: param1 turns of radius \\|param3\\| (0: the aircraft's own). A
+  multirotor circles at ArduCopter's circle rate (``AC_Circle``: ``CIRCLE_RATE`` 20 deg/s,
+  the speed capped at ``min(WPNAV_SPEED, sqrt(0.5 · WPNAV_ACCEL · radius))``), a
+  fixed-wing aircraft at the speed in force (or its cruise speed).
+- ``NAV_LOITER_TO_ALT``: flies to the point, then climbs or descends over it (a fixed-wing
+  aircraft circling at radius \\|param2\\|).
+- ``NAV_RETURN_TO_LAUNCH`` flies home at the current altitude, then descends to 0.
   ArduPilot's ``RTL_ALT`` (climb to a minimum return altitude first) and
-  ``RTL_LOIT_TIME`` are autopilot parameters, not mission items, and are
-  ignored.
-- Land with a position flies there at the current altitude first; without one
-  it descends where the aircraft is. Items after RTL or LAND are not flown
-  (with a warning).
+  ``RTL_LOIT_TIME`` are autopilot parameters, not mission items, and are ignored.
+- ``NAV_LAND`` / ``NAV_VTOL_LAND`` with a position flies there at the current altitude
+  first; without one it descends where the aircraft is. On PX4 a mission goes on after
+  a landing amid it (the commander does not disarm while the mission is not finished,
+  and the navigator inserts a take-off before the next item with a position: a
+  land-and-continue delivery); on ArduPilot the copter disarms on landing
+  (``ModeAuto::verify_land``) and the items after it are not flown (with a warning).
+- A mission that starts on the ground with an item other than a take-off climbs
+  vertically at home to that item's altitude first, as PX4's navigator inserts a
+  take-off; ArduCopter refuses to start such a mission on the ground ("Auto: Missing
+  Takeoff Cmd", ``ModeAuto::init``), which is said in a warning.
+- ``DO_JUMP`` and ``DO_JUMP_TAG`` are expanded as ``AP_Mission`` flies them: each jump item
+  keeps its own counter for the whole mission, a repeat count of 0 is never followed,
+  -1 repeats for ever (refused: the mission has no end); a jump to a tag goes to the
+  first ``JUMP_TAG`` with it, and a jump to a missing tag ends the mission (MAVLink
+  ``MAV_CMD_DO_JUMP_TAG``); at most :data:`MAX_JUMPS` jumps in all.
+- ``DO_CHANGE_SPEED``: a multirotor's speed types 0 and 1 are both its ground speed
+  (ArduCopter ``set_speed_NE``; PX4 ``set_cruising_speed``); ArduPlane takes type 0 as
+  the airspeed and type 1 as its minimum ground speed (``MIN_GROUNDSPEED``, not a target:
+  ignored here), and ignores types 2 and 3; -2 returns to the default speed.
 - ``climb``, ``descend`` and ``hover`` legs carry no horizontal speed
-  (``speed_ms=None``); ``cruise`` and ``loiter`` legs carry the speed in
-  force.
-- ``DO_JUMP`` is expanded as ArduPilot flies it: each jump item keeps its own
-  counter for the whole mission (an inner loop of nested loops is not
-  re-armed); at most :data:`MAX_JUMPS` jumps in all.
+  (``speed_ms=None``); ``cruise`` and ``loiter`` legs carry the speed in force.
 - Legs are straight lines in the leg frame of :mod:`planner.physics.geo`: a leg to,
   from or through home has its great-circle length at any range; any other
   leg must stay within about :data:`~planner.physics.geo.FRAME_ERROR_KM` of
@@ -47,6 +86,10 @@ Bounds on input
 - a loiter has at most :data:`MAX_LOITER_TURNS` turns (ArduPilot stores the
   turns of ``NAV_LOITER_TURNS`` in one byte, ``AP_Mission``);
 - hold times are >= 0; latitudes, longitudes and altitudes are finite;
+- no navigation item lies below home unless the file says the ground is lower there
+  (a terrain frame): PX4 refuses a waypoint below home (``MissionFeasibilityChecker::
+  checkHomePositionAltitude``, "Waypoint below home"), and an absolute altitude below
+  the take-off point is a file written for another site;
 - every altitude, as height above mean sea level (the site altitude plus the
   altitude above home), lies in the range of the atmosphere model,
   :data:`planner.physics.atmosphere.ALTITUDE_RANGE_M`, checked here so that the
@@ -57,14 +100,16 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from planner.physics.atmosphere import ALTITUDE_RANGE_M
 from planner.errors import InputError
-from planner.physics.geo import FRAME_ERROR_KM, frame_error, great_circle_distance, latlon_to_aeqd
-from planner.physics.mission import Leg
+from planner.physics.geo import (FRAME_ERROR_KM, aeqd_to_latlon, frame_error,
+                                 great_circle_distance, latlon_to_aeqd)
+from planner.physics.mission import Leg, NavDefaults
 from planner.physics.limits import SPEED_MAX_MS
 
 #: Horizontal distance below which a waypoint is a vertical move. [m]
@@ -81,9 +126,20 @@ MAX_SPEED_MS = SPEED_MAX_MS
 MAX_LOITER_TURNS = 255
 #: Largest relative error of a leg's length in the local frame (0.1 %). [unitless]
 MAX_FRAME_ERROR = 1e-3
+#: Largest central angle of one straight piece of an arc waypoint: the pieces are
+#: shorter than the arc by 1 - sin(2.5°)/2.5° = 0.03 %. [deg]
+ARC_STEP_DEG = 5.0
+#: Most central angle of one arc waypoint (20 turns of a helix). [deg]
+MAX_ARC_DEG = 7200.0
+#: A home further than this from a leg is "on another continent" in the messages. [km]
+FAR_HOME_KM = 1000.0
 
-ACTIONS = ("takeoff", "waypoint", "hold", "loiter", "rtl", "land", "speed",
-           "climb_rate", "descent_rate")
+ACTIONS = ("takeoff", "waypoint", "arc", "hold", "loiter", "loiter_to_alt", "rtl", "land",
+           "speed", "climb_rate", "descent_rate")
+
+#: The speeds in force: horizontal speed, whether it is an airspeed, climb and descent
+#: rates (``None``: the aircraft's default).
+SpeedState = tuple
 
 
 def hold_problem(value: float, what: str = "hold time") -> str | None:
@@ -169,25 +225,33 @@ class RouteStep:
     action : str
         One of :data:`ACTIONS`.
     lat_deg, lon_deg : float or None
-        Target position (``waypoint``, ``loiter``, ``land``); ``None`` = the
-        current position. [deg]
+        Target position (``waypoint``, ``arc``, ``loiter``, ``loiter_to_alt``, ``land``);
+        ``None`` = the current position. [deg]
     alt_m : float or None
-        Target altitude above home (``takeoff``, ``waypoint``, ``loiter``);
-        ``None`` = the current altitude. [m]
+        Target altitude above home (``takeoff``, ``waypoint``, ``arc``, ``loiter``,
+        ``loiter_to_alt``); ``None`` = the current altitude. [m]
     hold_s : float or None
-        Hold time at a ``waypoint``; ``duration_s`` of a ``hold`` or timed
-        ``loiter``. [s]
+        Hold time at a ``waypoint``. [s]
+    duration_s : float or None
+        Duration of a ``hold`` or timed ``loiter``. [s]
     turns : float or None
         Turns of a ``loiter`` (instead of a duration).
     radius_m : float or None
-        Loiter radius. [m]
+        Loiter radius (``None``: the aircraft's own: a multirotor hovers through a
+        timed loiter, a fixed-wing aircraft circles at its loiter radius). [m]
     speed_ms : float or None
-        New speed (``speed``), or the new climb/descent rate (``climb_rate``,
-        ``descent_rate``). [m/s]
+        New speed (``speed``; ``None`` = back to the aircraft's default), or the new climb
+        or descent rate (``climb_rate``, ``descent_rate``). [m/s]
     speed_is_airspeed : bool or None
         Kind of a ``speed`` (see :class:`~planner.physics.mission.Leg`).
     origin : str
         Where the step came from, for messages.
+    item : int or None
+        Index of the mission item the step flies (copied to its legs' ``item``).
+    angle_deg : float or None
+        Central angle of an ``arc``, positive clockwise. [deg]
+    fly_on : bool
+        A ``land`` after which the mission goes on (PX4 land-and-continue).
     """
 
     action: str
@@ -201,11 +265,58 @@ class RouteStep:
     speed_ms: float | None = None
     speed_is_airspeed: bool | None = None
     origin: str = ""
+    item: int | None = None
+    angle_deg: float | None = None
+    fly_on: bool = False
+
+
+def circle_speed(radius_m: float, speed_ms: float, defaults: NavDefaults | None) -> float:
+    """Ground speed of a multirotor circling in a ``LOITER_TURNS``. [m/s]
+
+    ArduCopter's ``AC_Circle``: the angular rate is ``CIRCLE_RATE``, capped so that the
+    speed stays within ``min(WPNAV_SPEED, sqrt(0.5 · WPNAV_ACCEL · radius))``
+    (``AC_Circle::calc_velocities``)::
+
+        velocity_max = MIN(_pos_control.get_max_speed_xy(),
+                           safe_sqrt(0.5f*_pos_control.get_max_accel_xy()*_radius));
+
+    Parameters
+    ----------
+    radius_m : float
+        Circle radius. [m]
+    speed_ms : float
+        The horizontal speed in force (``WPNAV_SPEED`` or a ``DO_CHANGE_SPEED``). [m/s]
+    defaults : NavDefaults or None
+        Circle rate and acceleration (ArduCopter's defaults without it).
+    """
+    d = defaults or NavDefaults("multirotor", speed_ms, 1.0, 1.0)
+    omega = math.radians(abs(d.circle_rate_dps))
+    return min(omega * radius_m, speed_ms, math.sqrt(0.5 * d.accel_ms2 * radius_m))
+
+
+def arc_center(start: tuple[float, float], end: tuple[float, float],
+               angle_deg: float) -> tuple[float, float] | None:
+    """Centre of the circular arc from ``start`` to ``end`` turning ``angle_deg`` clockwise
+    (east/north, metres), or ``None`` when no circle joins them (a whole number of
+    turns between two distinct points)."""
+    phi = -math.radians(angle_deg)                  # clockwise: negative in east/north
+    c, s = math.cos(phi), math.sin(phi)
+    # end - C = R(phi) (start - C)  =>  (I - R) C = end - R start
+    a11, a12, a21, a22 = 1.0 - c, s, -s, 1.0 - c
+    det = a11 * a22 - a12 * a21
+    if abs(det) < 1e-9:
+        return None
+    bx = end[0] - (c * start[0] - s * start[1])
+    by = end[1] - (s * start[0] + c * start[1])
+    return ((a22 * bx - a12 * by) / det, (a11 * by - a21 * bx) / det)
 
 
 def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: float, *,
                   where: str, speed_ms: float | None = None,
-                  speed_is_airspeed: bool | None = None) -> list[Leg]:
+                  speed_is_airspeed: bool | None = None,
+                  defaults: NavDefaults | None = None, vehicle_type: str | None = None,
+                  climb_first: bool = False,
+                  states: dict[int, SpeedState] | None = None) -> list[Leg]:
     """Fly a route from home (on the ground, altitude 0) and return its legs.
 
     Parameters
@@ -219,6 +330,17 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
         Speed in force at the start (the file's default speed). [m/s]
     speed_is_airspeed : bool or None
         Kind of that speed.
+    defaults : NavDefaults or None
+        The aircraft's speeds and rates: bound the climb of a cruise, give a loiter in
+        turns its speed where no ``DO_CHANGE_SPEED`` did.
+    vehicle_type : {"multirotor", "fixed_wing"} or None
+        How a loiter in turns is flown (``defaults.vehicle_type`` where not given).
+    climb_first : bool
+        A route that leaves the ground towards a point elsewhere climbs over the point
+        where it is first (a firmware's inserted take-off); the YAML waypoints form
+        leaves it to its ``takeoff_alt_m``.
+    states : dict or None
+        Filled with the speeds in force (:data:`SpeedState`) as each step's item starts.
 
     Returns
     -------
@@ -232,6 +354,7 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
         frame cannot represent within :data:`MAX_FRAME_ERROR` (far from home
         and not through it); a route with no flight legs.
     """
+    vehicle = vehicle_type or (defaults.vehicle_type if defaults is not None else None)
     lat = np.array([np.nan if s.lat_deg is None else s.lat_deg for s in steps], dtype=float)
     lon = np.array([np.nan if s.lon_deg is None else s.lon_deg for s in steps], dtype=float)
     east, north = latlon_to_aeqd(lat, lon, home_lat_deg, home_lon_deg)
@@ -243,16 +366,26 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
     here = (home_ll, "home")      # (latitude, longitude) of pos, and where it came from
     alt = 0.0
     climb_rate = descent_rate = None
+    on_ground = True
+    item: int | None = None
+    warned: set[str] = set()
 
-    def vertical(target_alt: float, origin: str) -> None:
-        nonlocal alt
+    def warn_once(key: str, message: str) -> None:
+        if key not in warned:
+            warned.add(key)
+            warnings.warn(message, stacklevel=3)
+
+    def vertical(target_alt: float, origin: str, radius: float | None = None) -> None:
+        nonlocal alt, on_ground
         if abs(target_alt - alt) < MIN_ALT_CHANGE_M:
             return
         kind = "climb" if target_alt > alt else "descend"
         rate = climb_rate if kind == "climb" else descent_rate
         legs.append(Leg(kind, start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                        end_alt_m=target_alt, climb_rate_ms=rate, origin=origin))
+                        end_alt_m=target_alt, climb_rate_ms=rate,
+                        loiter_radius_m=radius, origin=origin, item=item))
         alt = target_alt
+        on_ground = on_ground and alt <= MIN_ALT_CHANGE_M
 
     def check_frame(start: tuple[float, float], end: tuple[float, float], origin: str,
                     start_origin: str) -> None:
@@ -261,30 +394,128 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
             return
         length = great_circle_distance(*start, *end)
         far = max(great_circle_distance(*home_ll, *start), great_circle_distance(*home_ll, *end))
+        note = ""
+        if far > FAR_HOME_KM * 1e3:
+            note = (f"; the file's home ({home_ll[0]:.5f}, {home_ll[1]:.5f}) is on another "
+                    "continent from its route: the home the file gives is not where the "
+                    "mission is flown (ArduPilot replaces it with the vehicle's home at "
+                    "upload, AP_Mission::write_home_to_storage)")
         raise InputError(
             f"{where}: {origin}: the {length / 1e3:.0f} km leg from {start_origin} reaches "
             f"{far / 1e3:.0f} km from home without passing through it, where the planner's "
             f"flat frame about home misstates its length by {err:.2%} (expected legs within "
             f"about {FRAME_ERROR_KM:g} km of home, or straight to or from home, error at most "
-            f"{MAX_FRAME_ERROR:.1%}; plan far-apart legs from a nearer home)")
+            f"{MAX_FRAME_ERROR:.1%}; plan far-apart legs from a nearer home){note}")
+
+    def limits(speed: float | None) -> tuple[float | None, float | None, float | None]:
+        """Horizontal speed, climb and descent rates in force (None: unknown)."""
+        v = speed or speed_ms or (defaults.cruise_speed_ms if defaults else None)
+        up = climb_rate or (defaults.climb_rate_ms if defaults else None)
+        down = descent_rate or (defaults.descent_rate_ms if defaults else None)
+        return v, up, down
 
     def move(target: tuple[float, float], target_alt: float, origin: str,
-             target_ll: tuple[float, float]) -> None:
-        nonlocal pos, alt, here
-        if math.hypot(target[0] - pos[0], target[1] - pos[1]) < MIN_CRUISE_M:
-            vertical(target_alt, origin)
+             target_ll: tuple[float, float], *, speed: float | None = None,
+             level: bool = False, radius: float | None = None) -> None:
+        """Fly to ``target`` at ``target_alt``: a cruise, climbing no faster than the
+        aircraft can (the rest of the climb over the point); ``level``: when the rates
+        are unknown, cruise at the current altitude and climb over the point."""
+        nonlocal pos, alt, here, on_ground
+        dist = math.hypot(target[0] - pos[0], target[1] - pos[1])
+        if dist < MIN_CRUISE_M:
+            vertical(target_alt, origin, radius)
             return
+        if on_ground and climb_first and target_alt > alt + MIN_ALT_CHANGE_M:
+            if not legs:
+                warn_once("takeoff", f"{where}: {origin}: the mission does not start with a "
+                          "take-off: flown with a vertical climb at home to the item's "
+                          "altitude, as PX4 inserts a take-off (ArduCopter refuses to start "
+                          "it on the ground: 'Auto: Missing Takeoff Cmd')")
+            vertical(target_alt, origin)
         # within a quarter of FRAME_ERROR_KM of home the frame error is below 1/16 of
         # the limit (it grows as r²): skip the exact test for the usual short missions
         if max(math.hypot(*pos), math.hypot(*target)) > 250.0 * FRAME_ERROR_KM:
             check_frame(here[0], target_ll, origin, here[1])
+        dz = target_alt - alt
+        mid = target_alt
+        v, up, down = limits(speed)
+        rate = up if dz > 0 else down
+        if v and rate and abs(dz) > rate * dist / v + MIN_ALT_CHANGE_M:
+            mid = alt + math.copysign(rate * dist / v, dz)
+        elif level and not (v and rate):
+            mid = alt
         legs.append(Leg("cruise", start_en_m=pos, end_en_m=target, start_alt_m=alt,
-                        end_alt_m=target_alt, speed_ms=speed_ms,
-                        speed_is_airspeed=speed_is_airspeed, origin=origin))
-        pos, alt, here = target, target_alt, (target_ll, origin)
+                        end_alt_m=mid, speed_ms=speed if speed is not None else speed_ms,
+                        speed_is_airspeed=(False if speed is not None
+                                           else speed_is_airspeed),
+                        origin=origin, item=item))
+        pos, alt, here = target, mid, (target_ll, origin)
+        on_ground = False
+        vertical(target_alt, origin, radius)
+
+    def arc(target: tuple[float, float], target_alt: float, origin: str,
+            target_ll: tuple[float, float], angle_deg: float) -> None:
+        start = pos
+        dist = math.hypot(target[0] - start[0], target[1] - start[1])
+        center = arc_center(start, target, angle_deg) if angle_deg else None
+        if dist < MIN_CRUISE_M or center is None:
+            if dist >= MIN_CRUISE_M and angle_deg:
+                warn_once(f"arc{origin}", f"{where}: {origin}: an arc of {angle_deg:g}° "
+                          "cannot join two distinct points (a whole number of turns): "
+                          "flown straight")
+            move(target, target_alt, origin, target_ll)
+            return
+        radius = math.hypot(start[0] - center[0], start[1] - center[1])
+        v, _, _ = limits(None)
+        speed = None
+        if vehicle == "multirotor" and v:
+            accel_c = 2.0 * (defaults.accel_ms2 if defaults else NavDefaults(
+                "multirotor", v, 1.0, 1.0).accel_ms2)
+            if math.sqrt(accel_c * radius) < v:
+                speed = math.sqrt(accel_c * radius)
+        n = max(1, math.ceil(abs(angle_deg) / ARC_STEP_DEG))
+        alt0 = alt
+        rel = (start[0] - center[0], start[1] - center[1])
+        for k in range(1, n + 1):
+            if k == n:
+                point, point_ll = target, target_ll
+            else:
+                phi = -math.radians(angle_deg) * k / n
+                c, s = math.cos(phi), math.sin(phi)
+                point = (center[0] + c * rel[0] - s * rel[1],
+                         center[1] + s * rel[0] + c * rel[1])
+                plat, plon = aeqd_to_latlon(point[0], point[1], *home_ll)
+                point_ll = (float(plat), float(plon))
+            move(point, alt0 + (target_alt - alt0) * k / n, origin, point_ll, speed=speed)
+
+    def turns_duration(step: RouteStep) -> tuple[float, float | None, float | None, bool]:
+        """(duration, radius, speed, is_airspeed) of a loiter given in turns."""
+        if vehicle == "multirotor":
+            radius = step.radius_m or (defaults.circle_radius_m if defaults else None)
+        else:
+            radius = step.radius_m or (defaults.loiter_radius_m if defaults else None)
+        v, _, _ = limits(None)
+        if not radius or not v:
+            raise InputError(
+                f"{where}: {step.origin}: a loiter of {step.turns:g} turns needs a radius and "
+                "a speed (set a speed before it, or give the aircraft) to give its duration")
+        is_air = speed_is_airspeed
+        if vehicle == "multirotor":
+            v, is_air = circle_speed(radius, v, defaults), False
+        duration = step.turns * 2.0 * math.pi * radius / v
+        problem = hold_problem(duration, "loiter time")
+        if problem:
+            raise InputError(
+                f"{where}: {step.origin}: {step.turns:g} turns of {radius:g} m "
+                f"at {v:g} m/s: {problem}")
+        return duration, (radius if step.radius_m or vehicle == "multirotor" else None), v, \
+            is_air
 
     for i, step in enumerate(steps):
         act = step.action
+        item = step.item
+        if states is not None and item is not None and item not in states:
+            states[item] = (speed_ms, speed_is_airspeed, climb_rate, descent_rate)
         if np.isnan(east[i]):
             target, target_ll = pos, here[0]
         else:
@@ -296,52 +527,60 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
                               f"below the current {alt:g} m; ignored", stacklevel=2)
             else:
                 vertical(target_alt, step.origin)
+                on_ground = False
         elif act == "waypoint":
             move(target, target_alt, step.origin, target_ll)
             if step.hold_s:
                 legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
                                 end_alt_m=alt, duration_s=float(step.hold_s),
-                                origin=step.origin))
+                                origin=step.origin, item=item))
+        elif act == "arc":
+            arc(target, target_alt, step.origin, target_ll, float(step.angle_deg or 0.0))
         elif act == "hold":
             if step.duration_s:
                 legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
                                 end_alt_m=alt, duration_s=float(step.duration_s),
-                                origin=step.origin))
+                                origin=step.origin, item=item))
         elif act == "loiter":
             move(target, target_alt, step.origin, target_ll)
-            duration = step.duration_s
+            duration, radius, speed, is_air = (step.duration_s, step.radius_m, speed_ms,
+                                               speed_is_airspeed)
             if step.turns is not None:
-                if not step.radius_m or not speed_ms:
-                    raise InputError(
-                        f"{where}: {step.origin}: a loiter of {step.turns:g} turns needs a "
-                        "radius and a speed (set a speed before it) to give its duration")
-                duration = step.turns * 2.0 * math.pi * step.radius_m / speed_ms
-                problem = hold_problem(duration, "loiter time")
-                if problem:
-                    raise InputError(
-                        f"{where}: {step.origin}: {step.turns:g} turns of {step.radius_m:g} m "
-                        f"at {speed_ms:g} m/s: {problem}")
+                if not step.turns:
+                    continue
+                duration, radius, speed, is_air = turns_duration(step)
             if not duration:
                 continue
+            if vehicle == "multirotor" and radius is None:      # a position hold
+                legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
+                                end_alt_m=alt, duration_s=float(duration),
+                                origin=step.origin, item=item))
+                continue
             legs.append(Leg("loiter", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                            end_alt_m=alt, speed_ms=speed_ms,
-                            speed_is_airspeed=speed_is_airspeed,
-                            duration_s=float(duration),
-                            loiter_radius_m=step.radius_m or None, origin=step.origin))
+                            end_alt_m=alt, speed_ms=speed, speed_is_airspeed=is_air,
+                            duration_s=float(duration), loiter_radius_m=radius or None,
+                            origin=step.origin, item=item))
+        elif act == "loiter_to_alt":
+            move(target, target_alt, step.origin, target_ll, level=True,
+                 radius=step.radius_m)
         elif act in ("rtl", "land"):
             if act == "rtl":
                 target, target_ll = (0.0, 0.0), home_ll
             move(target, alt, step.origin, target_ll)
             vertical(0.0, step.origin)
+            on_ground = True
             rest = [s.origin for s in steps[i + 1:] if s.action not in ("speed", "climb_rate",
                                                                         "descent_rate")]
+            if act == "land" and step.fly_on and rest:
+                continue
             if rest:
                 warnings.warn(f"{where}: {len(rest)} item(s) after {step.origin} "
                               f"({'RTL' if act == 'rtl' else 'LAND'}) are not flown, "
                               f"from {rest[0]}", stacklevel=2)
             break
         elif act == "speed":
-            speed_ms, speed_is_airspeed = step.speed_ms, step.speed_is_airspeed
+            speed_ms, speed_is_airspeed = step.speed_ms, (
+                None if step.speed_ms is None else step.speed_is_airspeed)
         elif act == "climb_rate":
             climb_rate = step.speed_ms
         elif act == "descent_rate":
@@ -364,25 +603,34 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
 MAV_CMD_NAMES = {
     16: "NAV_WAYPOINT", 17: "NAV_LOITER_UNLIM", 18: "NAV_LOITER_TURNS",
     19: "NAV_LOITER_TIME", 20: "NAV_RETURN_TO_LAUNCH", 21: "NAV_LAND", 22: "NAV_TAKEOFF",
-    31: "NAV_LOITER_TO_ALT", 82: "NAV_SPLINE_WAYPOINT", 84: "NAV_VTOL_TAKEOFF",
-    85: "NAV_VTOL_LAND", 93: "NAV_DELAY", 177: "DO_JUMP", 178: "DO_CHANGE_SPEED",
+    31: "NAV_LOITER_TO_ALT", 36: "NAV_ARC_WAYPOINT", 82: "NAV_SPLINE_WAYPOINT",
+    84: "NAV_VTOL_TAKEOFF", 85: "NAV_VTOL_LAND", 93: "NAV_DELAY", 177: "DO_JUMP",
+    178: "DO_CHANGE_SPEED", 600: "JUMP_TAG", 601: "DO_JUMP_TAG",
     # ignored ones, named in the warning
-    80: "NAV_ROI", 112: "CONDITION_DELAY", 113: "CONDITION_CHANGE_ALT",
-    114: "CONDITION_DISTANCE", 115: "CONDITION_YAW", 176: "DO_SET_MODE",
-    179: "DO_SET_HOME", 181: "DO_SET_RELAY", 183: "DO_SET_SERVO", 189: "DO_LAND_START",
-    195: "DO_SET_ROI_LOCATION", 197: "DO_SET_ROI_NONE", 201: "DO_SET_ROI",
+    80: "NAV_ROI", 94: "NAV_PAYLOAD_PLACE", 112: "CONDITION_DELAY",
+    113: "CONDITION_CHANGE_ALT", 114: "CONDITION_DISTANCE", 115: "CONDITION_YAW",
+    176: "DO_SET_MODE", 179: "DO_SET_HOME", 181: "DO_SET_RELAY", 183: "DO_SET_SERVO",
+    187: "DO_SET_ACTUATOR", 189: "DO_LAND_START", 195: "DO_SET_ROI_LOCATION",
+    196: "DO_SET_ROI_WPNEXT_OFFSET", 197: "DO_SET_ROI_NONE", 201: "DO_SET_ROI",
     202: "DO_DIGICAM_CONFIGURE", 203: "DO_DIGICAM_CONTROL", 205: "DO_MOUNT_CONTROL",
-    206: "DO_SET_CAM_TRIGG_DIST", 214: "DO_SET_CAM_TRIGG_INTERVAL", 530: "SET_CAMERA_MODE",
-    531: "SET_CAMERA_ZOOM", 532: "SET_CAMERA_FOCUS", 1000: "DO_GIMBAL_MANAGER_PITCHYAW",
-    2000: "IMAGE_START_CAPTURE", 2001: "IMAGE_STOP_CAPTURE", 2500: "VIDEO_START_CAPTURE",
-    2501: "VIDEO_STOP_CAPTURE", 3000: "DO_VTOL_TRANSITION",
+    206: "DO_SET_CAM_TRIGG_DIST", 211: "DO_GRIPPER", 214: "DO_SET_CAM_TRIGG_INTERVAL",
+    530: "SET_CAMERA_MODE", 531: "SET_CAMERA_ZOOM", 532: "SET_CAMERA_FOCUS",
+    1000: "DO_GIMBAL_MANAGER_PITCHYAW", 2000: "IMAGE_START_CAPTURE",
+    2001: "IMAGE_STOP_CAPTURE", 2500: "VIDEO_START_CAPTURE", 2501: "VIDEO_STOP_CAPTURE",
+    3000: "DO_VTOL_TRANSITION",
 }
 
-_WAYPOINT_CMDS = {16, 31, 82}
-_POSITIONED_CMDS = {16, 17, 18, 19, 21, 22, 31, 82, 84, 85}
+_WAYPOINT_CMDS = {16, 82}
+#: Navigation commands with a position (param5..7).
+POSITIONED_CMDS = frozenset({16, 17, 18, 19, 21, 22, 31, 36, 82, 84, 85})
+#: Commands that take off, and that land.
+TAKEOFF_CMDS, LAND_CMDS = frozenset({22, 84}), frozenset({21, 85})
+_JUMP_CMDS = {177, 600, 601}
 _FRAMES_AMSL = {0, 5}          # MAV_FRAME_GLOBAL, GLOBAL_INT
 _FRAMES_RELATIVE = {3, 6}      # GLOBAL_RELATIVE_ALT(_INT)
 _FRAMES_TERRAIN = {10, 11}     # GLOBAL_TERRAIN_ALT(_INT)
+#: MAV_AUTOPILOT values of a .plan's ``firmwareType``.
+FIRMWARES = {3: "ardupilot", 12: "px4"}
 
 
 @dataclass(frozen=True)
@@ -392,8 +640,9 @@ class MavItem:
     Attributes
     ----------
     seq : int
-        Sequence number (the ``.waypoints`` index, the ``.plan`` doJumpId);
-        the target of ``DO_JUMP``.
+        Sequence number the vehicle gets (the ``.waypoints`` position, as pymavlink's
+        ``MAVWPLoader`` renumbers; the ``.plan`` doJumpId, which QGroundControl turns
+        into the sequence number): the target of ``DO_JUMP``.
     command : int
         MAV_CMD number.
     frame : int
@@ -404,6 +653,12 @@ class MavItem:
         Where it is in the file (``"line 7"``, ``"mission.items[3]"``).
     amsl_alt_above_terrain_m : float or None
         QGroundControl's AMSL altitude for terrain-frame items. [m]
+    raw : object or None
+        The ``.plan`` item object as written (kept to write it back).
+    autocontinue : int
+        The file's autocontinue field.
+    altitude_mode : int or None
+        QGroundControl's ``AltitudeMode`` of the item (3: "calc above terrain").
     """
 
     seq: int
@@ -412,6 +667,41 @@ class MavItem:
     params: tuple[float, ...]
     origin: str
     amsl_alt_above_terrain_m: float | None = None
+    raw: Any = None
+    autocontinue: int = 1
+    altitude_mode: int | None = None
+
+
+@dataclass
+class MissionFile:
+    """What a waypoint-file reader keeps to write the mission back (sorties).
+
+    Attributes
+    ----------
+    format : {"plan", "waypoints"}
+    home : MavItem
+        The home item (the ``.waypoints`` row 0; a ``.plan``'s planned home).
+    items : list of MavItem
+        The items as flown, ``DO_JUMP`` repeats unrolled; a leg's ``item`` indexes it.
+    states : dict
+        The speeds in force (:data:`SpeedState`) as each navigation item started.
+    legs : dict
+        The legs each item gave, by item index.
+    firmware : {"ardupilot", "px4"} or None
+    vehicle_type : {"multirotor", "fixed_wing"} or None
+    plan : dict or None
+        A ``.plan``'s JSON object with its mission items removed (geofence, rally points,
+        firmware, vehicle, QGroundControl's speeds).
+    """
+
+    format: str
+    home: MavItem
+    items: list[MavItem]
+    states: dict[int, SpeedState] = field(default_factory=dict)
+    legs: dict[int, tuple[Leg, ...]] = field(default_factory=dict)
+    firmware: str | None = None
+    vehicle_type: str | None = None
+    plan: dict | None = None
 
 
 def cmd_name(command: int) -> str:
@@ -420,7 +710,9 @@ def cmd_name(command: int) -> str:
 
 
 def expand_jumps(items: list[MavItem], *, where: str) -> list[MavItem]:
-    """Expand ``DO_JUMP`` items (param1 target seq, param2 repeat count).
+    """The items as flown: ``DO_JUMP`` (param1 target seq, param2 repeat count) and
+    ``DO_JUMP_TAG`` (param1 tag, param2 repeat count) followed, ``JUMP_TAG`` markers
+    dropped (``AP_Mission::get_next_cmd``; MAVLink ``MAV_CMD_DO_JUMP_TAG``).
 
     Raises
     ------
@@ -428,37 +720,50 @@ def expand_jumps(items: list[MavItem], *, where: str) -> list[MavItem]:
         A jump to a missing target, a negative (endless) repeat count, or more
         than :data:`MAX_JUMPS` jumps in all.
     """
-    index_of = {}
+    index_of: dict[int, int] = {}
+    tags: dict[int, int] = {}
     for i, item in enumerate(items):
         index_of.setdefault(item.seq, i)
+        if item.command == 600 and math.isfinite(item.params[0]):
+            tags.setdefault(round(item.params[0]), i)
     done: dict[int, int] = {}
     out: list[MavItem] = []
     jumps = 0
     i = 0
     while i < len(items):
         item = items[i]
-        if item.command != 177:
-            out.append(item)
+        if item.command not in (177, 601):
+            if item.command != 600:
+                out.append(item)
             i += 1
             continue
+        name = "DO_JUMP" if item.command == 177 else "DO_JUMP_TAG"
         p1, p2 = item.params[0], item.params[1]
         if not (math.isfinite(p1) and math.isfinite(p2)):
-            raise InputError(f"{where}: {item.origin}: DO_JUMP needs a target (param1) and a "
+            what = "a target (param1)" if item.command == 177 else "a tag (param1)"
+            raise InputError(f"{where}: {item.origin}: {name} needs {what} and a "
                              "repeat count (param2)")
         target, repeat = round(p1), round(p2)
-        if target not in index_of:
+        if item.command == 177 and target not in index_of:
             raise InputError(f"{where}: {item.origin}: DO_JUMP target {target} is not an "
                              f"item of the mission (expected one of {sorted(index_of)})")
         if repeat < 0:
-            raise InputError(f"{where}: {item.origin}: DO_JUMP repeat count {repeat} repeats "
-                             "for ever: the mission has no end (expected 0..100)")
+            raise InputError(f"{where}: {item.origin}: {name} repeat count {repeat} repeats "
+                             "for ever: the mission has no end (expected 0..100; the "
+                             "firmware flies the loop until a failsafe or the pilot ends "
+                             "it, AP_Mission AP_MISSION_JUMP_REPEAT_FOREVER)")
         if done.get(i, 0) < repeat:
+            if item.command == 601 and target not in tags:
+                warnings.warn(f"{where}: {item.origin}: DO_JUMP_TAG to tag {target}, which no "
+                              "JUMP_TAG carries: the mission ends here (MAVLink: a jump to "
+                              "a missing tag completes the mission)", stacklevel=2)
+                break
             done[i] = done.get(i, 0) + 1
             jumps += 1
             if jumps > MAX_JUMPS:
-                raise InputError(f"{where}: {item.origin}: DO_JUMP expands to more than "
+                raise InputError(f"{where}: {item.origin}: {name} expands to more than "
                                  f"{MAX_JUMPS} repeats in all (expected at most {MAX_JUMPS})")
-            i = index_of[target]
+            i = index_of[target] if item.command == 177 else tags[target]
         else:
             i += 1
     return out
@@ -476,13 +781,14 @@ def _label(item: MavItem) -> str:
 
 
 def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: str,
-                       vehicle_type: str | None = None) -> list[RouteStep]:
+                       vehicle_type: str | None = None, firmware: str | None = None,
+                       expanded: bool = False) -> list[RouteStep]:
     """Turn MAVLink mission items (without home) into route steps.
 
     Parameters
     ----------
     items : list of MavItem
-        Mission items after home, in file order.
+        Mission items after home, in file order (or as flown, ``expanded``).
     home_alt_amsl_m : float
         Home altitude above mean sea level, for items in the global (AMSL)
         frame. [m]
@@ -490,7 +796,15 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
         The file name, for messages.
     vehicle_type : {"multirotor", "fixed_wing"} or None
         For a multirotor, ``DO_CHANGE_SPEED`` is a ground speed whatever its
-        speed type (ArduCopter and PX4 multicopters navigate at ground speed).
+        speed type (ArduCopter and PX4 multicopters navigate at ground speed), a
+        ``LOITER_TIME`` is a hover; a fixed-wing aircraft skips arcs.
+    firmware : {"ardupilot", "px4"} or None
+        Whose rules apply where they differ (``None``: ArduPilot's, the firmware of the
+        ``.waypoints`` format): a landing amid the mission, a fixed-wing ``LOITER_TIME``
+        radius and ``DO_CHANGE_SPEED``.
+    expanded : bool
+        The items are already as flown (:func:`expand_jumps`); a step's ``item`` is then
+        the index in ``items``.
 
     Returns
     -------
@@ -501,21 +815,33 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
     InputError
         ``NAV_LOITER_UNLIM`` (unbounded), a bad ``DO_JUMP``, a navigation
         item in an unsupported frame or without a finite position, an infinite
-        coordinate, an altitude outside the atmosphere model, a hold time < 0
-        or above :data:`MAX_HOLD_S`, more than :data:`MAX_LOITER_TURNS` turns.
+        coordinate, an altitude outside the atmosphere model or below home, a hold
+        time < 0 or above :data:`MAX_HOLD_S`, more than :data:`MAX_LOITER_TURNS` turns.
     """
+    if not expanded:
+        items = expand_jumps(items, where=where)
+    fixed_wing = vehicle_type == "fixed_wing"
+    ardupilot = firmware in (None, "ardupilot")
+    px4 = firmware == "px4"
     ignored: dict[int, list[str]] = {}
-    terrain_warned = False
+    warned: set[str] = set()
+
+    def warn_once(key: str, message: str) -> None:
+        if key not in warned:
+            warned.add(key)
+            warnings.warn(message, stacklevel=3)
+
     steps: list[RouteStep] = []
-    for item in expand_jumps(items, where=where):
+    for k, item in enumerate(items):
         cmd, p = item.command, item.params
         origin = item.origin
         lat = lon = alt = None
-        if cmd in _POSITIONED_CMDS:
+        if cmd in POSITIONED_CMDS:
             if cmd == 17:
                 raise InputError(f"{where}: {origin}: {cmd_name(cmd)} loiters without end, "
                                  "so the mission has no duration (expected LOITER_TIME or "
-                                 "LOITER_TURNS)")
+                                 "LOITER_TURNS; the firmware never completes it: "
+                                 "verify_loiter_unlimited returns false)")
             if any(math.isinf(v) for v in p[4:7]):
                 raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} latitude, "
                                  f"longitude, altitude {p[4]:g}, {p[5]:g}, {p[6]:g} (expected "
@@ -530,10 +856,10 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
                     raise InputError(f"{where}: {origin}: latitude/longitude {lat:g}, {lon:g} "
                                      "out of range (expected -90..90, -180..180 degrees)")
             if not _finite(p[6]):
-                if cmd not in (21, 85):
+                if cmd not in LAND_CMDS:
                     raise InputError(f"{where}: {origin}: {cmd_name(cmd)} altitude is "
                                      f"{p[6]!r} (expected a number)")
-            elif cmd not in (21, 85):
+            elif cmd not in LAND_CMDS:
                 if item.frame in _FRAMES_RELATIVE:
                     alt = float(p[6])
                 elif item.frame in _FRAMES_AMSL:
@@ -543,31 +869,73 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
                         alt = float(item.amsl_alt_above_terrain_m) - home_alt_amsl_m
                     else:
                         alt = float(p[6])
-                        if not terrain_warned:
-                            warnings.warn(f"{where}: {origin}: terrain-relative altitude "
-                                          "treated as relative to home", stacklevel=2)
-                            terrain_warned = True
+                        if item.altitude_mode == 3:
+                            warn_once(f"calc{origin}", f"{where}: {origin}: 'calc above "
+                                      f"terrain' altitude (AltitudeMode 3) {alt:g} m without "
+                                      "the terrain height QGroundControl adds to it (param7 "
+                                      "null): read as that height above the ground, the "
+                                      "terrain assumed flat at home's altitude")
+                        else:
+                            warn_once("terrain", f"{where}: {origin}: terrain-relative "
+                                      "altitude treated as relative to home (the terrain "
+                                      "assumed flat at home's altitude)")
                 else:
                     raise InputError(f"{where}: {origin}: frame {item.frame} not supported for "
                                      f"{cmd_name(cmd)} (expected 0 global, 3 relative or 10 "
                                      "terrain)")
                 problem = altitude_problem(alt, home_alt_amsl_m)
+                ref = ("above mean sea level" if item.frame in _FRAMES_AMSL
+                       else "above home" if item.frame in _FRAMES_RELATIVE
+                       else "above terrain")
                 if problem:
-                    ref = ("above mean sea level" if item.frame in _FRAMES_AMSL
-                           else "above home" if item.frame in _FRAMES_RELATIVE
-                           else "above terrain")
                     raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} altitude "
                                      f"{p[6]:g} m (frame {item.frame}, {ref}) {problem}")
+                terrain = item.frame in _FRAMES_TERRAIN
+                if alt < -MIN_ALT_CHANGE_M and not terrain:
+                    raise InputError(
+                        f"{where}: {_label(item)}: {cmd_name(cmd)} altitude {p[6]:g} m (frame "
+                        f"{item.frame}, {ref}) is {-alt:g} m below home ({home_alt_amsl_m:g} m "
+                        "above mean sea level): the route lies below the take-off point "
+                        "(expected altitudes above home, as PX4 requires: 'Waypoint below "
+                        "home', MissionFeasibilityChecker::checkHomePositionAltitude; over "
+                        "lower ground, give the altitude in the terrain frame 10)")
                 if lat is None and item.frame in _FRAMES_RELATIVE and p[6] == 0:
                     alt = None  # "here, at the current altitude"
         if cmd in _WAYPOINT_CMDS:
             hold = None
-            if cmd != 31 and not math.isnan(p[0]):   # NaN (null): no hold
+            if not math.isnan(p[0]):   # NaN (null): no hold
                 problem = hold_problem(p[0], "param1 (hold time)")
                 if problem:
                     raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} {problem}")
                 hold = float(p[0]) if p[0] > 0 else None
-            steps.append(RouteStep("waypoint", lat, lon, alt, hold_s=hold, origin=origin))
+            if hold and fixed_wing and ardupilot:
+                warn_once("hold", f"{where}: {origin}: a waypoint's hold time (param1) is "
+                          "ignored by ArduPlane (a fixed-wing aircraft does not stop)")
+                hold = None
+            steps.append(RouteStep("waypoint", lat, lon, alt, hold_s=hold, origin=origin,
+                                   item=k))
+        elif cmd == 36:
+            if fixed_wing:
+                warn_once("arc", f"{where}: {origin}: {cmd_name(cmd)} skipped: ArduPlane "
+                          "has no case for it in start_command, so AP_Mission skips it (PX4 "
+                          "refuses it at upload); the aircraft flies on to the next item")
+                continue
+            angle = p[0] if _finite(p[0]) else 0.0
+            if angle == 0 and _finite(p[1]) and p[1] != 0:
+                angle = p[1]
+                warn_once("arc2", f"{where}: {origin}: arc angle read from param2, as "
+                          "ArduPilot's first arc waypoints wrote it (MAVLink puts it in "
+                          "param1)")
+            if abs(angle) > MAX_ARC_DEG:
+                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} angle {angle:g}° "
+                                 f"is out of range (expected -{MAX_ARC_DEG:g} to "
+                                 f"{MAX_ARC_DEG:g} degrees)")
+            steps.append(RouteStep("arc", lat, lon, alt, angle_deg=float(angle),
+                                   origin=origin, item=k))
+        elif cmd == 31:
+            radius = abs(float(p[1])) if fixed_wing and _finite(p[1]) and p[1] != 0 else None
+            steps.append(RouteStep("loiter_to_alt", lat, lon, alt, radius_m=radius,
+                                   origin=origin, item=k))
         elif cmd in (18, 19):
             if not _finite(p[0]) or p[0] < 0:
                 what = "turns" if cmd == 18 else "seconds"
@@ -581,15 +949,17 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
                                  f"{p[0]:g} is out of range (expected 0 to {MAX_LOITER_TURNS}, "
                                  "the most ArduPilot stores)")
             radius = abs(float(p[2])) if _finite(p[2]) and p[2] != 0 else None
+            if cmd == 19 and not (fixed_wing and px4):
+                radius = None    # a multirotor hovers; ArduPlane circles at WP_LOITER_RAD
             steps.append(RouteStep("loiter", lat, lon, alt, radius_m=radius, origin=origin,
                                    turns=float(p[0]) if cmd == 18 else None,
-                                   duration_s=float(p[0]) if cmd == 19 else None))
-        elif cmd in (22, 84):
-            steps.append(RouteStep("takeoff", alt_m=alt, origin=origin))
+                                   duration_s=float(p[0]) if cmd == 19 else None, item=k))
+        elif cmd in TAKEOFF_CMDS:
+            steps.append(RouteStep("takeoff", alt_m=alt, origin=origin, item=k))
         elif cmd == 20:
-            steps.append(RouteStep("rtl", origin=origin))
-        elif cmd in (21, 85):
-            steps.append(RouteStep("land", lat, lon, origin=origin))
+            steps.append(RouteStep("rtl", origin=origin, item=k))
+        elif cmd in LAND_CMDS:
+            steps.append(RouteStep("land", lat, lon, origin=origin, item=k, fly_on=px4))
         elif cmd == 93:
             if math.isnan(p[0]) or p[0] == -1:   # -1: wait for a time of day, not modelled
                 ignored.setdefault(cmd, []).append(origin)
@@ -598,23 +968,38 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
             if problem:
                 raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} {problem[:-1]}, "
                                  "or -1 for a time of day)")
-            steps.append(RouteStep("hold", duration_s=float(p[0]), origin=origin))
+            if fixed_wing and ardupilot:
+                warn_once("delay", f"{where}: {origin}: {cmd_name(cmd)} skipped: ArduPlane "
+                          "does not delay while flying as a fixed wing (do_nav_delay)")
+                continue
+            steps.append(RouteStep("hold", duration_s=float(p[0]), origin=origin, item=k))
         elif cmd == 178:
             kind = int(p[0]) if _finite(p[0]) else 0
-            if not _finite(p[1]) or p[1] <= 0:  # -1 (or 0): no change
+            if not _finite(p[1]) or (p[1] <= 0 and p[1] != -2):  # -1 (or 0): no change
                 continue
             if p[1] > MAX_SPEED_MS:
                 raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} speed {p[1]:g} m/s; "
                                  f"expected at most {MAX_SPEED_MS:g} m/s (or -1 for no change)")
-            if kind in (0, 1):
-                airspeed = kind == 0 and vehicle_type != "multirotor"
-                steps.append(RouteStep("speed", speed_ms=float(p[1]),
-                                       speed_is_airspeed=airspeed, origin=origin))
+            speed = None if p[1] == -2 else float(p[1])      # -2: back to the default
+            if fixed_wing and ardupilot and kind != 0:
+                warn_once(f"speed{kind}", f"{where}: {origin}: {cmd_name(cmd)} type {kind} "
+                          + ("sets ArduPlane's minimum ground speed (MIN_GROUNDSPEED), not a "
+                             "target speed: no effect on the flight planned here"
+                             if kind == 1 else "is ignored by ArduPlane")
+                          + " (Plane::do_change_speed)")
+                continue
+            if kind in (0, 1) or (fixed_wing and px4):
+                airspeed = ((kind == 0 and vehicle_type != "multirotor")
+                            or (fixed_wing and px4))
+                steps.append(RouteStep("speed", speed_ms=speed, speed_is_airspeed=airspeed,
+                                       origin=origin, item=k))
             elif kind in (2, 3):
                 steps.append(RouteStep("climb_rate" if kind == 2 else "descent_rate",
-                                       speed_ms=float(p[1]), origin=origin))
+                                       speed_ms=speed, origin=origin, item=k))
             else:
                 ignored.setdefault(cmd, []).append(origin)
+        elif cmd in _JUMP_CMDS:
+            continue
         else:
             ignored.setdefault(cmd, []).append(origin)
     for cmd, origins in ignored.items():
@@ -622,3 +1007,42 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
         warnings.warn(f"{where}: {cmd_name(cmd)} ignored ({n} item{'s' * (n > 1)}, first at "
                       f"{origins[0]})", stacklevel=2)
     return steps
+
+
+def fly_mav_items(items: list[MavItem], home: MavItem, *, where: str, fmt: str,
+                  vehicle_type: str | None = None, firmware: str | None = None,
+                  defaults: NavDefaults | None = None,
+                  plan: dict | None = None) -> tuple[list[Leg], MissionFile]:
+    """The legs of a waypoint file's items, and what is kept to write it back.
+
+    Parameters
+    ----------
+    items : list of MavItem
+        The mission items after home, in file order.
+    home : MavItem
+        Home: latitude, longitude and altitude above mean sea level in params 5..7.
+    where : str
+        The file name, for messages.
+    fmt : {"plan", "waypoints"}
+    vehicle_type, firmware : see :func:`mav_items_to_steps`
+    defaults : NavDefaults or None
+        The aircraft's speeds (:func:`route_to_legs`).
+    plan : dict or None
+        A ``.plan``'s JSON without its items (kept in :class:`MissionFile`).
+    """
+    vehicle = vehicle_type or (defaults.vehicle_type if defaults is not None else None)
+    flown = expand_jumps(items, where=where)
+    steps = mav_items_to_steps(flown, home.params[6], where=where, vehicle_type=vehicle,
+                               firmware=firmware, expanded=True)
+    states: dict[int, SpeedState] = {}
+    legs = route_to_legs(steps, home.params[4], home.params[5], where=where,
+                         defaults=defaults, vehicle_type=vehicle, climb_first=True,
+                         states=states)
+    by_item: dict[int, list[Leg]] = {}
+    for leg in legs:
+        if leg.item is not None:
+            by_item.setdefault(leg.item, []).append(leg)
+    file = MissionFile(format=fmt, home=home, items=flown, states=states,
+                       legs={k: tuple(v) for k, v in by_item.items()}, firmware=firmware,
+                       vehicle_type=vehicle, plan=plan)
+    return legs, file

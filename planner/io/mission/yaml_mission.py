@@ -62,7 +62,8 @@ from planner.io import files
 from planner.physics.atmosphere import ALTITUDE_RANGE_M, MAX_WIND_MS
 from planner.errors import InputError
 from planner.physics.geo import EARTH_RADIUS_M
-from planner.physics.mission import LEG_KINDS, Environment, Leg, Mission, too_many
+from planner.physics.mission import (LEG_KINDS, Environment, Leg, Mission, NavDefaults,
+                                     too_many)
 from planner.io.mission.route import (
     MAX_HOLD_S,
     MAX_LOITER_TURNS,
@@ -395,7 +396,8 @@ def _legs_form(chk: _Checker, raw: Any, site: float) -> list[Leg]:
 
 
 def _waypoints_form(chk: _Checker, data: dict,
-                    home: tuple[float, float, float] | None, site: float) -> list[Leg]:
+                    home: tuple[float, float, float] | None, site: float,
+                    defaults: NavDefaults | None = None) -> list[Leg]:
     raw = data["waypoints"]
     if not isinstance(raw, list):
         chk.add("waypoints", f"must be a list of waypoints, got {_describe(raw)}")
@@ -440,10 +442,11 @@ def _waypoints_form(chk: _Checker, data: dict,
     elif land:
         steps.append(RouteStep("land", origin="land"))
     return route_to_legs(steps, home[0], home[1], where=chk.where, speed_ms=speed,
-                         speed_is_airspeed=is_air)
+                         speed_is_airspeed=is_air, defaults=defaults)
 
 
-def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None) -> Mission:
+def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None,
+                      defaults: NavDefaults | None = None) -> Mission:
     """Load a YAML mission (legs form or waypoints form).
 
     Parameters
@@ -451,6 +454,10 @@ def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None) -> M
     path : str or Path
     vehicle_type : {"multirotor", "fixed_wing"} or None
         Not needed by this format (kept for a uniform loader signature).
+    defaults : NavDefaults or None
+        The aircraft's speeds and rates: the waypoints form's climbs are bounded by them
+        as a waypoint file's are (:func:`planner.io.mission.route.route_to_legs`); the
+        legs form is flown as written.
 
     Returns
     -------
@@ -504,7 +511,7 @@ def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None) -> M
     if has_legs and not has_wps:
         legs = _legs_form(chk, data["legs"], env.site_altitude_m)
     elif has_wps and not has_legs:
-        legs = _waypoints_form(chk, data, home, env.site_altitude_m)
+        legs = _waypoints_form(chk, data, home, env.site_altitude_m, defaults)
     chk.done()
     return Mission(name=name, legs=legs, environment=env, payload_kg=payload or 0.0,
                    home=home, source=where)

@@ -7,7 +7,7 @@ import warnings
 import pytest
 
 from planner.errors import InputError
-from planner.io.mission import load_mission
+from planner.io.mission import NavDefaults, load_mission
 
 ROUTE = ("survey_route.yaml", "survey_route.plan", "survey_route.waypoints")
 
@@ -71,13 +71,19 @@ WP = simple(16, [0, 0, 0, None, 48.001, 10.0, 30])
 RTL = simple(20, [0, 0, 0, 0, 0, 0, 0], frame=2)
 
 
-def test_plan_default_speed_follows_vehicle_type(tmp_path):
+def test_plan_planning_speeds_are_not_flown(tmp_path):
+    """QGroundControl never uploads cruiseSpeed/hoverSpeed (its offline estimate settings,
+    MissionController.cc): the vehicle flies its own speed until a DO_CHANGE_SPEED. They
+    used to set the legs' speed (5 m/s here, the aircraft flying 8)."""
     path = plan(tmp_path, [TAKEOFF, WP, RTL], vehicleType=2)
-    assert load_mission(path).legs[1].speed_ms == 5                     # hoverSpeed
-    assert load_mission(path, vehicle_type="fixed_wing").legs[1].speed_ms == 15
-    assert load_mission(plan(tmp_path, [TAKEOFF, WP, RTL], vehicleType=1)).legs[1].speed_ms == 15
-    assert load_mission(plan(tmp_path, [TAKEOFF, WP, RTL])).legs[1].speed_ms is None
-    assert load_mission(path).legs[1].speed_is_airspeed is None
+    assert load_mission(path).legs[1].speed_ms is None
+    assert load_mission(path, vehicle_type="fixed_wing").legs[1].speed_ms is None
+    solo = NavDefaults("multirotor", 8.0, 2.5, 1.5)
+    with pytest.warns(UserWarning, match=r"mission\.hoverSpeed 5 m/s is QGroundControl's "
+                                         r"planning speed, never sent to the vehicle: the "
+                                         r"aircraft flies its own 8 m/s"):
+        legs = load_mission(path, defaults=solo).legs
+    assert legs[1].speed_ms is None and legs[1].speed_is_airspeed is None
 
 
 def test_plan_survey_complex_item_is_expanded(tmp_path):
@@ -129,8 +135,14 @@ PLAN_ERRORS = [
      r"p\.plan: mission\.items\[1\]\.param5 must be a number or null"),
     ("complex without items", json.dumps({"mission": {
         "plannedHomePosition": [48, 10, 0], "items": [
-            TAKEOFF, {"type": "ComplexItem", "complexItemType": "StructureScan"}]}}),
-     r"p\.plan: mission\.items\[2\]: StructureScan item has no TransectStyleComplexItem\.Items"),
+            TAKEOFF, {"type": "ComplexItem", "complexItemType": "survey", "version": 5}]}}),
+     r"p\.plan: mission\.items\[2\]: survey item has no TransectStyleComplexItem\.Items"),
+    ("structure scan version", json.dumps({"mission": {
+        "plannedHomePosition": [48, 10, 0], "items": [
+            TAKEOFF, {"type": "ComplexItem", "complexItemType": "StructureScan",
+                      "version": 2}]}}),
+     r"p\.plan: mission\.items\[2\]: StructureScan version 2 not supported "
+     r"\(QGroundControl loads version 3 only"),
     ("landing pattern", json.dumps({"mission": {
         "plannedHomePosition": [48, 10, 0], "items": [
             TAKEOFF, {"type": "ComplexItem", "complexItemType": "fwLandingPattern"}]}}),

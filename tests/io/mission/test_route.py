@@ -124,7 +124,8 @@ def test_hold_loiters_and_land(tmp_path):
     assert kinds(m) == ["climb", "cruise", "hover", "cruise", "loiter", "loiter", "descend"]
     hover, loiter_time, loiter_turns, land = m.legs[2], m.legs[4], m.legs[5], m.legs[6]
     assert hover.duration_s == 15 and hover.end_en_m == m.legs[1].end_en_m
-    assert (loiter_time.duration_s, loiter_time.loiter_radius_m) == (60, 35)
+    # ArduPlane circles a LOITER_TIME at its own WP_LOITER_RAD: param3 gives the direction
+    assert (loiter_time.duration_s, loiter_time.loiter_radius_m) == (60, None)
     assert loiter_turns.duration_s == pytest.approx(2 * 2 * math.pi * 50 / 12)
     assert loiter_turns.end_en_m == loiter_time.end_en_m       # 0, 0 = current position
     assert land.end_en_m == loiter_turns.end_en_m and land.end_alt_m == 0
@@ -183,3 +184,17 @@ def test_clean_route_gives_no_warnings(tmp_path):
 def test_only_home_has_no_legs(tmp_path):
     with pytest.raises(InputError, match=r"m\.waypoints: the mission has no flight legs"):
         load_mission(wpl(tmp_path, []))
+
+
+def test_yaml_waypoint_climbs_are_bounded_as_a_waypoint_files_are(tmp_path):
+    """The YAML waypoints form goes through the same route: given the aircraft's rates, a
+    100 m climb over 40 m is a cruise at the climb rate and a climb over the point."""
+    from planner.io.mission import NavDefaults
+    path = tmp_path / "w.yaml"
+    path.write_text("home: {lat: 48.0, lon: 10.0, alt_m: 500}\ntakeoff_alt_m: 10\n"
+                    f"waypoints:\n  - {{lat: {48.0 + 40 / 111_200}, lon: 10.0, alt_m: 110}}\n")
+    legs = load_mission(path, defaults=NavDefaults("multirotor", 8.0, 2.5, 1.5)).legs
+    assert [leg.kind for leg in legs][:3] == ["climb", "cruise", "climb"]
+    cruise = legs[1]
+    assert (cruise.end_alt_m - cruise.start_alt_m) == pytest.approx(2.5 * cruise.distance_m / 8)
+    assert legs[2].end_alt_m == 110
