@@ -44,7 +44,8 @@ from planner.identify import stats
 from planner.chain.mission_chain import MissionChain
 from planner.errors import PlannerError
 from planner.parameters import Aircraft, BatteryPack
-from planner.identify.replay import _replay_pack, battery_replay, detect_cells, power_replay
+from planner.identify.replay import battery_replay, flown_pack, power_replay
+from planner.physics.battery.cells import series_cells
 
 #: Smallest current step used for the resistance. [A]
 STEP_MIN_A = 2.0
@@ -261,7 +262,7 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
     power = df["power_w"].to_numpy(float)
     consumed = df["consumed_mah"].to_numpy(float)
     ok_c = np.isfinite(consumed)
-    cells = meta.get("battery_cells") or (detect_cells(df["voltage_v"]) if "voltage_v" in df
+    cells = meta.get("battery_cells") or (series_cells(df["voltage_v"]) if "voltage_v" in df
                                           else None)
     row.update(format=meta.get("format"), vehicle=meta.get("vehicle"),
                aircraft=key if aircraft is not None else None,
@@ -274,7 +275,7 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
                energy_wh=float(record.cumulative_trapezoid(np.nan_to_num(power), t)[-1]) / 3600.0,
                charge_mah=float(consumed[ok_c][-1] - consumed[ok_c][0]) if ok_c.any()
                else None)
-    flown, label = _replay_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
+    flown, label = flown_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
     notes = []
     if flown is not None:
         if pack is not None and cells and int(cells) != pack.cells_series:

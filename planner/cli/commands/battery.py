@@ -16,6 +16,7 @@ import yaml
 from planner.io import files
 from planner.identify import protocols as design, battery_fit as fit, pulse_resistance as vda
 from planner.physics.battery import integral
+from planner.physics.battery.cells import series_cells
 from planner.cli.commands.common import (
     fmt,
     name_width,
@@ -29,10 +30,6 @@ from planner.errors import InputError
 from planner.parameters import IntegralModel, battery_from_mapping, load_battery, read_definition
 from planner.identify.schedule import write_schedule
 from planner.physics.units import AS_PER_MAH
-
-#: Full-charge cell voltage used to detect the cell count from the data. [V]
-CELL_FULL_V = 4.2
-
 
 def register(sub) -> None:
     _register_fit(sub)
@@ -56,7 +53,7 @@ def _register_fit(sub) -> None:
     p.add_argument("--battery", help="pack YAML whose other keys are kept (name, mass, ...)")
     p.add_argument("--name", help="pack name (required without --battery)")
     p.add_argument("--cells", help="cells in series (without --battery; default: detected "
-                                   "as max voltage / 4.2 V)")
+                                   "as max voltage / 4.25 V, rounded up)")
     p.add_argument("--mass-kg", help="pack mass [kg] (required without --battery)")
     p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
     p.add_argument("--train", help="comma-separated experiment ids to fit on")
@@ -91,14 +88,15 @@ def _ids(text: str | None, option: str) -> list[str] | None:
 
 
 def _cells_from_voltage(experiments) -> int:
-    vmax = max((float(np.nanmax(e.voltage_v)) for e in experiments if e.voltage_v is not None),
-               default=None)
-    if vmax is None:
+    """Cells in series from the experiments' voltage
+    (:func:`planner.physics.battery.cells.series_cells`)."""
+    voltages = [e.voltage_v for e in experiments if e.voltage_v is not None]
+    if not voltages:
         raise InputError("--cells is required: no voltage_v in the data to detect the cell "
-                         "count from (max voltage / 4.2 V)")
-    cells = round(vmax / CELL_FULL_V)
-    if cells < 1:
-        raise InputError(f"cannot detect the cell count from a maximum voltage of {vmax:g} V; "
+                         "count from (max voltage / 4.25 V, rounded up)")
+    cells = series_cells(np.concatenate(voltages))
+    if cells is None:
+        raise InputError("cannot detect the cell count: voltage_v is never above 0 V; "
                          "give --cells")
     return cells
 

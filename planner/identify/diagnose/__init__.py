@@ -449,27 +449,26 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
 
 
 def _literature_pack(df: pd.DataFrame, metas: list[dict], notes: list[str]) -> BatteryPack:
-    from planner.identify.replay import detect_cells
+    """The pack flown without a pack file: :func:`planner.identify.replay.literature_pack`
+    of the logs' cell count and capacity (the first log that gives each), noted."""
+    from planner.identify.replay import literature_pack
 
     cells = next((m.get("battery_cells") for m in metas if m.get("battery_cells")), None)
-    if not cells and "voltage_v" in df:
-        cells = detect_cells(df["voltage_v"])
-    if not cells:
-        raise InputError("no battery given and no pack voltage to find the cell count from: "
-                         "give --battery B.yaml")
     cap = next((m.get("battery_capacity_mah") for m in metas if m.get("battery_capacity_mah")),
                None)
+    pack, _ = literature_pack(cells, cap, df["voltage_v"] if "voltage_v" in df else None)
+    if pack is None:
+        raise InputError("no battery given and no pack voltage to find the cell count from: "
+                         "give --battery B.yaml")
+    n = pack.cells_series
     if cap:
-        notes.append(f"no battery file: literature start values δ₀({cells}), ε₀({cells}) and "
+        notes.append(f"no battery file: literature start values δ₀({n}), ε₀({n}) and "
                      f"the log's {cap:.0f} mAh")
-        return BatteryPack(name=f"literature {cells}S {cap:.0f} mAh", cells_series=int(cells),
-                           capacity_mah=float(cap), mass_kg=0.0)
-    notes.append(f"no battery file and no capacity in the log: literature start values "
-                 f"δ₀({cells}), ε₀({cells}), β held")
-    # capacity unknown: a nominal charge far above what was drawn keeps β held
-    return BatteryPack(name=f"literature {cells}S", cells_series=int(cells),
-                       capacity_mah=1e7, mass_kg=0.0,
-                       model=IntegralModel.from_literature(int(cells)))
+    else:
+        # capacity unknown: a nominal charge far above what was drawn keeps β held
+        notes.append(f"no battery file and no capacity in the log: literature start values "
+                     f"δ₀({n}), ε₀({n}), β held")
+    return pack
 
 
 #: A selected effect whose key parameter lies closer than this many standard errors to
