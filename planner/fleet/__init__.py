@@ -17,7 +17,7 @@
    (:mod:`planner.fleet.calibrate`): ``DIR/aircraft/<key>.yaml``, fitted on the thinned
    records kept in ``DIR/samples.parquet``;
 5. ``DIR/report.md`` and its figures (:mod:`planner.fleet.report`), with ``diagnose``
-   (DESIGN §6) run on the :data:`DIAGNOSE_WORST` worst flights.
+   (docs/commands.md) run on the :data:`DIAGNOSE_WORST` worst flights.
 
 Pack identity: the log's battery serial where the reader gives one (``battery_serial``
 in the metadata), else the ``--packs`` CSV (columns ``log``, ``pack``, optionally

@@ -114,7 +114,7 @@ def render(result, *, retire: float, within: float, with_figures: bool = True) -
                          f"{_cell(r['warnings'])} |")
         lines.append("")
         if diag:
-            lines += ["`diagnose` (DESIGN §6) on each of the worst flights alone:", ""]
+            lines += ["`diagnose` (docs/commands.md) on each of the worst flights alone:", ""]
             lines += [f"- {Path(log).name}: {_cell(text, 600)}" for log, text in diag.items()]
             lines.append("")
     if result.health:

@@ -21,7 +21,7 @@ what the planner predicted for it:
   same energy as it ages has :math:`s` rising with its cycles (the ``fade_per_cycle`` of
   the pack file, :meth:`planner.parameters.IntegralModel.charge_scale`);
 * **internal resistance** — the amended-VDA estimate :math:`R = -\\Delta V / \\Delta I`
-  (DESIGN §5) at every current step between two consecutive samples (a step of at least
+  ([UAV23] eq. 11) at every current step between two consecutive samples (a step of at least
   :data:`STEP_MIN_A` and :data:`STEP_MIN_FRACTION` of the flight's median current); the
   median over the steps, its standard error :math:`1.2533\\,s/\\sqrt n` (the median of a
   normal sample).
@@ -329,7 +329,7 @@ def calibration_samples(df: pd.DataFrame) -> pd.DataFrame:
 
 def diagnose_log(path: str, *, aircraft: Aircraft | None = None,
                  pack: BatteryPack | None = None) -> str:
-    """One line of :func:`planner.identify.diagnose.diagnose` on one log (DESIGN §6): its findings'
+    """One line of :func:`planner.identify.diagnose.diagnose` on one log: its findings'
     headlines, or that the calibrated model explains the flight, with what stays unexplained.
     Never raises: a log that cannot be diagnosed gives the reason."""
     from planner.identify.diagnose import diagnose

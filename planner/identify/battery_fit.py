@@ -1,6 +1,6 @@
 r"""Identify the integral capacity model δ, ε, β from measured discharges.
 
-The fit follows the seed paper [1]_ (eq. 18): least squares on
+The fit follows [UAV23] eq. 18: least squares on
 
 .. math:: \hat C_j(t_i)^\beta - C_j(t_i)^\beta
           = \int_0^{t_i} \frac{dt}{\delta P_j(t)^\varepsilon} - C_j(t_i)^\beta
@@ -26,7 +26,7 @@ Measured data
     experiment counts as absent for it; a column with some missing or infinite
     samples is an error.
 Default split
-    The seed paper's: the experiments with the lowest and the highest
+    [UAV23]'s: the experiments with the lowest and the highest
     time-averaged power train, all others validate (one or two experiments:
     all train, nothing validates). ``train=``/``validate=`` override it.
 Parametrisation
@@ -73,11 +73,7 @@ Metrics (per experiment, every split)
     (exact for a constant power). A positive time error means the model is slow
     to draw the charge: it over-predicts endurance.
 
-References
-----------
-.. [1] "Battery Testing and Discharge Model Validation for Electric Unmanned
-   Aerial Vehicles (UAV)," Sensors, vol. 23, no. 15, 6937, 2023,
-   doi: 10.3390/s23156937.
+[UAV23] is cited in full in :mod:`planner.physics.references`.
 """
 
 from __future__ import annotations
@@ -187,7 +183,7 @@ class Experiment:
 
 
 def load_records(paths: Sequence[str | os.PathLike]) -> list[tuple[str, pd.DataFrame]]:
-    """Read flight-record CSV files (DESIGN §4) for fitting.
+    """Read flight-record CSV files (docs/record.md) for fitting.
 
     Each file is read with :func:`planner.io.record.read_record` (no derived
     columns: missing samples must be seen, not bridged). A file without an
@@ -312,7 +308,7 @@ def prepare_experiments(record, source: str | None = None,
     Parameters
     ----------
     record : DataFrame, path, or sequence of DataFrames / paths / (source, DataFrame)
-        Flight record(s), DESIGN §4.
+        Flight record(s), docs/record.md.
     source : str, optional
         Name of a DataFrame's origin for messages.
     only : collection of str, optional
@@ -358,7 +354,7 @@ def prepare_experiments(record, source: str | None = None,
 
 
 def default_split(experiments: Sequence[Experiment]) -> tuple[list[str], list[str]]:
-    """The seed paper's split: lowest and highest mean power train, the rest validate."""
+    """The split of [UAV23]: lowest and highest mean power train, the rest validate."""
     names = [e.name for e in experiments]
     if len(names) <= 2:
         return names, []
@@ -509,11 +505,11 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
     record : DataFrame, path, or sequence of DataFrames / paths / :class:`Experiment`
         Flight record(s) with ``time_s``, power (``power_w`` or ``voltage_v``
         and ``current_a``) and charge (``current_a`` or ``consumed_mah``);
-        several experiments are told apart by ``experiment`` (DESIGN §4).
+        several experiments are told apart by ``experiment`` (docs/record.md).
     beta : float, optional
-        Hold β at this value (e.g. 0.9648, the seed paper's) and fit δ, ε only.
+        Hold β at this value (e.g. 0.9648, [UAV23]'s) and fit δ, ε only.
     train, validate : sequence of str, optional
-        Experiment ids to fit on and to score only. Default: the seed paper's
+        Experiment ids to fit on and to score only. Default: the [UAV23]
         split (lowest and highest mean power train, the rest validate); giving
         one of them makes the other "all the rest".
     source : str, optional

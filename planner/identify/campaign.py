@@ -1,6 +1,6 @@
-r"""The seed paper's identification experiment, reproduced on the virtual bench.
+r"""The identification experiment of [UAV23], reproduced on the virtual bench.
 
-The seed paper [1]_ identifies its integral capacity model three ways and
+[UAV23] identifies its integral capacity model three ways and
 cross-validates them (its Table 4 and Fig. 12–13):
 
 * **m_const** — fitted on the constant-power discharges at the lowest and the
@@ -18,8 +18,8 @@ The campaign (:class:`SeedCampaign`, defaults)
 ----------------------------------------------
 * constant power at 50, 75, 100 and 125 W, each to the loaded cut-off;
 * two-step tests designed with :func:`planner.identify.protocols.two_step` from the
-  pack's design model (the seed's m_const) to draw :math:`C_0` = 90 % of the
-  nominal capacity (9000 mAh for the seed pack, so that they end before the
+  pack's design model ([UAV23]'s m_const) to draw :math:`C_0` = 90 % of the
+  nominal capacity (9000 mAh for the [UAV23] pack, so that they end before the
   cut-off): P1→P2 of 50→125 W
   and 125→50 W, each with k = 0.5 and k = 2 (four tests);
 * three APRBS tests: levels 50/75/100/125 W, holds U[30, 300] s, at least
@@ -31,11 +31,7 @@ The campaign (:class:`SeedCampaign`, defaults)
 β is fitted both ways: held at 0.9648 as in the paper (``"held"``) and free
 (``"free"``).
 
-References
-----------
-.. [1] "Battery Testing and Discharge Model Validation for Electric Unmanned
-   Aerial Vehicles (UAV)," Sensors, vol. 23, no. 15, 6937, 2023,
-   doi: 10.3390/s23156937.
+[UAV23] is cited in full in :mod:`planner.physics.references`.
 """
 
 from __future__ import annotations
@@ -70,7 +66,7 @@ __all__ = [
 
 #: Kinds of test, in report order.
 KINDS = ("constant", "two-step", "APRBS")
-#: Models of the seed paper's Table 4 and the kind of test each is fitted on.
+#: Models of [UAV23] Table 4 and the kind of test each is fitted on.
 MODELS = {"m_const": "constant", "m_2step": "two-step", "m_APRBS": "APRBS"}
 #: β held at the paper's value, or fitted.
 BETA_MODES = {"held": integral.LITERATURE_BETA, "free": None}
@@ -83,7 +79,7 @@ PAPER_FINAL_ERROR_PCT = 0.7
 
 @dataclass(frozen=True)
 class SeedCampaign:
-    """The tests of the seed paper's campaign (see the module notes for the defaults).
+    """The tests of the [UAV23] campaign (see the module notes for the defaults).
 
     Attributes
     ----------
@@ -172,7 +168,7 @@ def run_campaign(pack: bench.BenchPack | None = None, *, campaign: str = "seed",
     Returns
     -------
     DataFrame, or (DataFrame, DataFrame)
-        One flight record (DESIGN §4) of all experiments, told apart by
+        One flight record (docs/record.md) of all experiments, told apart by
         ``experiment``, in the order constant, two-step, APRBS (and the info).
     """
     if campaign not in CAMPAIGNS:
@@ -222,7 +218,7 @@ def run_campaign(pack: bench.BenchPack | None = None, *, campaign: str = "seed",
 
 @dataclass
 class CampaignReport:
-    """Fits and cross-validation of the seed paper's three models.
+    """Fits and cross-validation of the three models of [UAV23] Table 4.
 
     Attributes
     ----------
@@ -343,7 +339,7 @@ def _cell(value: float, digits: int, train: bool, width: int) -> str:
 
 
 def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = None) -> str:
-    """The table behind the seed paper's Fig. 12–13, as text.
+    """The table behind [UAV23] Fig. 12–13, as text.
 
     For each β mode: the fitted δ, ε, β of each model, then RMSE [mAh] and
     final normalised error [%] per validation experiment (rows) and model
@@ -356,7 +352,7 @@ def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = 
     for mode in modes:
         fits = report.fits[mode]
         models = list(fits)
-        title = ("β held at 0.9648 (as the seed paper)" if mode == "held"
+        title = ("β held at 0.9648 (as in [UAV23])" if mode == "held"
                  else "β fitted (free)")
         lines += [title, "=" * len(title)]
         for model in models:

@@ -212,3 +212,19 @@ def test_sample_schedule_holds_each_step():
                       "power_w": [50.0, 125.0]})
     p = design.sample_schedule(s, [-1.0, 0.0, 9.99, 10.0, 14.9, 15.0, 100.0])
     assert_allclose(p, [0.0, 50.0, 50.0, 125.0, 125.0, 0.0, 0.0])
+
+
+def test_pulse_test_profile_repeats_the_uav23_block_at_each_state_of_charge():
+    """[UAV23] Table 1 block (rest, discharge pulse, rest, charge pulse, rest) at 1 C."""
+    prof = design.pulse_test_profile(2.0, soc_levels=(0.8, 0.5), dt_s=0.5, settle_s=120.0)
+    assert len(prof.blocks) == 2
+    b = prof.blocks[0]
+    assert b["soc"] == pytest.approx(0.8)
+    assert b["end_s"] - b["start_s"] == 60 + 20 + 60 + 20 + 60
+    seg = (prof.time_s >= b["start_s"]) & (prof.time_s < b["end_s"])
+    cur = prof.current_a[seg]
+    assert np.sum(cur == 2.0) * 0.5 == 20.0          # 1 C discharge pulse
+    assert np.sum(cur == -2.0) * 0.5 == 20.0         # 1 C charge pulse
+    assert np.all(cur[:120] == 0.0)                  # 60 s rest first
+    assert prof.blocks[1]["soc"] == pytest.approx(0.5)
+    assert prof.current_a[-1] == 0.0

@@ -1,5 +1,5 @@
 """Diagnose: show what the simulation gets wrong, name the cause, extend the model,
-measure the gain (DESIGN §6).
+measure the gain (``endurance diagnose``, docs/commands.md).
 
 >>> result = diagnose(record, pack, aircraft)          # doctest: +SKIP
 >>> print(result.summary())                            # doctest: +SKIP
@@ -76,7 +76,7 @@ class DiagnoseResult:
     levels : dict of str to LevelReport
         ``"capacity"`` and/or ``"power"``, the levels that ran.
     findings : list of dict
-        The significant effects, ranked by held-out gain (DESIGN §6 fields).
+        The significant effects, ranked by held-out gain (fields: :meth:`DiagnoseResult.to_dict`).
     skipped : list of dict
         Effects not tested, with the reason (``effect``, ``level``, ``reason``).
     notes : list of str
@@ -187,8 +187,9 @@ class DiagnoseResult:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON of DESIGN §6 (plus ``baselines``, ``extended``, ``candidates``,
-        ``skipped``, ``withheld``, ``not_identifiable``, ``selection`` and ``notes``)."""
+        """The JSON ``endurance diagnose`` writes: ``baseline``, ``findings``,
+        ``unexplained``, ``withheld`` and ``not_identifiable``, plus ``baselines``,
+        ``extended``, ``candidates``, ``skipped``, ``selection``, ``notes`` and ``data``."""
         primary = self.primary_level
         candidates = []
         for name, lv in self.levels.items():
@@ -409,12 +410,12 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
                          f"{S.MIN_EXPERIMENT_S:g} s)")
             continue
         t = t - t[0]
-        p = S._interp_nan(t, sub["power_w"].to_numpy(float)) if "power_w" in sub else None
+        p = S.interp_nan(t, sub["power_w"].to_numpy(float)) if "power_w" in sub else None
         if p is None or not np.isfinite(p).all():
             notes.append(f"experiment {name}: no power, not used at the capacity level")
             continue
         if "consumed_mah" in sub and np.isfinite(sub["consumed_mah"].to_numpy(float)).any():
-            c = S._interp_nan(t, sub["consumed_mah"].to_numpy(float))
+            c = S.interp_nan(t, sub["consumed_mah"].to_numpy(float))
             c = (c - c[0]) * AS_PER_MAH
         elif "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).any():
             c = rec.cumulative_trapezoid(sub["current_a"].to_numpy(float), t)
@@ -431,7 +432,7 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
         if "temperature_c" in sub:
             tc = sub["temperature_c"].to_numpy(float)
             if np.isfinite(tc).mean() > 0.5:
-                temp = S._interp_nan(t, tc)
+                temp = S.interp_nan(t, tc)
         cycle = None
         if "cycle" in sub:
             cy = sub["cycle"].to_numpy(float)
@@ -439,10 +440,10 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
                 cycle = float(cy[np.isfinite(cy)][0])
         current = None
         if "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).mean() > 0.5:
-            current = S._interp_nan(t, sub["current_a"].to_numpy(float))
+            current = S.interp_nan(t, sub["current_a"].to_numpy(float))
         voltage = None
         if "voltage_v" in sub and np.isfinite(sub["voltage_v"].to_numpy(float)).mean() > 0.5:
-            voltage = S._interp_nan(t, sub["voltage_v"].to_numpy(float))
+            voltage = S.interp_nan(t, sub["voltage_v"].to_numpy(float))
         out.append({"name": name, "t": t, "p": p, "c": c, "temperature": temp, "cycle": cycle,
                     "current": current, "voltage": voltage})
     return out
@@ -614,7 +615,7 @@ def _as_given_capacity(level, pack) -> tuple[float, float]:
         dc = level.c[idx[-1]] - level.c[s]
         if dc > 0:
             finals.append((abs(rs[idx[-1]]), dc))
-    return float(np.sqrt(np.mean(rs**2))) / AS_PER_MAH, S._weighted_final(finals)
+    return float(np.sqrt(np.mean(rs**2))) / AS_PER_MAH, S.weighted_final(finals)
 
 
 def _as_given_power(level, aircraft) -> tuple[float, float]:
@@ -629,7 +630,7 @@ def _as_given_power(level, aircraft) -> tuple[float, float]:
         em = float(np.sum(level.measured[m] * level.dt_bin[m]))
         if em > 0:
             finals.append((abs(em - float(np.sum(pred[m] * level.dt_bin[m]))), em))
-    return float(np.sqrt(np.mean(r**2))), S._weighted_final(finals)
+    return float(np.sqrt(np.mean(r**2))), S.weighted_final(finals)
 
 
 def _findings(name: str, lv_result: S.LevelResult, level, values, stderr) -> list[dict]:
@@ -660,7 +661,7 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     Parameters
     ----------
     data : DataFrame, path or list of paths
-        Flight record(s) (DESIGN §4) or logs any reader takes.
+        Flight record(s) (docs/record.md) or logs any reader takes.
     pack : BatteryPack, optional
         The pack flown: start values of the integral model. Default: the
         literature model for the cell count of the log (as ``replay``).

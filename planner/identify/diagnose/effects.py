@@ -1,9 +1,9 @@
-r"""The candidate effects of ``diagnose`` (DESIGN §6): one class per effect.
+r"""The candidate effects of ``diagnose`` (docs/commands.md, Diagnose): one class per effect.
 
 Each effect is an *extension* of a baseline model with physically meaningful
 parameters; at zero extension the baseline is recovered exactly (the models are
 nested, which the selection statistics need). An effect declares the channels of
-the flight record (DESIGN §4) it needs, says why it is skipped when they are
+the flight record (docs/record.md) it needs, says why it is skipped when they are
 absent (or when they do not vary, so that the effect cannot be told from the
 baseline's own calibration), and names its cause in plain words.
 
@@ -164,7 +164,7 @@ class Effect:
     Attributes
     ----------
     name : str
-        The stable vocabulary of ``findings[].effect`` (DESIGN §6).
+        The stable vocabulary of ``findings[].effect`` (docs/commands.md, Diagnose).
     level : str
         ``"capacity"`` or ``"power"``.
     needs : tuple of str
@@ -969,7 +969,7 @@ class EfficiencyCurve(PowerEffect):
 
 CAPACITY_EFFECTS = (Temperature, CapacityFade, CurrentOffset)
 POWER_EFFECTS = (Wind, AirDensity, PayloadChange, SystemPower, EfficiencyCurve)
-#: The vocabulary, in DESIGN §6 order.
+#: The vocabulary, in the order docs/commands.md (Diagnose) lists it.
 EFFECTS = {cls.name: cls for cls in (Temperature, CapacityFade, CurrentOffset, Wind, AirDensity,
                                      PayloadChange, SystemPower, EfficiencyCurve)}
 

@@ -579,7 +579,7 @@ class PowerLevel:
     Parameters
     ----------
     exps : list of (name, DataFrame)
-        The experiments (flight record columns, DESIGN §4).
+        The experiments (flight record columns, docs/record.md).
     aircraft : Aircraft
     mass_kg : float
         All-up mass at the start of every flight. [kg]
@@ -635,8 +635,8 @@ class PowerLevel:
             cols["we"].append(_finite_col(sub, "wind_e_ms", n)[ok])
             pres = _finite_col(sub, "pressure_pa", n)
             temp = _finite_col(sub, "ambient_temperature_c", n)
-            cols["pres"].append(_interp_nan(t, pres)[ok])
-            cols["temp"].append(_interp_nan(t, temp)[ok])
+            cols["pres"].append(interp_nan(t, pres)[ok])
+            cols["temp"].append(interp_nan(t, temp)[ok])
         if not self.names:
             raise FitError("no airborne samples in the data")
         ground = np.concatenate(ground) if ground else np.zeros(0)
@@ -1196,7 +1196,9 @@ def _climb_disagreement(climb: np.ndarray, rate: np.ndarray) -> float | None:
     return float(np.sqrt(np.mean((climb[ok] - rate[ok]) ** 2)))
 
 
-def _interp_nan(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+def interp_nan(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``y`` with its missing (non-finite) samples interpolated linearly in time ``t`` and
+    held at the ends; unchanged where none or all are missing. [unit of y]"""
     ok = np.isfinite(y)
     if ok.sum() == 0 or ok.all():
         return y
@@ -1213,9 +1215,10 @@ def _fill(x: np.ndarray) -> np.ndarray:
 
 # ============================================================================ scoring
 
-def _weighted_final(finals) -> float:
-    """Final error of the held-out segments: Σ|error at the end| / Σ charge (energy) drawn,
-    in % (a short segment that draws little does not dominate)."""
+def weighted_final(finals) -> float:
+    """Final error of the held-out segments, Σ|error at the end| / Σ charge (energy)
+    drawn, from ``(|error|, drawn)`` pairs, in % (a short segment that draws little does
+    not dominate); NaN without segments. [%]"""
     if not finals:
         return float("nan")
     a = np.asarray(finals, float)
@@ -1281,7 +1284,7 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
     unit_loss[~has] = np.nan
     return Score(tuple(e.name for e in effects), fits,
                  float(np.sqrt(np.mean(sr**2))) / scale,
-                 _weighted_final(finals),
+                 weighted_final(finals),
                  unit_loss, np.concatenate(rows_all), np.concatenate(rr_all),
                  np.concatenate(samples_all), sr, rss, nn, rho, dof, rss_w, rho_w)
 

@@ -265,7 +265,7 @@ def test_fit_battery_circuit_option_writes_a_circuit_block(tmp_path):
 
     from planner.physics.battery import integral
     from planner.physics.battery.circuit import CircuitParameters, simulate
-    from planner.identify.circuit_fit import pulse_test_profile
+    from planner.identify.protocols import pulse_test_profile
     from planner.cli.main import main
     from planner.parameters import load_battery
 
