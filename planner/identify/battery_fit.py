@@ -72,8 +72,6 @@ Metrics (per experiment, every split)
     the predicted time is extrapolated at the experiment's mean stress rate
     (exact for a constant power). A positive time error means the model is slow
     to draw the charge: it over-predicts endurance.
-
-[UAV23] is cited in full in :mod:`planner.physics.references`.
 """
 
 from __future__ import annotations

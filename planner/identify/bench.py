@@ -83,7 +83,6 @@ minutes, e.g. Hu, Li and Peng [3]_), and ``c`` is chosen so that the withheld
 charge at 1 C is 3.3 % of the capacity (a modest rate effect; assumed, not
 measured). Measurement noise: 10 mV and 50 mA (1 σ), assumed.
 
-[UAV23] is cited in full in :mod:`planner.physics.references`.
 
 References
 ----------

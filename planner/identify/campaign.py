@@ -30,8 +30,6 @@ The campaign (:class:`SeedCampaign`, defaults)
 
 β is fitted both ways: held at 0.9648 as in the paper (``"held"``) and free
 (``"free"``).
-
-[UAV23] is cited in full in :mod:`planner.physics.references`.
 """
 
 from __future__ import annotations

@@ -26,8 +26,6 @@ The discharge tests are returned as a *power schedule*: a table of steps (``star
 ``duration_s``, ``power_w``) that :func:`planner.identify.schedule.write_schedule` exports as a CSV a
 programmable electronic load in constant-power mode can run, and
 :func:`sample_schedule` puts on a time grid for simulation.
-
-[UAV23] is cited in full in :mod:`planner.physics.references`.
 """
 
 from __future__ import annotations

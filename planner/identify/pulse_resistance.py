@@ -20,8 +20,6 @@ discharge pulse (the voltage jumps up) and a charge pulse (it drops) alike.
 :func:`pulse_resistance` evaluates a test, and :func:`pulse_profile` generates
 the Table 1 test at several currents with the voltage response of a simple pack (for
 tests and for planning a bench run).
-
-[UAV23] is cited in full in :mod:`planner.physics.references`.
 """
 
 from __future__ import annotations
