@@ -221,9 +221,9 @@ class CampaignReport:
     Attributes
     ----------
     fits : dict
-        ``fits[beta_mode][model]``: the dict of
-        :func:`planner.identify.battery_fit.fit_integral` (``delta``, ``epsilon``,
-        ``beta``, ``stderr``, ``train``, ``metrics``, ...).
+        ``fits[beta_mode][model]``: the
+        :class:`planner.identify.battery_fit.IntegralFit` of
+        :func:`planner.identify.battery_fit.fit_integral`.
     table : DataFrame
         One row per β mode × model × experiment: ``beta_mode``, ``model``,
         ``experiment``, ``kind``, ``split`` (``train``/``validate``),
@@ -235,7 +235,7 @@ class CampaignReport:
         Experiment ids in campaign order.
     """
 
-    fits: dict[str, dict[str, dict[str, Any]]]
+    fits: dict[str, dict[str, fit.IntegralFit]]
     table: pd.DataFrame
     warnings: list[str] = field(default_factory=list)
     experiments: list[str] = field(default_factory=list)
@@ -303,7 +303,7 @@ def cross_validate(records: pd.DataFrame, *, config: SeedCampaign = SeedCampaign
     train_of = {"m_const": [n for n in config.m_const_train if n in names],
                 "m_2step": [n for n in names if kinds[n] == "two-step"],
                 "m_APRBS": [n for n in names if kinds[n] == "APRBS"]}
-    fits: dict[str, dict[str, dict[str, Any]]] = {}
+    fits: dict[str, dict[str, fit.IntegralFit]] = {}
     rows, messages = [], []
     for mode in beta_modes:
         if mode not in BETA_MODES:
@@ -318,7 +318,7 @@ def cross_validate(records: pd.DataFrame, *, config: SeedCampaign = SeedCampaign
                 result = fit.fit_integral(experiments, beta=BETA_MODES[mode], train=train)
             messages += [f"{model} (β {mode}): {w.message}" for w in caught]
             fits[mode][model] = result
-            for m in result["metrics"]:
+            for m in result.metrics:
                 rows.append({"beta_mode": mode, "model": model, "experiment": m.experiment,
                              "kind": kinds[m.experiment], "split": m.split,
                              "mean_power_w": m.mean_power_w,
@@ -355,12 +355,12 @@ def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = 
         lines += [title, "=" * len(title)]
         for model in models:
             r = fits[model]
-            se = r["stderr"]
-            beta_text = (f"β = {r['beta']:.4f} (held)" if "beta" in r["fixed"]
-                         else f"β = {r['beta']:.4f} ± {se['beta']:.2g}")
-            lines.append(f"{model:<8} δ = {r['delta']:.4f} ± {se['delta']:.2g}, "
-                         f"ε = {r['epsilon']:.4f} ± {se['epsilon']:.2g}, {beta_text}; "
-                         f"trained on {', '.join(r['train'])}")
+            se = r.stderr
+            beta_text = (f"β = {r.beta:.4f} (held)" if "beta" in r.fixed
+                         else f"β = {r.beta:.4f} ± {se['beta']:.2g}")
+            lines.append(f"{model:<8} δ = {r.delta:.4f} ± {se['delta']:.2g}, "
+                         f"ε = {r.epsilon:.4f} ± {se['epsilon']:.2g}, {beta_text}; "
+                         f"trained on {', '.join(r.train)}")
         t = report.table[report.table.beta_mode == mode]
         for column, label, digits in (("rmse_mah", "RMSE [mAh] ([UAV23] eq. 29)", 1),
                                       ("final_error_pct",
@@ -402,7 +402,7 @@ def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = 
 
 def report_to_dict(report: CampaignReport) -> dict[str, Any]:
     """JSON-ready form of a report (fits without their per-experiment metrics)."""
-    fits = {mode: {model: {k: v for k, v in r.items() if k != "metrics"}
+    fits = {mode: {model: r.to_dict()
                    for model, r in by_model.items()}
             for mode, by_model in report.fits.items()}
     return {"fits": fits, "table": report.table.to_dict(orient="records"),

@@ -42,7 +42,7 @@ from planner.physics.battery.circuit import CircuitParameters, simulate
 from planner.physics.battery.ocv import OcvTable, ocv_table
 from planner.physics.battery.thermal import lumped_temperature
 from planner.errors import FitError, InputError
-from planner.identify.stats import jacobian_covariance
+from planner.identify import stats
 
 
 @dataclass
@@ -96,14 +96,12 @@ def _charge_as(t, i):
     return np.r_[0.0, np.cumsum(i[:-1] * np.diff(t))]
 
 
-def _cov(jac, rss, n, p):
-    """s² (JᵀJ)⁻¹ with s² = RSS/(n − p) (:func:`planner.identify.stats.jacobian_covariance`);
-    warns when the data cannot determine the parameters."""
-    base = jacobian_covariance(jac)
-    if base.singular:
-        warnings.warn("covariance of the fit is indeterminate (singular Jacobian)",
-                      RuntimeWarning, stacklevel=3)
-    return base.matrix * (rss / max(n - p, 1))
+def _cov(jac, rss):
+    """:func:`planner.identify.stats.scaled_covariance`, s² (JᵀJ)⁻¹ with s² = RSS/(n − p),
+    warning when the data cannot determine the parameters."""
+    cov = stats.scaled_covariance(jac, rss)
+    cov.warn_if_singular("the fit", RuntimeWarning, stacklevel=3)
+    return cov.matrix
 
 
 # --------------------------------------------------------------------------- R0
@@ -260,7 +258,7 @@ def _fit_window(t, v, i, tau_bounds, r0_fixed=None, slope=True):
     xm = _rc_regressors(t, i, math.exp(log_tau - h))[:, cols]
     d_tau = (xp @ beta - xm @ beta) / (2 * h)
     jac = np.column_stack([x, d_tau])
-    cov = _cov(jac, rss_min, t.size, jac.shape[1])
+    cov = _cov(jac, rss_min)
     return beta, log_tau, cov, rss_min, (lo, hi)
 
 
@@ -824,7 +822,7 @@ def fit_hysteresis(time_s, voltage_v, current_a, params: CircuitParameters, *,
     beta, rss_min, x = solve(log_g)
     hstep = 1e-4
     d_g = (solve(log_g + hstep)[2] @ beta - solve(log_g - hstep)[2] @ beta) / (2 * hstep)
-    cov = _cov(np.column_stack([x, d_g]), rss_min, t.size, 3)
+    cov = _cov(np.column_stack([x, d_g]), rss_min)
     gamma = math.exp(log_g)
     m_v, h0 = float(beta[0]), float(beta[1])
     if m_v < 0:
@@ -902,7 +900,7 @@ def fit_thermal(time_s, temperature_c, heat_w, t_air_c, *, t0_c: float | None = 
     if not sol.success:
         raise FitError(f"thermal fit did not converge: {sol.message}")
     rss = float(sol.fun @ sol.fun)
-    cov = _cov(sol.jac, rss, t.size, len(theta0))
+    cov = _cov(sol.jac, rss)
     r, cth = math.exp(sol.x[0]), math.exp(sol.x[1])
     se_lr, se_lc = math.sqrt(max(cov[0, 0], 0)), math.sqrt(max(cov[1, 1], 0))
     se_tau = r * cth * math.sqrt(max(cov[0, 0] + cov[1, 1] + 2 * cov[0, 1], 0))

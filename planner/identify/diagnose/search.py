@@ -248,10 +248,6 @@ def _long_run_variance(r: np.ndarray) -> float:
     return s2 * (1 + rho) / (1 - rho)
 
 
-def _covariance(jac: np.ndarray, resid: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    return stats.covariance(jac, resid, groups).matrix
-
-
 def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     return coef
@@ -532,7 +528,7 @@ class CapacityLevel:
             r = self.y[rows] * wt - ((X[self.w1[rows]] - X[self.w0[rows]]) * wt[:, None]) @ fit.coef
             jnl.append((r - r0) / h)
         J = np.column_stack(jnl + jac)
-        return _covariance(J, r0, self.row_group[rows]), np.r_[fit.nl, fit.coef]
+        return stats.covariance(J, r0, self.row_group[rows]).matrix, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
         """δ, ε, β and each effect's coefficient, with standard errors."""
@@ -1115,7 +1111,7 @@ class PowerLevel:
             Mj = self._evaluate(x, fit.nl_names, effects, fit.state, rows)
             cols.append((self._columns(Mj, effects, fit.state) @ fit.coef - y - r0) / step)
         J = np.column_stack(cols + [X[:, j] for j in range(X.shape[1])])
-        return _covariance(J, r0, self.exp[rows]), np.r_[fit.nl, fit.coef]
+        return stats.covariance(J, r0, self.exp[rows]).matrix, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
         cov, x = self.covariance(fit, effects)
