@@ -124,7 +124,7 @@ from planner.physics import atmosphere
 from planner.identify import stats
 from planner.errors import FitError, ModelError
 from planner.identify.aircraft_fit import with_params
-from planner.chain.flightstate import CLIMB_THRESHOLD_MS, flight_phases, inplane_speed
+from planner.chain.flightstate import CLIMB_THRESHOLD_MS, from_record, inplane_speed
 from planner.physics.units import AS_PER_MAH
 
 #: Folds of the cross-validation. [unitless]
@@ -569,6 +569,40 @@ def _finite_col(sub, name: str, n: int) -> np.ndarray:
     return np.full(n, np.nan)
 
 
+class _Bins:
+    """Bins of B seconds within the test units of the power level (module notes): B at
+    least 1 s and the median sample interval, longer when there would be more than
+    :data:`MAX_BINS`, at most 10 s; bins with fewer than half the median count of samples
+    are dropped (:attr:`keep`)."""
+
+    def __init__(self, s: dict, split: Split, spans):
+        self.unit = split.assign(s["exp"], s["t"])
+        total = sum(b - a for a, b in spans)
+        dts = np.diff(s["t"])
+        self.med_dt = float(np.median(dts[dts > 0])) if np.any(dts > 0) else 1.0
+        self.width = min(max(1.0, self.med_dt, total / MAX_BINS), 10.0)
+        u0 = np.array([split.units[u].t0 for u in self.unit])
+        key = self.unit.astype(np.int64) * 10**7 + \
+            np.floor((s["t"] - u0) / self.width).astype(np.int64)
+        _, self.inv, self.count = np.unique(key, return_inverse=True, return_counts=True)
+        self.nb = len(self.count)
+        self.keep = self.count >= 0.5 * np.median(self.count)
+        self.n = int(self.keep.sum())
+
+    def mean(self, x, valid=None):
+        """Mean of the valid (default: finite) samples of ``x`` in every bin, and their
+        count. [unit of x], [samples]"""
+        valid = np.isfinite(x) if valid is None else valid
+        num = np.bincount(self.inv, weights=np.where(valid, x, 0.0), minlength=self.nb)
+        den = np.bincount(self.inv, weights=valid.astype(float), minlength=self.nb)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return num / den, den
+
+    def take(self, x):
+        """The kept bins of a per-bin array."""
+        return x[self.keep]
+
+
 class PowerLevel:
     """Measured electric power against the aircraft's physics model.
 
@@ -581,6 +615,22 @@ class PowerLevel:
         All-up mass at the start of every flight. [kg]
     site_altitude_m : float
         Site altitude for the standard (ISA) density. [m]
+
+    Notes
+    -----
+    Each experiment's flight phases, power and climb rate are those of
+    :func:`planner.chain.flightstate.from_record` (on the experiment's own clock, from 0).
+    Its airspeed and air density are not, for reasons of this level:
+
+    * the level works on bin means, and averages each bin's ground-velocity *vector*
+      (known where the course is logged or the ground speed is below 0.5 m/s) before
+      the wind triangle, where ``from_record`` applies it sample by sample; and it keeps
+      the ground velocity, which the ``wind`` effect fits a wind to;
+    * the baseline flies the ISA density at the site altitude: the measured density is
+      the driver of the ``air_density`` effect, tested against it. A driver must be
+      measured, not filled in: the pressure (and the temperature) must cover 90 % of the
+      bins, where ``from_record``, whose density is the model's input, takes any channel
+      that covers half the samples (a measured density beats ISA as an input).
     """
 
     name = "power"
@@ -590,22 +640,37 @@ class PowerLevel:
         self.aircraft = aircraft
         self.file_system_power_w = float(aircraft.system_power_w)
         self.mass0 = float(mass_kg)
+        self.notes: list[str] = []
+        s, spans = self._airborne_samples(exps, site_altitude_m)
+        self._choose_climb(s)
+        self.n_experiments = len(self.names)
+        self.split = make_split(spans)
+        bins = _Bins(s, self.split, spans)
+        self.bin_s = bins.width
+        self._bin_flight_state(s, bins)
+        self._bin_air_density(s, bins, site_altitude_m)
+        self.mass = np.full(bins.n, self.mass0)
+        self.n_rows = bins.n
+        self._set_base_inputs(s, bins)
+        self._set_shape()
+
+    # ---------------------------------------------------------------- construction
+    def _airborne_samples(self, exps, site_altitude_m: float):
+        """The airborne samples of every experiment with 10 or more (other than ground
+        and take-off), stacked as columns; each experiment's airborne span; the ground
+        power's 5th–95th percentiles (:attr:`ground_power_w`)."""
         self.names = []
         cols = {k: [] for k in ("exp", "t", "p", "gs", "course", "climb", "air", "wn", "we",
                                 "pres", "temp", "alt_rate", "climb_smooth", "axial")}
         spans = []
-        self.notes: list[str] = []
         ground = []
         for name, sub in exps:
             sub = sub.reset_index(drop=True)
             n = len(sub)
             t = sub["time_s"].to_numpy(float)
             t = t - t[0]
-            p = sub["power_w"].to_numpy(float)
-            gs = _finite_col(sub, "groundspeed_ms", n)
-            climb = _finite_col(sub, "climb_rate_ms", n)
-            phase = flight_phases(p, sub.get("climb_rate_ms"), sub.get("groundspeed_ms"), t,
-                                  sub.get("altitude_m"))
+            state = from_record(sub.assign(time_s=t), site_altitude_m)
+            p, phase, climb = state.measured_power_w, state.phase, state.climb_rate_ms
             ok = (phase != "ground") & (phase != "takeoff") & np.isfinite(p)
             ground.append(p[(phase == "ground") & np.isfinite(p)])
             if ok.sum() < 10:
@@ -615,24 +680,18 @@ class PowerLevel:
             e = len(self.names)
             self.names.append(name)
             spans.append((float(t[ok][0]), float(t[ok][-1])))
-            cols["exp"].append(np.full(ok.sum(), e))
-            cols["t"].append(t[ok])
-            cols["p"].append(p[ok])
-            cols["gs"].append(np.abs(np.nan_to_num(gs[ok])))
-            cols["course"].append(_finite_col(sub, "course_deg", n)[ok])
-            cols["climb"].append(np.nan_to_num(climb[ok]))
-            alt = _finite_col(sub, "altitude_m", n)
-            rate, smooth = _altitude_rate(t, alt, np.nan_to_num(climb))
-            cols["alt_rate"].append(rate[ok])
-            cols["climb_smooth"].append(smooth[ok])
-            cols["air"].append(_finite_col(sub, "airspeed_ms", n)[ok])
-            cols["axial"].append(_finite_col(sub, "axial_speed_ms", n)[ok])
-            cols["wn"].append(_finite_col(sub, "wind_n_ms", n)[ok])
-            cols["we"].append(_finite_col(sub, "wind_e_ms", n)[ok])
-            pres = _finite_col(sub, "pressure_pa", n)
-            temp = _finite_col(sub, "ambient_temperature_c", n)
-            cols["pres"].append(interp_nan(t, pres)[ok])
-            cols["temp"].append(interp_nan(t, temp)[ok])
+            rate, smooth = _altitude_rate(t, _finite_col(sub, "altitude_m", n), climb)
+            for key, x in (("exp", np.full(ok.sum(), e)), ("t", t), ("p", p),
+                           ("gs", np.abs(np.nan_to_num(_finite_col(sub, "groundspeed_ms", n)))),
+                           ("course", _finite_col(sub, "course_deg", n)), ("climb", climb),
+                           ("alt_rate", rate), ("climb_smooth", smooth),
+                           ("air", _finite_col(sub, "airspeed_ms", n)),
+                           ("axial", _finite_col(sub, "axial_speed_ms", n)),
+                           ("wn", _finite_col(sub, "wind_n_ms", n)),
+                           ("we", _finite_col(sub, "wind_e_ms", n)),
+                           ("pres", interp_nan(t, _finite_col(sub, "pressure_pa", n))),
+                           ("temp", interp_nan(t, _finite_col(sub, "ambient_temperature_c", n)))):
+                cols[key].append(x if key == "exp" else x[ok])
         if not self.names:
             raise FitError("no airborne samples in the data")
         ground = np.concatenate(ground) if ground else np.zeros(0)
@@ -641,7 +700,11 @@ class PowerLevel:
         self.ground_power_w = ((float(np.percentile(ground, 5)),
                                 float(np.percentile(ground, 95)))
                                if ground.size >= MIN_GROUND_SAMPLES else None)
-        s = {k: np.concatenate(v) for k, v in cols.items()}
+        return {k: np.concatenate(v) for k, v in cols.items()}, spans
+
+    def _choose_climb(self, s: dict) -> None:
+        """The logged climb rate, or the altitude's rate of change where the two disagree
+        by more than :data:`MAX_CLIMB_DISAGREEMENT_MS` (module notes, "Climb rate")."""
         self.climb_source = "logged climb rate"
         #: RMS difference of the logged climb rate and the altitude's rate of change. [m/s]
         self.climb_disagreement_ms = _climb_disagreement(s["climb_smooth"], s["alt_rate"])
@@ -657,26 +720,11 @@ class PowerLevel:
                 f"{MAX_CLIMB_DISAGREEMENT_MS:g} m/s that counts as a climb): the altitude is the "
                 "direct measure of climbing, so the power model is driven by its rate of "
                 "change instead")
-        self.n_experiments = len(self.names)
-        self.split = make_split(spans)
-        unit = self.split.assign(s["exp"], s["t"])
-        total = sum(b - a for a, b in spans)
-        dts = np.diff(s["t"])
-        med_dt = float(np.median(dts[dts > 0])) if np.any(dts > 0) else 1.0
-        width = min(max(1.0, med_dt, total / MAX_BINS), 10.0)
-        self.bin_s = width
-        u0 = np.array([self.split.units[u].t0 for u in unit])
-        key = unit.astype(np.int64) * 10**7 + np.floor((s["t"] - u0) / width).astype(np.int64)
-        _, inv, count = np.unique(key, return_inverse=True, return_counts=True)
-        nb = len(count)
 
-        def mean(x, valid=None):
-            valid = np.isfinite(x) if valid is None else valid
-            num = np.bincount(inv, weights=np.where(valid, x, 0.0), minlength=nb)
-            den = np.bincount(inv, weights=valid.astype(float), minlength=nb)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                return num / den, den
-
+    def _bin_flight_state(self, s: dict, bins: _Bins) -> None:
+        """Bin means of the time, power, ground velocity, climb rate, airspeed and logged
+        wind, and each bin's experiment, test unit and fold."""
+        count, take, mean = bins.count, bins.take, bins.mean
         course = s["course"]
         # the ground velocity is known where the course is, and where the aircraft is
         # (nearly) still over ground whatever the course says
@@ -684,14 +732,13 @@ class PowerLevel:
         a = np.radians(np.where(np.isfinite(course), course, 0.0))
         vn, kn = mean(s["gs"] * np.cos(a), known)
         ve, _ = mean(s["gs"] * np.sin(a), known)
-        keep = count >= 0.5 * np.median(count)
-        self.count = count[keep].astype(float)
-        self.dt_bin = self.count * med_dt
-        take = lambda x: x[keep]
-        self.exp = take(np.bincount(inv, weights=s["exp"], minlength=nb) / count).round().astype(int)
+        self.count = count[bins.keep].astype(float)
+        self.dt_bin = self.count * bins.med_dt
+        self.exp = take(np.bincount(bins.inv, weights=s["exp"], minlength=bins.nb)
+                        / count).round().astype(int)
         self.row_group = self.exp
-        self.row_unit = take(np.bincount(inv, weights=unit, minlength=nb) / count).round() \
-            .astype(int)
+        self.row_unit = take(np.bincount(bins.inv, weights=bins.unit, minlength=bins.nb)
+                             / count).round().astype(int)
         self.row_fold = np.array([self.split.units[u].fold for u in self.row_unit])
         self.time = take(mean(s["t"])[0])
         self.measured = take(mean(s["p"])[0])
@@ -714,10 +761,15 @@ class PowerLevel:
             np.nanmax(np.abs(s["wn"])) + np.nanmax(np.abs(s["we"])) > 0))
         self.logged_wind_n = take(np.nan_to_num(wn)) if self.has_logged_wind else 0.0
         self.logged_wind_e = take(np.nan_to_num(we)) if self.has_logged_wind else 0.0
-        self.rho_std = np.full(keep.sum(), float(atmosphere.density(site_altitude_m)))
-        pres, _ = mean(s["pres"])
-        temp, _ = mean(s["temp"])
-        pres, temp = take(pres), take(temp)
+
+    def _bin_air_density(self, s: dict, bins: _Bins, site_altitude_m: float) -> None:
+        """The ISA density at the site (the baseline's) and the measured one of each bin
+        (class notes): from pressure and temperature, else from the pressure at the ISA
+        temperature of the pressure altitude; the ISA density without a pressure."""
+        self.rho_std = np.full(bins.n, float(atmosphere.density(site_altitude_m)))
+        pres, _ = bins.mean(s["pres"])
+        temp, _ = bins.mean(s["temp"])
+        pres, temp = bins.take(pres), bins.take(temp)
         self.has_pressure = bool(np.isfinite(pres).mean() > 0.9 and np.nanmin(pres) > 1000)
         self.has_air_temperature = bool(np.isfinite(temp).mean() > 0.9)
         if self.has_pressure:
@@ -731,9 +783,12 @@ class PowerLevel:
         else:
             self.rho_meas = self.rho_std.copy()
         self.log_rho_ratio = np.log(self.rho_meas / self.rho_std)
-        self.mass = np.full(keep.sum(), self.mass0)
-        self.n_rows = int(keep.sum())
-        # base airspeed
+
+    def _set_base_inputs(self, s: dict, bins: _Bins) -> None:
+        """The baseline's inputs per bin: the airspeed (measured, else the ground velocity
+        less the logged wind, else the ground speed), the climb rate, the ISA density and
+        the mass; a multirotor flies its disks' axial and in-plane speed where the record
+        has the velocity along the thrust axis (FlightState.rotor_velocities)."""
         if self.airspeed_measured:
             v = np.where(np.isfinite(self.airspeed), self.airspeed, self.gs)
         else:
@@ -741,16 +796,21 @@ class PowerLevel:
                                                      self.ve - self.logged_wind_e), self.gs)
         self.base_inputs = {"airspeed": np.abs(v), "climb": self.climb,
                             "air_density": self.rho_std, "mass": self.mass}
-        axial, n_axial = mean(s["axial"])
-        #: A multirotor flies its rotor disks' axial and in-plane speed where the record
-        #: has the velocity along the thrust axis (FlightState.rotor_velocities).
-        self.rotor_axial = bool(aircraft.is_multirotor and np.isfinite(s["axial"]).mean() > 0.5)
+        axial, n_axial = bins.mean(s["axial"])
+        self.rotor_axial = bool(self.aircraft.is_multirotor
+                                and np.isfinite(s["axial"]).mean() > 0.5)
         if self.rotor_axial:
-            ax = _fill(take(np.where(n_axial > 0, axial, np.nan)))
+            ax = _fill(bins.take(np.where(n_axial > 0, axial, np.nan)))
             self.base_inputs["airspeed"] = inplane_speed(v, self.climb, ax)
             self.base_inputs["climb"] = ax
             self.notes.append("power level: the rotor model flies the disks' axial speed "
                               "(axial_speed_ms) and their in-plane speed")
+
+    def _set_shape(self) -> None:
+        """The baseline's shape parameters (start, low, high, scale: multirotor drag area
+        [m²]; fixed-wing C_D0 and K) and how much the mechanical power varies over the
+        bins (:attr:`load_variation`, unitless)."""
+        aircraft = self.aircraft
         self._table = None
         self._warm: dict = {}
         self._shape_name = "drag_area_m2"
