@@ -101,6 +101,10 @@ POOR_RELATIVE_STDERR = 0.5
 
 
 def get_param(aircraft: Aircraft, name: str) -> float:
+    """The value of a fitted parameter in an aircraft: ``efficiency`` and ``system_power_w``
+    of the aircraft, the others of its multirotor or fixed-wing block. [unit of the
+    parameter]
+    """
     if name in ("efficiency", "system_power_w"):
         return float(getattr(aircraft, name))
     block = aircraft.multirotor if aircraft.is_multirotor else aircraft.fixed_wing

@@ -179,6 +179,7 @@ class Experiment:
 
     @property
     def label(self) -> str:
+        """The experiment named for messages, with its file where known."""
         return f"{self.source}: experiment '{self.name}'" if self.source else \
             f"experiment '{self.name}'"
 
@@ -425,6 +426,7 @@ class ExperimentMetrics:
     """Predicted minus measured time to draw :math:`C_{final}` (eq. 20). [s]"""
 
     def to_dict(self) -> dict[str, Any]:
+        """The metrics as a JSON-ready dict (the field names and units above)."""
         return asdict(self)
 
 

@@ -111,12 +111,17 @@ class SeedCampaign:
     aprbs_min_duration_s: float = 3500.0
 
     def constant_name(self, power_w: float) -> str:
+        """Experiment id of the constant-power discharge at ``power_w`` [W], e.g. ``const_050W``."""
         return f"const_{power_w:03.0f}W"
 
     def two_step_name(self, p1_w: float, p2_w: float, k: float) -> str:
+        """Experiment id of a two-step test, P1 → P2 [W] with t2/t1 = ``k``, e.g.
+        ``two_step_050_125_k0.5``.
+        """
         return f"two_step_{p1_w:03.0f}_{p2_w:03.0f}_k{k:g}"
 
     def aprbs_name(self, index: int) -> str:
+        """Experiment id of the APRBS test number ``index`` (from 0), e.g. ``aprbs_1``."""
         return f"aprbs_{index + 1}"
 
     @property

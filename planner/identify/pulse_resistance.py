@@ -66,6 +66,7 @@ class Pulse:
 
     @property
     def kind(self) -> str:
+        """``"discharge"`` (current positive before the switch-off) or ``"charge"``."""
         return "discharge" if self.current_a > 0 else "charge"
 
 
@@ -99,6 +100,9 @@ class PulseResistance:
     """The values the statistics are taken over. [Ω]"""
 
     def to_dict(self) -> dict:
+        """JSON-ready form: every pulse, the levels [A] and their resistances [Ω], the
+        statistics [Ω] and how they were taken.
+        """
         return {
             "pulses": [{"time_s": p.time_s, "current_a": p.current_a, "kind": p.kind,
                         "delta_v": p.delta_v, "delta_i": p.delta_i,

@@ -115,6 +115,11 @@ class PowerReplay:
 
 @dataclass
 class ExperimentReplay:
+    """One experiment replayed: its id, duration [s] and samples, the battery and power
+    levels (None where not replayed), notes, and the per-sample series of the replay
+    (``series``: ``time_s`` [s], ``measured_w``/``predicted_w`` [W], charges [mAh],
+    ``time_to_reserve_s`` [s], ``phase``).
+    """
     experiment: str
     duration_s: float
     samples: int
@@ -126,10 +131,14 @@ class ExperimentReplay:
 
 @dataclass
 class ReplayResult:
+    """Every experiment replayed and the overall figures (mean final error [%], RMSE
+    [mAh], power RMSE [W], energy error [%]).
+    """
     experiments: list[ExperimentReplay]
     overall: dict[str, Any]
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form: the overall figures and each experiment without its series."""
         def conv(obj):
             if obj is None:
                 return None

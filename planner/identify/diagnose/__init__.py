@@ -108,6 +108,11 @@ class DiagnoseResult:
 
     # ------------------------------------------------------------------ JSON
     def baseline(self, name: str) -> dict[str, Any]:
+        """The calibrated baseline of level ``name`` (``cutoff``, ``capacity`` or ``power``):
+        its held-out error (``rmse`` in the level's unit, mAh, W or % of energy;
+        ``final_error_pct`` [%]), the error of the definition file as given, its parameters
+        with standard errors, the experiments and the split, and how the error is measured.
+        """
         lv = self.levels[name]
         base = lv.result.baseline
         level = lv.result.level
@@ -135,12 +140,19 @@ class DiagnoseResult:
 
     @property
     def primary_level(self) -> str | None:
+        """The level whose baseline the JSON leads with: capacity, else power, else the
+        cut-off; None when no level ran.
+        """
         for name in ("capacity", "power", "cutoff"):
             if name in self.levels:
                 return name
         return None
 
     def unexplained(self) -> str | None:
+        """What the tested effects leave unexplained, in words: held-out residuals with slow
+        structure (lag-1 autocorrelation above 0.5) and the effects withheld as misfits or
+        confounded; None when nothing is left.
+        """
         parts = []
         for name, lv in self.levels.items():
             final = lv.result.final
@@ -173,6 +185,10 @@ class DiagnoseResult:
         return "; ".join(parts) if parts else None
 
     def extended(self) -> dict[str, Any]:
+        """Per level that ran: the effects added, the held-out error before and after (the
+        level's unit) with the gain [%], the final error before and after [%] and the final
+        parameters with standard errors.
+        """
         out: dict[str, Any] = {}
         for name, lv in self.levels.items():
             r = lv.result
@@ -229,6 +245,9 @@ class DiagnoseResult:
 
     # ------------------------------------------------------------------ text
     def summary(self) -> str:
+        """The result as text: each level's baseline, the findings ranked by held-out gain,
+        the extended models, what was not tested or cannot be told apart, and the notes.
+        """
         lines = []
         for name, lv in self.levels.items():
             b = lv.result.baseline

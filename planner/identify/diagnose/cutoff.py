@@ -192,6 +192,9 @@ class CutoffLevel:
 
     # ---------------------------------------------------------------- fit
     def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        """Fit the energy-to-cut-off model with ``effects`` on the ``train`` rows (one per
+        discharge), from ``start`` where given.
+        """
         Z = self._columns(effects)
         lin_names, X = self._linear()
         rows = np.flatnonzero(train)
@@ -233,6 +236,10 @@ class CutoffLevel:
         return self._predict(fit.nl, Z, X, fit.coef)
 
     def heldout(self, fit: Fit, effects, fold: int) -> dict[str, Any]:
+        """Held-out residuals of one fold: the ln error of each held-out discharge's
+        energy to the cut-off, in % for the samples, and the final errors ``(|E − Ê|, E)``
+        [W h].
+        """
         rows = np.flatnonzero(self.row_fold == fold)
         r = self.y[rows] - self.predict(fit, effects)[rows]
         e_hat = self.energy[rows] * np.exp(-r)

@@ -202,6 +202,8 @@ class Split:
         return out
 
     def to_dict(self) -> dict[str, Any]:
+        """The rule in words, the folds, the number of test units and whether whole
+        experiments are held out."""
         return {"rule": self.rule, "folds": self.n_folds, "units": len(self.units),
                 "whole_experiments": self.whole_experiments}
 
@@ -268,9 +270,12 @@ class Fit:
 
     @property
     def rss(self) -> float:
+        """Sum of the squared weighted training residuals. [level's unit²]"""
         return float(np.dot(self.train_resid, self.train_resid))
 
     def values(self) -> dict[str, float]:
+        """Every fitted value by name, the nonlinear ones first (raw coordinates of the
+        level, not the physical parameters of :meth:`CapacityLevel.physical`)."""
         return dict(zip(self.nl_names + self.lin_names,
                         map(float, np.r_[self.nl, self.coef])))
 
@@ -407,6 +412,7 @@ class CapacityLevel:
         return cs - cs[self.start_of]
 
     def window_mean(self, x: np.ndarray) -> np.ndarray:
+        """Mean of a per-sample series over each window's samples. [unit of x]"""
         cs = np.r_[0.0, np.cumsum(x)]
         return (cs[self.w1 + 1] - cs[self.w0]) / (self.w1 - self.w0 + 1)
 
@@ -425,6 +431,9 @@ class CapacityLevel:
         return float(x[1]) if self.fit_beta else float(self.pack.model.beta)
 
     def G(self, x: np.ndarray) -> np.ndarray:
+        r"""The model's charge shape per sample, :math:`S^{1/\beta}` with the stress
+        :math:`S = \int (P/P_{ref})^{-\varepsilon} dt` from each experiment's start
+        ([UAV23] eq. 14 up to the scale δ, fitted linearly). [s^(1/β)]"""
         rate = np.exp(-x[0] * self.logp) * self.on
         S = self.cumulate(self.half_dt * (rate[1:] + rate[:-1]))
         return np.maximum(S, 0.0) ** (1.0 / self._beta(x))
@@ -437,6 +446,9 @@ class CapacityLevel:
         return np.column_stack([G] + [e.cumulative(self, G, dG) for e in effects])
 
     def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        """Fit the integral model with ``effects`` to the window increments of the
+        ``train`` rows: ε (and β) by least squares, the scale and the effects'
+        coefficients linearly at each step (variable projection)."""
         names, x0, lo, hi = self._nl_start(start)
         for e in effects:
             e.prepare(self)
@@ -469,6 +481,7 @@ class CapacityLevel:
 
     def row_residuals(self, fit: Fit, effects, rows: np.ndarray,
                       X: np.ndarray | None = None) -> np.ndarray:
+        """Weighted residuals of the window increments of ``rows``. [A s / √s]"""
         X = self.design(fit.nl, effects) if X is None else X
         Xw = X[self.w1[rows]] - X[self.w0[rows]]
         return (self.y[rows] - Xw @ fit.coef) * self.weights[rows]
@@ -853,6 +866,9 @@ class PowerLevel:
 
     def mechanical(self, shape: dict[str, float], inputs: dict, rows: np.ndarray,
                    table: bool = True) -> np.ndarray:
+        """Mechanical (shaft) power of the aircraft model at unit efficiency and no
+        system load, with the ``shape`` parameters, at the ``inputs`` of ``rows``; from
+        the drag-area spline (:meth:`_drag_table`) where it holds. [W]"""
         if table and self.aircraft.is_multirotor and inputs is self.base_inputs:
             if self._table is None:
                 self._table = self._drag_table() or False
@@ -896,6 +912,10 @@ class PowerLevel:
         return self.mechanical(shape, inputs, rows)
 
     def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        """Fit the power model with ``effects`` to the ``train`` bins: the shape and the
+        effects' nonlinear parameters by least squares, 1/η and the linear coefficients
+        at each step; a payload change is located first (module notes), a wind started
+        from a grid of directions."""
         spec, lin = self._spec(effects)
         names = list(spec)
         x0 = np.array([spec[k][0] for k in names], float)
@@ -1093,6 +1113,7 @@ class PowerLevel:
         return mask
 
     def predict(self, fit: Fit, effects, rows: np.ndarray) -> np.ndarray:
+        """Predicted electric power of the bins ``rows``. [W]"""
         M = self._evaluate(fit.nl, fit.nl_names, effects, fit.state, rows)
         X = self._columns(M, effects, fit.state)
         fixed = 0.0 if any(e.name == "system_power" for e in effects) else \
@@ -1139,6 +1160,8 @@ class PowerLevel:
         fit.state["step_mask"] = mask
 
     def heldout(self, fit: Fit, effects, fold: int) -> dict[str, Any]:
+        """Held-out residuals of one fold [W] and the final (energy) errors of its
+        segments ``(|E − Ê|, E)`` [W s]."""
         rows = np.flatnonzero(self.row_fold == fold)
         pred = self.predict(fit, effects, rows)
         r = self.measured[rows] - pred
@@ -1156,6 +1179,8 @@ class PowerLevel:
                 "loss": r**2}
 
     def covariance(self, fit: Fit, effects):
+        """Covariance of [nonlinear…, linear…] of an all-data fit, AR(1)-inflated within
+        each flight (:func:`planner.identify.stats.covariance`)."""
         rows = np.flatnonzero(fit.train)
         y = self._y(effects)[rows]
         M = self._evaluate(fit.nl, fit.nl_names, effects, fit.state, rows)
@@ -1174,6 +1199,8 @@ class PowerLevel:
         return stats.covariance(J, r0, self.exp[rows]).matrix, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
+        """The shape parameters, the efficiency η (unitless) and each effect's
+        parameters in physical units, with standard errors (delta method)."""
         cov, x = self.covariance(fit, effects)
         k = len(fit.nl)
         names = list(fit.nl_names) + ["efficiency"]
@@ -1212,6 +1239,7 @@ class PowerLevel:
         return [("the time since the start", self.time), ("the energy drawn so far", energy)]
 
     def row_driver_residual(self, resid: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Held-out bin residual, as it is: an excess power. [W]"""
         return resid
 
 
@@ -1392,6 +1420,9 @@ class Comparison:
     against: tuple[str, ...] = ()
 
     def evidence(self) -> dict[str, float]:
+        """The statistics behind the verdict: the training likelihood ratio and its p,
+        the effective samples, the added parameters, the paired held-out p and the test
+        units (all, and improved)."""
         return {"lr_statistic": self.lr_statistic, "lr_p_value": self.lr_p_value,
                 "effective_samples": self.effective_samples,
                 "added_parameters": float(self.added_parameters),
