@@ -76,17 +76,18 @@ def main() -> None:
         t_fit, result = timed(lambda: fit.fit_integral(experiments, train=names), 5)
         t_all, _ = timed(lambda: fit.fit_integral(df, train=names), 5)
     print(f"fit 14 experiments x 3600 samples (all training), prepared data: "
-          f"{1e3 * t_fit:7.1f} ms  (target < 1000 ms; {result['nfev']} evaluations)")
+          f"{1e3 * t_fit:7.1f} ms  (target < 1000 ms; {result.nfev} evaluations)")
     print(f"  same from the DataFrame (checks + metrics included):            "
           f"{1e3 * t_all:7.1f} ms")
     for key in ("delta", "epsilon", "beta"):
-        print(f"  {key:<8}= {result[key]:.5g} ± {result['stderr'][key]:.2g}  (true {TRUE[key]})")
+        print(f"  {key:<8}= {result.parameters[key]:.5g} ± {result.stderr[key]:.2g}  "
+              f"(true {TRUE[key]})")
 
     n = 1_000_000
     rng = np.random.default_rng(1)
     t = np.arange(n, dtype=float) * 0.01
     p = np.repeat(rng.choice([0.0, 50.0, 75.0, 100.0, 125.0], n // 1000), 1000)
-    params = {k: result[k] for k in ("delta", "epsilon", "beta")}
+    params = result.parameters
     t_pred, c = timed(lambda: integral.charge(t, p, **params), 7)
     print(f"predict a 10^6-sample profile (integral.charge):                 "
           f"{1e3 * t_pred:7.1f} ms  (target < 50 ms; C_end = {c[-1] / 3.6:.0f} mAh)")

@@ -17,7 +17,7 @@
    (:mod:`planner.fleet.calibrate`): ``DIR/aircraft/<key>.yaml``, fitted on the thinned
    records kept in ``DIR/samples.parquet``;
 5. ``DIR/report.md`` and its figures (:mod:`planner.fleet.report`), with ``diagnose``
-   (DESIGN §6) run on the :data:`DIAGNOSE_WORST` worst flights.
+   (docs/commands.md) run on the :data:`DIAGNOSE_WORST` worst flights.
 
 Pack identity: the log's battery serial where the reader gives one (``battery_serial``
 in the metadata), else the ``--packs`` CSV (columns ``log``, ``pack``, optionally
@@ -515,7 +515,9 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     the run is interrupted. ``calibrate``: calibrate each aircraft on the fleet
     (:mod:`planner.fleet.calibrate`). ``figures``: draws the report's figures
     (:func:`planner.fleet.report.write_report`; the command line passes
-    :func:`planner.cli.plots.fleet.write_figures`); None: a text report.
+    :func:`planner.cli.plots.fleet.write_figures`); None: a text report. ``retire``:
+    the state of health at retirement [unitless]; ``within``: flights ahead in which a
+    retirement is flagged.
 
     Raises
     ------
@@ -523,23 +525,70 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
         No logs, ``out_dir`` among the inputs or unusable, or every log failed (naming
         each with its reason).
     """
-    from planner.fleet.calibrate import calibrate_aircraft, write_aircraft_file
-
-    checkpoint_s = CHECKPOINT_S if checkpoint_s is None else checkpoint_s
     models = fleet_models(aircraft, pack)
     logs = collect_logs(paths)
     if not logs:
         raise InputError("no log files given")
     out = _check_out_dir(Path(out_dir))
-    table_path = out / TABLE_NAME
-    samples_path = out / SAMPLES_NAME
-    old = _read_table(table_path)
-    old_samples = _read_parquet(samples_path, "fleet samples table") if calibrate else None
-    skip = set(old.loc[old["status"] == "ok", "sha256"]) if old is not None else set()
+    store = _Store(out, calibrate)
     own = client is None
     cluster = None
     if own:
         client, cluster = _client(workers, scheduler)
+    if progress is True:
+        progress = _Progress(len(logs))
+    try:
+        result, rows = _summarise_and_diagnose(
+            logs, models, pack_map, store, client, progress,
+            CHECKPOINT_S if checkpoint_s is None else checkpoint_s)
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    if calibrate:
+        _calibrate_aircraft(result, models, store, rows, out)
+    _write_table(store.table_path, result.table)
+    _pack_health(result, models, out, retire)
+    from planner.fleet.report import write_report
+
+    result.outputs += write_report(result, out, retire=retire, within=within, figures=figures)
+    return result
+
+
+class _Store:
+    """The tables in the output folder: the flight table and (with ``calibrate``) the
+    calibration samples, as a previous run left them; :meth:`save` checkpoints a run."""
+
+    def __init__(self, out: Path, calibrate: bool):
+        self.table_path = out / TABLE_NAME
+        self.samples_path = out / SAMPLES_NAME
+        self.calibrate = calibrate
+        self.old = _read_table(self.table_path)
+        self.old_samples = (_read_parquet(self.samples_path, "fleet samples table")
+                            if calibrate else None)
+        #: Content hashes of the flights already in the table (not read again).
+        self.skip = (set(self.old.loc[self.old["status"] == "ok", "sha256"])
+                     if self.old is not None else set())
+
+    def samples(self, rows: list[dict], table: pd.DataFrame) -> pd.DataFrame:
+        """The calibration samples of the flights of ``table`` (old and new)."""
+        return _samples_table(self.old_samples, rows,
+                              set(table.loc[table["status"] == "ok", "sha256"]))
+
+    def save(self, rows: list[dict]) -> None:
+        """Write the table (and the samples) with the rows so far."""
+        merged = _merge(self.old, to_frame(rows))
+        if self.calibrate:
+            _write_table(self.samples_path, self.samples(rows, merged))
+        _write_table(self.table_path, merged)
+
+
+def _summarise_and_diagnose(logs, models, pack_map, store: _Store, client, progress,
+                            checkpoint_s: float) -> tuple[FleetResult, list[dict]]:
+    """Every log through :func:`summarise_all` on the Dask ``client`` (the table written
+    every ``checkpoint_s`` seconds [s] and when interrupted), then ``diagnose`` on the
+    worst flights: the result so far, and this run's rows."""
     t0 = time.perf_counter()
     so_far: list[dict] = []
     last = [t0]
@@ -550,54 +599,54 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
         so_far[:] = rows
         now = time.perf_counter()
         if rows and any(r["status"] == "ok" for r in rows) and now - last[0] >= every:
-            merged = _merge(old, to_frame(rows))
-            if calibrate:
-                _write_table(samples_path, _samples_table(
-                    old_samples, rows, set(merged.loc[merged["status"] == "ok", "sha256"])))
-            _write_table(table_path, merged)
+            store.save(rows)
             last[0] = now
 
-    if progress is True:
-        progress = _Progress(len(logs))
     try:
-        try:
-            rows, skipped = summarise_all(
-                logs, models=models, pack_map=pack_map, skip=skip, client=client,
-                progress=progress or None, on_batch=save, samples=calibrate)
-        except KeyboardInterrupt:
-            save(so_far, every=0.0)
-            raise
-        elapsed = time.perf_counter() - t0
-        failed = [(r["log"], r["error"]) for r in rows if r["status"] == "failed"]
-        not_replayable = [(r["log"], r["error"]) for r in rows
-                          if r["status"] == "not replayable"]
-        if rows and len(failed) == len(rows) and not skipped:
-            listed = "; ".join(f"{err}" for _, err in failed[:5])
-            raise InputError(f"all {len(failed)} logs failed: {listed}"
-                             + (" …" if len(failed) > 5 else ""))
-        table = _merge(old, to_frame(rows))
-        diagnoses = diagnose_worst(table, client, models=models)
-    finally:
-        if own:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        rows, skipped = summarise_all(
+            logs, models=models, pack_map=pack_map, skip=store.skip, client=client,
+            progress=progress or None, on_batch=save, samples=store.calibrate)
+    except KeyboardInterrupt:
+        save(so_far, every=0.0)
+        raise
+    elapsed = time.perf_counter() - t0
+    failed = [(r["log"], r["error"]) for r in rows if r["status"] == "failed"]
+    not_replayable = [(r["log"], r["error"]) for r in rows
+                      if r["status"] == "not replayable"]
+    if rows and len(failed) == len(rows) and not skipped:
+        listed = "; ".join(f"{err}" for _, err in failed[:5])
+        raise InputError(f"all {len(failed)} logs failed: {listed}"
+                         + (" …" if len(failed) > 5 else ""))
+    table = _merge(store.old, to_frame(rows))
+    diagnoses = diagnose_worst(table, client, models=models)
     result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
-                         health=[], outputs=[table_path], elapsed_s=elapsed,
+                         health=[], outputs=[store.table_path], elapsed_s=elapsed,
                          diagnoses=diagnoses, not_replayable=not_replayable)
-    if calibrate:
-        samples = _samples_table(old_samples, rows,
-                                 set(table.loc[table["status"] == "ok", "sha256"]))
-        _write_table(samples_path, samples)
-        result.outputs.append(samples_path)
-        for key, (craft, flown) in models.items():
-            if craft is None:
-                continue
-            cal = calibrate_aircraft(key, samples, table, craft, flown)
-            if cal.aircraft is not None:
-                result.outputs.append(write_aircraft_file(cal, out / "aircraft"))
-            result.calibrations.append(cal)
-    _write_table(table_path, table)
+    return result, rows
+
+
+def _calibrate_aircraft(result: FleetResult, models: dict, store: _Store, rows, out: Path
+                        ) -> None:
+    """Write the calibration samples and calibrate each aircraft on them
+    (:mod:`planner.fleet.calibrate`), writing ``aircraft/<key>.yaml``."""
+    from planner.fleet.calibrate import calibrate_aircraft, write_aircraft_file
+
+    samples = store.samples(rows, result.table)
+    _write_table(store.samples_path, samples)
+    result.outputs.append(store.samples_path)
+    for key, (craft, flown) in models.items():
+        if craft is None:
+            continue
+        cal = calibrate_aircraft(key, samples, result.table, craft, flown)
+        if cal.aircraft is not None:
+            result.outputs.append(write_aircraft_file(cal, out / "aircraft"))
+        result.calibrations.append(cal)
+
+
+def _pack_health(result: FleetResult, models: dict, out: Path, retire: float) -> None:
+    """Each pack's health (:func:`planner.fleet.health.pack_health`) and, for a pack whose
+    aircraft has a pack file, its present-state pack file in ``packs/``."""
+    table = result.table
     owner = _pack_aircraft(table)
 
     def new_pack(pack_id: str):
@@ -614,18 +663,15 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
         if ref is not None:
             nominal[str(pid)] = ref.capacity_mah
     result.health = pack_health(table, retire=retire, nominal_mah=nominal, aircraft=owner)
-    if result.health:
-        with_pack = [h for h in result.health if new_pack(h.pack_id) is not None]
-        if len(with_pack) < len(result.health):
-            result.notes.append("no pack file (--battery or the aircraft's battery) for "
-                                + ", ".join(h.pack_id for h in result.health
-                                            if h not in with_pack))
-        if with_pack:
-            (out / "packs").mkdir(exist_ok=True)
-            result.pack_files, notes = write_pack_files(with_pack, new_pack, out / "packs")
-            result.notes += notes
-            result.outputs += list(result.pack_files.values())
-    from planner.fleet.report import write_report
-
-    result.outputs += write_report(result, out, retire=retire, within=within, figures=figures)
-    return result
+    if not result.health:
+        return
+    with_pack = [h for h in result.health if new_pack(h.pack_id) is not None]
+    if len(with_pack) < len(result.health):
+        result.notes.append("no pack file (--battery or the aircraft's battery) for "
+                            + ", ".join(h.pack_id for h in result.health
+                                        if h not in with_pack))
+    if with_pack:
+        (out / "packs").mkdir(exist_ok=True)
+        result.pack_files, notes = write_pack_files(with_pack, new_pack, out / "packs")
+        result.notes += notes
+        result.outputs += list(result.pack_files.values())

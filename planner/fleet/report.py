@@ -67,105 +67,27 @@ def _cell(text, width: int = 160) -> str:
     return one if len(one) <= width else one[:width - 1] + "…"
 
 
+def _row(*cells) -> str:
+    """A Markdown table row of the cells' text."""
+    return "| " + " | ".join(str(c) for c in cells) + " |"
+
+
 def render(result, *, retire: float, within: float, with_figures: bool = True) -> str:
-    """The Markdown report (module notes)."""
+    """The Markdown report (module notes): the flights counted, predicted against
+    measured, the worst flights, pack health, the aircraft calibrated on the fleet, the
+    failed and unreplayable logs and the notes; ``retire`` (the state of health at
+    retirement, unitless) and ``within`` (flights ahead flagged) as
+    :meth:`planner.fleet.health.PackHealth.retires_within` takes them."""
     table = result.table
     ok = table[table["status"] == "ok"].reset_index(drop=True)
-    bad = table[table["status"] == "failed"]
-    unusable = table[table["status"] == "not replayable"]
-    lines = ["# Fleet report", "",
-             f"{len(ok)} flights in the table ({len(bad)} failed logs"
-             + (f", {len(unusable)} not replayable" if len(unusable) else "")
-             + "); this run summarised "
-             f"{result.processed} logs ({len(result.failed)} failed) and found "
-             f"{result.skipped} already in the table.", ""]
-    ch = error_summary(ok["charge_error_pct"])
-    en = error_summary(ok["energy_error_pct"])
-    order = cycle_order(ok) if len(ok) else np.array([])
-    d_ch, d_ch_se = drift(order, ok["charge_error_pct"])
-    d_en, d_en_se = drift(order, ok["energy_error_pct"])
-    lines += ["## Predicted vs measured", "",
-              "| level | flights | bias | P95 of the absolute error | drift per flight |",
-              "|---|---:|---:|---:|---:|",
-              f"| charge (battery model on measured power; measured − predicted) | {ch['n']} | "
-              f"{_fmt(ch['bias_pct'], 2, ' %')} | {_fmt(ch['p95_abs_pct'], 2, ' %')} | "
-              f"{_fmt(d_ch, 3, ' %')} ± {_fmt(d_ch_se, 3, ' %')} |",
-              f"| airborne energy (power model on measured flight state; predicted − measured)"
-              f" | {en['n']} | {_fmt(en['bias_pct'], 2, ' %')} | "
-              f"{_fmt(en['p95_abs_pct'], 2, ' %')} | {_fmt(d_en, 3, ' %')} ± "
-              f"{_fmt(d_en_se, 3, ' %')} |", "",
-              "Errors are in per cent of the measured value. Drift is the least-squares slope "
-              "of the error against the flight's order, with its standard error.", ""]
-    if with_figures:
-        lines += ["![predicted vs measured](accuracy.png)", "", "![drift](drift.png)", ""]
+    lines = _counts(result, table, ok) + _accuracy(ok, with_figures)
     if len(ok):
-        worst = ok.assign(_abs=ok["charge_error_pct"].abs()).sort_values(
-            "_abs", ascending=False, na_position="last").head(WORST)
-        diag = getattr(result, "diagnoses", {}) or {}
-        lines += ["## Worst flights (charge error)", "",
-                  "| log | pack | duration s | charge mAh | predicted mAh | error % | energy "
-                  "error % | warnings |", "|---|---|---:|---:|---:|---:|---:|---|"]
-        for _, r in worst.iterrows():
-            lines.append(f"| {Path(str(r['log'])).name} | {r['pack_id']} | "
-                         f"{_fmt(r['duration_s'], 0)} | {_fmt(r['charge_mah'], 0)} | "
-                         f"{_fmt(r['predicted_charge_mah'], 0)} | "
-                         f"{_fmt(r['charge_error_pct'], 2)} | "
-                         f"{_fmt(r['energy_error_pct'], 1)} | "
-                         f"{_cell(r['warnings'])} |")
-        lines.append("")
-        if diag:
-            lines += ["`diagnose` (DESIGN §6) on each of the worst flights alone:", ""]
-            lines += [f"- {Path(log).name}: {_cell(text, 600)}" for log, text in diag.items()]
-            lines.append("")
+        lines += _worst_flights(ok, getattr(result, "diagnoses", {}) or {})
     if result.health:
-        lines += ["## Pack health", "",
-                  f"State of health: the share of the new pack's energy its charge still "
-                  f"delivers, 1/(1 + fade × cycle). Retirement at {100 * retire:.0f} %; "
-                  f"flagged: within the next {within:g} flights.", "",
-                  "| pack | flights | last cycle | SoH % | fade per cycle | flights to "
-                  "retirement | resistance mΩ | pack file | flag |",
-                  "|---|---:|---:|---:|---:|---:|---:|---|---|"]
-        for h in result.health:
-            f = result.pack_files.get(h.pack_id)
-            flag = "RETIRE" if h.retires_within(within) else ""
-            lines.append(
-                f"| {h.pack_id} | {h.flights} | {_fmt(h.last_cycle, 0)} | "
-                f"{_fmt(100 * h.soh, 1)} ± {_fmt(100 * h.soh_se, 1)} | "
-                f"{_fmt(h.fade_per_cycle * 1e3, 3)} ± {_fmt(h.fade_per_cycle_se * 1e3, 3)} "
-                f"‰ | {_fmt(h.flights_to_retire, 0)} | "
-                f"{_fmt(h.resistance_ohm * 1e3, 1)} ± {_fmt(h.resistance_se_ohm * 1e3, 1)} | "
-                f"{'packs/' + f.name if f else '–'} | {flag} |")
-        lines.append("")
-        if with_figures:
-            lines += ["![pack health](packs.png)", ""]
+        lines += _pack_health(result, retire, within, with_figures)
     cals = getattr(result, "calibrations", []) or []
     if cals:
-        lines += ["## Aircraft calibrated on the fleet", "",
-                  "Fitted on the flights of each aircraft but about one in five, held out by "
-                  "content hash; scored on the held-out flights' airborne samples (energy "
-                  "error: predicted − measured, in per cent of the measured).", "",
-                  "| aircraft | flights fitted / held out | parameter: file → calibrated ± SE "
-                  "| held-out power RMSE, file → calibrated | held-out energy error | mean "
-                  "absolute per-flight energy error | file |",
-                  "|---|---:|---|---:|---:|---:|---|"]
-        for c in cals:
-            if c.aircraft is None:
-                lines.append(f"| {c.key} | – | not calibrated: {_cell(c.note, 200)} | | | | |")
-                continue
-            params = "; ".join(
-                f"{k} {c.start.get(k, math.nan):.4g} → {v:.4g} ± {c.stderr.get(k, math.nan):.2g}"
-                + (" (poorly determined)" if k in c.poorly_determined else "")
-                + (" (at a bound)" if k in c.at_bound else "")
-                for k, v in c.parameters.items())
-            b, a = c.validation.get("before", {}), c.validation.get("after", {})
-            fb, fa = c.flight_error_pct.get("before"), c.flight_error_pct.get("after")
-            lines.append(
-                f"| {c.key} | {c.train_flights} / {c.validation_flights} | {params} | "
-                f"{_fmt(b.get('rmse_w'), 1, ' W')} → {_fmt(a.get('rmse_w'), 1, ' W')} | "
-                f"{_fmt(b.get('energy_error_pct'), 2, ' %')} → "
-                f"{_fmt(a.get('energy_error_pct'), 2, ' %')} | {_fmt(fb, 2, ' %')} → "
-                f"{_fmt(fa, 2, ' %')} | {'aircraft/' + c.file.name if c.file else '–'} |")
-        lines.append("")
+        lines += _calibrations(cals)
     if result.failed:
         lines += ["## Failed logs (this run)", ""]
         lines += [f"- {_cell(err, 400)}" for _, err in result.failed]
@@ -177,6 +99,120 @@ def render(result, *, retire: float, within: float, with_figures: bool = True) -
     if result.notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in result.notes] + [""]
     return "\n".join(lines) + "\n"
+
+
+def _counts(result, table: pd.DataFrame, ok: pd.DataFrame) -> list[str]:
+    """Title and the flights in the table, failed and not replayable."""
+    bad = table[table["status"] == "failed"]
+    unusable = table[table["status"] == "not replayable"]
+    return ["# Fleet report", "",
+            f"{len(ok)} flights in the table ({len(bad)} failed logs"
+            + (f", {len(unusable)} not replayable" if len(unusable) else "")
+            + "); this run summarised "
+            f"{result.processed} logs ({len(result.failed)} failed) and found "
+            f"{result.skipped} already in the table.", ""]
+
+
+def _accuracy(ok: pd.DataFrame, with_figures: bool) -> list[str]:
+    """Bias, P95 of the absolute error and drift of the charge and energy errors. [%]"""
+    ch = error_summary(ok["charge_error_pct"])
+    en = error_summary(ok["energy_error_pct"])
+    order = cycle_order(ok) if len(ok) else np.array([])
+    d_ch, d_ch_se = drift(order, ok["charge_error_pct"])
+    d_en, d_en_se = drift(order, ok["energy_error_pct"])
+    lines = ["## Predicted vs measured", "",
+             "| level | flights | bias | P95 of the absolute error | drift per flight |",
+             "|---|---:|---:|---:|---:|",
+             _row("charge (battery model on measured power; measured − predicted)", ch["n"],
+                  _fmt(ch["bias_pct"], 2, " %"), _fmt(ch["p95_abs_pct"], 2, " %"),
+                  f"{_fmt(d_ch, 3, ' %')} ± {_fmt(d_ch_se, 3, ' %')}"),
+             _row("airborne energy (power model on measured flight state; predicted − "
+                  "measured)", en["n"], _fmt(en["bias_pct"], 2, " %"),
+                  _fmt(en["p95_abs_pct"], 2, " %"),
+                  f"{_fmt(d_en, 3, ' %')} ± {_fmt(d_en_se, 3, ' %')}"), "",
+             "Errors are in per cent of the measured value. Drift is the least-squares slope "
+             "of the error against the flight's order, with its standard error.", ""]
+    if with_figures:
+        lines += ["![predicted vs measured](accuracy.png)", "", "![drift](drift.png)", ""]
+    return lines
+
+
+def _worst_flights(ok: pd.DataFrame, diag: dict[str, str]) -> list[str]:
+    """The :data:`WORST` flights by absolute charge error, and ``diagnose`` on them."""
+    worst = ok.assign(_abs=ok["charge_error_pct"].abs()).sort_values(
+        "_abs", ascending=False, na_position="last").head(WORST)
+    lines = ["## Worst flights (charge error)", "",
+             "| log | pack | duration s | charge mAh | predicted mAh | error % | energy "
+             "error % | warnings |", "|---|---|---:|---:|---:|---:|---:|---|"]
+    for _, r in worst.iterrows():
+        lines.append(_row(Path(str(r["log"])).name, r["pack_id"], _fmt(r["duration_s"], 0),
+                          _fmt(r["charge_mah"], 0), _fmt(r["predicted_charge_mah"], 0),
+                          _fmt(r["charge_error_pct"], 2), _fmt(r["energy_error_pct"], 1),
+                          _cell(r["warnings"])))
+    lines.append("")
+    if diag:
+        lines += ["`diagnose` (docs/commands.md) on each of the worst flights alone:", ""]
+        lines += [f"- {Path(log).name}: {_cell(text, 600)}" for log, text in diag.items()]
+        lines.append("")
+    return lines
+
+
+def _pack_health(result, retire: float, within: float, with_figures: bool) -> list[str]:
+    """Each pack's flights, state of health [%], fade per cycle [‰], flights to
+    retirement and resistance [mΩ], with its pack file and the retirement flag."""
+    lines = ["## Pack health", "",
+             f"State of health: the share of the new pack's energy its charge still "
+             f"delivers, 1/(1 + fade × cycle). Retirement at {100 * retire:.0f} %; "
+             f"flagged: within the next {within:g} flights.", "",
+             "| pack | flights | last cycle | SoH % | fade per cycle | flights to "
+             "retirement | resistance mΩ | pack file | flag |",
+             "|---|---:|---:|---:|---:|---:|---:|---|---|"]
+    for h in result.health:
+        f = result.pack_files.get(h.pack_id)
+        lines.append(_row(
+            h.pack_id, h.flights, _fmt(h.last_cycle, 0),
+            f"{_fmt(100 * h.soh, 1)} ± {_fmt(100 * h.soh_se, 1)}",
+            f"{_fmt(h.fade_per_cycle * 1e3, 3)} ± {_fmt(h.fade_per_cycle_se * 1e3, 3)} ‰",
+            _fmt(h.flights_to_retire, 0),
+            f"{_fmt(h.resistance_ohm * 1e3, 1)} ± {_fmt(h.resistance_se_ohm * 1e3, 1)}",
+            "packs/" + f.name if f else "–", "RETIRE" if h.retires_within(within) else ""))
+    lines.append("")
+    if with_figures:
+        lines += ["![pack health](packs.png)", ""]
+    return lines
+
+
+def _calibrations(cals) -> list[str]:
+    """Each aircraft calibrated on the fleet: its parameters, file → calibrated ± SE,
+    and its held-out error before and after."""
+    lines = ["## Aircraft calibrated on the fleet", "",
+             "Fitted on the flights of each aircraft but about one in five, held out by "
+             "content hash; scored on the held-out flights' airborne samples (energy "
+             "error: predicted − measured, in per cent of the measured).", "",
+             "| aircraft | flights fitted / held out | parameter: file → calibrated ± SE "
+             "| held-out power RMSE, file → calibrated | held-out energy error | mean "
+             "absolute per-flight energy error | file |",
+             "|---|---:|---|---:|---:|---:|---|"]
+    for c in cals:
+        if c.aircraft is None:
+            lines.append(f"| {c.key} | – | not calibrated: {_cell(c.note, 200)} | | | | |")
+            continue
+        params = "; ".join(
+            f"{k} {c.start.get(k, math.nan):.4g} → {v:.4g} ± {c.stderr.get(k, math.nan):.2g}"
+            + (" (poorly determined)" if k in c.poorly_determined else "")
+            + (" (at a bound)" if k in c.at_bound else "")
+            for k, v in c.parameters.items())
+        b, a = c.validation.get("before", {}), c.validation.get("after", {})
+        fb, fa = c.flight_error_pct.get("before"), c.flight_error_pct.get("after")
+        lines.append(_row(
+            c.key, f"{c.train_flights} / {c.validation_flights}", params,
+            f"{_fmt(b.get('rmse_w'), 1, ' W')} → {_fmt(a.get('rmse_w'), 1, ' W')}",
+            f"{_fmt(b.get('energy_error_pct'), 2, ' %')} → "
+            f"{_fmt(a.get('energy_error_pct'), 2, ' %')}",
+            f"{_fmt(fb, 2, ' %')} → {_fmt(fa, 2, ' %')}",
+            "aircraft/" + c.file.name if c.file else "–"))
+    lines.append("")
+    return lines
 
 
 def write_report(result, out: Path, *, retire: float, within: float, figures=None,

@@ -21,7 +21,7 @@ what the planner predicted for it:
   same energy as it ages has :math:`s` rising with its cycles (the ``fade_per_cycle`` of
   the pack file, :meth:`planner.parameters.IntegralModel.charge_scale`);
 * **internal resistance** — the amended-VDA estimate :math:`R = -\\Delta V / \\Delta I`
-  (DESIGN §5) at every current step between two consecutive samples (a step of at least
+  ([UAV23] eq. 11) at every current step between two consecutive samples (a step of at least
   :data:`STEP_MIN_A` and :data:`STEP_MIN_FRACTION` of the flight's median current); the
   median over the steps, its standard error :math:`1.2533\\,s/\\sqrt n` (the median of a
   normal sample).
@@ -44,7 +44,8 @@ from planner.identify import stats
 from planner.chain.mission_chain import MissionChain
 from planner.errors import PlannerError
 from planner.parameters import Aircraft, BatteryPack
-from planner.identify.replay import _replay_pack, battery_replay, detect_cells, power_replay
+from planner.identify.replay import battery_replay, flown_pack, power_replay
+from planner.physics.battery.cells import series_cells
 
 #: Smallest current step used for the resistance. [A]
 STEP_MIN_A = 2.0
@@ -261,7 +262,7 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
     power = df["power_w"].to_numpy(float)
     consumed = df["consumed_mah"].to_numpy(float)
     ok_c = np.isfinite(consumed)
-    cells = meta.get("battery_cells") or (detect_cells(df["voltage_v"]) if "voltage_v" in df
+    cells = meta.get("battery_cells") or (series_cells(df["voltage_v"]) if "voltage_v" in df
                                           else None)
     row.update(format=meta.get("format"), vehicle=meta.get("vehicle"),
                aircraft=key if aircraft is not None else None,
@@ -274,7 +275,7 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
                energy_wh=float(record.cumulative_trapezoid(np.nan_to_num(power), t)[-1]) / 3600.0,
                charge_mah=float(consumed[ok_c][-1] - consumed[ok_c][0]) if ok_c.any()
                else None)
-    flown, label = _replay_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
+    flown, label = flown_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
     notes = []
     if flown is not None:
         if pack is not None and cells and int(cells) != pack.cells_series:
@@ -328,7 +329,7 @@ def calibration_samples(df: pd.DataFrame) -> pd.DataFrame:
 
 def diagnose_log(path: str, *, aircraft: Aircraft | None = None,
                  pack: BatteryPack | None = None) -> str:
-    """One line of :func:`planner.identify.diagnose.diagnose` on one log (DESIGN §6): its findings'
+    """One line of :func:`planner.identify.diagnose.diagnose` on one log: its findings'
     headlines, or that the calibrated model explains the flight, with what stays unexplained.
     Never raises: a log that cannot be diagnosed gives the reason."""
     from planner.identify.diagnose import diagnose

@@ -65,7 +65,7 @@ from planner.physics.power.rotor_losses import (
     battery_power_from_unit_terms,
     rotor_losses_components,
 )
-from planner.identify.stats import cluster_covariance, covariance
+from planner.identify import stats
 
 #: Parameters fitted, start-value source, bounds, per aircraft type.
 PARAMETERS = {
@@ -95,11 +95,19 @@ STOPPED_SPEED_MS = 0.3
 STOPPED_POWER_FRACTION = 0.05
 #: Fewest rotors-stopped samples to measure P_stop from. [samples]
 STOPPED_MIN_SAMPLES = 10
-#: A parameter whose standard error exceeds this share of its value is "poorly determined".
+#: A parameter whose standard error exceeds this share of its value is "poorly determined"
+#: (:func:`planner.identify.stats.poorly_determined`). Wider than the battery fit's 10 %:
+#: the power terms trade against each other (η against the drag area and the constant
+#: load), and a small term is reported when the flights pin it within half its value;
+#: this module's choice, not a published threshold. [unitless]
 POOR_RELATIVE_STDERR = 0.5
 
 
 def get_param(aircraft: Aircraft, name: str) -> float:
+    """The value of a fitted parameter in an aircraft: ``efficiency`` and ``system_power_w``
+    of the aircraft, the others of its multirotor or fixed-wing block. [unit of the
+    parameter]
+    """
     if name in ("efficiency", "system_power_w"):
         return float(getattr(aircraft, name))
     block = aircraft.multirotor if aircraft.is_multirotor else aircraft.fixed_wing
@@ -217,6 +225,23 @@ def split_experiments(s: Samples, validate: list[str] | None, train: list[str] |
     return s.time_s < cut, s.time_s >= cut, "last 30 % of the flight held out"
 
 
+#: Fewest airborne samples of an aircraft fit, and of its training split. [samples]
+MIN_AIRBORNE_SAMPLES, MIN_TRAINING_SAMPLES = 20, 10
+
+
+def _fit_split(s: Samples, validate, train):
+    """:func:`split_experiments` of samples that are enough to fit an aircraft
+    (:data:`MIN_AIRBORNE_SAMPLES`, :data:`MIN_TRAINING_SAMPLES`), else InputError."""
+    if len(s.measured_w) < MIN_AIRBORNE_SAMPLES:
+        raise InputError(f"only {len(s.measured_w)} airborne samples: too few to fit "
+                         f"an aircraft (expected at least {MIN_AIRBORNE_SAMPLES})")
+    trn, val, how = split_experiments(s, validate, train)
+    if trn.sum() < MIN_TRAINING_SAMPLES:
+        raise InputError(f"the training split has fewer than {MIN_TRAINING_SAMPLES} "
+                         "airborne samples")
+    return trn, val, how
+
+
 def _metrics(pred, meas, dt):
     r = pred - meas
     e_m = float(np.sum(meas * dt))
@@ -284,12 +309,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         raise InputError(f"cannot fit {sorted(unknown)} for a {aircraft.type}; "
                          f"expected some of {', '.join(table)}")
     s = airborne_samples(data, site_altitude_m, airborne_height_m)
-    if len(s.measured_w) < 20:
-        raise InputError(f"only {len(s.measured_w)} airborne samples: too few to fit "
-                         "an aircraft (expected at least 20)")
-    trn, val, how = split_experiments(s, validate, train)
-    if trn.sum() < 10:
-        raise InputError("the training split has fewer than 10 airborne samples")
+    trn, val, how = _fit_split(s, validate, train)
     s_trn, s_val = _subset(s, trn), _subset(s, val)
     mass_trn = np.full(len(s_trn.time_s), float(mass_kg))
     x0 = np.array([get_param(aircraft, n) for n in names])
@@ -302,12 +322,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         ac = with_params(aircraft, dict(zip(names, x)))
         return _predict(ac, s_trn, mass_trn) - s_trn.measured_w
 
-    try:
-        sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, **kwargs)
-    except ValueError as exc:
-        raise FitError(f"aircraft fit failed: {exc}") from None
-    if not sol.success:
-        raise FitError(f"aircraft fit did not converge: {sol.message}")
+    sol = _solve(residual, x0, lo, hi, scale, kwargs)
     fitted = with_params(aircraft, dict(zip(names, sol.x)))
     stderr, poor = _stderr(sol, names)
     result = {
@@ -344,16 +359,23 @@ def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg
 
 
 def _stderr(sol, names):
-    cov = covariance(sol.jac, sol.fun)
-    if cov.singular:
-        warnings.warn("covariance of the aircraft fit is indeterminate (singular Jacobian)")
+    """Standard errors of the fitted parameters (AR(1)-inflated,
+    :func:`planner.identify.stats.covariance`) and the poorly determined ones."""
+    cov = stats.covariance(sol.jac, sol.fun)
+    cov.warn_if_singular("the aircraft fit")
     stderr = dict(zip(names, map(float, cov.stderr)))
-    poor = [k for k, v in zip(names, sol.x) if not np.isfinite(stderr[k])
-            or stderr[k] > POOR_RELATIVE_STDERR * max(abs(v), 1e-12)]
+    return stderr, _poorly_determined(dict(zip(names, map(float, sol.x))), stderr)
+
+
+def _poorly_determined(values: dict[str, float], stderr: dict[str, float]) -> list[str]:
+    """:func:`planner.identify.stats.poorly_determined` at :data:`POOR_RELATIVE_STDERR`,
+    with a warning that names them."""
+    poor = stats.poorly_determined(values, stderr, POOR_RELATIVE_STDERR)
     if poor:
         warnings.warn(f"poorly determined by these flights: {', '.join(poor)} "
-                      f"(standard error above {POOR_RELATIVE_STDERR:.0%} of the value)")
-    return stderr, poor
+                      f"(standard error above {POOR_RELATIVE_STDERR:.0%} of the value)",
+                      stacklevel=2)
+    return poor
 
 
 # ------------------------------------------------------------------ rotor_losses model
@@ -482,7 +504,7 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     Parameters as :func:`fit_aircraft`; ``parameters`` are names among
     ``no_load_power_w``, ``copper_loss_power_w``, ``figure_of_merit`` and
     ``drag_area_m2``; ``airborne_height_m`` selects the airborne samples by height above
-    the first sample instead of the flight phases; ``leads_s`` the leads tried.
+    the first sample instead of the flight phases; ``leads_s`` the leads tried. [s]
 
     Returns
     -------
@@ -491,115 +513,38 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         of the model's form), ``stopped_power`` (value, samples, source), ``lead_s``
         (chosen), ``lead_train_rmse_w`` (per lead tried) and ``profile_power_ratio``.
     """
-    fm_name = "figure_of_merit"
-    table = ROTOR_LOSSES_PARAMETERS
-    public = ["no_load_power_w", "copper_loss_power_w", fm_name, "drag_area_m2"]
-    chosen = parameters or public
-    unknown = set(chosen) - set(public)
-    if unknown:
-        extra = (" (system_power_w is measured from the rotors-stopped ground samples)"
-                 if "system_power_w" in unknown else "")
-        raise InputError(f"cannot fit {sorted(unknown)} for a rotor_losses multirotor; "
-                         f"expected some of {', '.join(public)}{extra}")
-    names = ["profile_power_ratio" if n == fm_name else n for n in chosen]
+    chosen = _rotor_losses_chosen(parameters)
+    names = ["profile_power_ratio" if n == _FM else n for n in chosen]
     states = _states(data, site_altitude_m)
     given_lead = float(aircraft.multirotor.power_lead_s or 0.0)
     samples = {lead: rotor_losses_samples(states, lead, airborne_height_m)
                for lead in dict.fromkeys([*leads_s, given_lead])}
     s0 = samples[given_lead]
-    if len(s0.measured_w) < 20:
-        raise InputError(f"only {len(s0.measured_w)} airborne samples: too few to fit "
-                         "an aircraft (expected at least 20)")
-    trn, val, how = split_experiments(s0, validate, train)
-    if trn.sum() < 10:
-        raise InputError("the training split has fewer than 10 airborne samples")
+    trn, val, how = _fit_split(s0, validate, train)
     p_air = float(np.median(s0.measured_w))
-    train_ids = set(s0.experiment[trn])
-    p_stop, n_stop = stopped_power([st for st in states if st[0] in train_ids], p_air)
-    if p_stop is None:
-        p_stop_source = (f"held at the file's value: only {n_stop} rotors-stopped ground "
-                         f"sample(s) in the training flights")
-        p_stop = float(aircraft.system_power_w)
-    else:
-        p_stop_source = f"median of {n_stop} rotors-stopped ground samples"
-    base = with_params(aircraft, {"system_power_w": p_stop})
-    start = {"no_load_power_w": base.multirotor.no_load_power_w or 0.1 * p_air,
-             "copper_loss_power_w": base.multirotor.copper_loss_power_w or 0.2 * p_air,
-             "profile_power_ratio": _profile_ratio(base),
-             "drag_area_m2": base.multirotor.drag_area_m2}
-    x0 = np.array([start[n] for n in names])
-    lo = np.array([table[n][0] for n in names])
-    hi = np.array([table[n][1] for n in names])
-    x0 = np.clip(x0, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo))
-    scale = np.array([{"no_load_power_w": 100.0, "copper_loss_power_w": 100.0,
-                       "profile_power_ratio": 0.5, "drag_area_m2": 0.05}[n] for n in names])
+    stop = _held_stopped_power(states, set(s0.experiment[trn]), p_air, aircraft)
+    base = with_params(aircraft, {"system_power_w": stop["value_w"]})
+    x0, lo, hi, scale = _rotor_losses_start(base, names, p_air)
     mass = float(mass_kg)
-    fits = {}
-    for lead in leads_s:
-        s_trn = _subset(samples[lead], trn)
-        m_trn = np.full(len(s_trn.time_s), mass)
-        ref = with_params(base, {"reference_mass_kg": mass, "power_lead_s": lead})
-
-        cache: dict[float, Any] = {}
-
-        def residual(x, s_trn=s_trn, m_trn=m_trn, ref=ref, cache=cache):
-            # the aerodynamics depend on f alone: one evaluation per drag area tried
-            v = dict(zip(names, x))
-            mr = ref.multirotor
-            f = float(v.get("drag_area_m2", mr.drag_area_m2))
-            if f not in cache:
-                if len(cache) > 4:
-                    cache.clear()
-                cache[f] = _unit_terms(ref, s_trn, m_trn, f)
-            pred = battery_power_from_unit_terms(
-                cache[f], v.get("profile_power_ratio", _profile_ratio(ref)),
-                v.get("no_load_power_w", mr.no_load_power_w),
-                v.get("copper_loss_power_w", mr.copper_loss_power_w), mr.drive_efficiency,
-                ref.system_power_w)
-            return pred - s_trn.measured_w
-
-        try:
-            sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, **kwargs)
-        except ValueError as exc:
-            raise FitError(f"aircraft fit failed: {exc}") from None
-        if not sol.success:
-            raise FitError(f"aircraft fit did not converge: {sol.message}")
-        fits[lead] = (float(np.sqrt(np.mean(sol.fun**2))), sol, ref, s_trn)
+    fits = {lead: _fit_at_lead(_subset(samples[lead], trn), base, mass, lead, names,
+                               (x0, lo, hi, scale), kwargs)
+            for lead in leads_s}
     lead = min(fits, key=lambda k: fits[k][0])
     _, sol, ref, s_trn = fits[lead]
     fitted = _rotor_losses_aircraft(ref, dict(zip(names, sol.x)))
-    cov = cluster_covariance(sol.jac, sol.fun, s_trn.experiment)
-    if cov.singular:
-        warnings.warn("covariance of the aircraft fit is indeterminate (singular Jacobian)")
-    se = dict(zip(names, map(float, cov.stderr)))
-    values = dict(zip(names, map(float, sol.x)))
-    starts = dict(zip(names, map(float, x0)))
-    span = hi - lo
-    at_bound = [n for n, x, a, b, w in zip(names, sol.x, lo, hi, span)
-                if min(x - a, b - x) <= 1e-4 * w]
-    r0 = values.pop("profile_power_ratio", None)
-    r0_se = se.pop("profile_power_ratio", None)
-    r0_start = starts.pop("profile_power_ratio", None)
-    if r0 is not None:
-        kappa = aircraft.multirotor.induced_factor
-        fm = 1.0 / (kappa + r0)
-        values[fm_name], se[fm_name] = fm, fm * fm * r0_se
-        starts[fm_name] = 1.0 / (kappa + r0_start)
-        at_bound = [fm_name if n == "profile_power_ratio" else n for n in at_bound]
+    cov = stats.cluster_covariance(sol.jac, sol.fun, s_trn.experiment)
+    cov.warn_if_singular("the aircraft fit")
+    values, se, starts, at_bound, r0 = _figure_of_merit_values(
+        aircraft, names, sol.x, cov.stderr, x0, lo, hi)
     values = {n: values[n] for n in chosen}
-    poor = [k for k, v in values.items() if not np.isfinite(se[k])
-            or se[k] > POOR_RELATIVE_STDERR * max(abs(v), 1e-12)]
     for n in at_bound:
         warnings.warn(f"{n} ended on its bound: a misfit of the model's form on these "
                       "flights, not a value")
-    if poor:
-        warnings.warn(f"poorly determined by these flights: {', '.join(poor)} "
-                      f"(standard error above {POOR_RELATIVE_STDERR:.0%} of the value)")
+    poor = _poorly_determined(values, se)
     result = {
         "aircraft": fitted, "parameters": values, "start": starts,
         "stderr": {n: se[n] for n in chosen}, "poorly_determined": poor,
-        "at_bound": at_bound, "split": how,
-        "stopped_power": {"value_w": p_stop, "samples": n_stop, "source": p_stop_source},
+        "at_bound": at_bound, "split": how, "stopped_power": stop,
         "lead_s": lead, "lead_train_rmse_w": {f"{k:g}": v[0] for k, v in fits.items()},
         "profile_power_ratio": r0,
         "train_experiments": sorted(set(s0.experiment[trn])),
@@ -608,3 +553,115 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     result.update(_scores(aircraft, fitted, samples[given_lead], samples[lead], trn, val,
                           mass))
     return result
+
+
+#: The figure of merit, fitted as the profile power ratio r₀ = 1/FM − κ.
+_FM = "figure_of_merit"
+#: The names :func:`fit_rotor_losses` fits.
+_ROTOR_LOSSES_PUBLIC = ["no_load_power_w", "copper_loss_power_w", _FM, "drag_area_m2"]
+#: Scales of the rotor_losses parameters for the solver. [W], [W], [unitless], [m²]
+_ROTOR_LOSSES_SCALES = {"no_load_power_w": 100.0, "copper_loss_power_w": 100.0,
+                        "profile_power_ratio": 0.5, "drag_area_m2": 0.05}
+
+
+def _rotor_losses_chosen(parameters: list[str] | None) -> list[str]:
+    """The parameters asked for (default all of :data:`_ROTOR_LOSSES_PUBLIC`), checked."""
+    chosen = parameters or _ROTOR_LOSSES_PUBLIC
+    unknown = set(chosen) - set(_ROTOR_LOSSES_PUBLIC)
+    if unknown:
+        extra = (" (system_power_w is measured from the rotors-stopped ground samples)"
+                 if "system_power_w" in unknown else "")
+        raise InputError(f"cannot fit {sorted(unknown)} for a rotor_losses multirotor; "
+                         f"expected some of {', '.join(_ROTOR_LOSSES_PUBLIC)}{extra}")
+    return chosen
+
+
+def _held_stopped_power(states, train_ids: set, p_air: float, aircraft: Aircraft) -> dict:
+    """P_stop held in the fit: measured on the training flights' rotors-stopped samples
+    (:func:`stopped_power`), else the file's value; ``value_w`` [W], ``samples`` and
+    ``source``."""
+    p_stop, n_stop = stopped_power([st for st in states if st[0] in train_ids], p_air)
+    if p_stop is None:
+        source = (f"held at the file's value: only {n_stop} rotors-stopped ground "
+                  f"sample(s) in the training flights")
+        p_stop = float(aircraft.system_power_w)
+    else:
+        source = f"median of {n_stop} rotors-stopped ground samples"
+    return {"value_w": p_stop, "samples": n_stop, "source": source}
+
+
+def _rotor_losses_start(base: Aircraft, names: list[str], p_air: float):
+    """Start values (the file's, else 10 % and 20 % of the median airborne power ``p_air``
+    for P_nl and P_cu), bounds and scales of the fitted parameters."""
+    start = {"no_load_power_w": base.multirotor.no_load_power_w or 0.1 * p_air,
+             "copper_loss_power_w": base.multirotor.copper_loss_power_w or 0.2 * p_air,
+             "profile_power_ratio": _profile_ratio(base),
+             "drag_area_m2": base.multirotor.drag_area_m2}
+    x0 = np.array([start[n] for n in names])
+    lo = np.array([ROTOR_LOSSES_PARAMETERS[n][0] for n in names])
+    hi = np.array([ROTOR_LOSSES_PARAMETERS[n][1] for n in names])
+    x0 = np.clip(x0, lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo))
+    scale = np.array([_ROTOR_LOSSES_SCALES[n] for n in names])
+    return x0, lo, hi, scale
+
+
+def _fit_at_lead(s_trn: Samples, base: Aircraft, mass: float, lead: float, names, start,
+                 kwargs):
+    """Least squares of the rotor_losses power on the training samples read ``lead``
+    seconds late: (training RMS [W], solution, reference aircraft, samples)."""
+    x0, lo, hi, scale = start
+    m_trn = np.full(len(s_trn.time_s), mass)
+    ref = with_params(base, {"reference_mass_kg": mass, "power_lead_s": lead})
+    cache: dict[float, Any] = {}
+
+    def residual(x):
+        # the aerodynamics depend on f alone: one evaluation per drag area tried
+        v = dict(zip(names, x))
+        mr = ref.multirotor
+        f = float(v.get("drag_area_m2", mr.drag_area_m2))
+        if f not in cache:
+            if len(cache) > 4:
+                cache.clear()
+            cache[f] = _unit_terms(ref, s_trn, m_trn, f)
+        pred = battery_power_from_unit_terms(
+            cache[f], v.get("profile_power_ratio", _profile_ratio(ref)),
+            v.get("no_load_power_w", mr.no_load_power_w),
+            v.get("copper_loss_power_w", mr.copper_loss_power_w), mr.drive_efficiency,
+            ref.system_power_w)
+        return pred - s_trn.measured_w
+
+    sol = _solve(residual, x0, lo, hi, scale, kwargs)
+    return float(np.sqrt(np.mean(sol.fun**2))), sol, ref, s_trn
+
+
+def _solve(residual, x0, lo, hi, scale, kwargs):
+    """:func:`scipy.optimize.least_squares` within the bounds; FitError when it fails or
+    does not converge."""
+    try:
+        sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, **kwargs)
+    except ValueError as exc:
+        raise FitError(f"aircraft fit failed: {exc}") from None
+    if not sol.success:
+        raise FitError(f"aircraft fit did not converge: {sol.message}")
+    return sol
+
+
+def _figure_of_merit_values(aircraft: Aircraft, names, x, stderr, x0, lo, hi):
+    """Values, standard errors, start values and parameters on a bound (within 10⁻⁴ of
+    the range), with the profile power ratio r₀ given as the figure of merit
+    FM = 1/(κ + r₀) (standard error by the delta method, FM² σ(r₀)); and r₀."""
+    se = dict(zip(names, map(float, stderr)))
+    values = dict(zip(names, map(float, x)))
+    starts = dict(zip(names, map(float, x0)))
+    at_bound = [n for n, v, a, b, w in zip(names, x, lo, hi, hi - lo)
+                if min(v - a, b - v) <= 1e-4 * w]
+    r0 = values.pop("profile_power_ratio", None)
+    r0_se = se.pop("profile_power_ratio", None)
+    r0_start = starts.pop("profile_power_ratio", None)
+    if r0 is not None:
+        kappa = aircraft.multirotor.induced_factor
+        fm = 1.0 / (kappa + r0)
+        values[_FM], se[_FM] = fm, fm * fm * r0_se
+        starts[_FM] = 1.0 / (kappa + r0_start)
+        at_bound = [_FM if n == "profile_power_ratio" else n for n in at_bound]
+    return values, se, starts, at_bound, r0

@@ -1,6 +1,6 @@
 r"""Identify the integral capacity model δ, ε, β from measured discharges.
 
-The fit follows the seed paper [1]_ (eq. 18): least squares on
+The fit follows [UAV23] eq. 18: least squares on
 
 .. math:: \hat C_j(t_i)^\beta - C_j(t_i)^\beta
           = \int_0^{t_i} \frac{dt}{\delta P_j(t)^\varepsilon} - C_j(t_i)^\beta
@@ -26,7 +26,7 @@ Measured data
     experiment counts as absent for it; a column with some missing or infinite
     samples is an error.
 Default split
-    The seed paper's: the experiments with the lowest and the highest
+    [UAV23]'s: the experiments with the lowest and the highest
     time-averaged power train, all others validate (one or two experiments:
     all train, nothing validates). ``train=``/``validate=`` override it.
 Parametrisation
@@ -60,10 +60,12 @@ Standard errors
     lag-1 autocorrelation are reported for comparison.
 Poorly determined
     A parameter whose relative standard error exceeds
-    :data:`RELATIVE_STDERR_LIMIT` (10 %), a Jacobian that is singular or whose
-    column-normalised condition number exceeds :data:`CONDITION_LIMIT`, or a
+    :data:`RELATIVE_STDERR_LIMIT` (10 %: the rule of
+    :func:`planner.identify.stats.poorly_determined`), a Jacobian that is singular or
+    whose column-normalised condition number exceeds :data:`CONDITION_LIMIT`, or a
     parameter that ends on a bound: a warning, and the parameter is listed in
-    ``result["poorly_determined"]``.
+    :attr:`IntegralFit.poorly_determined`. 10 % because a battery fit's δ and ε set
+    the endurance directly: a 10 % error in δ is a 10 % error in the flight time.
 Metrics (per experiment, every split)
     RMSE of :math:`r = C - \hat C` [mAh] ([UAV23] eq. 29); final normalised error
     :math:`R = r_{final} / C_{final} \cdot 100` [%] (eq. 30); time error
@@ -72,12 +74,6 @@ Metrics (per experiment, every split)
     the predicted time is extrapolated at the experiment's mean stress rate
     (exact for a constant power). A positive time error means the model is slow
     to draw the charge: it over-predicts endurance.
-
-References
-----------
-.. [1] "Battery Testing and Discharge Model Validation for Electric Unmanned
-   Aerial Vehicles (UAV)," Sensors, vol. 23, no. 15, 6937, 2023,
-   doi: 10.3390/s23156937.
 """
 
 from __future__ import annotations
@@ -96,7 +92,7 @@ from scipy.optimize import OptimizeWarning, least_squares
 from planner.io import record as rec
 from planner.physics.battery import integral
 from planner.errors import FitError, InputError
-from planner.identify.stats import jacobian_covariance
+from planner.identify import stats
 from planner.physics.units import AS_PER_MAH
 
 __all__ = [
@@ -106,6 +102,7 @@ __all__ = [
     "RELATIVE_STDERR_LIMIT",
     "Experiment",
     "ExperimentMetrics",
+    "IntegralFit",
     "default_split",
     "experiment_metrics",
     "fit_integral",
@@ -182,12 +179,13 @@ class Experiment:
 
     @property
     def label(self) -> str:
+        """The experiment named for messages, with its file where known."""
         return f"{self.source}: experiment '{self.name}'" if self.source else \
             f"experiment '{self.name}'"
 
 
 def load_records(paths: Sequence[str | os.PathLike]) -> list[tuple[str, pd.DataFrame]]:
-    """Read flight-record CSV files (DESIGN §4) for fitting.
+    """Read flight-record CSV files (docs/record.md) for fitting.
 
     Each file is read with :func:`planner.io.record.read_record` (no derived
     columns: missing samples must be seen, not bridged). A file without an
@@ -312,7 +310,7 @@ def prepare_experiments(record, source: str | None = None,
     Parameters
     ----------
     record : DataFrame, path, or sequence of DataFrames / paths / (source, DataFrame)
-        Flight record(s), DESIGN §4.
+        Flight record(s), docs/record.md.
     source : str, optional
         Name of a DataFrame's origin for messages.
     only : collection of str, optional
@@ -358,7 +356,7 @@ def prepare_experiments(record, source: str | None = None,
 
 
 def default_split(experiments: Sequence[Experiment]) -> tuple[list[str], list[str]]:
-    """The seed paper's split: lowest and highest mean power train, the rest validate."""
+    """The split of [UAV23]: lowest and highest mean power train, the rest validate."""
     names = [e.name for e in experiments]
     if len(names) <= 2:
         return names, []
@@ -428,6 +426,7 @@ class ExperimentMetrics:
     """Predicted minus measured time to draw :math:`C_{final}` (eq. 20). [s]"""
 
     def to_dict(self) -> dict[str, Any]:
+        """The metrics as a JSON-ready dict (the field names and units above)."""
         return asdict(self)
 
 
@@ -498,9 +497,86 @@ class _Stack:
         return np.asarray(integral.stress_rate(self.p, delta, epsilon), float)
 
 
+@dataclass(frozen=True)
+class IntegralFit:
+    """The integral capacity model fitted to measured discharges (:func:`fit_integral`):
+    the parameters, their uncertainty, the split, the scores and the solver's report."""
+
+    delta: float
+    """δ of :math:`t = \\delta P^\\varepsilon C^\\beta`. [s W^-ε (A s)^-β]"""
+    epsilon: float
+    """ε, the power exponent. [unitless]"""
+    beta: float
+    """β, the charge exponent (the held value when ``"beta" in fixed``). [unitless]"""
+    stderr: dict[str, float]
+    """Standard error of ``delta``, ``epsilon`` and ``beta`` (random-walk sandwich, module
+    notes); 0 for a held parameter, infinite for an indeterminate one. [units of each]"""
+    correlation: list[list[float]]
+    """Correlation matrix of δ, ε, β in that order (NaN where undefined). [unitless]"""
+    fixed: list[str]
+    """Names of the held parameters (``["beta"]`` or none)."""
+    train: list[str]
+    """Experiment ids fitted on."""
+    validate: list[str]
+    """Experiment ids scored only."""
+    metrics: list[ExperimentMetrics]
+    """The scores of every experiment, in the order of the data."""
+    poorly_determined: list[str]
+    """Parameters the training data do not determine (module notes, "Poorly determined")."""
+    reference_power_w: float
+    """:math:`P_{ref}`, the geometric time-mean power of the training data. [W]"""
+    samples: int
+    """Training samples fitted. [unitless]"""
+    residual_rms: float
+    """RMS of the stress residuals. [(A s)^β]"""
+    stderr_method: str
+    """How ``stderr`` was computed, in words."""
+    stderr_iid: dict[str, float]
+    """The plain i.i.d. standard errors, for comparison. [units of each]"""
+    autocorrelation: float
+    """Lag-1 autocorrelation of the residuals within the experiments, ρ. [unitless]"""
+    condition_number: float
+    """Condition number of the column-normalised Jacobian. [unitless]"""
+    nfev: int
+    """Residual evaluations of the solver. [unitless]"""
+    message: str
+    """The solver's message."""
+
+    @property
+    def well_determined(self) -> bool:
+        """No parameter is poorly determined."""
+        return not self.poorly_determined
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """``delta``, ``epsilon``, ``beta``: the keywords of
+        :func:`planner.physics.battery.integral.charge` and :class:`IntegralModel`."""
+        return {"delta": self.delta, "epsilon": self.epsilon, "beta": self.beta}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form, without ``metrics`` (each has its own ``to_dict``), with
+        ``well_determined``."""
+        out = {k: getattr(self, k) for k in _FIT_KEYS}
+        out["well_determined"] = self.well_determined
+        return {k: out[k] for k in (*_FIT_KEYS[:9], "well_determined", *_FIT_KEYS[9:])}
+
+
+#: Fields of :class:`IntegralFit` in its JSON, ``metrics`` aside.
+_FIT_KEYS = ("delta", "epsilon", "beta", "stderr", "correlation", "fixed", "train",
+             "validate", "poorly_determined", "reference_power_w", "samples",
+             "residual_rms", "stderr_method", "stderr_iid", "autocorrelation",
+             "condition_number", "nfev", "message")
+
+#: Start values, bounds and scales of the fitted coordinates (δ's start is solved in
+#: closed form; module notes, "Parametrisation").
+_START = {"epsilon": -1.03, "beta": integral.LITERATURE_BETA}
+_BOUNDS = {"log_delta_ref": (-np.inf, np.inf), "epsilon": (-3.0, 0.5), "beta": (0.5, 1.5)}
+_SCALES = {"log_delta_ref": 0.01, "epsilon": 0.01, "beta": 0.01}
+
+
 def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | None = None,
                  validate: Sequence[str] | None = None, source: str | None = None,
-                 **kwargs) -> dict[str, Any]:
+                 **kwargs) -> IntegralFit:
     r"""
     Fit the integral capacity model to measured discharges ([UAV23] eq. 18).
 
@@ -509,11 +585,11 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
     record : DataFrame, path, or sequence of DataFrames / paths / :class:`Experiment`
         Flight record(s) with ``time_s``, power (``power_w`` or ``voltage_v``
         and ``current_a``) and charge (``current_a`` or ``consumed_mah``);
-        several experiments are told apart by ``experiment`` (DESIGN §4).
+        several experiments are told apart by ``experiment`` (docs/record.md).
     beta : float, optional
-        Hold β at this value (e.g. 0.9648, the seed paper's) and fit δ, ε only.
+        Hold β at this value (e.g. 0.9648, [UAV23]'s) and fit δ, ε only.
     train, validate : sequence of str, optional
-        Experiment ids to fit on and to score only. Default: the seed paper's
+        Experiment ids to fit on and to score only. Default: the [UAV23]
         split (lowest and highest mean power train, the rest validate); giving
         one of them makes the other "all the rest".
     source : str, optional
@@ -524,19 +600,10 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
 
     Returns
     -------
-    dict
-        ``delta``, ``epsilon``, ``beta`` — the model keywords, so that
-        ``integral.charge(t, p, **{k: fit[k] for k in ("delta", "epsilon",
-        "beta")})`` works; ``stderr`` (dict, same keys; 0 for a held
-        parameter) and ``correlation`` (3×3 list, order δ, ε, β);
-        ``fixed`` (held parameter names); ``train``, ``validate`` (ids);
-        ``metrics`` (list of :class:`ExperimentMetrics`, every experiment);
-        ``poorly_determined`` (parameter names) and ``well_determined``;
-        diagnostics ``reference_power_w`` [W], ``samples``,
-        ``residual_rms`` [(A s)^β], ``stderr_method``, ``stderr_iid`` (the
-        plain i.i.d. standard errors, for comparison), ``autocorrelation``
-        (lag-1 ρ of the residuals), ``condition_number``, ``nfev``,
-        ``message``.
+    IntegralFit
+        The parameters (``fit.parameters`` are the keywords of
+        ``integral.charge``), their standard errors and correlation, the split,
+        every experiment's metrics and the solver's diagnostics.
 
     Raises
     ------
@@ -560,136 +627,175 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
     computes it. Every sample weighs the same. See the module notes for the
     parametrisation, the standard errors and the thresholds.
     """
-    # start values, bounds and scales (δ's start is solved in closed form)
-    P0 = {"epsilon": -1.03, "beta": integral.LITERATURE_BETA}
-    BOUNDS = {"log_delta_ref": (-np.inf, np.inf), "epsilon": (-3.0, 0.5), "beta": (0.5, 1.5)}
-    SCALES = {"log_delta_ref": 0.01, "epsilon": 0.01, "beta": 0.01}
-
     experiments = prepare_experiments(record, source)
     train, validate = _resolve_split(experiments, train, validate)
     by_name = {e.name: e for e in experiments}
-    fit_on = [by_name[n] for n in train]
-    fix_beta = beta is not None
-    if fix_beta and not (BOUNDS["beta"][0] <= beta <= BOUNDS["beta"][1]):
-        raise ValueError(f"beta must be in {list(BOUNDS['beta'])}, got {beta}")
+    if beta is not None and not (_BOUNDS["beta"][0] <= beta <= _BOUNDS["beta"][1]):
+        raise ValueError(f"beta must be in {list(_BOUNDS['beta'])}, got {beta}")
+    problem = _StressProblem([by_name[n] for n in train], beta)
+    res = problem.solve(**kwargs)
+    u, eps, b = problem.unpack(res.x)
+    delta = float(np.exp(u) * problem.p_ref ** (-eps))
+    values = {"delta": delta, "epsilon": float(eps), "beta": float(b)}
+    unc = _uncertainty(problem, res, delta)
+    poorly = _poorly_determined(problem, res, values, unc)
+    split_of = {n: "train" for n in train} | {n: "validate" for n in validate}
+    metrics = [experiment_metrics(e, delta, float(eps), float(b), split_of.get(e.name, "unused"))
+               for e in experiments]
+    return IntegralFit(
+        **values, stderr=unc.stderr, correlation=unc.correlation,
+        fixed=["beta"] if problem.fix_beta else [], train=list(train),
+        validate=list(validate), metrics=metrics, poorly_determined=poorly,
+        reference_power_w=problem.p_ref, samples=int(res.fun.size),
+        residual_rms=float(np.sqrt(unc.rss / res.fun.size)),
+        stderr_method="random-walk sandwich", stderr_iid=unc.stderr_iid,
+        autocorrelation=unc.autocorrelation, condition_number=unc.condition,
+        nfev=int(res.nfev), message=str(res.message))
 
-    # reference power: geometric time-mean of the training power (load on)
+
+class _StressProblem:
+    """The least-squares problem of :func:`fit_integral` in the fitted coordinates
+    :math:`u = \\ln\\delta_{ref}`, ε and (unless held) β (module notes)."""
+
+    def __init__(self, fit_on: Sequence[Experiment], beta: float | None):
+        self.fix_beta = beta is not None
+        self.beta = beta
+        self.p_ref = _reference_power(fit_on)
+        self.stack = _Stack(fit_on, self.p_ref)
+        self.names = ["log_delta_ref", "epsilon"] + ([] if self.fix_beta else ["beta"])
+        self.lower = np.array([_BOUNDS[n][0] for n in self.names])
+        self.upper = np.array([_BOUNDS[n][1] for n in self.names])
+        # closed-form δ_ref for the start ε, β: S ∝ 1/δ_ref is linear
+        b0 = beta if self.fix_beta else _START["beta"]
+        s_unit = self.stack.cumulative(self.stack.rate(0.0, _START["epsilon"]))
+        y0 = np.asarray(integral.stress_from_charge(self.stack.c, b0), float)
+        inv = np.dot(s_unit, y0) / np.dot(s_unit, s_unit)
+        self.x0 = np.array([-np.log(inv), _START["epsilon"]] + ([] if self.fix_beta else [b0]))
+        self.y_scale = float(np.max(np.abs(y0))) or 1.0
+
+    def unpack(self, x) -> tuple[float, float, float]:
+        """(u, ε, β) of a point of the fitted coordinates."""
+        return x[0], x[1], (self.beta if self.fix_beta else x[2])
+
+    def residual(self, x) -> np.ndarray:
+        """Model stress minus measured :math:`C^\\beta`, scaled. [unitless]"""
+        u, eps, b = self.unpack(x)
+        s = self.stack.cumulative(self.stack.rate(u, eps))
+        return (s - np.asarray(integral.stress_from_charge(self.stack.c, b), float)) \
+            / self.y_scale
+
+    def jacobian(self, x) -> np.ndarray:
+        """Analytic Jacobian of :meth:`residual`. [unitless]"""
+        u, eps, b = self.unpack(x)
+        rate = self.stack.rate(u, eps)
+        cols = [-rate, -self.stack.log_p * rate]
+        s_cols = self.stack.cumulative(np.stack(cols, axis=1))
+        out = [s_cols[:, 0], s_cols[:, 1]]
+        if not self.fix_beta:
+            cb = np.asarray(integral.stress_from_charge(self.stack.c, b), float)
+            out.append(-cb * self.stack.log_c)
+        return np.stack(out, axis=1) / self.y_scale
+
+    def solve(self, **kwargs):
+        """:func:`scipy.optimize.least_squares` from the start values; FitError without
+        an optimum."""
+        kwargs.setdefault("x_scale", np.array([_SCALES[n] for n in self.names]))
+        kwargs.setdefault("jac", self.jacobian)
+        kwargs.setdefault("method", "trf")
+        try:
+            res = least_squares(self.residual, self.x0, bounds=(self.lower, self.upper),
+                                **kwargs)
+        except ValueError as exc:  # e.g. residuals not finite at the start
+            raise FitError(f"fit_integral: no optimum found: {exc}") from None
+        if res.status <= 0 or not np.all(np.isfinite(res.x)):
+            raise FitError(f"fit_integral: no optimum found: {res.message}")
+        return res
+
+
+def _reference_power(fit_on: Sequence[Experiment]) -> float:
+    """Geometric time-mean of the training power while the load is on (100 W if it
+    never is). [W]"""
     num = sum(np.trapezoid(np.where(e.power_w > 0, np.log(np.where(e.power_w > 0, e.power_w,
                                                                      1.0)), 0.0), e.time_s)
               for e in fit_on)
     den = sum(np.trapezoid((e.power_w > 0).astype(float), e.time_s) for e in fit_on)
-    p_ref = float(np.exp(num / den)) if den > 0 else 100.0
-    stack = _Stack(fit_on, p_ref)
-    names = ["log_delta_ref", "epsilon"] + ([] if fix_beta else ["beta"])
+    return float(np.exp(num / den)) if den > 0 else 100.0
 
-    def unpack(x):
-        return x[0], x[1], (beta if fix_beta else x[2])
 
-    # closed-form δ_ref for the start ε, β: S ∝ 1/δ_ref is linear
-    b0 = beta if fix_beta else P0["beta"]
-    s_unit = stack.cumulative(stack.rate(0.0, P0["epsilon"]))
-    y0 = np.asarray(integral.stress_from_charge(stack.c, b0), float)
-    inv = np.dot(s_unit, y0) / np.dot(s_unit, s_unit)
-    x0 = np.array([-np.log(inv), P0["epsilon"]] + ([] if fix_beta else [b0]))
-    y_scale = float(np.max(np.abs(y0))) or 1.0
+@dataclass(frozen=True)
+class _Uncertainty:
+    """Standard errors and correlation of δ, ε, β (module notes, "Standard errors")."""
 
-    def residual(x):
-        u, eps, b = unpack(x)
-        s = stack.cumulative(stack.rate(u, eps))
-        return (s - np.asarray(integral.stress_from_charge(stack.c, b), float)) / y_scale
+    stderr: dict[str, float]
+    stderr_iid: dict[str, float]
+    correlation: list[list[float]]
+    autocorrelation: float
+    condition: float
+    singular: bool
+    rss: float
 
-    def jacobian(x):
-        u, eps, b = unpack(x)
-        rate = stack.rate(u, eps)
-        cols = [-rate, -stack.log_p * rate]
-        s_cols = stack.cumulative(np.stack(cols, axis=1))
-        out = [s_cols[:, 0], s_cols[:, 1]]
-        if not fix_beta:
-            cb = np.asarray(integral.stress_from_charge(stack.c, b), float)
-            out.append(-cb * stack.log_c)
-        return np.stack(out, axis=1) / y_scale
 
-    lower = np.array([BOUNDS[n][0] for n in names])
-    upper = np.array([BOUNDS[n][1] for n in names])
-    kwargs.setdefault("x_scale", np.array([SCALES[n] for n in names]))
-    kwargs.setdefault("jac", jacobian)
-    kwargs.setdefault("method", "trf")
-    try:
-        res = least_squares(residual, x0, bounds=(lower, upper), **kwargs)
-    except ValueError as exc:  # e.g. residuals not finite at the start
-        raise FitError(f"fit_integral: no optimum found: {exc}") from None
-    if res.status <= 0 or not np.all(np.isfinite(res.x)):
-        raise FitError(f"fit_integral: no optimum found: {res.message}")
-
-    u, eps, b = unpack(res.x)
-    delta = float(np.exp(u) * p_ref ** (-eps))
-
-    # covariance in the fitted coordinates: random-walk sandwich per experiment
-    r = res.fun * y_scale
-    n, p = r.size, len(names)
-    jac = jacobian(res.x) * y_scale
-    base = jacobian_covariance(jac)
-    bread, cond, singular = base.matrix, base.condition, base.singular
-    rss = float(np.dot(r, r))
-    meat = np.zeros((p, p))
-    num = den = 0.0
-    for a, m in zip(stack.starts, stack.lengths):
-        rj, jj, tj = r[a:a + m], jac[a:a + m], stack.t[a:a + m]
-        lag = max(1, round(RW_LAG_FRACTION * m))
-        span = tj[lag:] - tj[:-lag]
-        ok = span > 0
-        s2 = float(np.mean((rj[lag:] - rj[:-lag])[ok] ** 2 / span[ok])) if ok.any() else 0.0
-        tails = np.cumsum(jj[::-1], axis=0)[::-1][1:]
-        meat += s2 * (tails * np.diff(tj)[:, None]).T @ tails
-        seg = rj - rj.mean()
-        num += float(np.dot(seg[1:], seg[:-1]))
-        den += float(np.dot(seg, seg))
-    rho = num / den if den > 0 else 0.0
-    if singular:
-        cov_x = cov_iid = bread
-    else:
-        cov_x = bread @ meat @ bread
-        cov_iid = bread * (rss / (n - p) if n > p else np.inf)
-
-    # back to δ, ε, β: δ = exp(u) P_ref^-ε
+def _uncertainty(problem: _StressProblem, res, delta: float) -> _Uncertainty:
+    """The random-walk sandwich in the fitted coordinates
+    (:func:`planner.identify.stats.random_walk_covariance`), taken to δ, ε, β by
+    δ = exp(u) P_ref^-ε."""
+    r = res.fun * problem.y_scale
+    jac = problem.jacobian(res.x) * problem.y_scale
+    stack = problem.stack
+    cov_x, cov_iid, rho = stats.random_walk_covariance(
+        jac, r, stack.t, stack.starts, stack.lengths, lag_fraction=RW_LAG_FRACTION)
+    p = len(problem.names)
     g = np.zeros((3, p))
-    g[0, 0], g[0, 1] = delta, -delta * np.log(p_ref)
+    g[0, 0], g[0, 1] = delta, -delta * np.log(problem.p_ref)
     g[1, 1] = 1.0
-    if not fix_beta:
+    if not problem.fix_beta:
         g[2, 2] = 1.0
+
     def natural(c):
-        if singular:
+        if cov_x.singular:
             return np.where(g @ g.T != 0, np.inf, 0.0)
         return g @ c @ g.T
 
-    cov = natural(cov_x)
+    cov = natural(cov_x.matrix)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    sd_iid = np.sqrt(np.clip(np.diag(natural(cov_iid)), 0.0, None))
+    sd_iid = np.sqrt(np.clip(np.diag(natural(cov_iid.matrix)), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
-    values = {"delta": delta, "epsilon": float(eps), "beta": float(b)}
-    stderr = {k: float(sd[i]) for i, k in enumerate(_PARAMS)}
-    free = ["delta", "epsilon"] + ([] if fix_beta else ["beta"])
+    return _Uncertainty(
+        stderr={k: float(sd[i]) for i, k in enumerate(_PARAMS)},
+        stderr_iid={k: float(sd_iid[i]) for i, k in enumerate(_PARAMS)},
+        correlation=np.where(np.isfinite(corr), corr, np.nan).tolist(),
+        autocorrelation=float(rho), condition=float(cov_x.condition),
+        singular=cov_x.singular, rss=float(np.dot(r, r)))
 
+
+def _poorly_determined(problem: _StressProblem, res, values: dict[str, float],
+                       unc: _Uncertainty) -> list[str]:
+    """The free parameters the training data do not determine (module notes), with an
+    :class:`~scipy.optimize.OptimizeWarning` that says why."""
+    free = ["delta", "epsilon"] + ([] if problem.fix_beta else ["beta"])
     poorly: list[str] = []
     reasons: list[str] = []
-    if singular:
+    if unc.singular:
         poorly = list(free)
         reasons.append("the Jacobian is singular (the training data cannot tell the "
                        "parameters apart)")
-    elif cond > CONDITION_LIMIT:
+    elif unc.condition > CONDITION_LIMIT:
         poorly = list(free)
-        reasons.append(f"the Jacobian is ill-conditioned (condition number {cond:.3g} "
-                       f"> {CONDITION_LIMIT:g})")
-    for k in free:
-        rel = stderr[k] / abs(values[k]) if values[k] else np.inf
-        if rel > RELATIVE_STDERR_LIMIT and k not in poorly:
+        reasons.append(f"the Jacobian is ill-conditioned (condition number "
+                       f"{unc.condition:.3g} > {CONDITION_LIMIT:g})")
+    loose = stats.poorly_determined({k: values[k] for k in free}, unc.stderr,
+                                    RELATIVE_STDERR_LIMIT)
+    for k in loose:
+        if k not in poorly:
             poorly.append(k)
+            rel = unc.stderr[k] / abs(values[k]) if values[k] else np.inf
             reasons.append(f"{k} has a relative standard error of {100 * rel:.3g} % "
                            f"(> {100 * RELATIVE_STDERR_LIMIT:g} %)")
-    for i, name in enumerate(names):
-        if np.isfinite(lower[i]) and (np.isclose(res.x[i], lower[i], atol=1e-6)
-                                      or np.isclose(res.x[i], upper[i], atol=1e-6)):
+    for i, name in enumerate(problem.names):
+        lo, hi = problem.lower[i], problem.upper[i]
+        if np.isfinite(lo) and (np.isclose(res.x[i], lo, atol=1e-6)
+                                or np.isclose(res.x[i], hi, atol=1e-6)):
             k = "epsilon" if name == "epsilon" else "beta"
             if k not in poorly:
                 poorly.append(k)
@@ -698,33 +804,10 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
         hints = []
         if "epsilon" in poorly or "delta" in poorly:
             hints.append("train on experiments at clearly different powers")
-        if "beta" in poorly and not fix_beta:
+        if "beta" in poorly and not problem.fix_beta:
             hints.append("or hold beta fixed (beta=0.9648, --fix-beta)")
         warnings.warn("fit_integral: poorly determined parameter(s) "
                       f"{', '.join(poorly)}: {'; '.join(reasons)}"
                       + (f"; {' '.join(hints)}" if hints else ""),
-                      OptimizeWarning, stacklevel=2)
-
-    split_of = {n: "train" for n in train} | {n: "validate" for n in validate}
-    metrics = [experiment_metrics(e, delta, float(eps), float(b), split_of.get(e.name, "unused"))
-               for e in experiments]
-    return {
-        **values,
-        "stderr": stderr,
-        "correlation": np.where(np.isfinite(corr), corr, np.nan).tolist(),
-        "fixed": ["beta"] if fix_beta else [],
-        "train": list(train),
-        "validate": list(validate),
-        "metrics": metrics,
-        "poorly_determined": poorly,
-        "well_determined": not poorly,
-        "reference_power_w": p_ref,
-        "samples": int(n),
-        "residual_rms": float(np.sqrt(rss / n)),
-        "stderr_method": "random-walk sandwich",
-        "stderr_iid": {k: float(sd_iid[i]) for i, k in enumerate(_PARAMS)},
-        "autocorrelation": float(rho),
-        "condition_number": float(cond),
-        "nfev": int(res.nfev),
-        "message": str(res.message),
-    }
+                      OptimizeWarning, stacklevel=3)
+    return poorly

@@ -1,6 +1,6 @@
 r"""A virtual battery test bench: constant-power discharges of a simulated LiPo pack.
 
-The bench stands in for the seed paper's laboratory set-up [1]_ (an electronic
+The bench stands in for the laboratory set-up of [UAV23] (an electronic
 load in constant-power mode, voltage and current sensors logged at 1 Hz) for
 tests and demonstrations. It is deliberately **not** the integral capacity
 model it is used to identify (:mod:`planner.physics.battery.integral`): the pack is
@@ -26,12 +26,12 @@ evaluated at the *surface* state of charge :math:`z_s = z - x`:
 
 (the hysteresis ``h`` as in :mod:`planner.physics.battery.circuit`). ``x`` is the
 depletion of the electrode surface against the bulk: the kinetic battery model
-(KiBaM) of Manwell and McGowan [2]_ written in state-of-charge terms. KiBaM
+(KiBaM) of Manwell and McGowan [1]_ written in state-of-charge terms. KiBaM
 splits the charge into an *available* well (fraction ``c``) that feeds the
 current and a *bound* well that refills it through a valve; the height
 difference of the two wells relaxes with :math:`\tau_d = c(1-c)/k'`. The
 terminal sees the available well: its level is the bulk SoC minus ``x``.
-Jongerden and Haverkort [3]_ discuss KiBaM as a first-order approximation of
+Jongerden and Haverkort [2]_ discuss KiBaM as a first-order approximation of
 the diffusion model of Rakhmatov and Vrudhula: while a current flows the
 lithium concentration at the electrode surface falls below the mean, and it
 catches up at rest.
@@ -72,28 +72,26 @@ the last of the record: the load trips there) or at the end of the schedule.
 
 Default pack
 ------------
-:func:`seed_pack`: the seed paper's Multistar 10.0 Ah 4S1P as in
-``aircraft/batteries/multistar_10ah_4s.yaml``: R0 = 20.68 mΩ per pack (seed
+:func:`seed_pack`: the Multistar 10.0 Ah 4S1P of [UAV23] as in
+``aircraft/batteries/multistar_10ah_4s.yaml``: R0 = 20.68 mΩ per pack ([UAV23]
 Table 2), one RC branch of 3 mΩ / 10 kF per cell (τ = 30 s, assumed), the
 LiPo OCV of Chen and Rincón-Mora (:func:`planner.physics.battery.ocv.lipo_ocv`),
 3.5 V per cell loaded cut-off, 25 °C. The diffusion parameters ``c`` = 5/6
 and ``τ_d`` = 600 s are assumed: ``τ_d`` is of the order of the slow
 (diffusion) branch of two-RC fits to lithium cells (minutes to tens of
-minutes, e.g. Hu, Li and Peng [4]_), and ``c`` is chosen so that the withheld
+minutes, e.g. Hu, Li and Peng [3]_), and ``c`` is chosen so that the withheld
 charge at 1 C is 3.3 % of the capacity (a modest rate effect; assumed, not
 measured). Measurement noise: 10 mV and 50 mA (1 σ), assumed.
 
+
 References
 ----------
-.. [1] "Battery Testing and Discharge Model Validation for Electric Unmanned
-   Aerial Vehicles (UAV)," Sensors, vol. 23, no. 15, 6937, 2023,
-   doi: 10.3390/s23156937.
-.. [2] J. F. Manwell and J. G. McGowan, "Lead acid battery storage model for
+.. [1] J. F. Manwell and J. G. McGowan, "Lead acid battery storage model for
    hybrid energy systems," Solar Energy, vol. 50, no. 5, pp. 399–405, 1993,
    doi: 10.1016/0038-092X(93)90060-2.
-.. [3] M. R. Jongerden and B. R. Haverkort, "Which battery model to use?"
+.. [2] M. R. Jongerden and B. R. Haverkort, "Which battery model to use?"
    IET Software, vol. 3, no. 6, pp. 445–457, 2009.
-.. [4] X. Hu, S. Li and H. Peng, "A comparative study of equivalent circuit
+.. [3] X. Hu, S. Li and H. Peng, "A comparative study of equivalent circuit
    models for Li-ion batteries," J. Power Sources, vol. 198, pp. 359–367,
    2012, doi: 10.1016/j.jpowsour.2011.10.013.
 """
@@ -131,7 +129,7 @@ __all__ = [
     "two_step_discharge",
 ]
 
-#: Columns of the flight records the bench writes (DESIGN §4), in order.
+#: Columns of the flight records the bench writes (docs/record.md), in order.
 RECORD_COLUMNS = ("experiment", "time_s", "voltage_v", "current_a", "power_w", "consumed_mah")
 
 #: The seed pack (``aircraft/batteries/multistar_10ah_4s.yaml``): cells in series.
@@ -245,7 +243,7 @@ class BenchPack:
 
 
 def seed_pack(**overrides) -> BenchPack:
-    """The default bench pack: the seed paper's Multistar 10.0 Ah 4S1P (see the module notes).
+    """The default bench pack: the Multistar 10.0 Ah 4S1P of [UAV23] (see the module notes).
 
     The numbers are those of ``aircraft/batteries/multistar_10ah_4s.yaml``
     (a test checks that they agree); ``overrides`` change fields of the
@@ -254,7 +252,7 @@ def seed_pack(**overrides) -> BenchPack:
     circuit = CircuitParameters(
         capacity_ah=SEED_CAPACITY_MAH / 1000.0, r0_ohm=SEED_R_PACK_OHM / SEED_CELLS_SERIES,
         r1_ohm=SEED_R1_OHM, c1_f=SEED_C1_F, ocv=lipo_ocv, cells_series=SEED_CELLS_SERIES,
-        source="seed paper Table 2 (R0); RC branch assumed (tau 30 s); LiPo OCV of Chen and "
+        source="[UAV23] Table 2 (R0); RC branch assumed (tau 30 s); LiPo OCV of Chen and "
                "Rincón-Mora 2006")
     kw = {"circuit": circuit, "name": "Multistar 10.0 Ah 4S1P (virtual bench)"}
     kw.update(overrides)
@@ -432,7 +430,7 @@ def _rng(seed) -> np.random.Generator:
 
 def to_record(result: BenchResult, experiment: str, noise: BenchNoise = DEFAULT_NOISE,
               seed=None) -> pd.DataFrame:
-    """The flight record a logger on the bench writes (DESIGN §4), with measurement noise.
+    """The flight record a logger on the bench writes (docs/record.md), with measurement noise.
 
     Parameters
     ----------
@@ -540,7 +538,7 @@ def two_step_discharge(pack: BenchPack, p1_w: float, p2_w: float, k: float,
     """A two-step test designed with :func:`planner.identify.protocols.two_step` and run on the bench.
 
     The durations are those that draw ``capacity_mah`` under the pack's design
-    model (``pack.model``, the seed's m_const by default, [UAV23] eq. 25–28); the
+    model (``pack.model``, [UAV23]'s m_const by default, [UAV23] eq. 25–28); the
     bench runs them until the end or the cut-off.
 
     Parameters

@@ -1,6 +1,6 @@
-r"""The seed paper's identification experiment, reproduced on the virtual bench.
+r"""The identification experiment of [UAV23], reproduced on the virtual bench.
 
-The seed paper [1]_ identifies its integral capacity model three ways and
+[UAV23] identifies its integral capacity model three ways and
 cross-validates them (its Table 4 and Fig. 12–13):
 
 * **m_const** — fitted on the constant-power discharges at the lowest and the
@@ -18,8 +18,8 @@ The campaign (:class:`SeedCampaign`, defaults)
 ----------------------------------------------
 * constant power at 50, 75, 100 and 125 W, each to the loaded cut-off;
 * two-step tests designed with :func:`planner.identify.protocols.two_step` from the
-  pack's design model (the seed's m_const) to draw :math:`C_0` = 90 % of the
-  nominal capacity (9000 mAh for the seed pack, so that they end before the
+  pack's design model ([UAV23]'s m_const) to draw :math:`C_0` = 90 % of the
+  nominal capacity (9000 mAh for the [UAV23] pack, so that they end before the
   cut-off): P1→P2 of 50→125 W
   and 125→50 W, each with k = 0.5 and k = 2 (four tests);
 * three APRBS tests: levels 50/75/100/125 W, holds U[30, 300] s, at least
@@ -30,12 +30,6 @@ The campaign (:class:`SeedCampaign`, defaults)
 
 β is fitted both ways: held at 0.9648 as in the paper (``"held"``) and free
 (``"free"``).
-
-References
-----------
-.. [1] "Battery Testing and Discharge Model Validation for Electric Unmanned
-   Aerial Vehicles (UAV)," Sensors, vol. 23, no. 15, 6937, 2023,
-   doi: 10.3390/s23156937.
 """
 
 from __future__ import annotations
@@ -70,7 +64,7 @@ __all__ = [
 
 #: Kinds of test, in report order.
 KINDS = ("constant", "two-step", "APRBS")
-#: Models of the seed paper's Table 4 and the kind of test each is fitted on.
+#: Models of [UAV23] Table 4 and the kind of test each is fitted on.
 MODELS = {"m_const": "constant", "m_2step": "two-step", "m_APRBS": "APRBS"}
 #: β held at the paper's value, or fitted.
 BETA_MODES = {"held": integral.LITERATURE_BETA, "free": None}
@@ -83,7 +77,7 @@ PAPER_FINAL_ERROR_PCT = 0.7
 
 @dataclass(frozen=True)
 class SeedCampaign:
-    """The tests of the seed paper's campaign (see the module notes for the defaults).
+    """The tests of the [UAV23] campaign (see the module notes for the defaults).
 
     Attributes
     ----------
@@ -117,12 +111,17 @@ class SeedCampaign:
     aprbs_min_duration_s: float = 3500.0
 
     def constant_name(self, power_w: float) -> str:
+        """Experiment id of the constant-power discharge at ``power_w`` [W], e.g. ``const_050W``."""
         return f"const_{power_w:03.0f}W"
 
     def two_step_name(self, p1_w: float, p2_w: float, k: float) -> str:
+        """Experiment id of a two-step test, P1 → P2 [W] with t2/t1 = ``k``, e.g.
+        ``two_step_050_125_k0.5``.
+        """
         return f"two_step_{p1_w:03.0f}_{p2_w:03.0f}_k{k:g}"
 
     def aprbs_name(self, index: int) -> str:
+        """Experiment id of the APRBS test number ``index`` (from 0), e.g. ``aprbs_1``."""
         return f"aprbs_{index + 1}"
 
     @property
@@ -172,7 +171,7 @@ def run_campaign(pack: bench.BenchPack | None = None, *, campaign: str = "seed",
     Returns
     -------
     DataFrame, or (DataFrame, DataFrame)
-        One flight record (DESIGN §4) of all experiments, told apart by
+        One flight record (docs/record.md) of all experiments, told apart by
         ``experiment``, in the order constant, two-step, APRBS (and the info).
     """
     if campaign not in CAMPAIGNS:
@@ -222,14 +221,14 @@ def run_campaign(pack: bench.BenchPack | None = None, *, campaign: str = "seed",
 
 @dataclass
 class CampaignReport:
-    """Fits and cross-validation of the seed paper's three models.
+    """Fits and cross-validation of the three models of [UAV23] Table 4.
 
     Attributes
     ----------
     fits : dict
-        ``fits[beta_mode][model]``: the dict of
-        :func:`planner.identify.battery_fit.fit_integral` (``delta``, ``epsilon``,
-        ``beta``, ``stderr``, ``train``, ``metrics``, ...).
+        ``fits[beta_mode][model]``: the
+        :class:`planner.identify.battery_fit.IntegralFit` of
+        :func:`planner.identify.battery_fit.fit_integral`.
     table : DataFrame
         One row per β mode × model × experiment: ``beta_mode``, ``model``,
         ``experiment``, ``kind``, ``split`` (``train``/``validate``),
@@ -241,7 +240,7 @@ class CampaignReport:
         Experiment ids in campaign order.
     """
 
-    fits: dict[str, dict[str, dict[str, Any]]]
+    fits: dict[str, dict[str, fit.IntegralFit]]
     table: pd.DataFrame
     warnings: list[str] = field(default_factory=list)
     experiments: list[str] = field(default_factory=list)
@@ -309,7 +308,7 @@ def cross_validate(records: pd.DataFrame, *, config: SeedCampaign = SeedCampaign
     train_of = {"m_const": [n for n in config.m_const_train if n in names],
                 "m_2step": [n for n in names if kinds[n] == "two-step"],
                 "m_APRBS": [n for n in names if kinds[n] == "APRBS"]}
-    fits: dict[str, dict[str, dict[str, Any]]] = {}
+    fits: dict[str, dict[str, fit.IntegralFit]] = {}
     rows, messages = [], []
     for mode in beta_modes:
         if mode not in BETA_MODES:
@@ -324,7 +323,7 @@ def cross_validate(records: pd.DataFrame, *, config: SeedCampaign = SeedCampaign
                 result = fit.fit_integral(experiments, beta=BETA_MODES[mode], train=train)
             messages += [f"{model} (β {mode}): {w.message}" for w in caught]
             fits[mode][model] = result
-            for m in result["metrics"]:
+            for m in result.metrics:
                 rows.append({"beta_mode": mode, "model": model, "experiment": m.experiment,
                              "kind": kinds[m.experiment], "split": m.split,
                              "mean_power_w": m.mean_power_w,
@@ -343,7 +342,7 @@ def _cell(value: float, digits: int, train: bool, width: int) -> str:
 
 
 def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = None) -> str:
-    """The table behind the seed paper's Fig. 12–13, as text.
+    """The table behind [UAV23] Fig. 12–13, as text.
 
     For each β mode: the fitted δ, ε, β of each model, then RMSE [mAh] and
     final normalised error [%] per validation experiment (rows) and model
@@ -356,17 +355,17 @@ def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = 
     for mode in modes:
         fits = report.fits[mode]
         models = list(fits)
-        title = ("β held at 0.9648 (as the seed paper)" if mode == "held"
+        title = ("β held at 0.9648 (as in [UAV23])" if mode == "held"
                  else "β fitted (free)")
         lines += [title, "=" * len(title)]
         for model in models:
             r = fits[model]
-            se = r["stderr"]
-            beta_text = (f"β = {r['beta']:.4f} (held)" if "beta" in r["fixed"]
-                         else f"β = {r['beta']:.4f} ± {se['beta']:.2g}")
-            lines.append(f"{model:<8} δ = {r['delta']:.4f} ± {se['delta']:.2g}, "
-                         f"ε = {r['epsilon']:.4f} ± {se['epsilon']:.2g}, {beta_text}; "
-                         f"trained on {', '.join(r['train'])}")
+            se = r.stderr
+            beta_text = (f"β = {r.beta:.4f} (held)" if "beta" in r.fixed
+                         else f"β = {r.beta:.4f} ± {se['beta']:.2g}")
+            lines.append(f"{model:<8} δ = {r.delta:.4f} ± {se['delta']:.2g}, "
+                         f"ε = {r.epsilon:.4f} ± {se['epsilon']:.2g}, {beta_text}; "
+                         f"trained on {', '.join(r.train)}")
         t = report.table[report.table.beta_mode == mode]
         for column, label, digits in (("rmse_mah", "RMSE [mAh] ([UAV23] eq. 29)", 1),
                                       ("final_error_pct",
@@ -408,7 +407,7 @@ def render_report(report: CampaignReport, *, beta_modes: Sequence[str] | None = 
 
 def report_to_dict(report: CampaignReport) -> dict[str, Any]:
     """JSON-ready form of a report (fits without their per-experiment metrics)."""
-    fits = {mode: {model: {k: v for k, v in r.items() if k != "metrics"}
+    fits = {mode: {model: r.to_dict()
                    for model, r in by_model.items()}
             for mode, by_model in report.fits.items()}
     return {"fits": fits, "table": report.table.to_dict(orient="records"),

@@ -6,7 +6,7 @@ pack — and return the fitted values with standard errors. Conversions to per
 cell values are done by :func:`fit_pulse_test`.
 
 * R0 from the voltage step at each current edge (:func:`fit_r0_pulse_edges`,
-  [HESS] eq. 3 and the amended VDA rule ``R = ΔV/ΔI`` of DESIGN §5).
+  [HESS] eq. 3 and the amended VDA rule ``R = ΔV/ΔI`` of [UAV23] eq. 11).
 * R1, C1 from the voltage during and after each short pulse, mainly the
   relaxation (:func:`fit_rc_relaxation`, least squares).
 * OCV(SoC) from a low-rate discharge, and a low-rate charge when available
@@ -19,7 +19,7 @@ cell values are done by :func:`fit_pulse_test`.
 * Thermal R_th and C_th from a temperature trace and the heat that drove it
   (:func:`fit_thermal`).
 
-:func:`pulse_test_profile` generates the seed paper's pulse profile.
+The pulse test's current profile is :func:`planner.identify.protocols.pulse_test_profile`.
 
 Standard errors are the usual least-squares ones, ``s² (JᵀJ)⁻¹`` with
 ``s² = RSS/(n − p)``, propagated to derived quantities (``C1 = τ/R1``) by the
@@ -29,7 +29,6 @@ they are optimistic.
 
 from __future__ import annotations
 
-import itertools
 import math
 import warnings
 from dataclasses import dataclass, field, replace
@@ -43,7 +42,7 @@ from planner.physics.battery.circuit import CircuitParameters, simulate
 from planner.physics.battery.ocv import OcvTable, ocv_table
 from planner.physics.battery.thermal import lumped_temperature
 from planner.errors import FitError, InputError
-from planner.identify.stats import jacobian_covariance
+from planner.identify import stats
 
 
 @dataclass
@@ -97,106 +96,12 @@ def _charge_as(t, i):
     return np.r_[0.0, np.cumsum(i[:-1] * np.diff(t))]
 
 
-def _cov(jac, rss, n, p):
-    """s² (JᵀJ)⁻¹ with s² = RSS/(n − p) (:func:`planner.identify.stats.jacobian_covariance`);
-    warns when the data cannot determine the parameters."""
-    base = jacobian_covariance(jac)
-    if base.singular:
-        warnings.warn("covariance of the fit is indeterminate (singular Jacobian)",
-                      RuntimeWarning, stacklevel=3)
-    return base.matrix * (rss / max(n - p, 1))
-
-
-# --------------------------------------------------------------------------- profile
-
-@dataclass
-class PulseProfile:
-    """A pulse-test current profile.
-
-    Attributes
-    ----------
-    time_s : ndarray [s]
-    current_a : ndarray
-        Current held from each sample to the next, discharge positive. [A]
-    blocks : list of dict
-        One per state of charge: ``soc`` (nominal), ``start_s``, ``end_s`` of
-        the rest–discharge–rest–charge–rest block.
-    """
-
-    time_s: np.ndarray
-    current_a: np.ndarray
-    blocks: list[dict]
-
-
-def pulse_test_profile(capacity_ah: float, *, soc_levels=(0.9, 0.7, 0.5, 0.3, 0.1),
-                       pulse_current_a: float | None = None, pulse_s: float = 20.0,
-                       rest_s: float = 60.0, move_current_a: float | None = None,
-                       settle_s: float = 600.0, soc0: float = 1.0,
-                       dt_s: float = 0.1) -> PulseProfile:
-    """
-    The seed paper's pulse profile at several states of charge.
-
-    At each level: a constant-current discharge from the previous level
-    (``move_current_a``), ``settle_s`` of rest, then the block: ``rest_s``
-    rest, ``pulse_s`` discharge pulse, ``rest_s`` rest, ``pulse_s`` charge
-    pulse, ``rest_s`` rest (60 s, 20 s, 60 s, 20 s, 60 s by default).
-
-    Parameters
-    ----------
-    capacity_ah : float
-        Capacity of the cell or pack under test. [A h]
-    soc_levels : sequence of float
-        Decreasing states of charge at which to pulse. [unitless]
-    pulse_current_a : float, optional
-        Pulse magnitude; default 1 C. [A]
-    move_current_a : float, optional
-        Current of the discharges between levels; default C/2. [A]
-    soc0 : float
-        State of charge at the start. [unitless]
-    dt_s : float
-        Sample interval; durations are rounded to it. [s]
-
-    Returns
-    -------
-    PulseProfile
-    """
-    if not capacity_ah > 0:
-        raise InputError(f"capacity_ah must be > 0, got {capacity_ah!r}")
-    if not dt_s > 0:
-        raise InputError(f"dt_s must be > 0, got {dt_s!r}")
-    i_pulse = capacity_ah if pulse_current_a is None else float(pulse_current_a)
-    i_move = capacity_ah / 2 if move_current_a is None else float(move_current_a)
-    if i_pulse <= 0 or i_move <= 0:
-        raise InputError("pulse_current_a and move_current_a must be > 0")
-    levels = [float(s) for s in soc_levels]
-    if any(not 0 < s <= 1 for s in levels) or any(b >= a for a, b in itertools.pairwise(levels)):
-        raise InputError("soc_levels must decrease within (0, 1]")
-
-    def steps(duration):
-        return max(round(duration / dt_s), 0)
-
-    segments: list[tuple[int, float]] = []
-    blocks = []
-    soc = float(soc0)
-    k = 0
-    for level in levels:
-        if level < soc:
-            n_move = steps((soc - level) * capacity_ah * 3600.0 / i_move)
-            segments.append((n_move, i_move))
-            k += n_move
-            soc -= n_move * dt_s * i_move / (capacity_ah * 3600.0)
-        segments.append((steps(settle_s), 0.0))
-        k += steps(settle_s)
-        start = k
-        for n_seg, cur in ((steps(rest_s), 0.0), (steps(pulse_s), i_pulse),
-                           (steps(rest_s), 0.0), (steps(pulse_s), -i_pulse),
-                           (steps(rest_s), 0.0)):
-            segments.append((n_seg, cur))
-            k += n_seg
-        blocks.append({"soc": soc, "start_s": start * dt_s, "end_s": k * dt_s})
-    current = np.concatenate([np.full(n_seg, cur) for n_seg, cur in segments] + [[0.0]])
-    time = np.arange(current.size) * dt_s
-    return PulseProfile(time, current, blocks)
+def _cov(jac, rss):
+    """:func:`planner.identify.stats.scaled_covariance`, s² (JᵀJ)⁻¹ with s² = RSS/(n − p),
+    warning when the data cannot determine the parameters."""
+    cov = stats.scaled_covariance(jac, rss)
+    cov.warn_if_singular("the fit", RuntimeWarning, stacklevel=3)
+    return cov.matrix
 
 
 # --------------------------------------------------------------------------- R0
@@ -240,7 +145,7 @@ def fit_r0_pulse_edges(time_s, voltage_v, current_a, *, min_step_a: float | None
     -----
     .. math:: R_0 = -\frac{\hat v(t_k^+) - \hat v(t_k^-)}{i_k - i_{k-1}}
 
-    ([UAV23] eq. 3; DESIGN §5 ``R = ΔV/ΔI`` at the switching instant). The
+    ([HESS] eq. 3; [UAV23] eq. 11, ``R = ΔV/ΔI`` at the switching instant). The
     voltages just before and just after the edge are the values at the edge
     instant of straight lines fitted to ``edge_window_s`` of samples on each
     side (same current as the sample next to the edge): this removes the
@@ -353,7 +258,7 @@ def _fit_window(t, v, i, tau_bounds, r0_fixed=None, slope=True):
     xm = _rc_regressors(t, i, math.exp(log_tau - h))[:, cols]
     d_tau = (xp @ beta - xm @ beta) / (2 * h)
     jac = np.column_stack([x, d_tau])
-    cov = _cov(jac, rss_min, t.size, jac.shape[1])
+    cov = _cov(jac, rss_min)
     return beta, log_tau, cov, rss_min, (lo, hi)
 
 
@@ -917,7 +822,7 @@ def fit_hysteresis(time_s, voltage_v, current_a, params: CircuitParameters, *,
     beta, rss_min, x = solve(log_g)
     hstep = 1e-4
     d_g = (solve(log_g + hstep)[2] @ beta - solve(log_g - hstep)[2] @ beta) / (2 * hstep)
-    cov = _cov(np.column_stack([x, d_g]), rss_min, t.size, 3)
+    cov = _cov(np.column_stack([x, d_g]), rss_min)
     gamma = math.exp(log_g)
     m_v, h0 = float(beta[0]), float(beta[1])
     if m_v < 0:
@@ -995,7 +900,7 @@ def fit_thermal(time_s, temperature_c, heat_w, t_air_c, *, t0_c: float | None = 
     if not sol.success:
         raise FitError(f"thermal fit did not converge: {sol.message}")
     rss = float(sol.fun @ sol.fun)
-    cov = _cov(sol.jac, rss, t.size, len(theta0))
+    cov = _cov(sol.jac, rss)
     r, cth = math.exp(sol.x[0]), math.exp(sol.x[1])
     se_lr, se_lc = math.sqrt(max(cov[0, 0], 0)), math.sqrt(max(cov[1, 1], 0))
     se_tau = r * cth * math.sqrt(max(cov[0, 0] + cov[1, 1] + 2 * cov[0, 1], 0))

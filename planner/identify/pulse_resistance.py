@@ -1,11 +1,11 @@
-r"""Internal resistance from a current-pulse test (amended VDA method, seed §3.1).
+r"""Internal resistance from a current-pulse test (amended VDA method, [UAV23] eq. 11).
 
-The seed paper [1]_ measures the pack's DC resistance with an amended version
-of the VDA current-step method. Per pulse current (its Table 1 profile):
-relaxation 100 s, discharge pulse, relaxation 200 s, charge pulse, relaxation
-100 s. At the instant the current is switched off the voltage jumps by the
-ohmic drop only (the polarisation voltage of the electrodes is continuous and
-decays slowly afterwards), so
+[UAV23] measures the pack's DC resistance with an amended version of the VDA
+current-step method. Per pulse current, the block of its Table 1
+(:func:`planner.identify.protocols.pulse_block`): relaxation 100 s, discharge pulse,
+relaxation 200 s, charge pulse, relaxation 100 s. At the instant the current is
+switched off the voltage jumps by the ohmic drop only (the polarisation voltage of the
+electrodes is continuous and decays slowly afterwards), so
 
 .. math:: R = \frac{\Delta V}{\Delta I}
           = \frac{V_{after} - V_{before}}{I_{before} - I_{after}}
@@ -18,13 +18,8 @@ discharge pulse (the voltage jumps up) and a charge pulse (it drops) alike.
 
 :func:`current_off_instants` finds the switch-off samples,
 :func:`pulse_resistance` evaluates a test, and :func:`pulse_profile` generates
-the Table 1 profile (for tests and for planning a bench run).
-
-References
-----------
-.. [1] "Battery Testing and Discharge Model Validation for Electric Unmanned
-   Aerial Vehicles (UAV)," Sensors, vol. 23, no. 15, 6937, 2023,
-   doi: 10.3390/s23156937.
+the Table 1 test at several currents with the voltage response of a simple pack (for
+tests and for planning a bench run).
 """
 
 from __future__ import annotations
@@ -36,6 +31,7 @@ import pandas as pd
 from scipy import signal, stats
 
 from planner.errors import InputError
+from planner.identify.protocols import PULSE_REST_S, pulse_block
 
 __all__ = [
     "LEVEL_TOLERANCE",
@@ -70,6 +66,7 @@ class Pulse:
 
     @property
     def kind(self) -> str:
+        """``"discharge"`` (current positive before the switch-off) or ``"charge"``."""
         return "discharge" if self.current_a > 0 else "charge"
 
 
@@ -103,6 +100,9 @@ class PulseResistance:
     """The values the statistics are taken over. [Ω]"""
 
     def to_dict(self) -> dict:
+        """JSON-ready form: every pulse, the levels [A] and their resistances [Ω], the
+        statistics [Ω] and how they were taken.
+        """
         return {
             "pulses": [{"time_s": p.time_s, "current_a": p.current_a, "kind": p.kind,
                         "delta_v": p.delta_v, "delta_i": p.delta_i,
@@ -182,7 +182,7 @@ def pulse_resistance(time_s, voltage_v, current_a, *, threshold_a: float = ON_TH
                      level_tolerance: float = LEVEL_TOLERANCE,
                      source: str | None = None) -> PulseResistance:
     r"""
-    Internal resistance from a pulse test (amended VDA, seed §3.1, Table 2).
+    Internal resistance from a pulse test (amended VDA, [UAV23] eq. 11, Table 2).
 
     Parameters
     ----------
@@ -263,7 +263,7 @@ def pulse_resistance(time_s, voltage_v, current_a, *, threshold_a: float = ON_TH
 
 def pulse_profile(currents_a=(2.0, 4.0, 6.0, 8.0), resistance_ohm=0.02068, *,
                   ocv_v: float = 16.0, pulse_s: float = 10.0,
-                  rest_s: tuple[float, float, float] = (100.0, 200.0, 100.0),
+                  rest_s: tuple[float, float, float] = PULSE_REST_S,
                   dt_s: float = 0.1, polarisation_ohm: float = 0.0, tau_s: float = 30.0,
                   noise_v: float = 0.0, noise_a: float = 0.0, rng=None) -> pd.DataFrame:
     r"""
@@ -304,8 +304,7 @@ def pulse_profile(currents_a=(2.0, 4.0, 6.0, 8.0), resistance_ohm=0.02068, *,
     r0 = np.broadcast_to(np.asarray(resistance_ohm, dtype=float), currents.shape)
     blocks_i, blocks_r = [], []
     for amps, ohms in zip(currents, r0):
-        for duration, value in ((rest_s[0], 0.0), (pulse_s, amps), (rest_s[1], 0.0),
-                                (pulse_s, -amps), (rest_s[2], 0.0)):
+        for duration, value in pulse_block(amps, pulse_s, rest_s):
             n = round(duration / dt_s)
             blocks_i.append(np.full(n, value))
             blocks_r.append(np.full(n, ohms))

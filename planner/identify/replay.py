@@ -7,7 +7,8 @@ Two levels, per experiment (flight or discharge):
   with the trapezoid integral of the measured current (RMSE in mAh, final
   normalized error in %, [UAV23] eq. 29–30). Without a pack file the literature
   model δ₀(N), ε₀(N), β = 0.9648 is used for the cell count N from the log
-  (``BATT_*``/``BAT1_N_CELLS``) or, failing that, N = ⌈V_max / 4.25 V⌉. A
+  (``BATT_*``/``BAT1_N_CELLS``) or, failing that, N = ⌈V_max / 4.25 V⌉
+  (:func:`planner.physics.battery.cells.series_cells`; :func:`literature_pack`). A
   pack that carries diagnose's extensions (``temperature_coefficient_per_c``,
   ``fade_per_cycle``) has them applied: each increment of charge is scaled by
   the logged pack temperature of that moment
@@ -31,7 +32,6 @@ predicted at 25 %, 50 % and 75 % of the flight, against the real end.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -41,18 +41,10 @@ import pandas as pd
 from planner.chain import flightstate
 from planner.io import record
 from planner.physics.battery import integral
+from planner.physics.battery.cells import series_cells
 from planner.chain.mission_chain import MissionChain
 from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.physics.units import AS_PER_MAH
-
-
-def detect_cells(voltage_v) -> int | None:
-    """Series cell count from the highest pack voltage: ⌈V_max / 4.25 V⌉."""
-    v = np.asarray(voltage_v, float)
-    v = v[np.isfinite(v) & (v > 0)]
-    if v.size == 0:
-        return None
-    return max(1, int(math.ceil(float(np.max(v)) / 4.25)))
 
 
 @dataclass
@@ -123,6 +115,11 @@ class PowerReplay:
 
 @dataclass
 class ExperimentReplay:
+    """One experiment replayed: its id, duration [s] and samples, the battery and power
+    levels (None where not replayed), notes, and the per-sample series of the replay
+    (``series``: ``time_s`` [s], ``measured_w``/``predicted_w`` [W], charges [mAh],
+    ``time_to_reserve_s`` [s], ``phase``).
+    """
     experiment: str
     duration_s: float
     samples: int
@@ -134,10 +131,14 @@ class ExperimentReplay:
 
 @dataclass
 class ReplayResult:
+    """Every experiment replayed and the overall figures (mean final error [%], RMSE
+    [mAh], power RMSE [W], energy error [%]).
+    """
     experiments: list[ExperimentReplay]
     overall: dict[str, Any]
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form: the overall figures and each experiment without its series."""
         def conv(obj):
             if obj is None:
                 return None
@@ -161,25 +162,58 @@ def _rolling_mean(t, y, window_s):
     return np.where(span > 0, m, y)
 
 
-def _replay_pack(pack: BatteryPack | None, meta: dict, voltage) -> tuple[BatteryPack | None,
-                                                                          str]:
-    """The pack the replay flies: the pack file, else the literature model of the log's
-    cell count (its capacity from the log; unknown: β = 1, Peukert's form)."""
-    if pack is not None:
-        what = "literature" if pack.model.literature else "fitted"
-        return pack, f"{what} ({pack.name})"
-    cells, how = meta.get("battery_cells"), "log parameter"
+#: Capacity of a literature pack whose log gives none: far above any charge drawn, so
+#: that nothing (diagnose's β fit, a reserve) takes it for a measured one. [mAh]
+UNKNOWN_CAPACITY_MAH = 1e7
+
+
+def literature_pack(cells: int | None = None, capacity_mah: float | None = None,
+                    voltage_v=None) -> tuple[BatteryPack | None, str]:
+    """The pack a log flew when no pack file is given: the literature integral model
+    δ₀(N), ε₀(N) of its cell count N ([UAV23] eq. 16–17,
+    :meth:`planner.parameters.IntegralModel.from_literature`), and a label saying so.
+
+    Parameters
+    ----------
+    cells : int, optional
+        Cells in series from the log's parameters (``battery_cells``); else found from
+        the pack voltage (:func:`planner.physics.battery.cells.series_cells`).
+    capacity_mah : float, optional
+        The log's pack capacity (``battery_capacity_mah``): β = 0.9648 with δ scaled to
+        it; unknown, β = 1 (Peukert's form) and the pack's capacity is
+        :data:`UNKNOWN_CAPACITY_MAH`. [mAh]
+    voltage_v : array_like, optional
+        The log's pack voltage, for the cell count. [V]
+
+    Returns
+    -------
+    (BatteryPack or None, str)
+        The pack (mass 0 kg: unknown, so a take-off mass built from it leaves the pack
+        out) and its label; ``(None, why)`` when the cell count cannot be found.
+    """
+    how = "log parameter"
     if not cells:
-        cells, how = detect_cells(voltage), "detected from voltage"
+        cells, how = (series_cells(voltage_v) if voltage_v is not None else None,
+                      "detected from voltage")
     if not cells:
         return None, "no voltage to find the cell count"
-    cap = meta.get("battery_capacity_mah")
+    cells = int(cells)
+    cap = float(capacity_mah) if capacity_mah else None
     model = IntegralModel.from_literature(cells, cap * AS_PER_MAH if cap else None)
     size = f", {cap:.0f} mAh from the log" if cap else ", capacity unknown: β = 1"
     label = f"literature {cells}S ({how}{size})"
-    # the capacity enters only the reserve of the pilot's view, given apart (None here)
-    return BatteryPack(name=label, cells_series=cells, capacity_mah=cap or 1.0, mass_kg=1.0,
-                       model=model), label
+    return BatteryPack(name=label, cells_series=cells, capacity_mah=cap or UNKNOWN_CAPACITY_MAH,
+                       mass_kg=0.0, model=model), label
+
+
+def flown_pack(pack: BatteryPack | None, meta: dict, voltage) -> tuple[BatteryPack | None,
+                                                                        str]:
+    """The pack the replay flies: the pack file, else :func:`literature_pack` of the log."""
+    if pack is not None:
+        what = "literature" if pack.model.literature else "fitted"
+        return pack, f"{what} ({pack.name})"
+    return literature_pack(meta.get("battery_cells"), meta.get("battery_capacity_mah"),
+                           voltage)
 
 
 def battery_replay(exp: pd.DataFrame, chain: MissionChain, label: str,
@@ -308,9 +342,9 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
             out.append(ExperimentReplay(str(exp_id), float(t[-1] - t[0]) if len(t) else 0.0,
                                         len(exp), None, None, notes, {"time_s": t}))
             continue
-        flown, label = _replay_pack(pack, meta, exp.get("voltage_v", pd.Series(dtype=float)))
+        flown, label = flown_pack(pack, meta, exp.get("voltage_v", pd.Series(dtype=float)))
         if pack is not None and "voltage_v" in exp:
-            cells = meta.get("battery_cells") or detect_cells(exp["voltage_v"])
+            cells = meta.get("battery_cells") or series_cells(exp["voltage_v"])
             if cells and cells != pack.cells_series:
                 notes.append(f"the log's pack has {cells} cells in series, the pack file "
                              f"{pack.cells_series}: is it the pack that flew?")

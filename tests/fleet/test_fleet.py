@@ -231,7 +231,7 @@ def test_report_has_bias_p95_drift_and_figures(first, fleet):
     worst = fleet.truth.set_index("log").loc[[Path(p).name for p in res.diagnoses]]
     assert (worst["pack"] == "S4").all()
     assert all(t and not t.startswith("not diagnosed") for t in res.diagnoses.values())
-    assert "`diagnose` (DESIGN §6)" in text
+    assert "`diagnose` (docs/commands.md)" in text
     assert "## Aircraft calibrated on the fleet" in text
     for png in ("accuracy.png", "drift.png", "packs.png"):
         assert (out / png).stat().st_size > 5000

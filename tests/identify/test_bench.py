@@ -50,10 +50,10 @@ def test_seed_pack_is_the_shipped_multistar_yaml(repo, pack):
     assert (a.cells_series, a.cells_parallel) == (b.cells_series, b.cells_parallel) == (4, 1)
     assert_allclose([a.capacity_ah, a.r0_ohm, a.r1_ohm, a.c1_f],
                     [b.capacity_ah, b.r0_ohm, b.r1_ohm, b.c1_f], rtol=1e-12)
-    # seed Table 2: 20.68 mΩ for the pack
+    # [UAV23] Table 2: 20.68 mΩ for the pack
     assert_allclose(pack.r_pack_ohm, 0.02068, rtol=1e-12)
     assert pack.v_cutoff_cell == from_yaml.v_cutoff_cell == 3.5
-    # seed Table 5, m_const, designs the two-step tests
+    # [UAV23] Table 5, m_const, designs the two-step tests
     assert_allclose([from_yaml.model[k] for k in ("delta", "epsilon", "beta")],
                     [23.6482, -1.0209, 0.9648])
     assert pack.model == from_yaml.model

@@ -1,9 +1,9 @@
-"""The seed paper's campaign on the virtual bench (planner.identify.campaign) and ``endurance bench``.
+"""The [UAV23] campaign on the virtual bench (planner.identify.campaign) and ``endurance bench``.
 
 The issue's requirement: on the virtual bench, m_const (fitted on the 50 W and
-125 W constant-power discharges, β held at 0.9648 as in the seed paper)
+125 W constant-power discharges, β held at 0.9648 as in [UAV23])
 predicts the 75 W and 100 W discharges with a final normalised error below
-the paper's 0.7 % (seed eq. 30).
+the paper's 0.7 % ([UAV23] eq. 30).
 """
 
 import json
@@ -76,10 +76,10 @@ def test_m_const_predicts_75_and_100_w_within_the_paper_bound(seed, beta_mode):
     records = campaign.run_campaign(seed=seed, campaign="constant")
     rep = campaign.cross_validate(records, beta_modes=[beta_mode])
     m = rep.fits[beta_mode]["m_const"]
-    assert m["train"] == ["const_050W", "const_125W"]
-    assert m["validate"] == ["const_075W", "const_100W"]
+    assert m.train == ["const_050W", "const_125W"]
+    assert m.validate == ["const_075W", "const_100W"]
     if beta_mode == "held":
-        assert m["beta"] == 0.9648
+        assert m.beta == 0.9648
     for name in ("const_075W", "const_100W"):
         err = rep.metric(beta_mode, "m_const", name, "final_error_pct")
         assert abs(err) < campaign.PAPER_FINAL_ERROR_PCT, (name, err)
@@ -100,16 +100,16 @@ def test_table_has_every_model_on_every_experiment(report):
                     "m_APRBS": set(SEED_EXPERIMENTS[8:])}[model]
             assert train == want
     held = report.fits["held"]
-    assert all(r["beta"] == 0.9648 and r["fixed"] == ["beta"] for r in held.values())
-    assert all(r["fixed"] == [] for r in report.fits["free"].values())
+    assert all(r.beta == 0.9648 and r.fixed == ["beta"] for r in held.values())
+    assert all(r.fixed == [] for r in report.fits["free"].values())
 
 
 def test_fitted_models_are_physical(report):
-    """ε near −1 (energy almost conserved) and δ near the seed's 23.6 for the same pack."""
+    """ε near −1 (energy almost conserved) and δ near [UAV23]'s 23.6 for the same pack."""
     for mode, fits in report.fits.items():
         for model, r in fits.items():
-            assert -1.1 < r["epsilon"] < -0.95, (mode, model)
-            assert 15 < r["delta"] < 35, (mode, model)
+            assert -1.1 < r.epsilon < -0.95, (mode, model)
+            assert 15 < r.delta < 35, (mode, model)
 
 
 def test_seed0_findings_reported_in_the_docs(report):
@@ -168,8 +168,8 @@ def test_cli_bench_seed_report(tmp_path, capsys):
     assert list(dict.fromkeys(df.experiment)) == SEED_EXPERIMENTS
     refit = fit.fit_integral(df, beta=0.9648, train=["const_050W", "const_125W"])
     m_const = data["fits"]["held"]["m_const"]
-    assert refit["delta"] == pytest.approx(m_const["delta"], rel=1e-9)
-    assert refit["epsilon"] == pytest.approx(m_const["epsilon"], rel=1e-9)
+    assert refit.delta == pytest.approx(m_const["delta"], rel=1e-9)
+    assert refit.epsilon == pytest.approx(m_const["epsilon"], rel=1e-9)
 
 
 def test_cli_bench_writes_a_named_campaign(tmp_path, capsys):

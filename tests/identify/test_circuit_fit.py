@@ -16,8 +16,8 @@ from planner.identify.circuit_fit import (
     fit_rate_discharges,
     fit_rc_relaxation,
     fit_thermal,
-    pulse_test_profile,
 )
+from planner.identify.protocols import pulse_test_profile
 from planner.physics.battery.ocv import lipo_ocv
 from planner.physics.battery.thermal import lumped_temperature
 from planner.errors import FitError
@@ -35,21 +35,6 @@ def pulse_record():
     rng = np.random.default_rng(42)
     voltage = sim.voltage_v + rng.normal(0.0, 0.5e-3, sim.voltage_v.size)   # 0.5 mV noise
     return prof, voltage, sim.soc
-
-
-def test_pulse_test_profile_matches_the_seed_block():
-    prof = pulse_test_profile(2.0, soc_levels=(0.8, 0.5), dt_s=0.5, settle_s=120.0)
-    assert len(prof.blocks) == 2
-    b = prof.blocks[0]
-    assert b["soc"] == pytest.approx(0.8)
-    assert b["end_s"] - b["start_s"] == 60 + 20 + 60 + 20 + 60
-    seg = (prof.time_s >= b["start_s"]) & (prof.time_s < b["end_s"])
-    cur = prof.current_a[seg]
-    assert np.sum(cur == 2.0) * 0.5 == 20.0          # 1 C discharge pulse
-    assert np.sum(cur == -2.0) * 0.5 == 20.0         # 1 C charge pulse
-    assert np.all(cur[:120] == 0.0)                  # 60 s rest first
-    assert prof.blocks[1]["soc"] == pytest.approx(0.5)
-    assert prof.current_a[-1] == 0.0
 
 
 def test_r0_from_pulse_edges_at_several_soc(pulse_record):

@@ -1,4 +1,4 @@
-"""Test design: two-step tests (seed eq. 25–28) and APRBS power schedules."""
+"""Test protocols: two-step tests ([UAV23] eq. 25–28), APRBS power schedules, pulse tests."""
 
 import numpy as np
 import pandas as pd
@@ -9,9 +9,9 @@ from planner.identify import protocols as design
 from planner.physics.battery import integral
 from planner.identify.schedule import read_schedule, write_schedule
 
-M_CONST = {"delta": 23.6482, "epsilon": -1.0209, "beta": 0.9648}  # seed Table 5
+M_CONST = {"delta": 23.6482, "epsilon": -1.0209, "beta": 0.9648}  # [UAV23] Table 5
 
-# --------------------------------------------------------------------------- seed Table 3
+# --------------------------------------------------------------------------- [UAV23] Table 3
 
 #: The model Table 3 implies (from the lead's reading of the table): ε and the
 #: full-discharge time at 100 W, K = δ 100^ε C0^β.
@@ -26,7 +26,7 @@ def _table_3_model(c0_as=10_000 * 3.6, beta=integral.LITERATURE_BETA):
 
 
 def test_table_3_model_depends_only_on_k_and_epsilon():
-    r"""The model seed Table 3 implies: ε = −1.0107 and K = δ·100^ε·C0^β = 2986 s.
+    r"""The model [UAV23] Table 3 implies: ε = −1.0107 and K = δ·100^ε·C0^β = 2986 s.
 
     Eq. 25–28 give :math:`t_1 = \delta P_2^\varepsilon C_0^\beta / (k + (P_2/P_1)^\varepsilon)`;
     with :math:`K = \delta\,100^\varepsilon C_0^\beta` (the single-step time at 100 W),
@@ -98,7 +98,7 @@ def test_uav23_table_3_all_six_rows_within_0_2_percent():
 @pytest.mark.parametrize("p1,p2,k", [(50, 125, 1.0), (125, 50, 1.0), (75, 100, 0.5),
                                      (100, 50, 2.0), (50, 75, 3.0)])
 def test_two_step_test_draws_exactly_c0(p1, p2, k):
-    """Seed eq. 25–28: the designed steps draw C0 under the model (exact piecewise sum)."""
+    """[UAV23] eq. 25–28: the designed steps draw C0 under the model (exact piecewise sum)."""
     c0 = 10_000 * 3.6
     test = design.two_step(p1, p2, k, c0, **M_CONST)
     assert test.t2_s == pytest.approx(k * test.t1_s, rel=1e-12)
@@ -153,7 +153,7 @@ def test_two_step_schedule_table():
 # --------------------------------------------------------------------------- APRBS
 
 def test_aprbs_follows_the_seed_recipe():
-    """Levels 50/75/100/125 W, holds in [30, 300] s, total >= 3500 s (DESIGN §5)."""
+    """Levels 50/75/100/125 W, holds in [30, 300] s, total >= 3500 s ([UAV23] APRBS tests)."""
     s = design.aprbs([50, 75, 100, 125], (30, 300), 3500, rng=1)
     assert set(s["power_w"]) <= {50.0, 75.0, 100.0, 125.0}
     assert s["duration_s"].between(30, 300).all()
@@ -212,3 +212,19 @@ def test_sample_schedule_holds_each_step():
                       "power_w": [50.0, 125.0]})
     p = design.sample_schedule(s, [-1.0, 0.0, 9.99, 10.0, 14.9, 15.0, 100.0])
     assert_allclose(p, [0.0, 50.0, 50.0, 125.0, 125.0, 0.0, 0.0])
+
+
+def test_pulse_test_profile_repeats_the_uav23_block_at_each_state_of_charge():
+    """[UAV23] Table 1 block (rest, discharge pulse, rest, charge pulse, rest) at 1 C."""
+    prof = design.pulse_test_profile(2.0, soc_levels=(0.8, 0.5), dt_s=0.5, settle_s=120.0)
+    assert len(prof.blocks) == 2
+    b = prof.blocks[0]
+    assert b["soc"] == pytest.approx(0.8)
+    assert b["end_s"] - b["start_s"] == 60 + 20 + 60 + 20 + 60
+    seg = (prof.time_s >= b["start_s"]) & (prof.time_s < b["end_s"])
+    cur = prof.current_a[seg]
+    assert np.sum(cur == 2.0) * 0.5 == 20.0          # 1 C discharge pulse
+    assert np.sum(cur == -2.0) * 0.5 == 20.0         # 1 C charge pulse
+    assert np.all(cur[:120] == 0.0)                  # 60 s rest first
+    assert prof.blocks[1]["soc"] == pytest.approx(0.5)
+    assert prof.current_a[-1] == 0.0

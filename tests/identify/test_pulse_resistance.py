@@ -1,4 +1,4 @@
-"""Internal resistance from a pulse test (amended VDA, seed §3.1, Tables 1–2)."""
+"""Internal resistance from a pulse test (amended VDA, [UAV23] eq. 11, Tables 1–2)."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,7 @@ from numpy.testing import assert_allclose
 from planner.identify import pulse_resistance as vda
 from planner.errors import InputError
 
-# Seed paper Table 2 (doi:10.3390/s23156937): R at each pulse current. [A], [mΩ]
+# [UAV23] Table 2: R at each pulse current. [A], [mΩ]
 TABLE_2_CURRENTS_A = (2.0, 4.0, 6.0, 8.0)
 TABLE_2_R_MOHM = (20.48, 21.24, 20.46, 20.51)
 # ... and the text: mean 20.68 mΩ, 95 % confidence interval 20.07–21.29 mΩ.

@@ -14,7 +14,8 @@ from planner.chain.flightstate import flight_phases
 from planner.io.mission import load_mission
 from planner.physics.mission import Environment
 from planner.parameters import IntegralModel, load_aircraft_and_battery
-from planner.identify.replay import detect_cells, replay
+from planner.identify.replay import UNKNOWN_CAPACITY_MAH, literature_pack, replay
+from planner.physics.units import AS_PER_MAH
 from testkit.flight import simulate_flight
 
 REPO = Path(__file__).resolve().parents[2]
@@ -133,11 +134,39 @@ def test_battery_replay_applies_the_pack_temperature_coefficient_sample_by_sampl
                                           rel=1e-3)
 
 
-def test_detect_cells_from_voltage():
-    """Highest voltages of the real logs (PROVENANCE.md) give their packs' cell counts."""
-    for vmax, cells in [(16.54, 4), (24.31, 6), (30.96, 8), (11.62, 3), (49.91, 12),
-                        (22.58, 6), (15.19, 4)]:
-        assert detect_cells([vmax * 0.95, vmax]) == cells
+def test_literature_pack_is_the_one_pack_of_a_log_without_a_pack_file():
+    """One literature pack for replay, fleet and diagnose: the log's cell count (its
+    parameter, else the voltage), δ₀(N), ε₀(N) scaled to the log's capacity with
+    β = 0.9648, or β = 1 without one; the pack's mass unknown (0 kg)."""
+    volts = [15.2, 16.7, np.nan]
+    pack, label = literature_pack(None, 5200.0, volts)
+    assert pack.cells_series == 4 and pack.mass_kg == 0.0 and pack.capacity_mah == 5200.0
+    assert pack.model == IntegralModel.from_literature(4, 5200.0 * AS_PER_MAH)
+    assert pack.model.beta == 0.9648 and pack.name == label
+    assert label == "literature 4S (detected from voltage, 5200 mAh from the log)"
+    bare, label = literature_pack(None, None, volts)
+    assert bare.model == IntegralModel.from_literature(4) and bare.model.beta == 1.0
+    assert bare.capacity_mah == UNKNOWN_CAPACITY_MAH and "capacity unknown" in label
+    assert literature_pack(6, None, volts)[0].cells_series == 6        # the log's parameter
+    assert literature_pack(None, None, [np.nan]) == (None, "no voltage to find the cell "
+                                                           "count")
+
+
+def test_replay_and_diagnose_fly_the_same_literature_pack():
+    """Without a pack file replay names, and diagnose starts from, the pack of
+    :func:`literature_pack` (one builder: they once differed in their placeholders)."""
+    from planner.identify.diagnose import diagnose
+
+    t = np.arange(0.0, 120.0, 1.0)
+    df = pd.DataFrame({"time_s": t, "voltage_v": 16.6 - 0.01 * t, "current_a": 10.0,
+                       "power_w": 10.0 * (16.6 - 0.01 * t), "consumed_mah": t / 0.36,
+                       "experiment": "1"})
+    expected, label = literature_pack(None, None, df["voltage_v"])
+    notes = replay(df, [{}]).experiments[0].notes
+    assert f"battery model: {label}" in notes
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert diagnose(df).pack == expected
 
 
 def test_flight_phases():

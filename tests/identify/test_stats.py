@@ -52,3 +52,37 @@ def test_autocorrelation_is_taken_within_groups_and_clipped():
         stats.RHO_MAX
     assert stats.ar1_inflation(0.99) == stats.ar1_inflation(stats.RHO_MAX)
     assert stats.lag1_autocorrelation(np.array([1.0, -1.0] * 10)) == 0.0
+
+
+def test_poorly_determined_is_a_relative_standard_error_above_the_limit():
+    """The one rule every fit uses: a standard error that is not finite or above
+    ``limit`` × |value| (a value of 0 counts as 1e-12), in the order of the values."""
+    values = {"a": 2.0, "b": -4.0, "c": 1.0, "d": 0.0, "e": 3.0}
+    stderr = {"a": 0.2, "b": 0.41, "c": np.inf, "d": 1e-3, "e": np.nan}
+    assert stats.poorly_determined(values, stderr, 0.1) == ["b", "c", "d", "e"]
+    assert stats.poorly_determined(values, stderr, 0.5) == ["c", "d", "e"]
+    assert stats.poorly_determined({"a": 2.0}, {"a": 0.2}, 0.1) == []   # at the limit
+
+
+def test_scaled_covariance_is_curve_fits_pcov_from_the_residual_sum_of_squares():
+    rng = np.random.default_rng(3)
+    x = np.linspace(0, 5, 80)
+    y = 1.0 - 0.3 * x + rng.normal(0, 0.2, x.size)
+    popt, pcov = curve_fit(lambda x, a, b: a + b * x, x, y)
+    jac = np.column_stack([np.ones_like(x), x])
+    r = popt[0] + popt[1] * x - y
+    np.testing.assert_allclose(stats.scaled_covariance(jac, float(r @ r)).matrix, pcov,
+                               rtol=1e-6)
+    singular = stats.scaled_covariance(np.column_stack([x, 3 * x]), 1.0)
+    assert singular.singular and np.all(np.isinf(singular.matrix))
+    with pytest.warns(RuntimeWarning, match="covariance of the test fit is indeterminate"):
+        singular.warn_if_singular("the test fit", RuntimeWarning)
+
+
+def test_random_walk_covariance_is_infinite_for_a_singular_jacobian():
+    t = np.arange(100.0)
+    jac = np.column_stack([t, 2 * t])
+    cov, iid, rho = stats.random_walk_covariance(jac, np.cumsum(np.ones(100)), t, [0],
+                                                 [100], lag_fraction=0.01)
+    assert cov.singular and iid.singular and np.all(np.isinf(cov.stderr))
+    assert 0.9 < rho <= 1.0                      # a straight line about its mean

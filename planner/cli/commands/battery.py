@@ -16,6 +16,7 @@ import yaml
 from planner.io import files
 from planner.identify import protocols as design, battery_fit as fit, pulse_resistance as vda
 from planner.physics.battery import integral
+from planner.physics.battery.cells import series_cells
 from planner.cli.commands.common import (
     fmt,
     name_width,
@@ -29,10 +30,6 @@ from planner.errors import InputError
 from planner.parameters import IntegralModel, battery_from_mapping, load_battery, read_definition
 from planner.identify.schedule import write_schedule
 from planner.physics.units import AS_PER_MAH
-
-#: Full-charge cell voltage used to detect the cell count from the data. [V]
-CELL_FULL_V = 4.2
-
 
 def register(sub) -> None:
     _register_fit(sub)
@@ -56,7 +53,7 @@ def _register_fit(sub) -> None:
     p.add_argument("--battery", help="pack YAML whose other keys are kept (name, mass, ...)")
     p.add_argument("--name", help="pack name (required without --battery)")
     p.add_argument("--cells", help="cells in series (without --battery; default: detected "
-                                   "as max voltage / 4.2 V)")
+                                   "as max voltage / 4.25 V, rounded up)")
     p.add_argument("--mass-kg", help="pack mass [kg] (required without --battery)")
     p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
     p.add_argument("--train", help="comma-separated experiment ids to fit on")
@@ -91,14 +88,15 @@ def _ids(text: str | None, option: str) -> list[str] | None:
 
 
 def _cells_from_voltage(experiments) -> int:
-    vmax = max((float(np.nanmax(e.voltage_v)) for e in experiments if e.voltage_v is not None),
-               default=None)
-    if vmax is None:
+    """Cells in series from the experiments' voltage
+    (:func:`planner.physics.battery.cells.series_cells`)."""
+    voltages = [e.voltage_v for e in experiments if e.voltage_v is not None]
+    if not voltages:
         raise InputError("--cells is required: no voltage_v in the data to detect the cell "
-                         "count from (max voltage / 4.2 V)")
-    cells = round(vmax / CELL_FULL_V)
-    if cells < 1:
-        raise InputError(f"cannot detect the cell count from a maximum voltage of {vmax:g} V; "
+                         "count from (max voltage / 4.25 V, rounded up)")
+    cells = series_cells(np.concatenate(voltages))
+    if cells is None:
+        raise InputError("cannot detect the cell count: voltage_v is never above 0 V; "
                          "give --cells")
     return cells
 
@@ -131,7 +129,7 @@ def _fit_circuit(args, mapping: dict) -> dict:
     return block
 
 
-def _fit_circuit_rates(mapping: dict, experiments, result: dict,
+def _fit_circuit_rates(mapping: dict, experiments, result: fit.IntegralFit,
                        out: Path) -> tuple[dict, list[dict]]:
     """The ``circuit:`` block from constant-current discharges at several rates
     (:func:`identify.fit_rate_discharges`) and its score on the validation experiments."""
@@ -150,7 +148,7 @@ def _fit_circuit_rates(mapping: dict, experiments, result: dict,
                                  f"needs column '{col}' with a value in every row")
         return e.time_s, e.voltage_v, e.current_a
 
-    train = list(result["train"])
+    train = list(result.train)
     table, fitted = identify.fit_rate_discharges(
         [(t, v / ns, i / npar) for t, v, i in map(arrays, train)], names=train)
     r0, se = fitted.params["r0_ohm"], fitted.stderr["r0_ohm"]
@@ -175,7 +173,7 @@ def _fit_circuit_rates(mapping: dict, experiments, result: dict,
     baseline = CircuitParameters(capacity_ah=block["capacity_ah"], r0_ohm=r0,
                                  cells_series=ns, cells_parallel=npar)
     scores = []
-    for name in result["validate"]:
+    for name in result.validate:
         t, v, i = arrays(name)
         row = {"experiment": name, "current_a": identify.current_level(i),
                "voltage_rmse_mv": 1000 * float(np.sqrt(np.mean(
@@ -214,10 +212,10 @@ def run_fit(args) -> int:
     result = fit.fit_integral(experiments, beta=beta, train=train, validate=validate)
 
     data_names = ", ".join(str(d) for d in args.data)
-    source = (f"fit-battery on {data_names}; train: {', '.join(result['train'])}; validate: "
-              f"{', '.join(result['validate']) or 'none'}"
+    source = (f"fit-battery on {data_names}; train: {', '.join(result.train)}; validate: "
+              f"{', '.join(result.validate) or 'none'}"
               + (f"; beta held at {beta:g}" if beta is not None else ""))
-    model = IntegralModel(result["delta"], result["epsilon"], result["beta"],
+    model = IntegralModel(result.delta, result.epsilon, result.beta,
                           covariance=fit_covariance(result))
     dropped = []
     if base_raw is not None:
@@ -228,7 +226,7 @@ def run_fit(args) -> int:
     else:
         cells = (parse_int(args.cells, "--cells", 1, 40) if args.cells
                  else _cells_from_voltage(experiments))
-        capacity = max(m.final_charge_mah for m in result["metrics"])
+        capacity = max(m.final_charge_mah for m in result.metrics)
         mapping = {"name": args.name, "cells_series": cells,
                    "capacity_mah": float(round(capacity)),
                    "mass_kg": parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0),
@@ -245,8 +243,8 @@ def run_fit(args) -> int:
                                                                 Path(out))
     battery_from_mapping(mapping, str(out))  # what we write must load back
     header = (f"# written by endurance fit-battery: integral model fitted to {data_names}\n"
-              f"# stderr: delta ±{result['stderr']['delta']:.4g}, epsilon "
-              f"±{result['stderr']['epsilon']:.3g}, beta ±{result['stderr']['beta']:.3g}\n")
+              f"# stderr: delta ±{result.stderr['delta']:.4g}, epsilon "
+              f"±{result.stderr['epsilon']:.3g}, beta ±{result.stderr['beta']:.3g}\n")
     files.write_text(out, header + yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
                      "--out")
 
@@ -256,8 +254,8 @@ def run_fit(args) -> int:
               "belong to the old δ, ε, β")
     print(f"wrote {out}")
     if json_out:
-        data = {k: v for k, v in result.items() if k != "metrics"}
-        data["metrics"] = [m.to_dict() for m in result["metrics"]]
+        data = result.to_dict()
+        data["metrics"] = [m.to_dict() for m in result.metrics]
         data["data"] = [str(d) for d in args.data]
         data["pack"] = mapping
         if circuit_scores is not None:
@@ -268,11 +266,11 @@ def run_fit(args) -> int:
     return 0
 
 
-def fit_covariance(result: dict):
+def fit_covariance(result: fit.IntegralFit):
     """The fit's covariance of δ, ε, β (standard errors × correlation; a held β has no
     variance) for the pack file's ``model.covariance``; None when it is indeterminate."""
-    sd = np.array([result["stderr"][k] for k in ("delta", "epsilon", "beta")], float)
-    corr = np.array(result["correlation"], float)
+    sd = np.array([result.stderr[k] for k in ("delta", "epsilon", "beta")], float)
+    corr = np.array(result.correlation, float)
     if corr.shape != (3, 3) or not np.all(np.isfinite(sd)):
         return None
     corr = np.where(np.isfinite(corr), corr, 0.0)
@@ -284,40 +282,40 @@ def fit_covariance(result: dict):
     return tuple(tuple(float(x) for x in row) for row in cov)
 
 
-def render_fit(result: dict) -> str:
+def render_fit(result: fit.IntegralFit) -> str:
     """Per-experiment table and the parameters with their standard errors."""
-    w = name_width([m.experiment for m in result["metrics"]], "experiment")
+    w = name_width([m.experiment for m in result.metrics], "experiment")
     lines = [(f"{'experiment':<{w}} {'split':<9} {'mean P [W]':>10} {'duration [s]':>12} "
              f"{'RMSE [mAh]':>10} {'final error [%]':>15} {'time error [s]':>14}")]
-    for m in result["metrics"]:
+    for m in result.metrics:
         lines.append(f"{m.experiment:<{w}} {m.split:<9} {fmt(m.mean_power_w, 1, 10)} "
                      f"{fmt(m.duration_s, 0, 12)} {fmt(m.rmse_mah, 2, 10)} "
                      f"{fmt(m.final_error_pct, 3, 15)} {fmt(m.time_error_s, 1, 14)}")
     lines.append("")
-    se = result["stderr"]
+    se = result.stderr
     for key, digits in (("delta", 4), ("epsilon", 5), ("beta", 5)):
-        if key in result["fixed"]:
-            lines.append(f"{key:<8}= {result[key]:.{digits}f} (held)")
+        if key in result.fixed:
+            lines.append(f"{key:<8}= {result.parameters[key]:.{digits}f} (held)")
         else:
-            lines.append(f"{key:<8}= {result[key]:.{digits}f} ± {se[key]:.2g}")
-    iid = result["stderr_iid"]
+            lines.append(f"{key:<8}= {result.parameters[key]:.{digits}f} ± {se[key]:.2g}")
+    iid = result.stderr_iid
     ratio = max((se[k] / iid[k] for k in ("delta", "epsilon", "beta")
-                 if k not in result["fixed"] and iid[k] > 0 and math.isfinite(se[k])),
+                 if k not in result.fixed and iid[k] > 0 and math.isfinite(se[k])),
                 default=float("nan"))
-    lines.append(f"standard errors: {result['stderr_method']} for the autocorrelated samples "
-                 f"(lag-1 ρ = {result['autocorrelation']:.4f}; up to ×{ratio:.3g} the i.i.d. "
-                 f"value; {result['samples']} training samples)")
-    if result["poorly_determined"]:
-        lines.append(f"POORLY DETERMINED: {', '.join(result['poorly_determined'])}")
+    lines.append(f"standard errors: {result.stderr_method} for the autocorrelated samples "
+                 f"(lag-1 ρ = {result.autocorrelation:.4f}; up to ×{ratio:.3g} the i.i.d. "
+                 f"value; {result.samples} training samples)")
+    if result.poorly_determined:
+        lines.append(f"POORLY DETERMINED: {', '.join(result.poorly_determined)}")
     return "\n".join(lines)
 
 
-def save_fit_plot(experiments, result: dict, path) -> None:
+def save_fit_plot(experiments, result: fit.IntegralFit, path) -> None:
     """Measured vs predicted C^β and residual C − Ĉ per experiment ([UAV23] Fig. 8–11 kind)."""
     from planner.cli.plots.common import item_grid, page_path, pages, save
 
-    by_name = {m.experiment: m for m in result["metrics"]}
-    params = {k: result[k] for k in ("delta", "epsilon", "beta")}
+    by_name = {m.experiment: m for m in result.metrics}
+    params = result.parameters
     chunks = pages(len(experiments))
     for k, chunk in enumerate(chunks):
         fig, cells = item_grid(len(chunk), 2, stack="horizontal")

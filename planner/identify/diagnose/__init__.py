@@ -1,5 +1,5 @@
 """Diagnose: show what the simulation gets wrong, name the cause, extend the model,
-measure the gain (DESIGN §6).
+measure the gain (``endurance diagnose``, docs/commands.md).
 
 >>> result = diagnose(record, pack, aircraft)          # doctest: +SKIP
 >>> print(result.summary())                            # doctest: +SKIP
@@ -76,7 +76,7 @@ class DiagnoseResult:
     levels : dict of str to LevelReport
         ``"capacity"`` and/or ``"power"``, the levels that ran.
     findings : list of dict
-        The significant effects, ranked by held-out gain (DESIGN §6 fields).
+        The significant effects, ranked by held-out gain (fields: :meth:`DiagnoseResult.to_dict`).
     skipped : list of dict
         Effects not tested, with the reason (``effect``, ``level``, ``reason``).
     notes : list of str
@@ -108,6 +108,11 @@ class DiagnoseResult:
 
     # ------------------------------------------------------------------ JSON
     def baseline(self, name: str) -> dict[str, Any]:
+        """The calibrated baseline of level ``name`` (``cutoff``, ``capacity`` or ``power``):
+        its held-out error (``rmse`` in the level's unit, mAh, W or % of energy;
+        ``final_error_pct`` [%]), the error of the definition file as given, its parameters
+        with standard errors, the experiments and the split, and how the error is measured.
+        """
         lv = self.levels[name]
         base = lv.result.baseline
         level = lv.result.level
@@ -135,12 +140,19 @@ class DiagnoseResult:
 
     @property
     def primary_level(self) -> str | None:
+        """The level whose baseline the JSON leads with: capacity, else power, else the
+        cut-off; None when no level ran.
+        """
         for name in ("capacity", "power", "cutoff"):
             if name in self.levels:
                 return name
         return None
 
     def unexplained(self) -> str | None:
+        """What the tested effects leave unexplained, in words: held-out residuals with slow
+        structure (lag-1 autocorrelation above 0.5) and the effects withheld as misfits or
+        confounded; None when nothing is left.
+        """
         parts = []
         for name, lv in self.levels.items():
             final = lv.result.final
@@ -173,6 +185,10 @@ class DiagnoseResult:
         return "; ".join(parts) if parts else None
 
     def extended(self) -> dict[str, Any]:
+        """Per level that ran: the effects added, the held-out error before and after (the
+        level's unit) with the gain [%], the final error before and after [%] and the final
+        parameters with standard errors.
+        """
         out: dict[str, Any] = {}
         for name, lv in self.levels.items():
             r = lv.result
@@ -187,8 +203,9 @@ class DiagnoseResult:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON of DESIGN §6 (plus ``baselines``, ``extended``, ``candidates``,
-        ``skipped``, ``withheld``, ``not_identifiable``, ``selection`` and ``notes``)."""
+        """The JSON ``endurance diagnose`` writes: ``baseline``, ``findings``,
+        ``unexplained``, ``withheld`` and ``not_identifiable``, plus ``baselines``,
+        ``extended``, ``candidates``, ``skipped``, ``selection``, ``notes`` and ``data``."""
         primary = self.primary_level
         candidates = []
         for name, lv in self.levels.items():
@@ -228,6 +245,9 @@ class DiagnoseResult:
 
     # ------------------------------------------------------------------ text
     def summary(self) -> str:
+        """The result as text: each level's baseline, the findings ranked by held-out gain,
+        the extended models, what was not tested or cannot be told apart, and the notes.
+        """
         lines = []
         for name, lv in self.levels.items():
             b = lv.result.baseline
@@ -410,12 +430,12 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
                          f"{S.MIN_EXPERIMENT_S:g} s)")
             continue
         t = t - t[0]
-        p = S._interp_nan(t, sub["power_w"].to_numpy(float)) if "power_w" in sub else None
+        p = S.interp_nan(t, sub["power_w"].to_numpy(float)) if "power_w" in sub else None
         if p is None or not np.isfinite(p).all():
             notes.append(f"experiment {name}: no power, not used at the capacity level")
             continue
         if "consumed_mah" in sub and np.isfinite(sub["consumed_mah"].to_numpy(float)).any():
-            c = S._interp_nan(t, sub["consumed_mah"].to_numpy(float))
+            c = S.interp_nan(t, sub["consumed_mah"].to_numpy(float))
             c = (c - c[0]) * AS_PER_MAH
         elif "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).any():
             c = rec.cumulative_trapezoid(sub["current_a"].to_numpy(float), t)
@@ -432,7 +452,7 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
         if "temperature_c" in sub:
             tc = sub["temperature_c"].to_numpy(float)
             if np.isfinite(tc).mean() > 0.5:
-                temp = S._interp_nan(t, tc)
+                temp = S.interp_nan(t, tc)
         cycle = None
         if "cycle" in sub:
             cy = sub["cycle"].to_numpy(float)
@@ -440,37 +460,36 @@ def _capacity_experiments(df: pd.DataFrame, notes: list[str]) -> list[dict]:
                 cycle = float(cy[np.isfinite(cy)][0])
         current = None
         if "current_a" in sub and np.isfinite(sub["current_a"].to_numpy(float)).mean() > 0.5:
-            current = S._interp_nan(t, sub["current_a"].to_numpy(float))
+            current = S.interp_nan(t, sub["current_a"].to_numpy(float))
         voltage = None
         if "voltage_v" in sub and np.isfinite(sub["voltage_v"].to_numpy(float)).mean() > 0.5:
-            voltage = S._interp_nan(t, sub["voltage_v"].to_numpy(float))
+            voltage = S.interp_nan(t, sub["voltage_v"].to_numpy(float))
         out.append({"name": name, "t": t, "p": p, "c": c, "temperature": temp, "cycle": cycle,
                     "current": current, "voltage": voltage})
     return out
 
 
 def _literature_pack(df: pd.DataFrame, metas: list[dict], notes: list[str]) -> BatteryPack:
-    from planner.identify.replay import detect_cells
+    """The pack flown without a pack file: :func:`planner.identify.replay.literature_pack`
+    of the logs' cell count and capacity (the first log that gives each), noted."""
+    from planner.identify.replay import literature_pack
 
     cells = next((m.get("battery_cells") for m in metas if m.get("battery_cells")), None)
-    if not cells and "voltage_v" in df:
-        cells = detect_cells(df["voltage_v"])
-    if not cells:
-        raise InputError("no battery given and no pack voltage to find the cell count from: "
-                         "give --battery B.yaml")
     cap = next((m.get("battery_capacity_mah") for m in metas if m.get("battery_capacity_mah")),
                None)
+    pack, _ = literature_pack(cells, cap, df["voltage_v"] if "voltage_v" in df else None)
+    if pack is None:
+        raise InputError("no battery given and no pack voltage to find the cell count from: "
+                         "give --battery B.yaml")
+    n = pack.cells_series
     if cap:
-        notes.append(f"no battery file: literature start values δ₀({cells}), ε₀({cells}) and "
+        notes.append(f"no battery file: literature start values δ₀({n}), ε₀({n}) and "
                      f"the log's {cap:.0f} mAh")
-        return BatteryPack(name=f"literature {cells}S {cap:.0f} mAh", cells_series=int(cells),
-                           capacity_mah=float(cap), mass_kg=0.0)
-    notes.append(f"no battery file and no capacity in the log: literature start values "
-                 f"δ₀({cells}), ε₀({cells}), β held")
-    # capacity unknown: a nominal charge far above what was drawn keeps β held
-    return BatteryPack(name=f"literature {cells}S", cells_series=int(cells),
-                       capacity_mah=1e7, mass_kg=0.0,
-                       model=IntegralModel.from_literature(int(cells)))
+    else:
+        # capacity unknown: a nominal charge far above what was drawn keeps β held
+        notes.append(f"no battery file and no capacity in the log: literature start values "
+                     f"δ₀({n}), ε₀({n}), β held")
+    return pack
 
 
 #: A selected effect whose key parameter lies closer than this many standard errors to
@@ -616,7 +635,7 @@ def _as_given_capacity(level, pack) -> tuple[float, float]:
         dc = level.c[idx[-1]] - level.c[s]
         if dc > 0:
             finals.append((abs(rs[idx[-1]]), dc))
-    return float(np.sqrt(np.mean(rs**2))) / AS_PER_MAH, S._weighted_final(finals)
+    return float(np.sqrt(np.mean(rs**2))) / AS_PER_MAH, S.weighted_final(finals)
 
 
 def _as_given_power(level, aircraft) -> tuple[float, float]:
@@ -631,7 +650,7 @@ def _as_given_power(level, aircraft) -> tuple[float, float]:
         em = float(np.sum(level.measured[m] * level.dt_bin[m]))
         if em > 0:
             finals.append((abs(em - float(np.sum(pred[m] * level.dt_bin[m]))), em))
-    return float(np.sqrt(np.mean(r**2))), S._weighted_final(finals)
+    return float(np.sqrt(np.mean(r**2))), S.weighted_final(finals)
 
 
 def _findings(name: str, lv_result: S.LevelResult, level, values, stderr) -> list[dict]:
@@ -662,15 +681,15 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     Parameters
     ----------
     data : DataFrame, path or list of paths
-        Flight record(s) (DESIGN §4) or logs any reader takes.
+        Flight record(s) (docs/record.md) or logs any reader takes.
     pack : BatteryPack, optional
         The pack flown: start values of the integral model. Default: the
         literature model for the cell count of the log (as ``replay``).
     aircraft : Aircraft, optional
         Enables the power level (with a flight state in the data).
     **opts
-        ``payload_kg`` (0), ``mass_kg`` (all-up mass; default aircraft + pack +
-        payload), ``site_altitude_m`` (0, for the standard density),
+        ``payload_kg`` (0) [kg], ``mass_kg`` (all-up mass; default aircraft + pack +
+        payload) [kg], ``site_altitude_m`` (0, for the standard density) [m],
         ``effects`` (names to test; default all), ``column_map`` (for CSV data
         that is not a flight record), ``battery_instance`` (of PX4 topic exports).
 
@@ -685,137 +704,193 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
         raise TypeError(f"diagnose() got unexpected option(s) {sorted(unknown)}; expected "
                         f"{sorted(allowed)}")
     df, metas, sources = _load(data, opts.get("column_map"), opts.get("battery_instance"))
-    notes: list[str] = []
+    run = _Run()
     if pack is None:
-        pack = _literature_pack(df, metas, notes)
+        pack = _literature_pack(df, metas, run.notes)
     wanted = make_effects(opts.get("effects"))
-    skipped: list[dict[str, str]] = []
-    levels: dict[str, LevelReport] = {}
-
-    # ---------------------------------------------------------------- capacity
+    exps = _capacity_experiments(df, run.notes)
     cap_effects = [e for e in wanted if e.level == "capacity"]
-    exps = _capacity_experiments(df, notes)
+    cut = _cutoff_step(exps, pack, cap_effects, run)
+    _capacity_step(df, exps, pack, [e for e in cap_effects if e.name not in cut.tested],
+                   run)
+    _power_step(df, pack, aircraft, opts, [e for e in wanted if e.level == "power"], run)
+    findings = _ranked_findings(run.levels)
+    withheld = [w for lv in run.levels.values() for w in lv.result.withheld]
+    blind = [_offset_or_load(df, run.levels, findings)]
+    if cut.effects and "cutoff" not in run.levels and "capacity" in run.levels:
+        blind.append({
+            "effects": sorted(e.name for e in cut.effects), "level": "cutoff",
+            "why": (f"a loss of usable capacity (an ageing or a cold pack) shows where a "
+                    f"discharge reaches its cut-off voltage; here {cut.what}. The charge "
+                    "drawn per unit of energy, which the capacity level tests instead, "
+                    "barely changes when the capacity shrinks: no finding there measures a "
+                    "capacity loss")})
+    return DiagnoseResult(run.levels, findings, run.skipped, run.notes, pack, aircraft,
+                          sources, withheld, [b for b in blind if b])
+
+
+@dataclass
+class _Run:
+    """What the levels of one :func:`diagnose` run add up: their reports, the effects
+    not tested (``effect``, ``level``, ``reason``) and the notes."""
+
+    levels: dict[str, LevelReport] = field(default_factory=dict)
+    skipped: list[dict[str, str]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def skip(self, effects, level: str, reason: str) -> None:
+        """Note ``effects`` (Effect objects or names) as not tested at ``level``."""
+        self.skipped += [{"effect": getattr(e, "name", e), "level": level, "reason": reason}
+                         for e in effects]
+
+    def add(self, name: str, level, res: S.LevelResult, as_given, base=None) -> None:
+        """The report of a level that ran: baseline and final parameters, the file's
+        error as given (``as_given()``, after them), the findings; the effects the
+        search skipped. ``base``: the baseline parameters, where already computed."""
+        bv, bs = base if base is not None else level.physical(res.base_fit, [])
+        fv, fs = level.physical(res.final_fit, [e for e, _ in res.selected])
+        rg, fg = as_given()
+        rep = LevelReport(name, res, bv, bs, fv, fs, rg, fg, [])
+        rep.findings = _findings(name, res, level, fv, fs)
+        self.levels[name] = rep
+        self.skipped += [{"effect": k, "level": name, "reason": v}
+                         for k, v in res.skipped.items()]
+
+
+@dataclass(frozen=True)
+class _Cutoff:
+    """The cut-off level's effects, those it tested and why it did not run (if so)."""
+
+    effects: list
+    tested: set
+    what: str
+
+
+def _cutoff_step(exps: list[dict], pack: BatteryPack, cap_effects, run: _Run) -> _Cutoff:
+    """The cut-off level, where enough discharges run from a full pack to one cut-off
+    (:mod:`planner.identify.diagnose.cutoff`): the capacity effects it tests are not
+    tested again at the capacity level."""
     cut_effects = [e for e in make_effects([e.name for e in cap_effects])
                    if hasattr(e, "cutoff_column")]
     cut_names = {e.name for e in cut_effects}
     cut_exps, cut_what = CO.select(exps, pack) if exps else ([], "no experiment")
     if cut_effects and len(cut_exps) >= CO.MIN_CUTOFF_EXPERIMENTS:
         cut_level = CO.CutoffLevel(cut_exps, pack)
-        notes.append(f"cut-off level: {cut_what}")
-        res = _run_level(cut_level, cut_effects, notes)
+        run.notes.append(f"cut-off level: {cut_what}")
+        res = _run_level(cut_level, cut_effects, run.notes)
         if res is not None:
-            bv, bs = cut_level.physical(res.base_fit, [])
-            fv, fs = cut_level.physical(res.final_fit, [e for e, _ in res.selected])
-            rg, fg = cut_level.as_given()
-            rep_ = LevelReport("cutoff", res, bv, bs, fv, fs, rg, fg, [])
-            rep_.findings = _findings("cutoff", res, cut_level, fv, fs)
-            levels["cutoff"] = rep_
-            skipped += [{"effect": k, "level": "cutoff", "reason": v}
-                        for k, v in res.skipped.items()]
+            run.add("cutoff", cut_level, res, cut_level.as_given)
             # direct evidence first: the capacity effects are tested on the energy to the
             # cut-off, not again on the charge per unit energy
-            skipped += [{"effect": e.name, "level": "capacity",
-                         "reason": "tested at the cut-off level instead, on the energy each "
-                                   "discharge delivered to its cut-off (the direct evidence "
-                                   "of the capacity)"} for e in cap_effects
-                        if e.name in cut_names]
-            cap_effects = [e for e in cap_effects if e.name not in cut_names]
+            run.skip([e for e in cap_effects if e.name in cut_names], "capacity",
+                     "tested at the cut-off level instead, on the energy each discharge "
+                     "delivered to its cut-off (the direct evidence of the capacity)")
+            return _Cutoff(cut_effects, cut_names, cut_what)
     elif cut_effects and exps:
         cut_what = (f"only {len(cut_exps)} experiment(s) run from a full pack to a common "
                     f"cut-off (needs {CO.MIN_CUTOFF_EXPERIMENTS})" if cut_exps else cut_what)
-        skipped += [{"effect": e.name, "level": "cutoff", "reason": cut_what}
-                    for e in cut_effects]
-    cap_level = None
+        run.skip(cut_effects, "cutoff", cut_what)
+    return _Cutoff(cut_effects, set(), cut_what)
+
+
+def _capacity_step(df: pd.DataFrame, exps: list[dict], pack: BatteryPack, effects,
+                   run: _Run) -> None:
+    """The capacity level: the measured charge against the integral model driven by the
+    measured power (:class:`planner.identify.diagnose.search.CapacityLevel`)."""
+    level = None
     if not exps:
-        notes.append("capacity level not run: no experiment with power and charge drawn"
-                     + (f" ({rec.NO_CURRENT}: battery voltage only)"
-                        if rec.voltage_only(df) else ""))
+        run.notes.append("capacity level not run: no experiment with power and charge drawn"
+                         + (f" ({rec.NO_CURRENT}: battery voltage only)"
+                            if rec.voltage_only(df) else ""))
     else:
         try:
-            cap_level = S.CapacityLevel(exps, pack)
+            level = S.CapacityLevel(exps, pack)
         except (FitError, ModelError, ValueError) as exc:
-            notes.append(f"capacity level not run: {exc}")
-        if cap_level is not None and cap_level.n_rows < S.MIN_ROWS:
-            notes.append(f"capacity level not run: only {cap_level.n_rows} windows of "
-                         f"{cap_level.window_s:.0f} s (needs {S.MIN_ROWS})")
-            cap_level = None
-    if cap_level is not None:
-        res = _run_level(cap_level, cap_effects, notes)
-        if res is not None:
-            bv, bs = cap_level.physical(res.base_fit, [])
-            fv, fs = cap_level.physical(res.final_fit, [e for e, _ in res.selected])
-            rg, fg = _as_given_capacity(cap_level, pack)
-            rep = LevelReport("capacity", res, bv, bs, fv, fs, rg, fg, [])
-            rep.findings = _findings("capacity", res, cap_level, fv, fs)
-            levels["capacity"] = rep
-            skipped += [{"effect": k, "level": "capacity", "reason": v}
-                        for k, v in res.skipped.items()]
-    if cap_level is None:
-        skipped += [{"effect": e.name, "level": "capacity", "reason": "capacity level not run"}
-                    for e in cap_effects]
+            run.notes.append(f"capacity level not run: {exc}")
+        if level is not None and level.n_rows < S.MIN_ROWS:
+            run.notes.append(f"capacity level not run: only {level.n_rows} windows of "
+                             f"{level.window_s:.0f} s (needs {S.MIN_ROWS})")
+            level = None
+    res = _run_level(level, effects, run.notes) if level is not None else None
+    if res is not None:
+        run.add("capacity", level, res, lambda: _as_given_capacity(level, pack))
+    if level is None:
+        run.skip(effects, "capacity", "capacity level not run")
 
-    # ---------------------------------------------------------------- power
-    pw_effects = [e for e in wanted if e.level == "power"]
-    pw_level = None
+
+def _power_step(df: pd.DataFrame, pack: BatteryPack, aircraft: Aircraft | None, opts: dict,
+                effects, run: _Run) -> None:
+    """The power level: the measured power against the aircraft's physics driven by the
+    measured flight state (:class:`planner.identify.diagnose.search.PowerLevel`); no
+    cause is named on a baseline whose efficiency is impossible."""
+    level, why = _power_level(df, pack, aircraft, opts, effects, run.notes)
+    if level is None:
+        run.skip(effects, "power", why)
+        return
+    res = _run_level(level, effects, run.notes)
+    if res is None:
+        return
+    base = level.physical(res.base_fit, [])
+    _withhold_on_impossible_baseline(res, base[0], run.notes)
+    run.add("power", level, res, lambda: _as_given_power(level, aircraft), base)
+
+
+def _power_level(df, pack, aircraft, opts, effects, notes):
+    """The power level of the data, or None and why it cannot run."""
     if aircraft is None:
         why = "no aircraft given (--aircraft): power level not run"
-        if pw_effects:
+        if effects:
             notes.append(why)
-    elif not {"climb_rate_ms", "groundspeed_ms", "airspeed_ms"} & set(df.columns) or \
+        return None, why
+    if not {"climb_rate_ms", "groundspeed_ms", "airspeed_ms"} & set(df.columns) or \
             "power_w" not in df:
         why = "no flight state (climb rate, ground speed or airspeed) or power in the data"
         notes.append(f"power level not run: {why}")
-    else:
-        mass = opts.get("mass_kg")
-        if mass is None:
-            mass = aircraft.empty_mass_kg + pack.total_mass_kg + float(opts.get("payload_kg", 0))
-        exps_p = [(str(k), sub) for k, sub in rec.experiments(df)]
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                pw_level = S.PowerLevel(exps_p, aircraft, float(mass),
-                                        float(opts.get("site_altitude_m", 0.0)))
-            notes += pw_level.notes
-            if pw_level.n_rows < S.MIN_ROWS:
-                notes.append(f"power level not run: only {pw_level.n_rows} airborne bins "
-                             f"(needs {S.MIN_ROWS})")
-                pw_level = None
-        except (FitError, ModelError) as exc:
-            notes.append(f"power level not run: {exc}")
-            pw_level = None
-        why = "power level not run"
-    if pw_level is not None:
-        res = _run_level(pw_level, pw_effects, notes)
-        if res is not None:
-            bv, bs = pw_level.physical(res.base_fit, [])
-            eta = bv.get("efficiency", float("nan"))
-            if not (EFFICIENCY_RANGE[0] < eta <= EFFICIENCY_RANGE[1]):
-                # the calibration itself is impossible: what the effects would absorb is
-                # the misfit of the model's form, not a cause
-                res.withheld += [{"effect": e.name, "level": "power", "kind": "baseline",
-                                  "why": "the calibrated power model is physically impossible",
-                                  "where": e.driver_label, "parameters": {}}
-                                 for e, _ in res.selected]
-                res.selected = []
-                res.final_fit = res.base_fit
-                notes.append(f"power level: the calibrated baseline needs an efficiency of "
-                             f"{eta:.2f}, outside ({EFFICIENCY_RANGE[0]:g}, "
-                             f"{EFFICIENCY_RANGE[1]:g}]: the power model's form does not fit "
-                             "these flights; no cause is named at this level")
-            fv, fs = pw_level.physical(res.final_fit, [e for e, _ in res.selected])
-            rg, fg = _as_given_power(pw_level, aircraft)
-            rep = LevelReport("power", res, bv, bs, fv, fs, rg, fg, [])
-            rep.findings = _findings("power", res, pw_level, fv, fs)
-            levels["power"] = rep
-            skipped += [{"effect": k, "level": "power", "reason": v}
-                        for k, v in res.skipped.items()]
-    else:
-        skipped += [{"effect": e.name, "level": "power", "reason": why} for e in pw_effects]
+        return None, why
+    mass = opts.get("mass_kg")
+    if mass is None:
+        mass = aircraft.empty_mass_kg + pack.total_mass_kg + float(opts.get("payload_kg", 0))
+    exps = [(str(k), sub) for k, sub in rec.experiments(df)]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            level = S.PowerLevel(exps, aircraft, float(mass),
+                                 float(opts.get("site_altitude_m", 0.0)))
+        notes += level.notes
+        if level.n_rows < S.MIN_ROWS:
+            notes.append(f"power level not run: only {level.n_rows} airborne bins "
+                         f"(needs {S.MIN_ROWS})")
+            level = None
+    except (FitError, ModelError) as exc:
+        notes.append(f"power level not run: {exc}")
+        level = None
+    return level, "power level not run"
 
-    # one currency for both levels: the held-out error of the charge (capacity) or energy
-    # (power) at the end of each held-out segment, in % of what was drawn; within a level
-    # the order the greedy search added them is kept (each one's gain is over the model
-    # before it), and the levels are merged by that common gain
+
+def _withhold_on_impossible_baseline(res: S.LevelResult, base_values: dict,
+                                     notes: list[str]) -> None:
+    """A calibrated efficiency outside :data:`EFFICIENCY_RANGE` is a misfit of the power
+    model's form: what the effects would absorb is withheld, not named as a cause."""
+    eta = base_values.get("efficiency", float("nan"))
+    if EFFICIENCY_RANGE[0] < eta <= EFFICIENCY_RANGE[1]:
+        return
+    res.withheld += [{"effect": e.name, "level": "power", "kind": "baseline",
+                      "why": "the calibrated power model is physically impossible",
+                      "where": e.driver_label, "parameters": {}}
+                     for e, _ in res.selected]
+    res.selected = []
+    res.final_fit = res.base_fit
+    notes.append(f"power level: the calibrated baseline needs an efficiency of "
+                 f"{eta:.2f}, outside ({EFFICIENCY_RANGE[0]:g}, "
+                 f"{EFFICIENCY_RANGE[1]:g}]: the power model's form does not fit "
+                 "these flights; no cause is named at this level")
+
+
+def _ranked_findings(levels: dict[str, LevelReport]) -> list[dict]:
+    """The findings of every level in one currency: the held-out error of the charge
+    (capacity) or energy (power) at the end of each held-out segment, in % of what was
+    drawn. Within a level the order the greedy search added them is kept (each one's
+    gain is over the model before it); the levels are merged by that common gain."""
     findings = sorted((f for lv in levels.values() for f in lv.findings),
                       key=lambda f: -f["heldout"]["final_gain_pp"])
     for lv in levels.values():
@@ -823,18 +898,7 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
         pos = [i for i, f in enumerate(findings) if f["level"] == lv.name]
         for i, eff in zip(pos, order):
             findings[i] = next(f for f in lv.findings if f["effect"] == eff)
-    withheld = [w for lv in levels.values() for w in lv.result.withheld]
-    blind = [_offset_or_load(df, levels, findings)]
-    if cut_effects and "cutoff" not in levels and "capacity" in levels:
-        blind.append({
-            "effects": sorted(cut_names), "level": "cutoff",
-            "why": (f"a loss of usable capacity (an ageing or a cold pack) shows where a "
-                    f"discharge reaches its cut-off voltage; here {cut_what}. The charge drawn "
-                    "per unit of energy, which the capacity level tests instead, barely "
-                    "changes when the capacity shrinks: no finding there measures a capacity "
-                    "loss")})
-    return DiagnoseResult(levels, findings, skipped, notes, pack, aircraft, sources, withheld,
-                          [b for b in blind if b])
+    return findings
 
 
 #: Largest median relative difference between the logged power and voltage × current

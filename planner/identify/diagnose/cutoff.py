@@ -60,6 +60,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from planner.identify import stats
 from planner.identify.diagnose.search import N_FOLDS, Fit, Split, Unit, experiment_channels
 
 #: Share of an experiment's samples at its end (start) searched for the cut-off (full
@@ -191,6 +192,9 @@ class CutoffLevel:
 
     # ---------------------------------------------------------------- fit
     def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        """Fit the energy-to-cut-off model with ``effects`` on the ``train`` rows (one per
+        discharge), from ``start`` where given.
+        """
         Z = self._columns(effects)
         lin_names, X = self._linear()
         rows = np.flatnonzero(train)
@@ -232,6 +236,10 @@ class CutoffLevel:
         return self._predict(fit.nl, Z, X, fit.coef)
 
     def heldout(self, fit: Fit, effects, fold: int) -> dict[str, Any]:
+        """Held-out residuals of one fold: the ln error of each held-out discharge's
+        energy to the cut-off, in % for the samples, and the final errors ``(|E − Ê|, E)``
+        [W h].
+        """
         rows = np.flatnonzero(self.row_fold == fold)
         r = self.y[rows] - self.predict(fit, effects)[rows]
         e_hat = self.energy[rows] * np.exp(-r)
@@ -241,7 +249,9 @@ class CutoffLevel:
 
     # ---------------------------------------------------------------- reporting
     def covariance(self, fit: Fit, effects) -> tuple[np.ndarray, np.ndarray]:
-        """Covariance of [θ…, c0, a] of an all-data fit, s²(JᵀJ)⁻¹."""
+        """Covariance of [θ…, c0, a] of an all-data fit, s²(JᵀJ)⁻¹ with one independent
+        residual per discharge (:func:`planner.identify.stats.scaled_covariance`; infinite
+        where the discharges cannot tell the parameters apart)."""
         rows = np.flatnonzero(fit.train)
         Z = self._columns(effects)[rows]
         _, X = self._linear()
@@ -249,9 +259,7 @@ class CutoffLevel:
         q = 1.0 + Z @ fit.nl
         J = np.column_stack([-Z / q[:, None], X]) if Z.shape[1] else X
         r = self.y[rows] - self._predict(fit.nl, Z, X, fit.coef)
-        dof = max(len(rows) - J.shape[1], 1)
-        s2 = float(r @ r) / dof
-        cov = s2 * np.linalg.pinv(J.T @ J)
+        cov = stats.scaled_covariance(J, float(r @ r)).matrix
         return cov, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:

@@ -1,9 +1,9 @@
-r"""The candidate effects of ``diagnose`` (DESIGN §6): one class per effect.
+r"""The candidate effects of ``diagnose`` (docs/commands.md, Diagnose): one class per effect.
 
 Each effect is an *extension* of a baseline model with physically meaningful
 parameters; at zero extension the baseline is recovered exactly (the models are
 nested, which the selection statistics need). An effect declares the channels of
-the flight record (DESIGN §4) it needs, says why it is skipped when they are
+the flight record (docs/record.md) it needs, says why it is skipped when they are
 absent (or when they do not vary, so that the effect cannot be told from the
 baseline's own calibration), and names its cause in plain words.
 
@@ -164,7 +164,7 @@ class Effect:
     Attributes
     ----------
     name : str
-        The stable vocabulary of ``findings[].effect`` (DESIGN §6).
+        The stable vocabulary of ``findings[].effect`` (docs/commands.md, Diagnose).
     level : str
         ``"capacity"`` or ``"power"``.
     needs : tuple of str
@@ -234,6 +234,8 @@ class Effect:
 # ============================================================================ capacity
 
 class CapacityEffect(Effect):
+    """An effect at the capacity (and cut-off) level: one column of the charge drawn, linear in
+    its coefficient (module notes, "Capacity level")."""
     level = "capacity"
     #: Name of the linear coefficient this effect adds (its column's coefficient).
     coefficient: ClassVar[str] = ""
@@ -253,6 +255,8 @@ class CapacityEffect(Effect):
 
 
 class Temperature(CapacityEffect):
+    r"""``temperature``: a cold pack draws more charge per energy, each increment scaled by
+    :math:`1 + k\max(T_{ref} - T, 0)`; :math:`k` [1/°C], :math:`T_{ref}` 25 °C (module notes)."""
     key = "temperature_coefficient_per_c"
     name = "temperature"
     needs = ("temperature_c",)
@@ -260,6 +264,7 @@ class Temperature(CapacityEffect):
     driver_label = "pack temperature [°C]"
 
     def prepare(self, cap) -> None:
+        """The reference temperature [°C] and each sample's hinge max(T_ref − T, 0) [°C]."""
         temp = cap.temperature
         self.reference_c = REFERENCE_TEMPERATURE_C
         self.hinge = None if temp is None else np.maximum(self.reference_c - temp, 0.0)
@@ -269,6 +274,8 @@ class Temperature(CapacityEffect):
         return level.charge_mean(self.hinge)
 
     def skip_reason(self, cap) -> str | None:
+        """No pack temperature for some experiment, or a hinge that varies by less than
+        :data:`MIN_TEMPERATURE_SPREAD_C`."""
         if cap.temperature is None:
             missing = cap.temperature_missing
             return ("no pack temperature (temperature_c) in the data" if not missing else
@@ -286,14 +293,18 @@ class Temperature(CapacityEffect):
         return None
 
     def cumulative(self, cap, G, dG):
+        r"""The hinge-weighted charge shape, :math:`\int h\,dG` from each start. [s^(1/β) °C]"""
         h = self.hinge
         mid = 0.5 * (h[1:] + h[:-1])
         return cap.cumulate(mid * dG)
 
     def window_driver(self, cap):
+        """Mean pack temperature of each window. [°C]"""
         return cap.window_mean(cap.temperature)
 
     def parameters(self, values, stderr, cap, state):
+        """The coefficient k [1/°C], also in % per °C, with standard errors, and the
+        reference temperature [°C]."""
         k = values[self.coefficient]
         return {"temperature_coefficient_per_c": k,
                 "temperature_coefficient_per_c_stderr": stderr[self.coefficient],
@@ -302,6 +313,8 @@ class Temperature(CapacityEffect):
                 "percent_per_c_stderr": 100.0 * stderr[self.coefficient]}
 
     def implausible(self, p, cap):
+        """A cold pack drawing less charge per Wh (k ≤ 0), or k above
+        :data:`MAX_TEMPERATURE_COEFF`."""
         k = p["temperature_coefficient_per_c"]
         if k <= 0:
             return (f"the fit has a cold pack drawing less charge per Wh ({100 * k:+.2f} %/°C "
@@ -313,6 +326,7 @@ class Temperature(CapacityEffect):
         return None
 
     def cause(self, p, cap):
+        """A cold pack, in words, with k [%/°C] and the reference [°C]."""
         k = p["percent_per_c"]
         t_lo = float(np.nanmin(cap.temperature))
         ref = p["reference_temperature_c"]
@@ -335,6 +349,7 @@ class Temperature(CapacityEffect):
                 "LiPo, check the temperature sensor")
 
     def headline(self, p, cap):
+        """``Cold pack: …`` in one line."""
         k = p["percent_per_c"]
         word = "rises" if k >= 0 else "falls"
         if cap.name == "cutoff":
@@ -345,6 +360,8 @@ class Temperature(CapacityEffect):
 
 
 class CapacityFade(CapacityEffect):
+    r"""``capacity_fade``: the charge drawn per energy grows by :math:`\varphi` per cycle,
+    :math:`\hat C = A (1 + \varphi n) G` (module notes); :math:`\varphi` [1/cycle]."""
     key = "fade_per_cycle"
     name = "capacity_fade"
     needs = ("cycle",)
@@ -352,10 +369,12 @@ class CapacityFade(CapacityEffect):
     driver_label = "charge cycle (or experiment order) [cycles]"
 
     def prepare(self, cap) -> None:
+        """Each experiment's cycle [cycles] and where it came from."""
         self.cycles = cap.cycles
         self.source = cap.cycle_source
 
     def skip_reason(self, cap) -> str | None:
+        """Fewer than 3 experiments, or fewer than 3 different cycles."""
         if cap.n_experiments < 3:
             return (f"needs at least 3 experiments of one pack to see it age, got "
                     f"{cap.n_experiments}")
@@ -365,6 +384,7 @@ class CapacityFade(CapacityEffect):
         return None
 
     def cumulative(self, cap, G, dG):
+        r"""The charge shape scaled by the experiment's cycle, :math:`n\,G`. [s^(1/β) cycles]"""
         return self.cycles[cap.exp_index] * G
 
     def cutoff_column(self, level) -> np.ndarray:
@@ -372,15 +392,20 @@ class CapacityFade(CapacityEffect):
         return self.cycles
 
     def window_driver(self, cap):
+        """The cycle of each window's experiment. [cycles]"""
         return self.cycles[cap.window_exp].astype(float)
 
     def parameters(self, values, stderr, cap, state):
+        """The fade φ [1/cycle] with its standard error, the last cycle, and whether the
+        cycles are the experiments' order."""
         f = values[self.coefficient]
         return {"fade_per_cycle": f, "fade_per_cycle_stderr": stderr[self.coefficient],
                 "cycle": float(np.max(self.cycles)),
                 "cycle_from_experiment_order": float(self.source != "cycle")}
 
     def implausible(self, p, cap):
+        """A pack that draws less charge as it ages (φ ≤ 0), or more than
+        :data:`MAX_FADE_SPAN` more over the data."""
         f = p["fade_per_cycle"]
         if f <= 0:
             return (f"the fit has the pack drawing less charge as it ages ({100 * f:+.3f} % per "
@@ -392,6 +417,7 @@ class CapacityFade(CapacityEffect):
         return None
 
     def cause(self, p, cap):
+        """An ageing pack, in words, with φ [% per cycle or per experiment]."""
         f = 100 * p["fade_per_cycle"]
         se = 100 * p["fade_per_cycle_stderr"]
         lo, hi = float(np.min(self.cycles)), float(np.max(self.cycles))
@@ -410,6 +436,7 @@ class CapacityFade(CapacityEffect):
                 f"from cycle {lo:.0f} to {hi:.0f}")
 
     def headline(self, p, cap):
+        """``Pack ageing: …`` in one line."""
         f = 100 * p["fade_per_cycle"]
         unit = "cycle" if self.source == "cycle" else "experiment"
         if cap.name == "cutoff":
@@ -419,6 +446,8 @@ class CapacityFade(CapacityEffect):
 
 
 class CurrentOffset(CapacityEffect):
+    r"""``current_offset``: a current sensor that reads :math:`b` too high, so the logged
+    charge drifts :math:`b\,t`, also at rest (module notes); :math:`b` [A]."""
     key = "current_offset_a"
     name = "current_offset"
     needs = ()
@@ -428,6 +457,8 @@ class CurrentOffset(CapacityEffect):
     driver_is_time = True
 
     def implausible(self, p, cap):
+        """A bias beyond :data:`MAX_OFFSET_SHARE` of the median current, or one the logged
+        current at rest contradicts (more than 3 standard errors apart)."""
         b, se = p["current_offset_a"], p["current_offset_a_stderr"]
         if abs(b) > MAX_OFFSET_SHARE * cap.median_current_a:
             return (f"a bias of {b:+.2f} A is {100 * abs(b) / cap.median_current_a:.0f} % of the "
@@ -444,6 +475,8 @@ class CurrentOffset(CapacityEffect):
         return None
 
     def skip_reason(self, cap) -> str | None:
+        """A load that is never (nearly) off: less than :data:`MIN_LOW_LOAD_SHARE` of the
+        time below :data:`LOW_LOAD` of the median power."""
         share = cap.low_load_fraction
         if share < MIN_LOW_LOAD_SHARE:
             return (f"the load is never (nearly) off: only {100 * share:.1f} % of the time below "
@@ -453,15 +486,18 @@ class CurrentOffset(CapacityEffect):
         return None
 
     def cumulative(self, cap, G, dG):
+        r"""Time since each experiment's start: the drift :math:`b\,t` per unit b. [s]"""
         return cap.time_since_start
 
     def parameters(self, values, stderr, cap, state):
+        """The bias b [A] and the drift it gives [mAh/h], with standard errors."""
         b = values[self.coefficient]
         return {"current_offset_a": b, "current_offset_a_stderr": stderr[self.coefficient],
                 "drift_mah_per_hour": b * 1000.0,
                 "drift_mah_per_hour_stderr": stderr[self.coefficient] * 1000.0}
 
     def cause(self, p, cap):
+        """A sensor bias, in words, with b [A] and the drift [mAh/h]."""
         b = p["current_offset_a"]
         rest = cap.rest_fraction
         extra = (f" (the record rests {100 * rest:.0f} % of the time, where the drift shows "
@@ -472,6 +508,7 @@ class CurrentOffset(CapacityEffect):
                 f"load is off{extra}; calibrate the sensor's zero")
 
     def headline(self, p, cap):
+        """``Current sensor bias: …`` in one line."""
         b = p["current_offset_a"]
         return (f"Current sensor bias: logged current {abs(1000 * b):.0f} mA too "
                 f"{'high' if b > 0 else 'low'}, charge drifts {abs(b) * 1000:.0f} mAh/h")
@@ -480,6 +517,9 @@ class CurrentOffset(CapacityEffect):
 # ============================================================================ power
 
 class PowerEffect(Effect):
+    """An effect at the power level: it changes the model's inputs (:meth:`transform`), adds
+    nonlinear parameters (:attr:`bounds`) or linear columns (:meth:`columns`) (module
+    notes, "Power level")."""
     level = "power"
     #: (start, low, high, scale) of each nonlinear parameter.
     bounds: ClassVar[dict[str, tuple[float, float, float, float]]] = {}
@@ -487,6 +527,7 @@ class PowerEffect(Effect):
     linear: ClassVar[tuple[str, ...]] = ()
 
     def start(self, pw) -> dict[str, tuple[float, float, float, float]]:
+        """(start, low, high, scale) of each nonlinear parameter on this level's data."""
         return dict(self.bounds)
 
     def transform(self, inputs: dict, values: dict, pw, state: dict) -> dict:
@@ -494,13 +535,17 @@ class PowerEffect(Effect):
         return inputs
 
     def columns(self, M: np.ndarray, pw, state: dict) -> list[np.ndarray]:
+        """The linear columns the effect adds, per bin, given the mechanical power ``M`` [W]."""
         return []
 
     def bin_driver(self, pw, state: dict) -> np.ndarray:
+        """What each bin's residual is plotted against (default: time [s])."""
         return pw.time
 
 
 class Wind(PowerEffect):
+    r"""``wind``: a steady wind :math:`(w_N, w_E)` [m/s] turns the ground velocity into the
+    airspeed :math:`|\vec v_g - \vec w|` (module notes)."""
     key = "wind_speed_ms"
     name = "wind"
     needs = ("groundspeed_ms", "course_deg")
@@ -510,6 +555,8 @@ class Wind(PowerEffect):
     driver_label = "course over ground [deg]"
 
     def skip_reason(self, pw) -> str | None:
+        """A measured airspeed, no course, too little moving flight (:data:`MIN_MOVING_SHARE`)
+        or one direction of travel only (:data:`MAX_COURSE_CONCENTRATION`)."""
         if pw.airspeed_measured:
             return ("airspeed is measured: the power model already sees the air the "
                     "aircraft flies in, whatever the wind")
@@ -528,6 +575,8 @@ class Wind(PowerEffect):
         return None
 
     def transform(self, inputs, values, pw, state):
+        """The inputs with the airspeed through the wind triangle where the ground velocity is
+        known (in the rotor disks' plane where the level flies it). [m/s]"""
         wn = pw.logged_wind_n + values["wind_n_ms"]
         we = pw.logged_wind_e + values["wind_e_ms"]
         v = np.hypot(pw.vn - wn, pw.ve - we)
@@ -538,6 +587,7 @@ class Wind(PowerEffect):
         return out
 
     def bin_driver(self, pw, state):
+        """Course over ground of each bin. [deg]"""
         return pw.course
 
     def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
@@ -585,6 +635,8 @@ class Wind(PowerEffect):
                 "picked up there", [self.name, "payload_change"])
 
     def parameters(self, values, stderr, pw, state):
+        """Wind components, speed [m/s] and the direction it blows from [deg], with standard
+        errors; whether it adds to the autopilot's logged wind."""
         wn, we = values["wind_n_ms"], values["wind_e_ms"]
         sn, se = stderr["wind_n_ms"], stderr["wind_e_ms"]
         speed = math.hypot(wn, we)
@@ -599,6 +651,7 @@ class Wind(PowerEffect):
                 "logged_wind_added": float(pw.has_logged_wind)}
 
     def implausible(self, p, pw):
+        """A wind above :data:`MAX_WIND_SHARE` of the maximum airspeed."""
         vmax = pw.aircraft.max_airspeed_ms
         if p["wind_speed_ms"] > MAX_WIND_SHARE * vmax:
             return (f"a steady wind of {p['wind_speed_ms']:.1f} m/s is more than "
@@ -607,6 +660,7 @@ class Wind(PowerEffect):
         return None
 
     def cause(self, p, pw):
+        """A steady wind, in words, with its speed [m/s] and direction [deg]."""
         extra = " beyond the autopilot's own wind estimate" if pw.has_logged_wind else ""
         return (f"Steady wind{extra}: {_pm(p['wind_speed_ms'], p['wind_speed_ms_stderr'], 1)} "
                 f"m/s from {p['wind_from_deg']:.0f}° ({_compass(p['wind_from_deg'])}); airspeed "
@@ -614,11 +668,14 @@ class Wind(PowerEffect):
                 f"(check with --wind {p['wind_speed_ms']:.1f}@{p['wind_from_deg']:.0f})")
 
     def headline(self, p, pw):
+        """``Wind: …`` in one line."""
         return (f"Wind: {p['wind_speed_ms']:.1f} m/s from {p['wind_from_deg']:.0f}° "
                 f"({_compass(p['wind_from_deg'])}), power depends on the direction of travel")
 
 
 class AirDensity(PowerEffect):
+    r"""``air_density``: the power follows the measured density,
+    :math:`\rho = \rho_{std} (\rho_{meas}/\rho_{std})^a`; :math:`a` unitless (module notes)."""
     key = "density_exponent"
     name = "air_density"
     needs = ("pressure_pa",)
@@ -627,6 +684,8 @@ class AirDensity(PowerEffect):
     driver_label = "measured air density [kg/m³]"
 
     def skip_reason(self, pw) -> str | None:
+        """No measured pressure, or a density that varies by less than
+        :data:`MIN_LOG_DENSITY_SPREAD`."""
         if not pw.has_pressure:
             return ("no static pressure (pressure_pa) in the data: the air density cannot be "
                     "measured")
@@ -638,14 +697,18 @@ class AirDensity(PowerEffect):
         return None
 
     def transform(self, inputs, values, pw, state):
+        r"""The inputs with the density :math:`\rho_{std} (\rho_{meas}/\rho_{std})^a`. [kg/m³]"""
         out = dict(inputs)
         out["air_density"] = pw.rho_std * np.exp(values["density_exponent"] * pw.log_rho_ratio)
         return out
 
     def bin_driver(self, pw, state):
+        """Measured air density of each bin. [kg/m³]"""
         return pw.rho_meas
 
     def parameters(self, values, stderr, pw, state):
+        """The exponent a with its standard error, the measured density range and the
+        standard density [kg/m³], and whether the temperature was logged."""
         return {"density_exponent": values["density_exponent"],
                 "density_exponent_stderr": stderr["density_exponent"],
                 "density_min_kg_m3": float(np.min(pw.rho_meas)),
@@ -654,6 +717,7 @@ class AirDensity(PowerEffect):
                 "temperature_logged": float(pw.has_air_temperature)}
 
     def implausible(self, p, pw):
+        """An exponent outside :data:`DENSITY_EXPONENT_RANGE`."""
         a = p["density_exponent"]
         if not DENSITY_EXPONENT_RANGE[0] <= a <= DENSITY_EXPONENT_RANGE[1]:
             return (f"the power follows the density with exponent {a:.2f}, outside "
@@ -662,6 +726,7 @@ class AirDensity(PowerEffect):
         return None
 
     def cause(self, p, pw):
+        """A non-standard density, in words, with its range [kg/m³] and the exponent."""
         how = "pressure and temperature" if pw.has_air_temperature else \
             "pressure (ISA temperature)"
         return (f"Air density differs from standard: {p['density_min_kg_m3']:.3f}–"
@@ -671,11 +736,14 @@ class AirDensity(PowerEffect):
                 "(1 = as momentum theory predicts)")
 
     def headline(self, p, pw):
+        """``Air density …`` in one line."""
         return (f"Air density {p['density_min_kg_m3']:.2f}–{p['density_max_kg_m3']:.2f} kg/m³, "
                 "not standard: power follows the measured density")
 
 
 class PayloadChange(PowerEffect):
+    r"""``payload_change``: the mass steps by :math:`\Delta m` [kg] at a time located in each
+    flight (module notes of :mod:`planner.identify.diagnose.search`)."""
     key = "mass_step_kg"
     name = "payload_change"
     #: A change within a flight explains only variation within it (the flight's own
@@ -689,6 +757,8 @@ class PayloadChange(PowerEffect):
     driver_is_time = True
 
     def implausible(self, p, pw):
+        """No flight with a change, a drop beyond :data:`MAX_DROP_SHARE` of the mass, or a
+        pick-up past the maximum take-off mass."""
         if p.get("flights_with_change", 0) < 1:
             return "no flight has a change time: the step is never applied"
         dm = p["mass_step_kg"]
@@ -772,13 +842,16 @@ class PayloadChange(PowerEffect):
                 [self.name, "wind"])
 
     def start(self, pw):
+        """The mass step's start, bounds and scale from the median all-up mass. [kg]"""
         m0 = float(np.median(pw.mass))
         return {"mass_step_kg": (0.0, -0.9 * m0, 2.0 * m0, 0.05 * m0)}
 
     def extra_dof(self, state):
+        """One more degree of freedom per located change time."""
         return sum(1 for v in state.get("change_time_s", {}).values() if v is not None)
 
     def practical(self, fits, pw) -> str | None:
+        """A step below :data:`MIN_MASS_STEP` of the all-up mass is not a payload."""
         steps = [abs(f.values()["mass_step_kg"]) for f in fits]
         step = float(np.median(steps))
         if step < MIN_MASS_STEP * pw.mass0:
@@ -787,6 +860,7 @@ class PayloadChange(PowerEffect):
         return None
 
     def transform(self, inputs, values, pw, state):
+        """The inputs with the mass stepped after each flight's change time. [kg]"""
         step = state.get("step_mask")
         if step is None:
             return inputs
@@ -795,9 +869,12 @@ class PayloadChange(PowerEffect):
         return out
 
     def bin_driver(self, pw, state):
+        """Time of each bin since its flight's start. [s]"""
         return pw.time
 
     def parameters(self, values, stderr, pw, state):
+        """The step [kg] with its standard error, the flights with a change, their change
+        times [s] and how many fall at the end of a climb."""
         out = {"mass_step_kg": values["mass_step_kg"],
                "mass_step_kg_stderr": stderr["mass_step_kg"]}
         times = state.get("change_time_s", {})
@@ -813,6 +890,7 @@ class PayloadChange(PowerEffect):
         return out
 
     def cause(self, p, pw, state=None):
+        """A mass change in flight, in words, with its size [kg] and times [s]."""
         dm = p["mass_step_kg"]
         what = "dropped" if dm < 0 else "picked up"
         n = int(p.get("flights_with_change", 0))
@@ -829,6 +907,7 @@ class PayloadChange(PowerEffect):
         return text
 
     def headline(self, p, pw):
+        """``Payload drop …`` or ``pick-up …`` in one line."""
         dm = p["mass_step_kg"]
         return f"Payload {'drop' if dm < 0 else 'pick-up'} of {abs(dm):.2f} kg in flight"
 
@@ -843,7 +922,18 @@ def _end_of_climb(pw, exp: int, tc: float, window_s: float = 30.0) -> bool:
     return bool(np.mean(pw.climb[before]) > 1.0 and abs(np.mean(pw.climb[after])) < 0.5)
 
 
+def _steady_load(pw, what: str) -> str | None:
+    """Why an effect that needs the load to vary cannot be tested: the mechanical power
+    varies by less than :data:`MIN_LOAD_VARIATION` (then ``what`` follows); None when it
+    varies enough."""
+    if pw.load_variation < MIN_LOAD_VARIATION:
+        return f"the mechanical power varies by only {100 * pw.load_variation:.1f} %: {what}"
+    return None
+
+
 class SystemPower(PowerEffect):
+    """``system_power``: the constant electrical load :math:`P_S` fitted instead of the
+    aircraft file's (module notes); [W]."""
     key = "system_power_w"
     name = "system_power"
     needs = ()
@@ -851,24 +941,28 @@ class SystemPower(PowerEffect):
     driver_label = "modelled battery power [W]"
 
     def skip_reason(self, pw) -> str | None:
-        if pw.load_variation < MIN_LOAD_VARIATION:
-            return (f"the mechanical power varies by only {100 * pw.load_variation:.1f} %: a "
-                    "constant load cannot be told from the efficiency")
-        return None
+        """A mechanical power too steady (:data:`MIN_LOAD_VARIATION`) to tell a constant load
+        from the efficiency."""
+        return _steady_load(pw, "a constant load cannot be told from the efficiency")
 
     def columns(self, M, pw, state):
+        """A column of ones: the constant load. [W per W]"""
         return [np.ones_like(M)]
 
     def bin_driver(self, pw, state):
+        """The modelled battery power of each bin. [W]"""
         return state.get("modelled_w", pw.measured)
 
     def parameters(self, values, stderr, pw, state):
+        """The fitted load and the file's [W], with the standard error and what is missing."""
         ps = values["system_power_w"]
         return {"system_power_w": ps, "system_power_w_stderr": stderr["system_power_w"],
                 "file_system_power_w": pw.file_system_power_w,
                 "missing_w": ps - pw.file_system_power_w}
 
     def implausible(self, p, pw):
+        """A negative load, one above :data:`MAX_SYSTEM_SHARE` of the lowest airborne power,
+        or one above what the aircraft draws on the ground."""
         ps, se = p["system_power_w"], p["system_power_w_stderr"]
         if ps < 0:
             return f"a constant load of {ps:.1f} W is negative"
@@ -888,6 +982,7 @@ class SystemPower(PowerEffect):
         return None
 
     def cause(self, p, pw):
+        """A constant load, in words, against the file's. [W]"""
         miss = p["missing_w"]
         return (f"A constant electrical load of {_pm(p['system_power_w'], p['system_power_w_stderr'], 1)}"
                 f" W (avionics, payload, heater) where the aircraft file has "
@@ -895,11 +990,14 @@ class SystemPower(PowerEffect):
                 f"{'missing from' if miss > 0 else 'too much in'} the model")
 
     def headline(self, p, pw):
+        """``Constant load …`` in one line."""
         return (f"Constant load {p['system_power_w']:.0f} W (file {p['file_system_power_w']:.0f} W)"
                 " missing from the model")
 
 
 class EfficiencyCurve(PowerEffect):
+    r"""``efficiency_curve``: :math:`1/\eta(M) = c_0 + c_1 (M/M_{ref} - 1)`, an efficiency
+    that changes with the mechanical power :math:`M` [W] (module notes)."""
     key = "efficiency_slope"
     name = "efficiency_curve"
     needs = ()
@@ -907,16 +1005,19 @@ class EfficiencyCurve(PowerEffect):
     driver_label = "modelled mechanical power [W]"
 
     def skip_reason(self, pw) -> str | None:
-        if pw.load_variation < MIN_LOAD_VARIATION:
-            return (f"the mechanical power varies by only {100 * pw.load_variation:.1f} %: an "
-                    "efficiency curve cannot be told from a constant efficiency")
-        return None
+        """A mechanical power too steady (:data:`MIN_LOAD_VARIATION`) to tell a curve from a
+        constant efficiency."""
+        return _steady_load(pw, "an efficiency curve cannot be told from a constant "
+                                "efficiency")
 
     def columns(self, M, pw, state):
+        """The column :math:`M (M/M_{ref} - 1)` of the slope. [W]"""
         ref = state["reference_mechanical_w"]
         return [M * (M / ref - 1.0)]
 
     def practical(self, fits, pw) -> str | None:
+        """An efficiency that rises with load is a constant load (``system_power``), not a
+        curve."""
         # 1/η = c0 + c1 (M/M_ref − 1): c1 < 0 is an efficiency that rises with load, which
         # is what a constant loss looks like (that is the system_power effect)
         c1 = float(np.median([f.values()["efficiency_slope_coefficient"] for f in fits]))
@@ -926,9 +1027,12 @@ class EfficiencyCurve(PowerEffect):
         return None
 
     def bin_driver(self, pw, state):
+        """The modelled mechanical power of each bin. [W]"""
         return state.get("mechanical_w", pw.measured)
 
     def parameters(self, values, stderr, pw, state):
+        """η at the reference and its slope, with standard errors, and η at the low and high
+        end of the flown mechanical power [W]."""
         # values carry eta0/eta1 already converted by the search (delta method)
         p_lo, p_hi = state.get("mechanical_range_w", (np.nan, np.nan))
         ref = state["reference_mechanical_w"]
@@ -943,6 +1047,7 @@ class EfficiencyCurve(PowerEffect):
                 "efficiency_at_low": eta(p_lo), "efficiency_at_high": eta(p_hi)}
 
     def implausible(self, p, pw):
+        """An efficiency outside (0, 1] anywhere over the flown range."""
         for k in ("efficiency_at_low", "efficiency_at_reference", "efficiency_at_high"):
             e = p[k]
             if not (math.isfinite(e) and 0.0 < e <= 1.0):
@@ -951,6 +1056,7 @@ class EfficiencyCurve(PowerEffect):
         return None
 
     def cause(self, p, pw):
+        """An efficiency that changes with load, in words, with η [%] at three powers [W]."""
         word = "falls" if p["efficiency_slope"] < 0 else "rises"
         return (f"Propulsion efficiency {word} with load instead of being constant: "
                 f"{100 * p['efficiency_at_low']:.0f} % at {p['mechanical_power_low_w']:.0f} W, "
@@ -961,6 +1067,7 @@ class EfficiencyCurve(PowerEffect):
                 " per unit of P/P_ref)")
 
     def headline(self, p, pw):
+        """``Efficiency falls …`` or ``rises with load`` in one line."""
         word = "falls" if p["efficiency_slope"] < 0 else "rises"
         return (f"Efficiency {word} with load: {100 * p['efficiency_at_low']:.0f} % → "
                 f"{100 * p['efficiency_at_high']:.0f} % from {p['mechanical_power_low_w']:.0f} to "
@@ -969,7 +1076,7 @@ class EfficiencyCurve(PowerEffect):
 
 CAPACITY_EFFECTS = (Temperature, CapacityFade, CurrentOffset)
 POWER_EFFECTS = (Wind, AirDensity, PayloadChange, SystemPower, EfficiencyCurve)
-#: The vocabulary, in DESIGN §6 order.
+#: The vocabulary, in the order docs/commands.md (Diagnose) lists it.
 EFFECTS = {cls.name: cls for cls in (Temperature, CapacityFade, CurrentOffset, Wind, AirDensity,
                                      PayloadChange, SystemPower, EfficiencyCurve)}
 

@@ -124,7 +124,7 @@ from planner.physics import atmosphere
 from planner.identify import stats
 from planner.errors import FitError, ModelError
 from planner.identify.aircraft_fit import with_params
-from planner.chain.flightstate import CLIMB_THRESHOLD_MS, flight_phases, inplane_speed
+from planner.chain.flightstate import CLIMB_THRESHOLD_MS, from_record, inplane_speed
 from planner.physics.units import AS_PER_MAH
 
 #: Folds of the cross-validation. [unitless]
@@ -202,6 +202,8 @@ class Split:
         return out
 
     def to_dict(self) -> dict[str, Any]:
+        """The rule in words, the folds, the number of test units and whether whole
+        experiments are held out."""
         return {"rule": self.rule, "folds": self.n_folds, "units": len(self.units),
                 "whole_experiments": self.whole_experiments}
 
@@ -248,10 +250,6 @@ def _long_run_variance(r: np.ndarray) -> float:
     return s2 * (1 + rho) / (1 - rho)
 
 
-def _covariance(jac: np.ndarray, resid: np.ndarray, groups: np.ndarray) -> np.ndarray:
-    return stats.covariance(jac, resid, groups).matrix
-
-
 def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     return coef
@@ -272,9 +270,12 @@ class Fit:
 
     @property
     def rss(self) -> float:
+        """Sum of the squared weighted training residuals. [level's unit²]"""
         return float(np.dot(self.train_resid, self.train_resid))
 
     def values(self) -> dict[str, float]:
+        """Every fitted value by name, the nonlinear ones first (raw coordinates of the
+        level, not the physical parameters of :meth:`CapacityLevel.physical`)."""
         return dict(zip(self.nl_names + self.lin_names,
                         map(float, np.r_[self.nl, self.coef])))
 
@@ -411,6 +412,7 @@ class CapacityLevel:
         return cs - cs[self.start_of]
 
     def window_mean(self, x: np.ndarray) -> np.ndarray:
+        """Mean of a per-sample series over each window's samples. [unit of x]"""
         cs = np.r_[0.0, np.cumsum(x)]
         return (cs[self.w1 + 1] - cs[self.w0]) / (self.w1 - self.w0 + 1)
 
@@ -429,6 +431,9 @@ class CapacityLevel:
         return float(x[1]) if self.fit_beta else float(self.pack.model.beta)
 
     def G(self, x: np.ndarray) -> np.ndarray:
+        r"""The model's charge shape per sample, :math:`S^{1/\beta}` with the stress
+        :math:`S = \int (P/P_{ref})^{-\varepsilon} dt` from each experiment's start
+        ([UAV23] eq. 14 up to the scale δ, fitted linearly). [s^(1/β)]"""
         rate = np.exp(-x[0] * self.logp) * self.on
         S = self.cumulate(self.half_dt * (rate[1:] + rate[:-1]))
         return np.maximum(S, 0.0) ** (1.0 / self._beta(x))
@@ -441,6 +446,9 @@ class CapacityLevel:
         return np.column_stack([G] + [e.cumulative(self, G, dG) for e in effects])
 
     def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        """Fit the integral model with ``effects`` to the window increments of the
+        ``train`` rows: ε (and β) by least squares, the scale and the effects'
+        coefficients linearly at each step (variable projection)."""
         names, x0, lo, hi = self._nl_start(start)
         for e in effects:
             e.prepare(self)
@@ -473,6 +481,7 @@ class CapacityLevel:
 
     def row_residuals(self, fit: Fit, effects, rows: np.ndarray,
                       X: np.ndarray | None = None) -> np.ndarray:
+        """Weighted residuals of the window increments of ``rows``. [A s / √s]"""
         X = self.design(fit.nl, effects) if X is None else X
         Xw = X[self.w1[rows]] - X[self.w0[rows]]
         return (self.y[rows] - Xw @ fit.coef) * self.weights[rows]
@@ -532,7 +541,7 @@ class CapacityLevel:
             r = self.y[rows] * wt - ((X[self.w1[rows]] - X[self.w0[rows]]) * wt[:, None]) @ fit.coef
             jnl.append((r - r0) / h)
         J = np.column_stack(jnl + jac)
-        return _covariance(J, r0, self.row_group[rows]), np.r_[fit.nl, fit.coef]
+        return stats.covariance(J, r0, self.row_group[rows]).matrix, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
         """δ, ε, β and each effect's coefficient, with standard errors."""
@@ -573,18 +582,68 @@ def _finite_col(sub, name: str, n: int) -> np.ndarray:
     return np.full(n, np.nan)
 
 
+class _Bins:
+    """Bins of B seconds within the test units of the power level (module notes): B at
+    least 1 s and the median sample interval, longer when there would be more than
+    :data:`MAX_BINS`, at most 10 s; bins with fewer than half the median count of samples
+    are dropped (:attr:`keep`)."""
+
+    def __init__(self, s: dict, split: Split, spans):
+        self.unit = split.assign(s["exp"], s["t"])
+        total = sum(b - a for a, b in spans)
+        dts = np.diff(s["t"])
+        self.med_dt = float(np.median(dts[dts > 0])) if np.any(dts > 0) else 1.0
+        self.width = min(max(1.0, self.med_dt, total / MAX_BINS), 10.0)
+        u0 = np.array([split.units[u].t0 for u in self.unit])
+        key = self.unit.astype(np.int64) * 10**7 + \
+            np.floor((s["t"] - u0) / self.width).astype(np.int64)
+        _, self.inv, self.count = np.unique(key, return_inverse=True, return_counts=True)
+        self.nb = len(self.count)
+        self.keep = self.count >= 0.5 * np.median(self.count)
+        self.n = int(self.keep.sum())
+
+    def mean(self, x, valid=None):
+        """Mean of the valid (default: finite) samples of ``x`` in every bin, and their
+        count. [unit of x], [samples]"""
+        valid = np.isfinite(x) if valid is None else valid
+        num = np.bincount(self.inv, weights=np.where(valid, x, 0.0), minlength=self.nb)
+        den = np.bincount(self.inv, weights=valid.astype(float), minlength=self.nb)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return num / den, den
+
+    def take(self, x):
+        """The kept bins of a per-bin array."""
+        return x[self.keep]
+
+
 class PowerLevel:
     """Measured electric power against the aircraft's physics model.
 
     Parameters
     ----------
     exps : list of (name, DataFrame)
-        The experiments (flight record columns, DESIGN §4).
+        The experiments (flight record columns, docs/record.md).
     aircraft : Aircraft
     mass_kg : float
         All-up mass at the start of every flight. [kg]
     site_altitude_m : float
         Site altitude for the standard (ISA) density. [m]
+
+    Notes
+    -----
+    Each experiment's flight phases, power and climb rate are those of
+    :func:`planner.chain.flightstate.from_record` (on the experiment's own clock, from 0).
+    Its airspeed and air density are not, for reasons of this level:
+
+    * the level works on bin means, and averages each bin's ground-velocity *vector*
+      (known where the course is logged or the ground speed is below 0.5 m/s) before
+      the wind triangle, where ``from_record`` applies it sample by sample; and it keeps
+      the ground velocity, which the ``wind`` effect fits a wind to;
+    * the baseline flies the ISA density at the site altitude: the measured density is
+      the driver of the ``air_density`` effect, tested against it. A driver must be
+      measured, not filled in: the pressure (and the temperature) must cover 90 % of the
+      bins, where ``from_record``, whose density is the model's input, takes any channel
+      that covers half the samples (a measured density beats ISA as an input).
     """
 
     name = "power"
@@ -594,22 +653,37 @@ class PowerLevel:
         self.aircraft = aircraft
         self.file_system_power_w = float(aircraft.system_power_w)
         self.mass0 = float(mass_kg)
+        self.notes: list[str] = []
+        s, spans = self._airborne_samples(exps, site_altitude_m)
+        self._choose_climb(s)
+        self.n_experiments = len(self.names)
+        self.split = make_split(spans)
+        bins = _Bins(s, self.split, spans)
+        self.bin_s = bins.width
+        self._bin_flight_state(s, bins)
+        self._bin_air_density(s, bins, site_altitude_m)
+        self.mass = np.full(bins.n, self.mass0)
+        self.n_rows = bins.n
+        self._set_base_inputs(s, bins)
+        self._set_shape()
+
+    # ---------------------------------------------------------------- construction
+    def _airborne_samples(self, exps, site_altitude_m: float):
+        """The airborne samples of every experiment with 10 or more (other than ground
+        and take-off), stacked as columns; each experiment's airborne span; the ground
+        power's 5th–95th percentiles (:attr:`ground_power_w`)."""
         self.names = []
         cols = {k: [] for k in ("exp", "t", "p", "gs", "course", "climb", "air", "wn", "we",
                                 "pres", "temp", "alt_rate", "climb_smooth", "axial")}
         spans = []
-        self.notes: list[str] = []
         ground = []
         for name, sub in exps:
             sub = sub.reset_index(drop=True)
             n = len(sub)
             t = sub["time_s"].to_numpy(float)
             t = t - t[0]
-            p = sub["power_w"].to_numpy(float)
-            gs = _finite_col(sub, "groundspeed_ms", n)
-            climb = _finite_col(sub, "climb_rate_ms", n)
-            phase = flight_phases(p, sub.get("climb_rate_ms"), sub.get("groundspeed_ms"), t,
-                                  sub.get("altitude_m"))
+            state = from_record(sub.assign(time_s=t), site_altitude_m)
+            p, phase, climb = state.measured_power_w, state.phase, state.climb_rate_ms
             ok = (phase != "ground") & (phase != "takeoff") & np.isfinite(p)
             ground.append(p[(phase == "ground") & np.isfinite(p)])
             if ok.sum() < 10:
@@ -619,24 +693,18 @@ class PowerLevel:
             e = len(self.names)
             self.names.append(name)
             spans.append((float(t[ok][0]), float(t[ok][-1])))
-            cols["exp"].append(np.full(ok.sum(), e))
-            cols["t"].append(t[ok])
-            cols["p"].append(p[ok])
-            cols["gs"].append(np.abs(np.nan_to_num(gs[ok])))
-            cols["course"].append(_finite_col(sub, "course_deg", n)[ok])
-            cols["climb"].append(np.nan_to_num(climb[ok]))
-            alt = _finite_col(sub, "altitude_m", n)
-            rate, smooth = _altitude_rate(t, alt, np.nan_to_num(climb))
-            cols["alt_rate"].append(rate[ok])
-            cols["climb_smooth"].append(smooth[ok])
-            cols["air"].append(_finite_col(sub, "airspeed_ms", n)[ok])
-            cols["axial"].append(_finite_col(sub, "axial_speed_ms", n)[ok])
-            cols["wn"].append(_finite_col(sub, "wind_n_ms", n)[ok])
-            cols["we"].append(_finite_col(sub, "wind_e_ms", n)[ok])
-            pres = _finite_col(sub, "pressure_pa", n)
-            temp = _finite_col(sub, "ambient_temperature_c", n)
-            cols["pres"].append(_interp_nan(t, pres)[ok])
-            cols["temp"].append(_interp_nan(t, temp)[ok])
+            rate, smooth = _altitude_rate(t, _finite_col(sub, "altitude_m", n), climb)
+            for key, x in (("exp", np.full(ok.sum(), e)), ("t", t), ("p", p),
+                           ("gs", np.abs(np.nan_to_num(_finite_col(sub, "groundspeed_ms", n)))),
+                           ("course", _finite_col(sub, "course_deg", n)), ("climb", climb),
+                           ("alt_rate", rate), ("climb_smooth", smooth),
+                           ("air", _finite_col(sub, "airspeed_ms", n)),
+                           ("axial", _finite_col(sub, "axial_speed_ms", n)),
+                           ("wn", _finite_col(sub, "wind_n_ms", n)),
+                           ("we", _finite_col(sub, "wind_e_ms", n)),
+                           ("pres", interp_nan(t, _finite_col(sub, "pressure_pa", n))),
+                           ("temp", interp_nan(t, _finite_col(sub, "ambient_temperature_c", n)))):
+                cols[key].append(x if key == "exp" else x[ok])
         if not self.names:
             raise FitError("no airborne samples in the data")
         ground = np.concatenate(ground) if ground else np.zeros(0)
@@ -645,7 +713,11 @@ class PowerLevel:
         self.ground_power_w = ((float(np.percentile(ground, 5)),
                                 float(np.percentile(ground, 95)))
                                if ground.size >= MIN_GROUND_SAMPLES else None)
-        s = {k: np.concatenate(v) for k, v in cols.items()}
+        return {k: np.concatenate(v) for k, v in cols.items()}, spans
+
+    def _choose_climb(self, s: dict) -> None:
+        """The logged climb rate, or the altitude's rate of change where the two disagree
+        by more than :data:`MAX_CLIMB_DISAGREEMENT_MS` (module notes, "Climb rate")."""
         self.climb_source = "logged climb rate"
         #: RMS difference of the logged climb rate and the altitude's rate of change. [m/s]
         self.climb_disagreement_ms = _climb_disagreement(s["climb_smooth"], s["alt_rate"])
@@ -661,26 +733,11 @@ class PowerLevel:
                 f"{MAX_CLIMB_DISAGREEMENT_MS:g} m/s that counts as a climb): the altitude is the "
                 "direct measure of climbing, so the power model is driven by its rate of "
                 "change instead")
-        self.n_experiments = len(self.names)
-        self.split = make_split(spans)
-        unit = self.split.assign(s["exp"], s["t"])
-        total = sum(b - a for a, b in spans)
-        dts = np.diff(s["t"])
-        med_dt = float(np.median(dts[dts > 0])) if np.any(dts > 0) else 1.0
-        width = min(max(1.0, med_dt, total / MAX_BINS), 10.0)
-        self.bin_s = width
-        u0 = np.array([self.split.units[u].t0 for u in unit])
-        key = unit.astype(np.int64) * 10**7 + np.floor((s["t"] - u0) / width).astype(np.int64)
-        _, inv, count = np.unique(key, return_inverse=True, return_counts=True)
-        nb = len(count)
 
-        def mean(x, valid=None):
-            valid = np.isfinite(x) if valid is None else valid
-            num = np.bincount(inv, weights=np.where(valid, x, 0.0), minlength=nb)
-            den = np.bincount(inv, weights=valid.astype(float), minlength=nb)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                return num / den, den
-
+    def _bin_flight_state(self, s: dict, bins: _Bins) -> None:
+        """Bin means of the time, power, ground velocity, climb rate, airspeed and logged
+        wind, and each bin's experiment, test unit and fold."""
+        count, take, mean = bins.count, bins.take, bins.mean
         course = s["course"]
         # the ground velocity is known where the course is, and where the aircraft is
         # (nearly) still over ground whatever the course says
@@ -688,14 +745,13 @@ class PowerLevel:
         a = np.radians(np.where(np.isfinite(course), course, 0.0))
         vn, kn = mean(s["gs"] * np.cos(a), known)
         ve, _ = mean(s["gs"] * np.sin(a), known)
-        keep = count >= 0.5 * np.median(count)
-        self.count = count[keep].astype(float)
-        self.dt_bin = self.count * med_dt
-        take = lambda x: x[keep]
-        self.exp = take(np.bincount(inv, weights=s["exp"], minlength=nb) / count).round().astype(int)
+        self.count = count[bins.keep].astype(float)
+        self.dt_bin = self.count * bins.med_dt
+        self.exp = take(np.bincount(bins.inv, weights=s["exp"], minlength=bins.nb)
+                        / count).round().astype(int)
         self.row_group = self.exp
-        self.row_unit = take(np.bincount(inv, weights=unit, minlength=nb) / count).round() \
-            .astype(int)
+        self.row_unit = take(np.bincount(bins.inv, weights=bins.unit, minlength=bins.nb)
+                             / count).round().astype(int)
         self.row_fold = np.array([self.split.units[u].fold for u in self.row_unit])
         self.time = take(mean(s["t"])[0])
         self.measured = take(mean(s["p"])[0])
@@ -718,10 +774,15 @@ class PowerLevel:
             np.nanmax(np.abs(s["wn"])) + np.nanmax(np.abs(s["we"])) > 0))
         self.logged_wind_n = take(np.nan_to_num(wn)) if self.has_logged_wind else 0.0
         self.logged_wind_e = take(np.nan_to_num(we)) if self.has_logged_wind else 0.0
-        self.rho_std = np.full(keep.sum(), float(atmosphere.density(site_altitude_m)))
-        pres, _ = mean(s["pres"])
-        temp, _ = mean(s["temp"])
-        pres, temp = take(pres), take(temp)
+
+    def _bin_air_density(self, s: dict, bins: _Bins, site_altitude_m: float) -> None:
+        """The ISA density at the site (the baseline's) and the measured one of each bin
+        (class notes): from pressure and temperature, else from the pressure at the ISA
+        temperature of the pressure altitude; the ISA density without a pressure."""
+        self.rho_std = np.full(bins.n, float(atmosphere.density(site_altitude_m)))
+        pres, _ = bins.mean(s["pres"])
+        temp, _ = bins.mean(s["temp"])
+        pres, temp = bins.take(pres), bins.take(temp)
         self.has_pressure = bool(np.isfinite(pres).mean() > 0.9 and np.nanmin(pres) > 1000)
         self.has_air_temperature = bool(np.isfinite(temp).mean() > 0.9)
         if self.has_pressure:
@@ -735,9 +796,12 @@ class PowerLevel:
         else:
             self.rho_meas = self.rho_std.copy()
         self.log_rho_ratio = np.log(self.rho_meas / self.rho_std)
-        self.mass = np.full(keep.sum(), self.mass0)
-        self.n_rows = int(keep.sum())
-        # base airspeed
+
+    def _set_base_inputs(self, s: dict, bins: _Bins) -> None:
+        """The baseline's inputs per bin: the airspeed (measured, else the ground velocity
+        less the logged wind, else the ground speed), the climb rate, the ISA density and
+        the mass; a multirotor flies its disks' axial and in-plane speed where the record
+        has the velocity along the thrust axis (FlightState.rotor_velocities)."""
         if self.airspeed_measured:
             v = np.where(np.isfinite(self.airspeed), self.airspeed, self.gs)
         else:
@@ -745,16 +809,21 @@ class PowerLevel:
                                                      self.ve - self.logged_wind_e), self.gs)
         self.base_inputs = {"airspeed": np.abs(v), "climb": self.climb,
                             "air_density": self.rho_std, "mass": self.mass}
-        axial, n_axial = mean(s["axial"])
-        #: A multirotor flies its rotor disks' axial and in-plane speed where the record
-        #: has the velocity along the thrust axis (FlightState.rotor_velocities).
-        self.rotor_axial = bool(aircraft.is_multirotor and np.isfinite(s["axial"]).mean() > 0.5)
+        axial, n_axial = bins.mean(s["axial"])
+        self.rotor_axial = bool(self.aircraft.is_multirotor
+                                and np.isfinite(s["axial"]).mean() > 0.5)
         if self.rotor_axial:
-            ax = _fill(take(np.where(n_axial > 0, axial, np.nan)))
+            ax = _fill(bins.take(np.where(n_axial > 0, axial, np.nan)))
             self.base_inputs["airspeed"] = inplane_speed(v, self.climb, ax)
             self.base_inputs["climb"] = ax
             self.notes.append("power level: the rotor model flies the disks' axial speed "
                               "(axial_speed_ms) and their in-plane speed")
+
+    def _set_shape(self) -> None:
+        """The baseline's shape parameters (start, low, high, scale: multirotor drag area
+        [m²]; fixed-wing C_D0 and K) and how much the mechanical power varies over the
+        bins (:attr:`load_variation`, unitless)."""
+        aircraft = self.aircraft
         self._table = None
         self._warm: dict = {}
         self._shape_name = "drag_area_m2"
@@ -797,6 +866,9 @@ class PowerLevel:
 
     def mechanical(self, shape: dict[str, float], inputs: dict, rows: np.ndarray,
                    table: bool = True) -> np.ndarray:
+        """Mechanical (shaft) power of the aircraft model at unit efficiency and no
+        system load, with the ``shape`` parameters, at the ``inputs`` of ``rows``; from
+        the drag-area spline (:meth:`_drag_table`) where it holds. [W]"""
         if table and self.aircraft.is_multirotor and inputs is self.base_inputs:
             if self._table is None:
                 self._table = self._drag_table() or False
@@ -840,6 +912,10 @@ class PowerLevel:
         return self.mechanical(shape, inputs, rows)
 
     def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
+        """Fit the power model with ``effects`` to the ``train`` bins: the shape and the
+        effects' nonlinear parameters by least squares, 1/η and the linear coefficients
+        at each step; a payload change is located first (module notes), a wind started
+        from a grid of directions."""
         spec, lin = self._spec(effects)
         names = list(spec)
         x0 = np.array([spec[k][0] for k in names], float)
@@ -1037,6 +1113,7 @@ class PowerLevel:
         return mask
 
     def predict(self, fit: Fit, effects, rows: np.ndarray) -> np.ndarray:
+        """Predicted electric power of the bins ``rows``. [W]"""
         M = self._evaluate(fit.nl, fit.nl_names, effects, fit.state, rows)
         X = self._columns(M, effects, fit.state)
         fixed = 0.0 if any(e.name == "system_power" for e in effects) else \
@@ -1083,6 +1160,8 @@ class PowerLevel:
         fit.state["step_mask"] = mask
 
     def heldout(self, fit: Fit, effects, fold: int) -> dict[str, Any]:
+        """Held-out residuals of one fold [W] and the final (energy) errors of its
+        segments ``(|E − Ê|, E)`` [W s]."""
         rows = np.flatnonzero(self.row_fold == fold)
         pred = self.predict(fit, effects, rows)
         r = self.measured[rows] - pred
@@ -1100,6 +1179,8 @@ class PowerLevel:
                 "loss": r**2}
 
     def covariance(self, fit: Fit, effects):
+        """Covariance of [nonlinear…, linear…] of an all-data fit, AR(1)-inflated within
+        each flight (:func:`planner.identify.stats.covariance`)."""
         rows = np.flatnonzero(fit.train)
         y = self._y(effects)[rows]
         M = self._evaluate(fit.nl, fit.nl_names, effects, fit.state, rows)
@@ -1115,9 +1196,11 @@ class PowerLevel:
             Mj = self._evaluate(x, fit.nl_names, effects, fit.state, rows)
             cols.append((self._columns(Mj, effects, fit.state) @ fit.coef - y - r0) / step)
         J = np.column_stack(cols + [X[:, j] for j in range(X.shape[1])])
-        return _covariance(J, r0, self.exp[rows]), np.r_[fit.nl, fit.coef]
+        return stats.covariance(J, r0, self.exp[rows]).matrix, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
+        """The shape parameters, the efficiency η (unitless) and each effect's
+        parameters in physical units, with standard errors (delta method)."""
         cov, x = self.covariance(fit, effects)
         k = len(fit.nl)
         names = list(fit.nl_names) + ["efficiency"]
@@ -1156,6 +1239,7 @@ class PowerLevel:
         return [("the time since the start", self.time), ("the energy drawn so far", energy)]
 
     def row_driver_residual(self, resid: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Held-out bin residual, as it is: an excess power. [W]"""
         return resid
 
 
@@ -1196,7 +1280,9 @@ def _climb_disagreement(climb: np.ndarray, rate: np.ndarray) -> float | None:
     return float(np.sqrt(np.mean((climb[ok] - rate[ok]) ** 2)))
 
 
-def _interp_nan(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+def interp_nan(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``y`` with its missing (non-finite) samples interpolated linearly in time ``t`` and
+    held at the ends; unchanged where none or all are missing. [unit of y]"""
     ok = np.isfinite(y)
     if ok.sum() == 0 or ok.all():
         return y
@@ -1213,9 +1299,10 @@ def _fill(x: np.ndarray) -> np.ndarray:
 
 # ============================================================================ scoring
 
-def _weighted_final(finals) -> float:
-    """Final error of the held-out segments: Σ|error at the end| / Σ charge (energy) drawn,
-    in % (a short segment that draws little does not dominate)."""
+def weighted_final(finals) -> float:
+    """Final error of the held-out segments, Σ|error at the end| / Σ charge (energy)
+    drawn, from ``(|error|, drawn)`` pairs, in % (a short segment that draws little does
+    not dominate); NaN without segments. [%]"""
     if not finals:
         return float("nan")
     a = np.asarray(finals, float)
@@ -1281,7 +1368,7 @@ def cross_validate(level, effects, base: Score | None = None) -> Score:
     unit_loss[~has] = np.nan
     return Score(tuple(e.name for e in effects), fits,
                  float(np.sqrt(np.mean(sr**2))) / scale,
-                 _weighted_final(finals),
+                 weighted_final(finals),
                  unit_loss, np.concatenate(rows_all), np.concatenate(rr_all),
                  np.concatenate(samples_all), sr, rss, nn, rho, dof, rss_w, rho_w)
 
@@ -1333,6 +1420,9 @@ class Comparison:
     against: tuple[str, ...] = ()
 
     def evidence(self) -> dict[str, float]:
+        """The statistics behind the verdict: the training likelihood ratio and its p,
+        the effective samples, the added parameters, the paired held-out p and the test
+        units (all, and improved)."""
         return {"lr_statistic": self.lr_statistic, "lr_p_value": self.lr_p_value,
                 "effective_samples": self.effective_samples,
                 "added_parameters": float(self.added_parameters),

@@ -265,7 +265,7 @@ def test_fit_battery_circuit_option_writes_a_circuit_block(tmp_path):
 
     from planner.physics.battery import integral
     from planner.physics.battery.circuit import CircuitParameters, simulate
-    from planner.identify.circuit_fit import pulse_test_profile
+    from planner.identify.protocols import pulse_test_profile
     from planner.cli.main import main
     from planner.parameters import load_battery
 
@@ -405,3 +405,20 @@ def test_fit_battery_plot_of_many_experiments_is_a_paged_grid(tmp_path, capsys):
     for p in pages:
         w, h = Image.open(p).size
         assert w <= 2600 and h <= 1800, (p.name, w, h)
+
+
+def test_fit_battery_counts_the_cells_of_the_real_8s_log(tmp_path, capsys, shared_data):
+    """Without --cells the pack file gets the cell count of the data's voltage: 8 for the
+    real 8S log (PROVENANCE.md file 5, peak 30.96 V = 3.87 V a cell), where V/4.2 V
+    rounded would say 7."""
+    from planner.io.flightdata import load_flight_data
+    from planner.io.record import write_record
+
+    df, _ = load_flight_data([shared_data / "logs/px4_quad_fmuv6c_indoor_quadrotor_local.ulg"])
+    data = tmp_path / "eight_s.csv"
+    write_record(df, data)
+    out = tmp_path / "pack.yaml"
+    rc, _, err = run(capsys, "fit-battery", data, "--out", out, "--name", "8S pack",
+                     "--mass-kg", "1.2", "--fix-beta", "0.9648")
+    assert rc == 0, err
+    assert load_battery(out).cells_series == 8

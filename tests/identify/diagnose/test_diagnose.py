@@ -5,7 +5,7 @@ physics (the equivalent-circuit pack model; rotor momentum theory restated): not
 there uses the extensions of :mod:`planner.identify.diagnose.effects`. Each generator keeps the
 drivers of the other effects present but inactive (the pack temperature varies, the
 pressure and temperature of the day vary, the cycle count rises) and starts the
-planner from miscalibrated parameters (the pack's δ, ε, β from the seed paper; the
+planner from miscalibrated parameters (the pack's δ, ε, β from [UAV23]; the
 aircraft file's η and drag area wrong by 15–50 %), so that plain miscalibration would
 show up as an effect if the baseline were not calibrated first.
 """

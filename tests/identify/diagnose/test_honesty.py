@@ -1,4 +1,4 @@
-"""diagnose names a cause only when the data can tell it (DESIGN §6, honesty rules).
+"""diagnose names a cause only when the data can tell it (docs/diagnose_real_flights.md, honesty rules).
 
 * plausibility — a fit with impossible parameters or the wrong sign is not a cause;
 * confounds — a driver the data cannot tell from time or depth of discharge is not named;
