@@ -61,7 +61,10 @@ def _range(k) -> str:
 
 
 def key_table(keys: dict, prefix: str = "") -> str:
-    rows = ["| key | type | unit | required / default | allowed |", "|---|---|---|---|---|"]
+    """The reference table of a key table: each key's type, unit, default, bound and
+    meaning, as the loader declares them (:class:`planner.io.schema.Key`)."""
+    rows = ["| key | type | unit | required / default | allowed | meaning |",
+            "|---|---|---|---|---|---|"]
     for name, k in keys.items():
         if k.required:
             need = "required"
@@ -72,11 +75,13 @@ def key_table(keys: dict, prefix: str = "") -> str:
             need = f"default {_num(d) if isinstance(d, (int, float)) and not isinstance(d, bool) else d}"
             if isinstance(d, float) and math.isnan(d):
                 need = "optional"
-        rows.append(f"| `{prefix}{name}` | {k.kind} | {_unit(name)} | {need} | {_range(k)} |")
+        rows.append(f"| `{prefix}{name}` | {k.kind} | {k.unit} | {need} | {_range(k)} "
+                    f"| {k.meaning} |")
     return "\n".join(rows)
 
 
 def list_table(keys, prefix: str = "") -> str:
+    """A table of key names with the unit their name ends in (the mission keys)."""
     return "\n".join(["| key | unit |", "|---|---|"]
                      + [f"| `{prefix}{k}` | {_unit(k)} |" for k in keys])
 
