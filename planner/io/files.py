@@ -368,7 +368,7 @@ def write_bytes(path: str | os.PathLike, data: bytes, option: str = "output") ->
         fh.write(data)
 
 
-def save_figure(fig, path: str | os.PathLike, option: str = "--plot", **kwargs) -> None:
+def save_figure(fig, path: str | os.PathLike, option: str = "output", **kwargs) -> None:
     """Save a matplotlib figure atomically, in the format of the file's extension."""
     _first_write()
     p = Path(path)

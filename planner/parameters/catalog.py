@@ -109,12 +109,12 @@ def load_catalog(path: str | Path) -> list[BatteryPack]:
     """
     path = Path(path)
     if path.is_dir():
-        files = sorted(p for p in path.iterdir()
+        found = sorted(p for p in path.iterdir()
                        if p.suffix.lower() in (".yaml", ".yml") and p.is_file())
-        if not files:
+        if not found:
             raise InputError(f"{path}: folder holds no pack files (*.yaml)")
         packs, problems = [], []
-        for f in files:
+        for f in found:
             try:
                 data = files.load_yaml(f, empty_ok=False)
                 if isinstance(data, dict) and "packs" in data:

@@ -6,7 +6,7 @@ field, in the reader's own clock, seconds) and hands them to
 each flight-record column to an ordered tuple of :class:`Field` sources; the
 first source whose message and field(s) exist and hold data wins. Then
 :func:`build_record` puts every channel onto the time base (see
-:mod:`planner.io.logs` for the rule) and returns the DESIGN §4 DataFrame.
+:mod:`planner.io.logs` for the rule) and returns the flight-record DataFrame (docs/record.md).
 """
 
 from __future__ import annotations
@@ -358,8 +358,8 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
     if base is None:
         if require_battery:
             raise InputError(f"{meta.source}: no battery voltage/current in this log; "
-                             "expected a log with battery data (export --allow-no-battery "
-                             "reads the other channels)")
+                             "expected a log with battery data (an export that allows no "
+                             "battery reads the other channels)")
         if not channels:
             raise InputError(f"{meta.source}: no usable data in this log")
         cont = [c for c in channels.values() if c.column not in STATE_COLUMNS] or \

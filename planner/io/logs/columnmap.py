@@ -1,7 +1,7 @@
 """Column maps: how the columns of someone else's CSV log become the flight record.
 
 A map (a YAML file, or the name of one shipped in ``planner/io/logs/maps``) names the CSV
-column behind each flight-record column (DESIGN §4), with scale and offset, derived
+column behind each flight-record column (docs/record.md), with scale and offset, derived
 columns (speed from velocity components, …), extra columns kept as they are, and the
 log's metadata. :func:`load_map` validates it once and returns the normalised mapping
 :func:`planner.logs.csvmap.read_csv_log` applies.

@@ -710,7 +710,7 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
     Returns
     -------
     (DataFrame, dict)
-        The flight record (DESIGN §4, one row per battery message) and the
+        The flight record (docs/record.md, one row per battery message) and the
         metadata: ``source``, ``format`` (``dataflash`` | ``px4log``),
         ``vehicle_type``, ``vehicle``, ``firmware``, ``battery_capacity_mah``,
         ``battery_cells``, ``rates_hz``, ``channels`` (source of each column),
