@@ -111,14 +111,15 @@ def sections() -> dict[str, str]:
             f"| `{kind}` | " + ", ".join(f"`{p}`" + (f" [{_unit(p)}]" if _unit(p) else "")
                                           for p in params) + " |"
             for kind, params in ym.LEG_KEYS.items()]),
-        "columnmap": "\n".join(
-            ["| where | keys |", "|---|---|"]
-            + [f"| {where} | " + ", ".join(f"`{k}`" for k in sorted(keys)) + " |"
-               for where, keys in (("top level", columnmap._TOP_KEYS),
-                                   ("`columns.<record column>`", columnmap._COL_KEYS),
-                                   ("`time`", columnmap._TIME_KEYS),
-                                   ("`derived.<record column>`", columnmap._DERIVED_KEYS),
-                                   ("`meta`", columnmap._META_KEYS))]),
+        "columnmap": "\n\n".join(
+            [key_table(columnmap.TOP_KEYS)]
+            + [f"{title}:\n\n" + key_table(keys, prefix) for title, keys, prefix in (
+                ("`time` (as a mapping)", columnmap.TIME_KEYS, "time."),
+                ("each `columns.<record column>` (as a mapping)", columnmap.COLUMN_KEYS,
+                 "columns.<c>."),
+                ("each `derived.<record column>`", columnmap.DERIVED_KEYS, "derived.<c>."),
+                ("each `extra.<name>` (as a mapping)", columnmap.EXTRA_KEYS, "extra.<name>."),
+                ("`meta`", columnmap.META_KEYS, "meta."))]),
         "record": "\n".join(["| column | unit | meaning |", "|---|---|---|"] + [
             f"| `{c.name}` | {c.unit} | {c.meaning} |" for c in record.COLUMNS.values()]),
     }

@@ -28,8 +28,18 @@ from planner.io.record import NO_CURRENT_NOTE, COLUMNS, cumulative_trapezoid, in
 BATTERY_COLUMNS = ("voltage_v", "current_a", "consumed_mah", "temperature_c")
 #: Step-like channels: previous-value interpolation, held after the last sample.
 STATE_COLUMNS = ("mode",)
-#: Below this horizontal speed a course computed from velocity components is NaN. [m/s]
-COURSE_MIN_SPEED = 0.2
+#: Below this horizontal speed a course computed from velocity components is NaN: at rest
+#: (hovering) the direction of travel is undefined. [m/s]
+COURSE_MIN_SPEED_MS = 0.2
+
+
+def course_deg(north, east, speed) -> np.ndarray:
+    """Course of a velocity, degrees from north, clockwise, in [0, 360); NaN where
+    ``speed`` (the horizontal speed, m/s) is below :data:`COURSE_MIN_SPEED_MS`.
+    ``north``, ``east``: the velocity components (any one unit). [deg]"""
+    course = np.degrees(np.arctan2(east, north)) % 360.0
+    course[np.asarray(speed) < COURSE_MIN_SPEED_MS] = np.nan
+    return course
 
 
 def _outside_stacklevel() -> int:
@@ -63,7 +73,7 @@ class Field:
         ``hypot``: √(a² + b²) of two fields (speed from velocity components);
         ``course``: ``atan2(east, north)`` in degrees 0..360 from fields
         ``(north, east)``; ``scale`` then only converts the components to m/s
-        for the rule that course is NaN below ``COURSE_MIN_SPEED`` (undefined
+        for the rule that course is NaN below ``COURSE_MIN_SPEED_MS`` (undefined
         at rest).
     int_scale : float, optional
         DataFlash only: the scale to use instead when the field is stored as an
@@ -227,8 +237,7 @@ def _apply(f: Field, msg: Message) -> np.ndarray:
     elif f.op == "hypot":
         v = np.hypot(vals[0], vals[1]) * f.scale + f.offset
     elif f.op == "course":
-        v = np.degrees(np.arctan2(vals[1], vals[0])) % 360.0
-        v[np.hypot(vals[0], vals[1]) * f.scale < COURSE_MIN_SPEED] = np.nan
+        v = course_deg(vals[0], vals[1], np.hypot(vals[0], vals[1]) * f.scale)
     else:  # pragma: no cover - a FIELD_MAP bug
         raise ValueError(f"unknown op {f.op!r}")
     return v
