@@ -24,44 +24,7 @@ from planner.errors import InputError
 from planner.io import files
 from planner.io import schema as S
 from planner.parameters.pack import BatteryPack, load_battery
-from planner.physics.limits import (
-    AIRSPEED_MIN_MS,
-    ASPECT_RATIO_MAX,
-    ASPECT_RATIO_MIN,
-    CD0_MAX,
-    CP_MAX,
-    CP_MIN,
-    CT_MAX,
-    CT_MIN,
-    DRAG_AREA_MAX_M2,
-    DRIVE_EFFICIENCY_MIN,
-    EFFICIENCY_MIN,
-    EFFICIENCY_SLOPE_MAX,
-    FIGURE_OF_MERIT_MIN,
-    GROUNDSPEED_MIN_MS,
-    INDUCED_DRAG_FACTOR_MAX,
-    LOITER_BANK_MAX_DEG,
-    LOITER_RADIUS_MAX_M,
-    MASS_MAX_KG,
-    MULTIROTOR_MIN_AIRSPEED_MS,
-    OSWALD_EFFICIENCY_MIN,
-    POWER_LEAD_MAX_S,
-    POWER_MAX_W,
-    PROPELLER_INDUCED_FACTOR_MAX,
-    PROPELLERS_MAX,
-    REFERENCE_POWER_MIN_W,
-    ROTOR_DIAMETER_MAX_M,
-    ROTOR_DIAMETER_MIN_M,
-    ROTOR_INDUCED_FACTOR_MAX,
-    ROTORS_MAX,
-    SPEED_MAX_MS,
-    THRUST_MAX_N,
-    TIP_SPEED_MAX_MS,
-    TIP_SPEED_MIN_MS,
-    VERTICAL_SPEED_MAX_MS,
-    WING_AREA_MAX_M2,
-    WING_AREA_MIN_M2,
-)
+from planner.physics import limits as L
 from planner.physics.power.efficiency import load_dependent_battery_power
 from planner.physics.power.fixed_wing import min_loiter_radius
 from planner.physics.power.momentum import DEFAULT_FIGURE_OF_MERIT
@@ -86,27 +49,27 @@ AIRCRAFT_KEYS = {
     "name": S.text("name shown in the reports", required=True),
     "type": S.text("`fixed_wing` or `multirotor`: which block below holds the power model",
                    required=True, choices=AIRCRAFT_TYPES),
-    "empty_mass_kg": S.positive(required=True, high=MASS_MAX_KG, unit="kg",
+    "empty_mass_kg": S.positive(required=True, high=L.MASS_MAX_KG, unit="kg",
                                 meaning="everything but battery and payload"),
     "battery": S.text("default pack file, relative to the aircraft file"),
-    "efficiency": S.between(EFFICIENCY_MIN, 1.0, required=True, meaning=(
+    "efficiency": S.between(L.EFFICIENCY_MIN, 1.0, required=True, meaning=(
         "η, battery power to useful mechanical power (motors, ESCs and propellers; with "
         "`fixed_wing.propeller_diameter_m` motors and ESCs only; not read by "
         "`power_model: rotor_losses`)")),
-    "system_power_w": S.non_negative(default=0.0, high=POWER_MAX_W, unit="W", meaning=(
+    "system_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W", meaning=(
         "avionics and payload load P_S; for `rotor_losses` the power with the rotors "
         "stopped")),
-    "climb_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
+    "climb_rate_ms": S.positive(high=L.VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
         f"default climb speed (absent: {_CLIMB} m/s)")),
-    "descent_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
+    "descent_rate_ms": S.positive(high=L.VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
         f"default descent speed (absent: {_DESCENT} m/s)")),
-    "max_takeoff_mass_kg": S.positive(high=MASS_MAX_KG, unit="kg",
+    "max_takeoff_mass_kg": S.positive(high=L.MASS_MAX_KG, unit="kg",
                                       meaning="heaviest take-off the aircraft is rated for"),
-    "efficiency_slope": S.between(-EFFICIENCY_SLOPE_MAX, EFFICIENCY_SLOPE_MAX, default=0.0,
+    "efficiency_slope": S.between(-L.EFFICIENCY_SLOPE_MAX, L.EFFICIENCY_SLOPE_MAX, default=0.0,
                                   meaning=(
         "η1, change of η per relative change of the mechanical power at the reference "
         "(fitted by `endurance diagnose`; 0: constant η)")),
-    "efficiency_reference_power_w": S.between(REFERENCE_POWER_MIN_W, POWER_MAX_W, unit="W",
+    "efficiency_reference_power_w": S.between(L.REFERENCE_POWER_MIN_W, L.POWER_MAX_W, unit="W",
                                               meaning=(
         "M_ref, mechanical power at which η = `efficiency` (with `efficiency_slope`)")),
     "cells_series_allowed": S.Key(S.LIST, meaning=(
@@ -117,82 +80,82 @@ AIRCRAFT_KEYS = {
 }
 
 FIXED_WING_KEYS = {
-    "wing_area_m2": S.between(WING_AREA_MIN_M2, WING_AREA_MAX_M2, required=True, unit="m²",
+    "wing_area_m2": S.between(L.WING_AREA_MIN_M2, L.WING_AREA_MAX_M2, required=True, unit="m²",
                               meaning="wing reference area S"),
-    "cd0": S.positive(required=True, high=CD0_MAX,
+    "cd0": S.positive(required=True, high=L.CD0_MAX,
                       meaning="zero-lift drag coefficient C_D0 of the polar"),
-    "k": S.positive(high=INDUCED_DRAG_FACTOR_MAX,
+    "k": S.positive(high=L.INDUCED_DRAG_FACTOR_MAX,
                     meaning="induced-drag factor K of the polar"),
-    "aspect_ratio": S.between(ASPECT_RATIO_MIN, ASPECT_RATIO_MAX,
+    "aspect_ratio": S.between(L.ASPECT_RATIO_MIN, L.ASPECT_RATIO_MAX,
                               meaning="aspect ratio AR, for K = 1/(π e AR) without `k`"),
-    "oswald_efficiency": S.between(OSWALD_EFFICIENCY_MIN, 1.0,
+    "oswald_efficiency": S.between(L.OSWALD_EFFICIENCY_MIN, 1.0,
                                    meaning="Oswald efficiency e, with `aspect_ratio`"),
-    "cruise_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, required=True, unit="m/s",
+    "cruise_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, required=True, unit="m/s",
                                     meaning="default true airspeed; above the stall speed"),
-    "stall_speed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, unit="m/s", meaning=(
+    "stall_speed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, unit="m/s", meaning=(
         "least airspeed of level flight (absent: half the cruise airspeed)")),
-    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, unit="m/s", meaning=(
+    "max_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, unit="m/s", meaning=(
         "highest airspeed flown (absent: 1.5 × cruise)")),
     # at least min_loiter_radius() of the loiter airspeed and stall speed (_fixed_wing);
     # the default is widened to it when the aircraft is too fast to turn that tight
-    "loiter_radius_m": S.positive(default=60.0, high=LOITER_RADIUS_MAX_M, unit="m", meaning=(
-        f"loiter circle; at least a level turn at {LOITER_BANK_MAX_DEG:g}° of bank (the "
+    "loiter_radius_m": S.positive(default=60.0, high=L.LOITER_RADIUS_MAX_M, unit="m", meaning=(
+        f"loiter circle; at least a level turn at {L.LOITER_BANK_MAX_DEG:g}° of bank (the "
         "default is widened to it)")),
-    "loiter_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, unit="m/s",
+    "loiter_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, unit="m/s",
                                     meaning="airspeed of a loiter (absent: cruise)"),
     # the propulsive-efficiency curve (planner.physics.power.propeller): with a propeller
     # diameter the shaft power is T V + κ T v_i + P0 and ``efficiency`` is the motor and ESC's
-    "propeller_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M, unit="m",
+    "propeller_diameter_m": S.between(L.ROTOR_DIAMETER_MIN_M, L.ROTOR_DIAMETER_MAX_M, unit="m",
                                       meaning=(
         "propeller diameter: turns on the propulsive-efficiency curve (shaft power "
         "T V + κ T v_i + P0)")),
-    "propellers": S.count(PROPELLERS_MAX, default=1, meaning="number of propellers"),
-    "propeller_induced_factor": S.between(1.0, PROPELLER_INDUCED_FACTOR_MAX, default=1.15,
+    "propellers": S.count(L.PROPELLERS_MAX, default=1, meaning="number of propellers"),
+    "propeller_induced_factor": S.between(1.0, L.PROPELLER_INDUCED_FACTOR_MAX, default=1.15,
                                           meaning="κ of the propellers' induced power"),
-    "propeller_profile_power_w": S.non_negative(default=0.0, high=POWER_MAX_W, unit="W",
+    "propeller_profile_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W",
                                                 meaning="P0, profile power of the propellers"),
 }
 
 MULTIROTOR_KEYS = {
-    "rotors": S.count(ROTORS_MAX, required=True, meaning="number of rotors"),
-    "rotor_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M, required=True,
+    "rotors": S.count(L.ROTORS_MAX, required=True, meaning="number of rotors"),
+    "rotor_diameter_m": S.between(L.ROTOR_DIAMETER_MIN_M, L.ROTOR_DIAMETER_MAX_M, required=True,
                                   unit="m", meaning="rotor (propeller) diameter"),
-    "ct": S.between(CT_MIN, CT_MAX, meaning=(
+    "ct": S.between(L.CT_MIN, L.CT_MAX, meaning=(
         "static thrust coefficient C_T = T/(ρ n² D⁴), n in rev/s (`propeller` model)")),
-    "cp": S.between(CP_MIN, CP_MAX, meaning=(
+    "cp": S.between(L.CP_MIN, L.CP_MAX, meaning=(
         "static power coefficient C_P = P/(ρ n³ D⁵) (`propeller` model)")),
-    "drag_area_m2": S.non_negative(default=0.0, high=DRAG_AREA_MAX_M2, unit="m²",
+    "drag_area_m2": S.non_negative(default=0.0, high=L.DRAG_AREA_MAX_M2, unit="m²",
                                    meaning="body drag area f = C_D A"),
     "power_model": S.text("`propeller` (needs `ct`, `cp`), `momentum` or `rotor_losses`; "
                           "absent: `propeller` when `ct` and `cp` are given, else `momentum`",
                           choices=("propeller", "momentum", "rotor_losses")),
-    "cruise_speed_ms": S.between(GROUNDSPEED_MIN_MS, SPEED_MAX_MS, default=5.0, unit="m/s",
+    "cruise_speed_ms": S.between(L.GROUNDSPEED_MIN_MS, L.SPEED_MAX_MS, default=5.0, unit="m/s",
                                  meaning="default ground speed"),
-    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, default=15.0, unit="m/s",
+    "max_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, default=15.0, unit="m/s",
                                  meaning="highest airspeed flown"),
-    "induced_factor": S.between(1.0, ROTOR_INDUCED_FACTOR_MAX, default=1.15,
+    "induced_factor": S.between(1.0, L.ROTOR_INDUCED_FACTOR_MAX, default=1.15,
                                 meaning="κ, induced power over the ideal of momentum theory"),
-    "figure_of_merit": S.between(FIGURE_OF_MERIT_MIN, 1.0, meaning=(
+    "figure_of_merit": S.between(L.FIGURE_OF_MERIT_MIN, 1.0, meaning=(
         "hover figure of merit FM, ideal over actual rotor power: profile power "
         f"P0/P_ideal = 1/FM − κ (absent: {DEFAULT_FIGURE_OF_MERIT:g}, small fixed-pitch "
         "propellers)")),
-    "tip_speed_ms": S.between(TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS, unit="m/s", meaning=(
+    "tip_speed_ms": S.between(L.TIP_SPEED_MIN_MS, L.TIP_SPEED_MAX_MS, unit="m/s", meaning=(
         "hover tip speed, for the profile power's growth with speed (absent: from the "
         "thrust)")),
-    "max_thrust_n": S.positive(high=THRUST_MAX_N, unit="N", meaning=(
+    "max_thrust_n": S.positive(high=L.THRUST_MAX_N, unit="N", meaning=(
         "total static thrust at full throttle (thrust-to-weight checks)")),
     # power_model rotor_losses (planner.physics.power.rotor_losses): motor losses at the
     # reference hover, the drive efficiency between pack and motors, and the log's power lead
-    "no_load_power_w": S.non_negative(default=0.0, high=POWER_MAX_W, unit="W", meaning=(
+    "no_load_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W", meaning=(
         "motors' no-load loss at the reference hover (`rotor_losses`)")),
-    "copper_loss_power_w": S.non_negative(default=0.0, high=POWER_MAX_W, unit="W", meaning=(
+    "copper_loss_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W", meaning=(
         "motors' copper loss I²R at the reference hover (`rotor_losses`)")),
-    "drive_efficiency": S.between(DRIVE_EFFICIENCY_MIN, 1.0, default=0.95, meaning=(
+    "drive_efficiency": S.between(L.DRIVE_EFFICIENCY_MIN, 1.0, default=0.95, meaning=(
         "ESCs and wiring, battery to motor terminals (`rotor_losses`)")),
-    "reference_mass_kg": S.positive(high=MASS_MAX_KG, unit="kg", meaning=(
+    "reference_mass_kg": S.positive(high=L.MASS_MAX_KG, unit="kg", meaning=(
         "mass of the reference hover of the losses (`rotor_losses`; absent: the flown "
         "mass)")),
-    "power_lead_s": S.between(0.0, POWER_LEAD_MAX_S, default=0.0, unit="s", meaning=(
+    "power_lead_s": S.between(0.0, L.POWER_LEAD_MAX_S, default=0.0, unit="s", meaning=(
         "delay of a log's power channel behind its flight state (`rotor_losses` fits)")),
 }
 
@@ -314,11 +277,11 @@ class Aircraft:
         """Least airspeed of steady flight. [m/s]
 
         Fixed-wing: the stall speed, else half the cruise airspeed. Multirotor:
-        :data:`MULTIROTOR_MIN_AIRSPEED_MS` (it hovers; the bound keeps the best-speed
-        searches away from zero).
+        :data:`planner.physics.limits.MULTIROTOR_MIN_AIRSPEED_MS` (it hovers; the bound
+        keeps the best-speed searches away from zero).
         """
         if self.is_multirotor:
-            return MULTIROTOR_MIN_AIRSPEED_MS
+            return L.MULTIROTOR_MIN_AIRSPEED_MS
         fw = self.fixed_wing
         return fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
 
@@ -554,7 +517,7 @@ def _fixed_wing(data: Any, where: str, problems: S.Problems) -> FixedWing | None
         above = f", above the stall speed {stall:g} m/s" if stall is not None else ""
         problems.add(f"fixed_wing.loiter_radius_m must be at least {r_min:.1f} m (a level "
                      f"turn at the loiter airspeed {v_loiter:g} m/s with at most "
-                     f"{LOITER_BANK_MAX_DEG:g}° of bank{above}), got {radius!r}")
+                     f"{L.LOITER_BANK_MAX_DEG:g}° of bank{above}), got {radius!r}")
         return None
     return FixedWing(**S.fields_from(
         FixedWing, d, k=k, cruise_airspeed_ms=cruise, stall_speed_ms=stall,

@@ -32,19 +32,7 @@ from planner.physics.battery.circuit import CircuitParameters, r0_table
 from planner.physics.battery.ocv import lipo_ocv
 from planner.physics.battery.supercap import SupercapParameters
 from planner.physics.battery.thermal import T_RANGE_C, ThermalParameters
-from planner.physics.limits import (
-    ACTIVATION_ENERGY_MAX_J_MOL,
-    CAPACITY_TEMP_COEFF_MAX_PER_C,
-    CELL_CAPACITY_MAX_AH,
-    CELL_RESISTANCE_MAX_OHM,
-    CELLS_PARALLEL_MAX,
-    CELLS_SERIES_MAX,
-    HYSTERESIS_GAMMA_MAX,
-    HYSTERESIS_MAX_V,
-    SUPERCAP_CELLS_SERIES_MAX,
-    SUPERCAP_ESR_MAX_OHM,
-    SUPERCAP_VOLTAGE_MAX_V,
-)
+from planner.physics import limits as L
 
 __all__ = ["CIRCUIT_KEYS", "SUPERCAP_KEYS", "THERMAL_KEYS", "CircuitBlock", "circuit_block",
            "circuit_from_mapping", "circuit_to_mapping", "parse_r0", "supercap_from_mapping",
@@ -56,35 +44,35 @@ _CIRCUIT = S.field_defaults(CircuitParameters)
 
 #: Keys of a ``circuit:`` block, per cell; the pack gives what the block leaves out.
 CIRCUIT_KEYS = {
-    "capacity_ah": S.positive(high=CELL_CAPACITY_MAX_AH, unit="A h", meaning=(
+    "capacity_ah": S.positive(high=L.CELL_CAPACITY_MAX_AH, unit="A h", meaning=(
         "cell capacity at T_ref (absent: the pack's `capacity_mah` / `cells_parallel`)")),
     "r0_ohm": S.Key(S.ANY, unit="Ω", meaning=(
         "ohmic resistance per cell at T_ref: a number, or `{soc: [...], ohm: [...]}` "
         "interpolated in the state of charge (absent: the pack's "
         "`internal_resistance_ohm` × parallel / series)")),
-    "r1_ohm": S.non_negative(default=_CIRCUIT["r1_ohm"], high=CELL_RESISTANCE_MAX_OHM,
+    "r1_ohm": S.non_negative(default=_CIRCUIT["r1_ohm"], high=L.CELL_RESISTANCE_MAX_OHM,
                              unit="Ω", meaning="RC-branch resistance R1 (0: no RC branch)"),
     "c1_f": S.positive(unit="F", meaning="RC-branch capacitance C1 (required if r1_ohm > 0)"),
-    "hysteresis_v": S.non_negative(default=_CIRCUIT["hysteresis_v"], high=HYSTERESIS_MAX_V,
+    "hysteresis_v": S.non_negative(default=_CIRCUIT["hysteresis_v"], high=L.HYSTERESIS_MAX_V,
                                    unit="V", meaning="maximum hysteresis voltage M"),
-    "hysteresis_gamma": S.non_negative(high=HYSTERESIS_GAMMA_MAX, meaning=(
+    "hysteresis_gamma": S.non_negative(high=L.HYSTERESIS_GAMMA_MAX, meaning=(
         "hysteresis rate γ: settled within about 3 Q/γ of charge (required if "
         "hysteresis_v > 0)")),
     "ocv_csv": S.text("OCV table, a CSV `soc [1], ocv [V]` relative to the pack file "
                       "(absent: the LiPo curve of Chen and Rincón-Mora 2006)"),
     "r0_activation_energy_j_mol": S.between(
-        0.0, ACTIVATION_ENERGY_MAX_J_MOL, default=_CIRCUIT["r0_activation_energy_j_mol"],
+        0.0, L.ACTIVATION_ENERGY_MAX_J_MOL, default=_CIRCUIT["r0_activation_energy_j_mol"],
         unit="J/mol", meaning="Arrhenius activation energy of R0"),
     "capacity_temp_coeff_per_c": S.between(
-        0.0, CAPACITY_TEMP_COEFF_MAX_PER_C, default=_CIRCUIT["capacity_temp_coeff_per_c"],
+        0.0, L.CAPACITY_TEMP_COEFF_MAX_PER_C, default=_CIRCUIT["capacity_temp_coeff_per_c"],
         unit="1/°C", meaning="capacity loss per °C below T_ref"),
     "reference_temperature_c": S.between(
         T_RANGE_C[0], T_RANGE_C[1], default=_CIRCUIT["reference_temperature_c"], unit="°C",
         meaning="T_ref, the temperature of `capacity_ah` and `r0_ohm`"),
     "coulombic_efficiency": S.positive(default=_CIRCUIT["coulombic_efficiency"], high=1.0,
                                        meaning="share of the charging charge that is stored"),
-    "cells_series": S.count(CELLS_SERIES_MAX, meaning="cells in series (absent: the pack's)"),
-    "cells_parallel": S.count(CELLS_PARALLEL_MAX,
+    "cells_series": S.count(L.CELLS_SERIES_MAX, meaning="cells in series (absent: the pack's)"),
+    "cells_parallel": S.count(L.CELLS_PARALLEL_MAX,
                               meaning="cells in parallel (absent: the pack's)"),
     "source": S.text("where the numbers come from"),
 }
@@ -354,19 +342,19 @@ SUPERCAP_KEYS = {
                        meaning="constant part of the fast-branch capacitance"),
     "cv_f_per_v": S.non_negative(default=_SUPERCAP["cv_f_per_v"], unit="F/V",
                                  meaning="voltage-dependent part of the fast-branch capacitance"),
-    "r_fast_ohm": S.positive(required=True, high=SUPERCAP_ESR_MAX_OHM, unit="Ω",
+    "r_fast_ohm": S.positive(required=True, high=L.SUPERCAP_ESR_MAX_OHM, unit="Ω",
                              meaning="fast-branch series resistance (ESR)"),
     "r_slow_ohm": S.positive(unit="Ω", meaning="slow-branch resistance (with c_slow_f)"),
     "c_slow_f": S.positive(unit="F", meaning="slow-branch capacitance (with r_slow_ohm)"),
     "r_leak_ohm": S.positive(unit="Ω", meaning="leakage (self-discharge) resistance"),
-    "v_rated_v": S.positive(default=_SUPERCAP["v_rated_v"], high=SUPERCAP_VOLTAGE_MAX_V,
+    "v_rated_v": S.positive(default=_SUPERCAP["v_rated_v"], high=L.SUPERCAP_VOLTAGE_MAX_V,
                             unit="V", meaning="rated cell voltage"),
     "r_th_k_per_w": S.positive(unit="K/W", meaning="thermal resistance of a cell, case to air"),
     "c_th_j_per_k": S.positive(unit="J/K", meaning="heat capacity of a cell"),
     "mass_kg": S.positive(unit="kg", meaning="mass of a cell"),
-    "cells_series": S.count(SUPERCAP_CELLS_SERIES_MAX, default=_SUPERCAP["cells_series"],
+    "cells_series": S.count(L.SUPERCAP_CELLS_SERIES_MAX, default=_SUPERCAP["cells_series"],
                             meaning="cells in series"),
-    "cells_parallel": S.count(CELLS_PARALLEL_MAX, default=_SUPERCAP["cells_parallel"],
+    "cells_parallel": S.count(L.CELLS_PARALLEL_MAX, default=_SUPERCAP["cells_parallel"],
                               meaning="cells in parallel"),
     "name": S.text("name shown in the reports", default=_SUPERCAP["name"]),
     "source": S.text("where the numbers come from"),

@@ -31,31 +31,7 @@ from planner.parameters.blocks import (
 from planner.physics.battery import integral
 from planner.physics.battery.circuit import CircuitParameters
 from planner.physics.battery.thermal import ThermalParameters
-from planner.physics.limits import (
-    CAPACITY_MAX_MAH,
-    CAPACITY_MIN_MAH,
-    CELL_CUTOFF_MAX_V,
-    CELL_CUTOFF_MIN_V,
-    CELLS_PARALLEL_MAX,
-    CELLS_SERIES_MAX,
-    CHARGE_TEMPERATURE_COEFF_MAX_PER_C,
-    CYCLES_MAX,
-    DISCHARGE_C_MAX,
-    FADE_PER_CYCLE_MAX,
-    FADE_PER_CYCLE_MIN,
-    INTEGRAL_BETA_MAX,
-    INTEGRAL_BETA_MIN,
-    INTEGRAL_DELTA_MAX,
-    INTEGRAL_DELTA_MIN,
-    INTEGRAL_EPSILON_MAX,
-    INTEGRAL_EPSILON_MIN,
-    MASS_MAX_KG,
-    MODEL_REFERENCE_TEMPERATURE_MAX_C,
-    MODEL_REFERENCE_TEMPERATURE_MIN_C,
-    PACK_RESISTANCE_MAX_OHM,
-    PACKS_MAX,
-    PRICE_MAX,
-)
+from planner.physics import limits as L
 from planner.physics.units import AS_PER_MAH
 
 __all__ = ["BATTERY_KEYS", "MODEL_KEYS", "BatteryPack", "IntegralModel",
@@ -63,17 +39,17 @@ __all__ = ["BATTERY_KEYS", "MODEL_KEYS", "BatteryPack", "IntegralModel",
 
 BATTERY_KEYS = {
     "name": S.text("name shown in the reports", required=True),
-    "cells_series": S.count(CELLS_SERIES_MAX, required=True, meaning="cells in series"),
-    "cells_parallel": S.count(CELLS_PARALLEL_MAX, default=1, meaning="cells in parallel"),
-    "capacity_mah": S.between(CAPACITY_MIN_MAH, CAPACITY_MAX_MAH, required=True, unit="mAh",
+    "cells_series": S.count(L.CELLS_SERIES_MAX, required=True, meaning="cells in series"),
+    "cells_parallel": S.count(L.CELLS_PARALLEL_MAX, default=1, meaning="cells in parallel"),
+    "capacity_mah": S.between(L.CAPACITY_MIN_MAH, L.CAPACITY_MAX_MAH, required=True, unit="mAh",
                               meaning="nominal capacity of one pack"),
-    "mass_kg": S.positive(required=True, high=MASS_MAX_KG, unit="kg",
+    "mass_kg": S.positive(required=True, high=L.MASS_MAX_KG, unit="kg",
                           meaning="mass of one pack"),
-    "max_discharge_c": S.positive(high=DISCHARGE_C_MAX, unit="1/h", meaning=(
+    "max_discharge_c": S.positive(high=L.DISCHARGE_C_MAX, unit="1/h", meaning=(
         "continuous discharge rating (C rate): the current limit is C × capacity")),
-    "internal_resistance_ohm": S.non_negative(high=PACK_RESISTANCE_MAX_OHM, unit="Ω",
+    "internal_resistance_ohm": S.non_negative(high=L.PACK_RESISTANCE_MAX_OHM, unit="Ω",
                                               meaning="DC resistance of one pack"),
-    "cell_voltage_empty_v": S.between(CELL_CUTOFF_MIN_V, CELL_CUTOFF_MAX_V, default=3.5,
+    "cell_voltage_empty_v": S.between(L.CELL_CUTOFF_MIN_V, L.CELL_CUTOFF_MAX_V, default=3.5,
                                       unit="V", meaning="cut-off voltage per cell, under load"),
     "usable_fraction": S.positive(default=1.0, high=1.0, meaning=(
         "share of the nominal capacity that may be drawn")),
@@ -82,29 +58,29 @@ BATTERY_KEYS = {
     "circuit": S.block("equivalent circuit per cell (table below)"),
     "thermal": S.block("lumped thermal model (table below)"),
     "chemistry": S.text("cell chemistry, free text", default="lipo"),
-    "price": S.non_negative(high=PRICE_MAX, meaning="price of one pack, any currency (for `select`)"),
-    "count": S.count(PACKS_MAX, default=1, meaning="identical packs flown in parallel"),
+    "price": S.non_negative(high=L.PRICE_MAX, meaning="price of one pack, any currency (for `select`)"),
+    "count": S.count(L.PACKS_MAX, default=1, meaning="identical packs flown in parallel"),
     "source": S.text("where the numbers come from"),
 }
 
 MODEL_KEYS = {
-    "delta": S.between(INTEGRAL_DELTA_MIN, INTEGRAL_DELTA_MAX, required=True, meaning=(
+    "delta": S.between(L.INTEGRAL_DELTA_MIN, L.INTEGRAL_DELTA_MAX, required=True, meaning=(
         "δ of t = δ P^ε C^β ([UAV23] eq. 14), t in s, P in W, C in A s")),
-    "epsilon": S.between(INTEGRAL_EPSILON_MIN, INTEGRAL_EPSILON_MAX, required=True,
+    "epsilon": S.between(L.INTEGRAL_EPSILON_MIN, L.INTEGRAL_EPSILON_MAX, required=True,
                          meaning="ε, the power exponent"),
-    "beta": S.between(INTEGRAL_BETA_MIN, INTEGRAL_BETA_MAX, default=integral.LITERATURE_BETA,
+    "beta": S.between(L.INTEGRAL_BETA_MIN, L.INTEGRAL_BETA_MAX, default=integral.LITERATURE_BETA,
                       meaning="β, the charge exponent"),
     # extensions written by `endurance diagnose --out` (docs/diagnose_real_flights.md)
     "temperature_coefficient_per_c": S.between(
-        -CHARGE_TEMPERATURE_COEFF_MAX_PER_C, CHARGE_TEMPERATURE_COEFF_MAX_PER_C, default=0.0,
+        -L.CHARGE_TEMPERATURE_COEFF_MAX_PER_C, L.CHARGE_TEMPERATURE_COEFF_MAX_PER_C, default=0.0,
         unit="1/°C", meaning="relative rise of the charge drawn per °C below the reference"),
     "reference_temperature_c": S.between(
-        MODEL_REFERENCE_TEMPERATURE_MIN_C, MODEL_REFERENCE_TEMPERATURE_MAX_C, default=25.0,
+        L.MODEL_REFERENCE_TEMPERATURE_MIN_C, L.MODEL_REFERENCE_TEMPERATURE_MAX_C, default=25.0,
         unit="°C", meaning="reference temperature of `temperature_coefficient_per_c`"),
-    "fade_per_cycle": S.between(FADE_PER_CYCLE_MIN, FADE_PER_CYCLE_MAX, default=0.0,
+    "fade_per_cycle": S.between(L.FADE_PER_CYCLE_MIN, L.FADE_PER_CYCLE_MAX, default=0.0,
                                 unit="1/cycle",
                                 meaning="relative rise of the charge drawn per charge cycle"),
-    "cycle": S.between(0.0, CYCLES_MAX, default=0.0, unit="cycles",
+    "cycle": S.between(0.0, L.CYCLES_MAX, default=0.0, unit="cycles",
                        meaning="the pack's charge cycles, for `fade_per_cycle`"),
     # parameter covariance of the fit, rows and columns delta, epsilon, beta (written by
     # `endurance fit-battery`; the Monte Carlo of `check --uncertainty` samples it)
