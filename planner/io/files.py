@@ -189,6 +189,7 @@ class _BoundedLoader(yaml.composer.Composer, yaml.constructor.SafeConstructor,
         self._expanded = 0
 
     def compose_node(self, parent, index):
+        """PyYAML's node composition, counting aliases, depth and expanded size."""
         if self.check_event(yaml.AliasEvent):
             self._aliases += 1
             if self._aliases > YAML_MAX_ALIASES:

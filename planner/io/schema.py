@@ -64,6 +64,9 @@ class Key:
         none.
     meaning : str
         What the key is, in a few words, for the reference tables.
+    why : str
+        The bound's reason in a few words, said in the message of a value beyond it
+        (``mission.duration_s must be <= 86400 (24 h), got 1e+05``).
     """
 
     kind: str
@@ -76,6 +79,7 @@ class Key:
     choices: tuple | None = None
     unit: str = ""
     meaning: str = ""
+    why: str = ""
 
 
 def positive(required=False, default=None, high=None, **kw) -> Key:
@@ -223,7 +227,8 @@ def _add(problems: Problems | list[str], message: str) -> None:
 
 def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
                   problems: Problems | list[str] | None = None,
-                  rejected: set[str] | None = None) -> dict[str, Any]:
+                  rejected: set[str] | None = None, *,
+                  empty_ok: bool = False) -> dict[str, Any]:
     """Validate ``data`` against ``spec``; return a dict with defaults filled in.
 
     Parameters
@@ -240,6 +245,9 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
     rejected : set of str, optional
         Add here the keys that are present but invalid, so that checks across keys can
         leave them out instead of reporting the same value twice.
+    empty_ok : bool
+        ``data`` None (a block written ``key:`` with nothing under it) is an empty
+        mapping.
 
     Raises
     ------
@@ -249,6 +257,8 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
     own = problems is None
     problems = Problems(where) if own else problems
     out: dict[str, Any] = {}
+    if data is None and empty_ok:
+        data = {}
     if not isinstance(data, dict):
         _add(problems, f"{prefix.rstrip('.') or 'the file'} must be a mapping of keys, "
                        f"got {type(data).__name__}")
@@ -288,11 +298,12 @@ def check_value(value: Any, k: Key, name: str, problems: Problems | list[str]) -
         if not math.isfinite(value_f):
             _add(problems, f"{name} must be finite, got {shown(value)}")
             return k.default
+        why = f" ({k.why})" if k.why else ""
         if k.low is not None and (value_f < k.low or (k.low_open and value_f <= k.low)):
-            _add(problems, f"{name} must be {'>' if k.low_open else '>='} {k.low:g}, "
+            _add(problems, f"{name} must be {'>' if k.low_open else '>='} {k.low:g}{why}, "
                            f"got {shown(value)}")
         if k.high is not None and (value_f > k.high or (k.high_open and value_f >= k.high)):
-            _add(problems, f"{name} must be {'<' if k.high_open else '<='} {k.high:g}, "
+            _add(problems, f"{name} must be {'<' if k.high_open else '<='} {k.high:g}{why}, "
                            f"got {shown(value)}")
     if k.choices is not None and value not in k.choices:
         _add(problems, f"{name} must be one of {', '.join(map(str, k.choices))}, "
@@ -305,3 +316,13 @@ def within(k: Key, value: float) -> bool:
     if k.low is not None and (value < k.low or (k.low_open and value <= k.low)):
         return False
     return not (k.high is not None and (value > k.high or (k.high_open and value >= k.high)))
+
+
+def one_of(data: dict, keys: Iterable[str], problems: Problems | list[str],
+           prefix: str = "") -> str | None:
+    """The one of ``keys`` that ``data`` gives (None: none of them); more than one is a
+    problem (``give only one of 'legs' or 'waypoints'``)."""
+    present = [k for k in keys if k in data]
+    if len(present) > 1:
+        _add(problems, "give only one of " + " or ".join(f"'{prefix}{k}'" for k in present))
+    return present[0] if present else None

@@ -106,9 +106,11 @@ class Field:
 
     @property
     def fields(self) -> tuple[str, ...]:
+        """The message field(s) read, as a tuple."""
         return self.field if isinstance(self.field, tuple) else (self.field,)
 
     def describe(self) -> str:
+        """``message.field`` (or ``message.op(a,b)``), for the metadata's ``channels``."""
         f = "+".join(self.fields) if self.op is None else f"{self.op}({','.join(self.fields)})"
         return f"{self.message}.{f}"
 
@@ -136,6 +138,7 @@ class Channel:
 
     @property
     def rate_hz(self) -> float | None:
+        """Mean sample rate of the channel (None with fewer than two samples). [Hz]"""
         if len(self.t) < 2:
             return None
         span = float(self.t[-1] - self.t[0])

@@ -190,6 +190,8 @@ class MessageFormat:
 
     @classmethod
     def from_fmt(cls, mtype: int, name: str, length: int, fmt: str, columns: str):
+        """The format of an FMT message; ``dtype`` None when the format characters do not
+        add up to the message length (its messages are then skipped)."""
         cols = [c for c in columns.split(",")] if columns else []
         try:
             codes = [FORMAT_TO_STRUCT[c][0] for c in fmt]
@@ -209,6 +211,7 @@ class MessageFormat:
         return cls(mtype, name, length, fmt, cols[:len(fmt)], dtype)
 
     def char(self, column: str) -> str:
+        """The format character of a column (``f``, ``I``, ``c`` …)."""
         return self.format[self.columns.index(column)]
 
 
@@ -444,10 +447,12 @@ class DataFlashLog:
 
     # ---------------------------------------------------------------- decoding
     def count(self, name: str) -> int:
+        """Messages of type ``name`` in the chain."""
         t = self.name_to_type.get(name)
         return int(self.counts[t]) if t is not None else 0
 
     def message_counts(self) -> dict[str, int]:
+        """Messages in the chain per type name."""
         return {self.formats[t].name: int(c) for t, c in enumerate(self.counts)
                 if c and t in self.formats}
 
@@ -520,6 +525,7 @@ class DataFlashLog:
         return out
 
     def integer_fields(self, name: str) -> frozenset:
+        """The fields of message ``name`` stored as integers."""
         fmt = self.formats[self.name_to_type[name]]
         return frozenset(c for c, ch in zip(fmt.columns, fmt.format) if ch in _INT_CHARS)
 
@@ -629,12 +635,14 @@ class DataFlashLog:
         return [] if f is None else sorted(np.unique(data[f]).tolist())
 
     def params(self) -> dict[str, float]:
+        """The log's parameters (``PARM`` messages), name → value; the last value wins."""
         data = self.decode("PARM", ("Name", "Value"))
         if data is None or "Name" not in data or "Value" not in data:
             return {}
         return dict(zip(data["Name"].tolist(), data["Value"].tolist()))
 
     def texts(self, name: str, field: str) -> list[str]:
+        """The text field ``field`` of every message ``name`` (``MSG.Message``)."""
         data = self.decode(name, (field,))
         if data is None or field not in data:
             return []

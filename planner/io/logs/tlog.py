@@ -359,4 +359,5 @@ class _Heartbeat:
 
     @staticmethod
     def get_type():
+        """The message type pymavlink asks for."""
         return "HEARTBEAT"
