@@ -61,7 +61,10 @@ def _range(k) -> str:
 
 
 def key_table(keys: dict, prefix: str = "") -> str:
-    rows = ["| key | type | unit | required / default | allowed |", "|---|---|---|---|---|"]
+    """The reference table of a key table: each key's type, unit, default, bound and
+    meaning, as the loader declares them (:class:`planner.io.schema.Key`)."""
+    rows = ["| key | type | unit | required / default | allowed | meaning |",
+            "|---|---|---|---|---|---|"]
     for name, k in keys.items():
         if k.required:
             need = "required"
@@ -72,11 +75,13 @@ def key_table(keys: dict, prefix: str = "") -> str:
             need = f"default {_num(d) if isinstance(d, (int, float)) and not isinstance(d, bool) else d}"
             if isinstance(d, float) and math.isnan(d):
                 need = "optional"
-        rows.append(f"| `{prefix}{name}` | {k.kind} | {_unit(name)} | {need} | {_range(k)} |")
+        rows.append(f"| `{prefix}{name}` | {k.kind} | {k.unit} | {need} | {_range(k)} "
+                    f"| {k.meaning} |")
     return "\n".join(rows)
 
 
 def list_table(keys, prefix: str = "") -> str:
+    """A table of key names with the unit their name ends in (the mission keys)."""
     return "\n".join(["| key | unit |", "|---|---|"]
                      + [f"| `{prefix}{k}` | {_unit(k)} |" for k in keys])
 
@@ -106,14 +111,15 @@ def sections() -> dict[str, str]:
             f"| `{kind}` | " + ", ".join(f"`{p}`" + (f" [{_unit(p)}]" if _unit(p) else "")
                                           for p in params) + " |"
             for kind, params in ym.LEG_KEYS.items()]),
-        "columnmap": "\n".join(
-            ["| where | keys |", "|---|---|"]
-            + [f"| {where} | " + ", ".join(f"`{k}`" for k in sorted(keys)) + " |"
-               for where, keys in (("top level", columnmap._TOP_KEYS),
-                                   ("`columns.<record column>`", columnmap._COL_KEYS),
-                                   ("`time`", columnmap._TIME_KEYS),
-                                   ("`derived.<record column>`", columnmap._DERIVED_KEYS),
-                                   ("`meta`", columnmap._META_KEYS))]),
+        "columnmap": "\n\n".join(
+            [key_table(columnmap.TOP_KEYS)]
+            + [f"{title}:\n\n" + key_table(keys, prefix) for title, keys, prefix in (
+                ("`time` (as a mapping)", columnmap.TIME_KEYS, "time."),
+                ("each `columns.<record column>` (as a mapping)", columnmap.COLUMN_KEYS,
+                 "columns.<c>."),
+                ("each `derived.<record column>`", columnmap.DERIVED_KEYS, "derived.<c>."),
+                ("each `extra.<name>` (as a mapping)", columnmap.EXTRA_KEYS, "extra.<name>."),
+                ("`meta`", columnmap.META_KEYS, "meta."))]),
         "record": "\n".join(["| column | unit | meaning |", "|---|---|---|"] + [
             f"| `{c.name}` | {c.unit} | {c.meaning} |" for c in record.COLUMNS.values()]),
     }

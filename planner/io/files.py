@@ -189,6 +189,7 @@ class _BoundedLoader(yaml.composer.Composer, yaml.constructor.SafeConstructor,
         self._expanded = 0
 
     def compose_node(self, parent, index):
+        """PyYAML's node composition, counting aliases, depth and expanded size."""
         if self.check_event(yaml.AliasEvent):
             self._aliases += 1
             if self._aliases > YAML_MAX_ALIASES:
@@ -231,11 +232,16 @@ class _YamlBound(Exception):
 
 
 def load_yaml(path: str | os.PathLike, kind: str = "definition",
-              what: str = "YAML file") -> Any:
-    """Read a YAML file with the bounded safe loader; bad files raise :class:`InputError`."""
+              what: str = "YAML file", *, empty_ok: bool = True) -> Any:
+    """Read a YAML file with the bounded safe loader; bad files raise :class:`InputError`.
+
+    The one reader of YAML (definition files, column maps, missions). ``kind`` bounds the
+    file's size (:data:`SIZE_LIMITS`), ``what`` names it in messages; with
+    ``empty_ok=False`` an empty document (None) is bad input too.
+    """
     text = read_text(path, kind, what)
     try:
-        return yaml.load(text, Loader=_BoundedLoader)  # the safe constructor, bounded
+        data = yaml.load(text, Loader=_BoundedLoader)  # the safe constructor, bounded
     except _YamlBound as exc:
         raise InputError(f"{path}: refused: {exc}") from None
     except yaml.YAMLError as exc:
@@ -249,6 +255,9 @@ def load_yaml(path: str | os.PathLike, kind: str = "definition",
         # a value PyYAML's constructor cannot build: a 5000-digit integer, 2023-02-30, ...
         raise InputError(f"{path}: a value cannot be read: {str(exc).splitlines()[0][:120]}") \
             from None
+    if data is None and not empty_ok:
+        raise InputError(f"{path}: the file is empty, expected a mapping of keys")
+    return data
 
 
 # --------------------------------------------------------------------------- outputs
@@ -360,7 +369,7 @@ def write_bytes(path: str | os.PathLike, data: bytes, option: str = "output") ->
         fh.write(data)
 
 
-def save_figure(fig, path: str | os.PathLike, option: str = "--plot", **kwargs) -> None:
+def save_figure(fig, path: str | os.PathLike, option: str = "output", **kwargs) -> None:
     """Save a matplotlib figure atomically, in the format of the file's extension."""
     _first_write()
     p = Path(path)

@@ -1,6 +1,6 @@
 """Measured data in, flight record out: one loader for every command that reads data.
 
-A path is a flight-record CSV (a table with ``time_s``, DESIGN §4) or any log
+A path is a flight-record CSV (a table with ``time_s``, docs/record.md) or any log
 the readers take (:func:`planner.io.logs.read_log`); several paths are stacked
 into one record with one ``experiment`` per file (or per the file's own
 ``experiment`` column).

@@ -1,4 +1,4 @@
-"""The flight record: the canonical measured-data table (DESIGN §4).
+"""The flight record: the canonical measured-data table (``docs/record.md``).
 
 Every log reader produces it and ``fit``, ``replay`` and ``diagnose`` accept it:
 one row per sample, time-ordered within each experiment, SI units (mAh at the
@@ -25,8 +25,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from planner.io import files
 from planner.errors import InputError
+from planner.io import files
+from planner.io.tables import cell_error, row_label
 from planner.physics.units import AS_PER_MAH
 
 __all__ = [
@@ -56,7 +57,8 @@ class Column:
     meaning: str
 
 
-#: The columns of DESIGN §4, in canonical order, with their units.
+#: The columns of the flight record (``docs/record.md``), in canonical order, with their
+#: units.
 COLUMNS: dict[str, Column] = {c.name: c for c in (
     Column("experiment", "text", "text", "id of one discharge / one flight; absent = one experiment"),
     Column("time_s", "s", "float", "time since the start of the experiment"),
@@ -130,7 +132,7 @@ def _where(source) -> str:
 def _row_label(df: pd.DataFrame, pos: int, csv_lines: bool) -> str:
     if csv_lines:
         # data row pos (0-based) is on line pos + 2 of a CSV file with one header line
-        return f"row {pos + 1} (line {pos + 2})"
+        return row_label(pos, pos + 2)
     label = df.index[pos]
     label = label.item() if hasattr(label, "item") else label
     return f"row {label!r}"
@@ -138,7 +140,8 @@ def _row_label(df: pd.DataFrame, pos: int, csv_lines: bool) -> str:
 
 def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *,
                     require_power: bool = True, csv_lines: bool | None = None) -> pd.DataFrame:
-    """Check a flight record against DESIGN §4 and return a normalised copy.
+    """Check a flight record against its columns (``docs/record.md``) and return a
+    normalised copy.
 
     Parameters
     ----------
@@ -167,11 +170,28 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
         A missing required column, a non-numeric value in a numeric column, a
         missing or non-finite ``time_s``, or a time that goes backwards within
         one experiment; the message names the source, the column and the first
-        bad row.
+        bad row (:func:`planner.io.tables.cell_error`).
     """
     where = _where(source)
     if csv_lines is None:
         csv_lines = str(source).lower().endswith((".csv", ".csv.gz")) if source else False
+    _check_columns(df, where, require_power)
+    out = df.copy()
+    _numbers(out, df, where, csv_lines)
+    _implausible_as_missing(out, df, where, csv_lines)
+    for name in _TEXT:
+        if name in out.columns:
+            out[name] = out[name].astype("str")
+    if "experiment" in out.columns and out["experiment"].isna().any():
+        first = int(np.flatnonzero(out["experiment"].isna().to_numpy())[0])
+        raise InputError(f"{where}: column 'experiment' {_row_label(df, first, csv_lines)}: "
+                         "missing experiment id")
+    _check_time(out, df, where, csv_lines)
+    return out
+
+
+def _check_columns(df, where: str, require_power: bool) -> None:
+    """A table with the required columns, each once."""
     if not isinstance(df, pd.DataFrame):
         raise InputError(f"{where}: expected a table (DataFrame), got {type(df).__name__}")
     for name in REQUIRED:
@@ -186,7 +206,10 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
         dup = df.columns[df.columns.duplicated()][0]
         raise InputError(f"{where}: column '{dup}' appears more than once")
 
-    out = df.copy()
+
+def _numbers(out: pd.DataFrame, df: pd.DataFrame, where: str, csv_lines: bool) -> None:
+    """The known numeric columns of ``out`` as float64 (blank and ``nan``/``n/a`` text as
+    NaN); the first cell that is no number is an error."""
     for name in _NUMERIC:
         if name not in out.columns:
             continue
@@ -205,8 +228,13 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
                 out[name] = num.astype("float64")
                 continue
         first = int(np.flatnonzero(bad)[0])
-        raise InputError(f"{where}: column '{name}' {_row_label(df, first, csv_lines)}: "
-                         f"expected a number, got {df[name].iloc[first]!r}")
+        raise cell_error(where, name, _row_label(df, first, csv_lines), "a number",
+                         df[name].iloc[first])
+
+
+def _implausible_as_missing(out: pd.DataFrame, df: pd.DataFrame, where: str,
+                            csv_lines: bool) -> None:
+    """Values outside :data:`PLAUSIBLE` become NaN, with a warning per column."""
     for name, (low, high) in PLAUSIBLE.items():
         if name not in out.columns:
             continue
@@ -220,43 +248,36 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
             warnings.warn(f"{where}: column '{name}': {int(odd.sum())} value(s) outside "
                           f"[{low:g}, {high:g}] {COLUMNS[name].unit}, first "
                           f"{_row_label(df, first, csv_lines)} = {values[first]:g}: read as "
-                          "missing", stacklevel=2)
+                          "missing", stacklevel=3)
             out[name] = np.where(odd, np.nan, values)
-    for name in _TEXT:
-        if name in out.columns:
-            out[name] = out[name].astype("str")
-    if "experiment" in out.columns and out["experiment"].isna().any():
-        first = int(np.flatnonzero(out["experiment"].isna().to_numpy())[0])
-        raise InputError(f"{where}: column 'experiment' {_row_label(df, first, csv_lines)}: "
-                         "missing experiment id")
 
+
+def _check_time(out: pd.DataFrame, df: pd.DataFrame, where: str, csv_lines: bool) -> None:
+    """Finite times that never go backwards within one experiment."""
     t = out["time_s"].to_numpy(float)
     bad = ~np.isfinite(t)
     if bad.any():
         first = int(np.flatnonzero(bad)[0])
-        raise InputError(f"{where}: column 'time_s' {_row_label(df, first, csv_lines)}: "
-                         f"expected a finite time in s, got {df['time_s'].iloc[first]!r}")
-    if len(t) > 1:
-        if "experiment" in out.columns:
-            exp = out["experiment"].to_numpy(object)
-            same = exp[1:] == exp[:-1]
-            back = same & (np.diff(t) < 0)
-            if back.any():
-                first = int(np.flatnonzero(back)[0]) + 1
-            else:
-                # an experiment that reappears after another one: its time must go on
-                first = _first_out_of_order_group(exp, t)
-        else:
-            back = np.diff(t) < 0
-            first = int(np.flatnonzero(back)[0]) + 1 if back.any() else None
-        if first is not None:
-            raise InputError(
-                f"{where}: column 'time_s' {_row_label(df, first, csv_lines)}: time goes "
-                f"backwards ({t[first - 1]:g} s then {t[first]:g} s)"
-                + (f" within experiment {out['experiment'].iloc[first]!r}"
-                   if "experiment" in out.columns else "")
-                + "; rows must be time-ordered within each experiment")
-    return out
+        raise cell_error(where, "time_s", _row_label(df, first, csv_lines),
+                         "a finite time in s", df["time_s"].iloc[first])
+    if len(t) < 2:
+        return
+    if "experiment" in out.columns:
+        exp = out["experiment"].to_numpy(object)
+        back = (exp[1:] == exp[:-1]) & (np.diff(t) < 0)
+        # else an experiment that reappears after another one: its time must go on
+        first = (int(np.flatnonzero(back)[0]) + 1 if back.any()
+                 else _first_out_of_order_group(exp, t))
+    else:
+        back = np.diff(t) < 0
+        first = int(np.flatnonzero(back)[0]) + 1 if back.any() else None
+    if first is not None:
+        raise InputError(
+            f"{where}: column 'time_s' {_row_label(df, first, csv_lines)}: time goes "
+            f"backwards ({t[first - 1]:g} s then {t[first]:g} s)"
+            + (f" within experiment {out['experiment'].iloc[first]!r}"
+               if "experiment" in out.columns else "")
+            + "; rows must be time-ordered within each experiment")
 
 
 def _first_out_of_order_group(exp: np.ndarray, t: np.ndarray) -> int | None:
@@ -316,7 +337,7 @@ def _any_finite(df: pd.DataFrame, name: str) -> bool:
 
 def has_power(df: pd.DataFrame) -> bool:
     """Whether the record (or one experiment of it) can give the electric power: a
-    ``power_w`` sample, or ``voltage_v`` and ``current_a`` samples (DESIGN §4). Columns
+    ``power_w`` sample, or ``voltage_v`` and ``current_a`` samples (docs/record.md). Columns
     that hold only NaN (another experiment's channels) do not count."""
     return _any_finite(df, "power_w") or (_any_finite(df, "voltage_v")
                                            and _any_finite(df, "current_a"))
@@ -448,15 +469,16 @@ def read_record(path: str | os.PathLike, *, derive: bool = True,
 
 
 def write_record(df: pd.DataFrame, path: str | os.PathLike, *,
-                 require_power: bool = True) -> Path:
+                 require_power: bool = True, option: str = "output") -> Path:
     """Validate ``df`` and write it as a flight-record CSV (canonical column order).
 
     Returns the path written. Floats are written with full precision
-    (round-trip exact); NaN is an empty field.
+    (round-trip exact); NaN is an empty field. ``option`` names the output in messages
+    (the command line's option).
     """
     path = Path(path)
     out = _ordered(validate_record(df, path, require_power=require_power, csv_lines=False))
-    files.write_text(path, out.to_csv(index=False, float_format=None), "--csv")
+    files.write_text(path, out.to_csv(index=False, float_format=None), option)
     return path
 
 

@@ -1,18 +1,31 @@
-"""Validation of definition files (YAML) against a table of keys.
+"""The one validator of YAML input: definition files, column maps and missions.
 
-Every problem in a mapping is collected and reported at once, in one line:
-``aircraft/x.yaml: capacity_mah must be > 0, got -5; unknown key 'mas_kg' (did
-you mean 'mass_kg'?)``.
+A file's keys are declared once, in a table of :class:`Key` (its type, unit, bound,
+default and meaning); :func:`check_mapping` validates a mapping against that table and
+returns the values with the defaults filled in, and the readers build their objects from
+those values. ``docs/formats.md`` prints the same tables (``tools/reference.py``).
+
+Every problem of a file is collected (:class:`Problems`) and reported at once, in one
+line naming the file and the key path: ``aircraft/x.yaml: capacity_mah must be > 0, got
+-5; unknown key 'mas_kg' (did you mean 'mass_kg'?)``. The messages are written here only:
+
+* an unknown key: ``unknown key 'fixed_wing.cd_0' (did you mean 'fixed_wing.cd0'?)``;
+* a missing key: ``missing required key 'name' (text)``;
+* a wrong type: ``mass_kg must be a number, got 'heavy'``;
+* a number outside its bound: ``mass_kg must be <= 1000, got 5000``.
+
+Readers with rules of their own (one key of several, checks across keys) add their
+problems to the same :class:`Problems`, so that the file is still reported in one line.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Iterable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
@@ -25,24 +38,35 @@ MAPPING = "mapping"
 LIST = "list"
 ANY = "any"
 
-_MISSING = object()
+#: A key absent from its mapping (``None`` is a value YAML gives to ``key:``).
+MISSING = object()
 
 
 @dataclass(frozen=True)
 class Key:
-    """One key of a definition file.
+    """One key of a definition file: what it holds, in what unit, within what bound.
 
     Attributes
     ----------
     kind : str
         ``number``, ``integer``, ``text``, ``boolean``, ``mapping``, ``list`` or ``any``.
     required : bool
+        The file must give it.
     default : Any
-        Value used when the key is absent (and not required).
+        Value used when the key is absent (and not required); None: none.
     low, high : float or None
-        Bounds for numbers; ``low_open``/``high_open`` make them strict.
+        Bounds of a number (the constants of :mod:`planner.physics.limits`, each with its
+        reason); ``low_open``/``high_open`` make them strict.
     choices : tuple or None
-        Allowed values for text keys.
+        The values a text key may take.
+    unit : str
+        Unit of a number (``kg``, ``m/s``, ``1/°C``), for the reference tables; "" for
+        none.
+    meaning : str
+        What the key is, in a few words, for the reference tables.
+    why : str
+        The bound's reason in a few words, said in the message of a value beyond it
+        (``mission.duration_s must be <= 86400 (24 h), got 1e+05``).
     """
 
     kind: str
@@ -53,19 +77,82 @@ class Key:
     low_open: bool = False
     high_open: bool = False
     choices: tuple | None = None
+    unit: str = ""
+    meaning: str = ""
+    why: str = ""
 
 
-def positive(required=False, default=None, high=None):
-    return Key(NUMBER, required, default, low=0.0, low_open=True, high=high)
+def positive(required=False, default=None, high=None, **kw) -> Key:
+    """A number > 0, at most ``high``."""
+    return Key(NUMBER, required, default, low=0.0, low_open=True, high=high, **kw)
 
 
-def between(low, high, required=False, default=None):
+def between(low, high, required=False, default=None, **kw) -> Key:
     """A number in the closed range [``low``, ``high``]."""
-    return Key(NUMBER, required, default, low=low, high=high)
+    return Key(NUMBER, required, default, low=low, high=high, **kw)
 
 
-def non_negative(required=False, default=None, high=None):
-    return Key(NUMBER, required, default, low=0.0, high=high)
+def non_negative(required=False, default=None, high=None, **kw) -> Key:
+    """A number >= 0, at most ``high``."""
+    return Key(NUMBER, required, default, low=0.0, high=high, **kw)
+
+
+def count(high, required=False, default=None, low=1, **kw) -> Key:
+    """A whole number in [``low``, ``high``] (cells, rotors, packs)."""
+    return Key(INTEGER, required, default, low=low, high=high, **kw)
+
+
+def text(meaning: str, required=False, default=None, choices=None) -> Key:
+    """A text key."""
+    return Key(TEXT, required, default, choices=choices, meaning=meaning)
+
+
+def block(meaning: str, required=False) -> Key:
+    """A nested mapping, validated by a table of its own."""
+    return Key(MAPPING, required, meaning=meaning)
+
+
+def defaults(spec: dict[str, Key]) -> dict[str, Any]:
+    """Each key of ``spec`` → its default (None where it has none)."""
+    return {name: k.default for name, k in spec.items()}
+
+
+def field_defaults(cls) -> dict[str, Any]:
+    """Each field of the dataclass ``cls`` that has a default → that default: a table whose
+    object lives in a lower layer takes the object's defaults from here."""
+    return {f.name: f.default for f in dataclasses.fields(cls)
+            if f.default is not dataclasses.MISSING}
+
+
+def fields_from(cls, values: dict[str, Any], **changes) -> dict[str, Any]:
+    """The keyword arguments of the dataclass ``cls`` from checked ``values`` (the keys
+    that are fields of ``cls``), with ``changes`` on top."""
+    names = {f.name for f in dataclasses.fields(cls)}
+    return {**{k: v for k, v in values.items() if k in names}, **changes}
+
+
+class Problems:
+    """The problems of one file, collected to be reported at once.
+
+    ``where`` names the file (and entry); :meth:`done` raises one
+    :class:`~planner.errors.InputError` ``"{where}: p1; p2; …"`` when there is any.
+    """
+
+    def __init__(self, where: str):
+        self.where = where
+        self.items: list[str] = []
+
+    def add(self, message: str) -> None:
+        """Record one problem (a message naming the key path)."""
+        self.items.append(message)
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def done(self) -> None:
+        """Raise the problems recorded so far, if any, as one :class:`InputError`."""
+        if self.items:
+            raise InputError(f"{self.where}: " + "; ".join(self.items))
 
 
 def _type_ok(kind: str, value: Any) -> bool:
@@ -100,7 +187,7 @@ def _type_hint(kind: str, value: Any) -> str:
     return ""
 
 
-def _shown(value: Any) -> str:
+def shown(value: Any) -> str:
     """A value for a message; a whole number of many digits as ``1e+300`` (or its length)."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
         try:
@@ -110,15 +197,38 @@ def _shown(value: Any) -> str:
     return repr(value)
 
 
-def _expected(kind: str) -> str:
+def expected(kind: str) -> str:
+    """What a key of ``kind`` holds, in words (``a number``, ``a mapping of keys``)."""
     return {NUMBER: "a number", INTEGER: "a whole number", TEXT: "text",
             BOOL: "true or false", MAPPING: "a mapping of keys", LIST: "a list",
             ANY: "a value"}[kind]
 
 
+def unknown_keys(data: dict, allowed: Iterable[str], problems: Problems | list[str],
+                 prefix: str = "") -> list[str]:
+    """Record every key of ``data`` that is not in ``allowed`` (with the likely intended
+    one, or the list of allowed keys); return the unknown keys."""
+    allowed = list(allowed)
+    bad = [key for key in data if key not in allowed]
+    for key in bad:
+        close = difflib.get_close_matches(str(key), allowed, n=1)
+        hint = f" (did you mean '{prefix}{close[0]}'?)" if close else (
+            f" (expected one of: {', '.join(allowed)})")
+        _add(problems, f"unknown key '{prefix}{key}'{hint}")
+    return bad
+
+
+def _add(problems: Problems | list[str], message: str) -> None:
+    if isinstance(problems, Problems):
+        problems.add(message)
+    else:
+        problems.append(message)
+
+
 def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
-                  problems: list[str] | None = None,
-                  rejected: set[str] | None = None) -> dict[str, Any]:
+                  problems: Problems | list[str] | None = None,
+                  rejected: set[str] | None = None, *,
+                  empty_ok: bool = False) -> dict[str, Any]:
     """Validate ``data`` against ``spec``; return a dict with defaults filled in.
 
     Parameters
@@ -130,11 +240,14 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
         The file, for messages.
     prefix : str
         Key path of ``data`` inside the file (``"fixed_wing."``), for messages.
-    problems : list of str, optional
+    problems : Problems or list of str, optional
         Collect problems here instead of raising (for nested blocks).
     rejected : set of str, optional
         Add here the keys that are present but invalid, so that checks across keys can
         leave them out instead of reporting the same value twice.
+    empty_ok : bool
+        ``data`` None (a block written ``key:`` with nothing under it) is an empty
+        mapping.
 
     Raises
     ------
@@ -142,37 +255,38 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
         With every problem found, when ``problems`` is not given.
     """
     own = problems is None
-    problems = [] if own else problems
+    problems = Problems(where) if own else problems
     out: dict[str, Any] = {}
-    if not isinstance(data, dict):
-        problems.append(f"{prefix.rstrip('.') or 'the file'} must be a mapping of keys, "
-                        f"got {type(data).__name__}")
+    if data is None and empty_ok:
         data = {}
-    for key in data:
-        if key not in spec:
-            close = difflib.get_close_matches(str(key), list(spec), n=1)
-            hint = f" (did you mean '{prefix}{close[0]}'?)" if close else (
-                f" (expected one of: {', '.join(spec)})")
-            problems.append(f"unknown key '{prefix}{key}'{hint}")
+    if not isinstance(data, dict):
+        _add(problems, f"{prefix.rstrip('.') or 'the file'} must be a mapping of keys, "
+                       f"got {type(data).__name__}")
+        data = {}
+    unknown_keys(data, spec, problems, prefix)
     for key, k in spec.items():
         before = len(problems)
-        out[key] = _check_value(data.get(key, _MISSING), k, f"{prefix}{key}", problems)
+        out[key] = check_value(data.get(key, MISSING), k, f"{prefix}{key}", problems)
         if rejected is not None and len(problems) > before:
             rejected.add(key)
-    if own and problems:
-        raise InputError(f"{where}: " + "; ".join(problems))
+    if own:
+        problems.done()
     return out
 
 
-def _check_value(value: Any, k: Key, name: str, problems: list[str]) -> Any:
-    """Check one value against its key; return it, or the default when absent or unusable."""
-    if value is _MISSING or value is None:
+def check_value(value: Any, k: Key, name: str, problems: Problems | list[str]) -> Any:
+    """Check one value against its key; return it, or the default when absent or unusable.
+
+    ``value`` is :data:`MISSING` (or None) when the key is absent; ``name`` is its key
+    path, for the message.
+    """
+    if value is MISSING or value is None:
         if k.required:
-            problems.append(f"missing required key '{name}' ({_expected(k.kind)})")
+            _add(problems, f"missing required key '{name}' ({expected(k.kind)})")
         return k.default
     if not _type_ok(k.kind, value):
-        problems.append(f"{name} must be {_expected(k.kind)}, got {value!r}"
-                        f"{_type_hint(k.kind, value)}")
+        _add(problems, f"{name} must be {expected(k.kind)}, got {value!r}"
+                       f"{_type_hint(k.kind, value)}")
         return k.default
     if k.kind == INTEGER:
         value = int(value)
@@ -182,34 +296,33 @@ def _check_value(value: Any, k: Key, name: str, problems: list[str]) -> Any:
         except OverflowError:  # a YAML integer of hundreds of digits
             value_f = math.inf if value > 0 else -math.inf
         if not math.isfinite(value_f):
-            problems.append(f"{name} must be finite, got {_shown(value)}")
+            _add(problems, f"{name} must be finite, got {shown(value)}")
             return k.default
+        why = f" ({k.why})" if k.why else ""
         if k.low is not None and (value_f < k.low or (k.low_open and value_f <= k.low)):
-            problems.append(f"{name} must be {'>' if k.low_open else '>='} {k.low:g}, "
-                            f"got {_shown(value)}")
+            _add(problems, f"{name} must be {'>' if k.low_open else '>='} {k.low:g}{why}, "
+                           f"got {shown(value)}")
         if k.high is not None and (value_f > k.high or (k.high_open and value_f >= k.high)):
-            problems.append(f"{name} must be {'<' if k.high_open else '<='} {k.high:g}, "
-                            f"got {_shown(value)}")
+            _add(problems, f"{name} must be {'<' if k.high_open else '<='} {k.high:g}{why}, "
+                           f"got {shown(value)}")
     if k.choices is not None and value not in k.choices:
-        problems.append(f"{name} must be one of {', '.join(map(str, k.choices))}, "
-                        f"got {value!r}")
+        _add(problems, f"{name} must be one of {', '.join(map(str, k.choices))}, "
+                       f"got {value!r}")
     return value
 
 
-def load_yaml(path: str | Path) -> Any:
-    """Read a YAML file with the safe loader; bad files raise :class:`InputError`."""
-    from planner.io import files
-
-    path = Path(path)
-    data = files.load_yaml(path, "definition")
-    if data is None:
-        raise InputError(f"{path}: the file is empty, expected a mapping of keys")
-    return data
+def within(k: Key, value: float) -> bool:
+    """Whether a number lies within the bounds of ``k``."""
+    if k.low is not None and (value < k.low or (k.low_open and value <= k.low)):
+        return False
+    return not (k.high is not None and (value > k.high or (k.high_open and value >= k.high)))
 
 
-def require(condition: bool, where: str, message: str, problems: list[str]) -> None:
-    if not condition:
-        problems.append(message)
-
-
-Validator = Callable[[dict, str], dict]
+def one_of(data: dict, keys: Iterable[str], problems: Problems | list[str],
+           prefix: str = "") -> str | None:
+    """The one of ``keys`` that ``data`` gives (None: none of them); more than one is a
+    problem (``give only one of 'legs' or 'waypoints'``)."""
+    present = [k for k in keys if k in data]
+    if len(present) > 1:
+        _add(problems, "give only one of " + " or ".join(f"'{prefix}{k}'" for k in present))
+    return present[0] if present else None

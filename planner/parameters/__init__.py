@@ -1,12 +1,13 @@
 """Parameters: the one reader of definition files (layer 2 of the planner).
 
 Aircraft, battery packs, pack catalogs, the ``circuit:``/``thermal:``/``supercap:``
-blocks, OCV tables and power schedules are read here into typed, frozen, validated
-objects; nothing else in the planner opens a definition file. The physics (layer 1) takes
-these objects or plain numbers; the mission chain (layer 3) composes them.
+blocks and OCV tables are read here into typed, frozen, validated objects; nothing else in
+the planner opens a definition file. Each key is declared once, in the key table of its
+module (type, unit, bound, default, meaning; ``docs/formats.md`` prints them). The physics
+takes these objects or plain numbers; the mission chain composes them.
 """
 
-from planner.io import schema as _schema
+from planner.io import files
 from planner.parameters.aircraft import (
     Aircraft,
     FixedWing,
@@ -23,7 +24,7 @@ from planner.parameters.pack import BatteryPack, IntegralModel, battery_from_map
 
 def read_definition(path, to_folder=None):
     """A definition file's mapping as written (validated YAML syntax only), for a command
-    that extends a file and writes it again (``fit-battery --battery``).
+    that extends a file and writes it again (``endurance fit-battery`` of a pack file).
 
     ``to_folder``: where the mapping will be written; the paths it holds relative to its
     own file (an aircraft's ``battery``, a pack's ``circuit.ocv_csv``) are rewritten
@@ -32,7 +33,7 @@ def read_definition(path, to_folder=None):
     import os
     from pathlib import Path
 
-    data = _schema.load_yaml(path)
+    data = files.load_yaml(path, empty_ok=False)
     if to_folder is None or not isinstance(data, dict):
         return data
     data = dict(data)

@@ -1,12 +1,14 @@
-"""Aircraft definitions: parameters of the power models and their file (DESIGN §8).
+"""Aircraft definitions: parameters of the power models and their file (docs/formats.md).
 
 :func:`load_aircraft` is the one reader of aircraft files; :func:`load_aircraft_and_battery`
 also reads the pack the aircraft names. Every file is validated when it is loaded and
 every problem is reported at once in one line naming the file and the key. The tables
-``AIRCRAFT_KEYS``, ``FIXED_WING_KEYS`` and ``MULTIROTOR_KEYS`` are the schema, with the
-bounds of :mod:`planner.physics.limits`; ``POWER_MODEL_KEYS`` lists the keys each
-multirotor power model needs. :class:`Aircraft` methods stay thin: they pass the stored
-parameters to the pure power models of :mod:`planner.physics.power`.
+``AIRCRAFT_KEYS``, ``FIXED_WING_KEYS`` and ``MULTIROTOR_KEYS`` declare each key once (type,
+unit, bound from :mod:`planner.physics.limits`, default, meaning): they validate the file,
+give the dataclasses their defaults and print the tables of ``docs/formats.md``.
+``POWER_MODEL_KEYS`` lists the keys each multirotor power model needs. :class:`Aircraft`
+methods stay thin: they pass the stored parameters to the pure power models of
+:mod:`planner.physics.power`.
 """
 
 from __future__ import annotations
@@ -18,33 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from planner.io import schema as S
 from planner.errors import InputError
-from planner.physics.limits import (
-    AIRSPEED_MIN_MS,
-    CP_MIN,
-    CT_MIN,
-    DRIVE_EFFICIENCY_MIN,
-    EFFICIENCY_MIN,
-    GROUNDSPEED_MIN_MS,
-    LOITER_BANK_MAX_DEG,
-    LOITER_RADIUS_MAX_M,
-    MASS_MAX_KG,
-    MULTIROTOR_MIN_AIRSPEED_MS,
-    POWER_LEAD_MAX_S,
-    POWER_MAX_W,
-    ROTOR_DIAMETER_MAX_M,
-    ROTOR_DIAMETER_MIN_M,
-    SPEED_MAX_MS,
-    THRUST_MAX_N,
-    TIP_SPEED_MAX_MS,
-    TIP_SPEED_MIN_MS,
-    VERTICAL_SPEED_MAX_MS,
-    WING_AREA_MAX_M2,
-    WING_AREA_MIN_M2,
-)
+from planner.io import files
+from planner.io import schema as S
 from planner.parameters.pack import BatteryPack, load_battery
+from planner.physics import limits as L
+from planner.physics.power.efficiency import load_dependent_battery_power
 from planner.physics.power.fixed_wing import min_loiter_radius
+from planner.physics.power.momentum import DEFAULT_FIGURE_OF_MERIT
 
 __all__ = ["AIRCRAFT_KEYS", "FIXED_WING_KEYS", "MULTIROTOR_KEYS", "Aircraft", "FixedWing",
            "Multirotor", "aircraft_from_mapping", "default_battery_path", "load_aircraft",
@@ -52,67 +35,130 @@ __all__ = ["AIRCRAFT_KEYS", "FIXED_WING_KEYS", "MULTIROTOR_KEYS", "Aircraft", "F
 
 AIRCRAFT_TYPES = ("fixed_wing", "multirotor")
 
+#: Default vertical speeds when the aircraft file gives none. [m/s]
+#: Multirotor: ArduCopter WPNAV_SPEED_UP 2.5 m/s and WPNAV_SPEED_DN 1.5 m/s;
+#: fixed-wing: a gentle 2 m/s spiral climb and descent.
+DEFAULT_VERTICAL_SPEEDS = {"multirotor": (2.5, 1.5), "fixed_wing": (2.0, 2.0)}
+
+_CLIMB = ", ".join(f"{kind.replace('_', '-')} {up:g}" for kind, (up, _) in
+                   DEFAULT_VERTICAL_SPEEDS.items())
+_DESCENT = ", ".join(f"{kind.replace('_', '-')} {down:g}" for kind, (_, down) in
+                     DEFAULT_VERTICAL_SPEEDS.items())
+
 AIRCRAFT_KEYS = {
-    "name": S.Key(S.TEXT, required=True),
-    "type": S.Key(S.TEXT, required=True, choices=AIRCRAFT_TYPES),
-    "empty_mass_kg": S.positive(required=True, high=MASS_MAX_KG),
-    "battery": S.Key(S.TEXT),
-    "efficiency": S.between(EFFICIENCY_MIN, 1.0, required=True),
-    "system_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
-    "climb_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS),
-    "descent_rate_ms": S.positive(high=VERTICAL_SPEED_MAX_MS),
-    "max_takeoff_mass_kg": S.positive(high=MASS_MAX_KG),
-    "efficiency_slope": S.Key(S.NUMBER, default=0.0, low=-1.0, high=1.0),
-    "efficiency_reference_power_w": S.between(1.0, POWER_MAX_W),
-    "cells_series_allowed": S.Key(S.LIST),
-    "fixed_wing": S.Key(S.MAPPING),
-    "multirotor": S.Key(S.MAPPING),
-    "source": S.Key(S.TEXT),
-    # what fit-aircraft said of its fit: "ok", or "misfit: <parameter> ..." (read, not used)
-    "fit_status": S.Key(S.TEXT),
+    "name": S.text("name shown in the reports", required=True),
+    "type": S.text("`fixed_wing` or `multirotor`: which block below holds the power model",
+                   required=True, choices=AIRCRAFT_TYPES),
+    "empty_mass_kg": S.positive(required=True, high=L.MASS_MAX_KG, unit="kg",
+                                meaning="everything but battery and payload"),
+    "battery": S.text("default pack file, relative to the aircraft file"),
+    "efficiency": S.between(L.EFFICIENCY_MIN, 1.0, required=True, meaning=(
+        "η, battery power to useful mechanical power (motors, ESCs and propellers; with "
+        "`fixed_wing.propeller_diameter_m` motors and ESCs only; not read by "
+        "`power_model: rotor_losses`)")),
+    "system_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W", meaning=(
+        "avionics and payload load P_S; for `rotor_losses` the power with the rotors "
+        "stopped")),
+    "climb_rate_ms": S.positive(high=L.VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
+        f"default climb speed (absent: {_CLIMB} m/s)")),
+    "descent_rate_ms": S.positive(high=L.VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
+        f"default descent speed (absent: {_DESCENT} m/s)")),
+    "max_takeoff_mass_kg": S.positive(high=L.MASS_MAX_KG, unit="kg",
+                                      meaning="heaviest take-off the aircraft is rated for"),
+    "efficiency_slope": S.between(-L.EFFICIENCY_SLOPE_MAX, L.EFFICIENCY_SLOPE_MAX, default=0.0,
+                                  meaning=(
+        "η1, change of η per relative change of the mechanical power at the reference "
+        "(fitted by `endurance diagnose`; 0: constant η)")),
+    "efficiency_reference_power_w": S.between(L.REFERENCE_POWER_MIN_W, L.POWER_MAX_W, unit="W",
+                                              meaning=(
+        "M_ref, mechanical power at which η = `efficiency` (with `efficiency_slope`)")),
+    "cells_series_allowed": S.Key(S.LIST, meaning=(
+        "cell counts the aircraft's ESCs take (a list of whole numbers, for `select`)")),
+    "fixed_wing": S.block("the fixed-wing parameters (table below)"),
+    "multirotor": S.block("the multirotor parameters (table below)"),
+    "source": S.text("where the numbers come from"),
+    "fit_status": S.text("what `fit-aircraft` said of its fit: `ok`, or `misfit: <parameter> …` "
+                         "(read, not used)"),
 }
 
 FIXED_WING_KEYS = {
-    "wing_area_m2": S.between(WING_AREA_MIN_M2, WING_AREA_MAX_M2, required=True),
-    "cd0": S.Key(S.NUMBER, required=True, low=0.0, low_open=True, high=0.5),
-    "k": S.Key(S.NUMBER, low=0.0, low_open=True, high=1.0),
-    "aspect_ratio": S.Key(S.NUMBER, low=1.0, high=60.0),
-    "oswald_efficiency": S.Key(S.NUMBER, low=0.3, high=1.0),
-    "cruise_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, required=True),
-    "stall_speed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
-    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
+    "wing_area_m2": S.between(L.WING_AREA_MIN_M2, L.WING_AREA_MAX_M2, required=True, unit="m²",
+                              meaning="wing reference area S"),
+    "cd0": S.positive(required=True, high=L.CD0_MAX,
+                      meaning="zero-lift drag coefficient C_D0 of the polar"),
+    "k": S.positive(high=L.INDUCED_DRAG_FACTOR_MAX,
+                    meaning="induced-drag factor K of the polar"),
+    "aspect_ratio": S.between(L.ASPECT_RATIO_MIN, L.ASPECT_RATIO_MAX,
+                              meaning="aspect ratio AR, for K = 1/(π e AR) without `k`"),
+    "oswald_efficiency": S.between(L.OSWALD_EFFICIENCY_MIN, 1.0,
+                                   meaning="Oswald efficiency e, with `aspect_ratio`"),
+    "cruise_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, required=True, unit="m/s",
+                                    meaning="default true airspeed; above the stall speed"),
+    "stall_speed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, unit="m/s", meaning=(
+        "least airspeed of level flight (absent: half the cruise airspeed)")),
+    "max_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, unit="m/s", meaning=(
+        "highest airspeed flown (absent: 1.5 × cruise)")),
     # at least min_loiter_radius() of the loiter airspeed and stall speed (_fixed_wing);
-    # the default 60 m is widened to it when the aircraft is too fast to turn that tight
-    "loiter_radius_m": S.positive(default=60.0, high=LOITER_RADIUS_MAX_M),
-    "loiter_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS),
-    # the propulsive-efficiency curve (planner.physics.power.propeller): with a propeller diameter
-    # the shaft power is T V + κ T v_i + P0 and ``efficiency`` is the motor and ESC's only
-    "propeller_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M),
-    "propellers": S.Key(S.INTEGER, default=1, low=1, high=16),
-    "propeller_induced_factor": S.Key(S.NUMBER, default=1.15, low=1.0, high=3.0),
-    "propeller_profile_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
+    # the default is widened to it when the aircraft is too fast to turn that tight
+    "loiter_radius_m": S.positive(default=60.0, high=L.LOITER_RADIUS_MAX_M, unit="m", meaning=(
+        f"loiter circle; at least a level turn at {L.LOITER_BANK_MAX_DEG:g}° of bank (the "
+        "default is widened to it)")),
+    "loiter_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, unit="m/s",
+                                    meaning="airspeed of a loiter (absent: cruise)"),
+    # the propulsive-efficiency curve (planner.physics.power.propeller): with a propeller
+    # diameter the shaft power is T V + κ T v_i + P0 and ``efficiency`` is the motor and ESC's
+    "propeller_diameter_m": S.between(L.ROTOR_DIAMETER_MIN_M, L.ROTOR_DIAMETER_MAX_M, unit="m",
+                                      meaning=(
+        "propeller diameter: turns on the propulsive-efficiency curve (shaft power "
+        "T V + κ T v_i + P0)")),
+    "propellers": S.count(L.PROPELLERS_MAX, default=1, meaning="number of propellers"),
+    "propeller_induced_factor": S.between(1.0, L.PROPELLER_INDUCED_FACTOR_MAX, default=1.15,
+                                          meaning="κ of the propellers' induced power"),
+    "propeller_profile_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W",
+                                                meaning="P0, profile power of the propellers"),
 }
 
 MULTIROTOR_KEYS = {
-    "rotors": S.Key(S.INTEGER, required=True, low=1, high=32),
-    "rotor_diameter_m": S.between(ROTOR_DIAMETER_MIN_M, ROTOR_DIAMETER_MAX_M, required=True),
-    "ct": S.between(CT_MIN, 1.0),
-    "cp": S.between(CP_MIN, 1.0),
-    "drag_area_m2": S.non_negative(default=0.0, high=10.0),
-    "power_model": S.Key(S.TEXT, choices=("propeller", "momentum", "rotor_losses")),
-    "cruise_speed_ms": S.between(GROUNDSPEED_MIN_MS, SPEED_MAX_MS, default=5.0),
-    "max_airspeed_ms": S.between(AIRSPEED_MIN_MS, SPEED_MAX_MS, default=15.0),
-    "induced_factor": S.Key(S.NUMBER, default=1.15, low=1.0, high=2.0),
-    "figure_of_merit": S.Key(S.NUMBER, low=0.2, high=1.0),
-    "tip_speed_ms": S.between(TIP_SPEED_MIN_MS, TIP_SPEED_MAX_MS),
-    "max_thrust_n": S.positive(high=THRUST_MAX_N),
-    # power_model rotor_losses (planner.physics.power.rotor_losses): motor losses at the reference
-    # hover, the drive efficiency between pack and motors, and the log's power lead
-    "no_load_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
-    "copper_loss_power_w": S.non_negative(default=0.0, high=POWER_MAX_W),
-    "drive_efficiency": S.between(DRIVE_EFFICIENCY_MIN, 1.0, default=0.95),
-    "reference_mass_kg": S.positive(high=MASS_MAX_KG),
-    "power_lead_s": S.between(0.0, POWER_LEAD_MAX_S, default=0.0),
+    "rotors": S.count(L.ROTORS_MAX, required=True, meaning="number of rotors"),
+    "rotor_diameter_m": S.between(L.ROTOR_DIAMETER_MIN_M, L.ROTOR_DIAMETER_MAX_M, required=True,
+                                  unit="m", meaning="rotor (propeller) diameter"),
+    "ct": S.between(L.CT_MIN, L.CT_MAX, meaning=(
+        "static thrust coefficient C_T = T/(ρ n² D⁴), n in rev/s (`propeller` model)")),
+    "cp": S.between(L.CP_MIN, L.CP_MAX, meaning=(
+        "static power coefficient C_P = P/(ρ n³ D⁵) (`propeller` model)")),
+    "drag_area_m2": S.non_negative(default=0.0, high=L.DRAG_AREA_MAX_M2, unit="m²",
+                                   meaning="body drag area f = C_D A"),
+    "power_model": S.text("`propeller` (needs `ct`, `cp`), `momentum` or `rotor_losses`; "
+                          "absent: `propeller` when `ct` and `cp` are given, else `momentum`",
+                          choices=("propeller", "momentum", "rotor_losses")),
+    "cruise_speed_ms": S.between(L.GROUNDSPEED_MIN_MS, L.SPEED_MAX_MS, default=5.0, unit="m/s",
+                                 meaning="default ground speed"),
+    "max_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, default=15.0, unit="m/s",
+                                 meaning="highest airspeed flown"),
+    "induced_factor": S.between(1.0, L.ROTOR_INDUCED_FACTOR_MAX, default=1.15,
+                                meaning="κ, induced power over the ideal of momentum theory"),
+    "figure_of_merit": S.between(L.FIGURE_OF_MERIT_MIN, 1.0, meaning=(
+        "hover figure of merit FM, ideal over actual rotor power: profile power "
+        f"P0/P_ideal = 1/FM − κ (absent: {DEFAULT_FIGURE_OF_MERIT:g}, small fixed-pitch "
+        "propellers)")),
+    "tip_speed_ms": S.between(L.TIP_SPEED_MIN_MS, L.TIP_SPEED_MAX_MS, unit="m/s", meaning=(
+        "hover tip speed, for the profile power's growth with speed (absent: from the "
+        "thrust)")),
+    "max_thrust_n": S.positive(high=L.THRUST_MAX_N, unit="N", meaning=(
+        "total static thrust at full throttle (thrust-to-weight checks)")),
+    # power_model rotor_losses (planner.physics.power.rotor_losses): motor losses at the
+    # reference hover, the drive efficiency between pack and motors, and the log's power lead
+    "no_load_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W", meaning=(
+        "motors' no-load loss at the reference hover (`rotor_losses`)")),
+    "copper_loss_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W", meaning=(
+        "motors' copper loss I²R at the reference hover (`rotor_losses`)")),
+    "drive_efficiency": S.between(L.DRIVE_EFFICIENCY_MIN, 1.0, default=0.95, meaning=(
+        "ESCs and wiring, battery to motor terminals (`rotor_losses`)")),
+    "reference_mass_kg": S.positive(high=L.MASS_MAX_KG, unit="kg", meaning=(
+        "mass of the reference hover of the losses (`rotor_losses`; absent: the flown "
+        "mass)")),
+    "power_lead_s": S.between(0.0, L.POWER_LEAD_MAX_S, default=0.0, unit="s", meaning=(
+        "delay of a log's power channel behind its flight state (`rotor_losses` fits)")),
 }
 
 #: Keys of MULTIROTOR_KEYS only the rotor_losses power model reads.
@@ -122,15 +168,19 @@ ROTOR_LOSSES_KEYS = ("no_load_power_w", "copper_loss_power_w", "drive_efficiency
 #: Keys each multirotor power model needs (besides rotors and diameter).
 POWER_MODEL_KEYS = {"propeller": ("ct", "cp"), "momentum": (), "rotor_losses": ()}
 
-#: Default vertical speeds when the aircraft file gives none. [m/s]
-#: Multirotor: ArduCopter WPNAV_SPEED_UP 2.5 m/s and WPNAV_SPEED_DN 1.5 m/s;
-#: fixed-wing: a gentle 2 m/s spiral climb and descent.
-DEFAULT_VERTICAL_SPEEDS = {"multirotor": (2.5, 1.5), "fixed_wing": (2.0, 2.0)}
+_FW = S.defaults(FIXED_WING_KEYS)
+_MR = S.defaults(MULTIROTOR_KEYS)
+_AC = S.defaults(AIRCRAFT_KEYS)
 
 
 @dataclass(frozen=True)
 class FixedWing:
-    """Fixed-wing parameters: drag polar ``C_D = C_D0 + K C_L²``."""
+    """Fixed-wing parameters: drag polar ``C_D = C_D0 + K C_L²`` and the propulsion.
+
+    Each field is the key of :data:`FIXED_WING_KEYS` of that name (unit and meaning
+    there; defaults from there); ``k`` is computed from ``aspect_ratio`` and
+    ``oswald_efficiency`` where the file gives those instead.
+    """
 
     wing_area_m2: float
     cd0: float
@@ -138,12 +188,12 @@ class FixedWing:
     cruise_airspeed_ms: float
     stall_speed_ms: float | None = None
     max_airspeed_ms: float | None = None
-    loiter_radius_m: float = 60.0
+    loiter_radius_m: float = _FW["loiter_radius_m"]
     loiter_airspeed_ms: float | None = None
     propeller_diameter_m: float | None = None
-    propellers: int = 1
-    propeller_induced_factor: float = 1.15
-    propeller_profile_power_w: float = 0.0
+    propellers: int = _FW["propellers"]
+    propeller_induced_factor: float = _FW["propeller_induced_factor"]
+    propeller_profile_power_w: float = _FW["propeller_profile_power_w"]
 
     @property
     def top_airspeed_ms(self) -> float:
@@ -153,17 +203,23 @@ class FixedWing:
 
 @dataclass(frozen=True)
 class Multirotor:
-    """Multirotor parameters (propeller-coefficient and momentum-theory models)."""
+    """Multirotor parameters (propeller-coefficient, momentum and rotor-loss models).
+
+    Each field is the key of :data:`MULTIROTOR_KEYS` of that name (unit and meaning
+    there; defaults from there). ``power_model`` is always set (inferred when the file
+    leaves it out); the keys of :data:`ROTOR_LOSSES_KEYS` are None unless it is
+    ``rotor_losses``.
+    """
 
     rotors: int
     rotor_diameter_m: float
     power_model: str
     ct: float | None = None
     cp: float | None = None
-    drag_area_m2: float = 0.0
-    cruise_speed_ms: float = 5.0
-    max_airspeed_ms: float = 15.0
-    induced_factor: float = 1.15
+    drag_area_m2: float = _MR["drag_area_m2"]
+    cruise_speed_ms: float = _MR["cruise_speed_ms"]
+    max_airspeed_ms: float = _MR["max_airspeed_ms"]
+    induced_factor: float = _MR["induced_factor"]
     figure_of_merit: float | None = None
     tip_speed_ms: float | None = None
     max_thrust_n: float | None = None
@@ -176,35 +232,24 @@ class Multirotor:
 
 @dataclass(frozen=True)
 class Aircraft:
-    """An aircraft (DESIGN §8) without its battery and payload.
+    """An aircraft (``docs/formats.md``) without its battery and payload.
 
-    Attributes
-    ----------
-    empty_mass_kg : float
-        Everything but battery and payload. [kg]
-    efficiency : float
-        Battery → useful mechanical power, η (not read by the multirotor
-        ``power_model: rotor_losses``, whose ``drive_efficiency`` and motor losses take
-        its place). [unitless]
-    system_power_w : float
-        Avionics and payload electrical load P_S; for ``rotor_losses`` the power drawn
-        with the rotors stopped, P_stop. [W]
-    climb_rate_ms, descent_rate_ms : float
-        Default vertical speeds. [m/s]
-    battery_path : str or None
-        Default pack file, resolved against the aircraft file.
+    Each field but ``battery_path`` (the key ``battery``) and ``path`` (the file it was
+    read from) is the key of :data:`AIRCRAFT_KEYS` of that name: unit and meaning there,
+    defaults from there. The climb and descent rates default to a multirotor's
+    (:data:`DEFAULT_VERTICAL_SPEEDS`); a file without them gets its type's.
     """
 
     name: str
     type: str
     empty_mass_kg: float
     efficiency: float
-    system_power_w: float = 0.0
-    climb_rate_ms: float = 2.5
-    descent_rate_ms: float = 1.5
+    system_power_w: float = _AC["system_power_w"]
+    climb_rate_ms: float = DEFAULT_VERTICAL_SPEEDS["multirotor"][0]
+    descent_rate_ms: float = DEFAULT_VERTICAL_SPEEDS["multirotor"][1]
     battery_path: str | None = None
     max_takeoff_mass_kg: float | None = None
-    efficiency_slope: float = 0.0
+    efficiency_slope: float = _AC["efficiency_slope"]
     efficiency_reference_power_w: float | None = None
     cells_series_allowed: tuple[int, ...] | None = None
     fixed_wing: FixedWing | None = None
@@ -214,6 +259,7 @@ class Aircraft:
 
     @property
     def is_multirotor(self) -> bool:
+        """Whether the aircraft is a multirotor (else fixed-wing)."""
         return self.type == "multirotor"
 
     @property
@@ -224,6 +270,7 @@ class Aircraft:
 
     @property
     def max_airspeed_ms(self) -> float:
+        """Highest airspeed the aircraft flies. [m/s]"""
         return (self.multirotor.max_airspeed_ms if self.is_multirotor
                 else self.fixed_wing.top_airspeed_ms)
 
@@ -232,11 +279,11 @@ class Aircraft:
         """Least airspeed of steady flight. [m/s]
 
         Fixed-wing: the stall speed, else half the cruise airspeed. Multirotor:
-        :data:`MULTIROTOR_MIN_AIRSPEED_MS` (it hovers; the bound keeps the best-speed
-        searches away from zero).
+        :data:`planner.physics.limits.MULTIROTOR_MIN_AIRSPEED_MS` (it hovers; the bound
+        keeps the best-speed searches away from zero).
         """
         if self.is_multirotor:
-            return MULTIROTOR_MIN_AIRSPEED_MS
+            return L.MULTIROTOR_MIN_AIRSPEED_MS
         fw = self.fixed_wing
         return fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
 
@@ -276,18 +323,14 @@ class Aircraft:
                                                 load_factor)
         if not self.efficiency_slope or not self.efficiency_reference_power_w:
             return power
-        # efficiency against load (diagnose's efficiency_curve):
-        # 1/η(M) = 1/η0 − η1/η0² (M/M_ref − 1), M the mechanical power
-        eta0, ps = self.efficiency, self.system_power_w
-        mech = (np.asarray(power, float) - ps) * eta0
-        inv = 1.0 / eta0 - self.efficiency_slope / eta0**2 * (
-            mech / self.efficiency_reference_power_w - 1.0)
-        return mech * np.maximum(inv, 1.0) + ps
+        return load_dependent_battery_power(power, self.efficiency, self.system_power_w,
+                                            self.efficiency_slope,
+                                            self.efficiency_reference_power_w)
 
     def rotor_losses_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0,
                            thrust=None, rotors_turning=True):
         """Battery power of the ``rotor_losses`` multirotor model
-        (:func:`planner.power.rotor_losses.rotor_losses_battery_power`): ``system_power_w``
+        (:func:`planner.physics.power.rotor_losses.rotor_losses_battery_power`): ``system_power_w``
         is the power with the rotors stopped, ``drive_efficiency`` replaces ``efficiency``.
         The reference hover is at ``reference_mass_kg`` (default: ``mass``). [W]"""
         from planner.physics.power import rotor_losses
@@ -336,7 +379,7 @@ class Aircraft:
         return fixed_wing.battery_power(required, self.efficiency, self.system_power_w)
 
     def to_mapping(self, folder: str | Path | None = None) -> dict[str, Any]:
-        """The aircraft as a YAML-ready mapping (DESIGN §8).
+        """The aircraft as a YAML-ready mapping (the keys of :data:`AIRCRAFT_KEYS`).
 
         ``folder``: where the mapping will be written; the ``battery`` path, relative to
         this aircraft's own file, is rewritten relative to it so that the pack is found
@@ -372,51 +415,62 @@ class Aircraft:
 
 
 def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
-    """Validate an aircraft mapping (DESIGN §8) and build the aircraft."""
-    problems: list[str] = []
+    """Validate an aircraft mapping (:data:`AIRCRAFT_KEYS`, then the block of its type)
+    and build the aircraft.
+
+    Raises
+    ------
+    InputError
+        Every problem of the mapping at once, in one line naming ``where`` and each key.
+    """
+    problems = S.Problems(where)
     d = S.check_mapping(data, AIRCRAFT_KEYS, where, problems=problems)
     kind = d["type"]
-    fw = mr = None
+    blocks: dict[str, Any] = {"fixed_wing": None, "multirotor": None}
     if kind in AIRCRAFT_TYPES:
-        other = "multirotor" if kind == "fixed_wing" else "fixed_wing"
-        if d[other] is not None:
-            problems.append(f"'{other}' block given for an aircraft of type '{kind}'")
-        if d[kind] is None:
-            problems.append(f"missing required key '{kind}' (a mapping of the "
-                            f"{kind.replace('_', '-')} parameters)")
-        elif kind == "fixed_wing":
-            fw = _fixed_wing(d[kind], where, problems)
-        else:
-            mr = _multirotor(d[kind], where, problems)
-    allowed = None
-    if d["cells_series_allowed"] is not None:
-        cells = d["cells_series_allowed"]
-        if not cells or not all(isinstance(c, int) and not isinstance(c, bool) and c > 0
-                                for c in cells):
-            problems.append(f"cells_series_allowed must be a list of whole numbers > 0, "
-                            f"got {cells!r}")
-        else:
-            allowed = tuple(cells)
+        blocks[kind] = _type_block(d, kind, where, problems)
+    allowed = _cells_series_allowed(d["cells_series_allowed"], problems)
+    mr = blocks["multirotor"]
     if (mr is not None and mr.power_model == "rotor_losses" and d["efficiency_slope"]
             and data.get("efficiency_slope") is not None):
-        problems.append("efficiency_slope is not used with multirotor.power_model "
-                        "rotor_losses (its no-load and copper losses are how the efficiency "
-                        "changes with load): remove it")
-    if problems:
-        raise InputError(f"{where}: " + "; ".join(problems))
+        problems.add("efficiency_slope is not used with multirotor.power_model "
+                     "rotor_losses (its no-load and copper losses are how the efficiency "
+                     "changes with load): remove it")
+    problems.done()
     climb, descent = DEFAULT_VERTICAL_SPEEDS[kind]
-    return Aircraft(name=d["name"], type=kind, empty_mass_kg=d["empty_mass_kg"],
-                    efficiency=d["efficiency"], system_power_w=d["system_power_w"],
-                    climb_rate_ms=d["climb_rate_ms"] or climb,
-                    descent_rate_ms=d["descent_rate_ms"] or descent,
-                    battery_path=d["battery"], max_takeoff_mass_kg=d["max_takeoff_mass_kg"],
-                    efficiency_slope=d["efficiency_slope"],
-                    efficiency_reference_power_w=d["efficiency_reference_power_w"],
-                    cells_series_allowed=allowed, fixed_wing=fw, multirotor=mr,
-                    source=d["source"], path=where)
+    return Aircraft(**S.fields_from(
+        Aircraft, d, climb_rate_ms=d["climb_rate_ms"] or climb,
+        descent_rate_ms=d["descent_rate_ms"] or descent, battery_path=d["battery"],
+        cells_series_allowed=allowed, **blocks, path=where))
 
 
-def _fixed_wing(data: Any, where: str, problems: list[str]) -> FixedWing | None:
+def _type_block(d: dict, kind: str, where: str, problems: S.Problems):
+    """The block of the aircraft's type, built (None with its problems recorded)."""
+    other = "multirotor" if kind == "fixed_wing" else "fixed_wing"
+    if d[other] is not None:
+        problems.add(f"'{other}' block given for an aircraft of type '{kind}'")
+    if d[kind] is None:
+        problems.add(f"missing required key '{kind}' (a mapping of the "
+                     f"{kind.replace('_', '-')} parameters)")
+        return None
+    build = _fixed_wing if kind == "fixed_wing" else _multirotor
+    return build(d[kind], where, problems)
+
+
+def _cells_series_allowed(cells, problems: S.Problems) -> tuple[int, ...] | None:
+    """``cells_series_allowed`` as a tuple (None where absent or bad)."""
+    if cells is None:
+        return None
+    if not cells or not all(isinstance(c, int) and not isinstance(c, bool) and c > 0
+                            for c in cells):
+        problems.add(f"cells_series_allowed must be a list of whole numbers > 0, "
+                     f"got {cells!r}")
+        return None
+    return tuple(cells)
+
+
+def _fixed_wing(data: Any, where: str, problems: S.Problems) -> FixedWing | None:
+    """The ``fixed_wing:`` block, with its checks across keys (speeds, loiter radius)."""
     n = len(problems)
     bad: set[str] = set()
     d = S.check_mapping(data, FIXED_WING_KEYS, where, "fixed_wing.", problems, bad)
@@ -427,33 +481,33 @@ def _fixed_wing(data: Any, where: str, problems: list[str]) -> FixedWing | None:
     k = d["k"]
     if k is None:
         if d["aspect_ratio"] is None or d["oswald_efficiency"] is None:
-            problems.append("fixed_wing needs 'k' or both 'aspect_ratio' and "
-                            "'oswald_efficiency' (K = 1/(π e AR))")
+            problems.add("fixed_wing needs 'k' or both 'aspect_ratio' and "
+                         "'oswald_efficiency' (K = 1/(π e AR))")
         elif given("aspect_ratio") and given("oswald_efficiency"):
             from planner.physics.power import fixed_wing
             k = float(fixed_wing.induced_drag_factor(d["aspect_ratio"], d["oswald_efficiency"]))
     elif d["aspect_ratio"] is not None:
-        problems.append("fixed_wing: give either 'k' or 'aspect_ratio'/'oswald_efficiency', "
-                        "not both")
+        problems.add("fixed_wing: give either 'k' or 'aspect_ratio'/'oswald_efficiency', "
+                     "not both")
     stall = d["stall_speed_ms"] if given("stall_speed_ms") else None
     cruise = d["cruise_airspeed_ms"] if given("cruise_airspeed_ms") else None
     top = d["max_airspeed_ms"] if given("max_airspeed_ms") else None
     loiter = d["loiter_airspeed_ms"] if given("loiter_airspeed_ms") else None
     if stall is not None and cruise is not None and cruise <= stall:
-        problems.append(f"fixed_wing.cruise_airspeed_ms ({cruise}) must be above "
-                        f"stall_speed_ms ({stall})")
+        problems.add(f"fixed_wing.cruise_airspeed_ms ({cruise}) must be above "
+                     f"stall_speed_ms ({stall})")
     if top is not None and stall is not None and top <= stall:
-        problems.append(f"fixed_wing.max_airspeed_ms must be above the stall speed "
-                        f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {top!r}")
+        problems.add(f"fixed_wing.max_airspeed_ms must be above the stall speed "
+                     f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {top!r}")
     elif top is not None and cruise is not None and top < cruise:
-        problems.append(f"fixed_wing.max_airspeed_ms must be at least the cruise airspeed "
-                        f"(fixed_wing.cruise_airspeed_ms {cruise:g} m/s), got {top!r}")
+        problems.add(f"fixed_wing.max_airspeed_ms must be at least the cruise airspeed "
+                     f"(fixed_wing.cruise_airspeed_ms {cruise:g} m/s), got {top!r}")
     if loiter is not None and stall is not None and loiter <= stall:
-        problems.append(f"fixed_wing.loiter_airspeed_ms must be above the stall speed "
-                        f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {loiter!r}")
+        problems.add(f"fixed_wing.loiter_airspeed_ms must be above the stall speed "
+                     f"(fixed_wing.stall_speed_ms {stall:g} m/s), got {loiter!r}")
     elif loiter is not None and top is not None and loiter > top:
-        problems.append(f"fixed_wing.loiter_airspeed_ms must be at most the maximum airspeed "
-                        f"(fixed_wing.max_airspeed_ms {top:g} m/s), got {loiter!r}")
+        problems.add(f"fixed_wing.loiter_airspeed_ms must be at most the maximum airspeed "
+                     f"(fixed_wing.max_airspeed_ms {top:g} m/s), got {loiter!r}")
     if len(problems) > n:
         return None
     v_loiter = loiter or cruise
@@ -463,21 +517,17 @@ def _fixed_wing(data: Any, where: str, problems: list[str]) -> FixedWing | None:
         radius = max(radius, float(np.ceil(r_min * 10.0)) / 10.0)
     elif radius < r_min:
         above = f", above the stall speed {stall:g} m/s" if stall is not None else ""
-        problems.append(f"fixed_wing.loiter_radius_m must be at least {r_min:.1f} m (a level "
-                        f"turn at the loiter airspeed {v_loiter:g} m/s with at most "
-                        f"{LOITER_BANK_MAX_DEG:g}° of bank{above}), got {radius!r}")
+        problems.add(f"fixed_wing.loiter_radius_m must be at least {r_min:.1f} m (a level "
+                     f"turn at the loiter airspeed {v_loiter:g} m/s with at most "
+                     f"{L.LOITER_BANK_MAX_DEG:g}° of bank{above}), got {radius!r}")
         return None
-    return FixedWing(wing_area_m2=d["wing_area_m2"], cd0=d["cd0"], k=k,
-                     cruise_airspeed_ms=cruise, stall_speed_ms=stall,
-                     max_airspeed_ms=top, loiter_radius_m=radius,
-                     loiter_airspeed_ms=loiter,
-                     propeller_diameter_m=d["propeller_diameter_m"],
-                     propellers=d["propellers"],
-                     propeller_induced_factor=d["propeller_induced_factor"],
-                     propeller_profile_power_w=d["propeller_profile_power_w"])
+    return FixedWing(**S.fields_from(
+        FixedWing, d, k=k, cruise_airspeed_ms=cruise, stall_speed_ms=stall,
+        max_airspeed_ms=top, loiter_radius_m=radius, loiter_airspeed_ms=loiter))
 
 
-def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None:
+def _multirotor(data: Any, where: str, problems: S.Problems) -> Multirotor | None:
+    """The ``multirotor:`` block, with its power model inferred and checked."""
     n = len(problems)
     bad: set[str] = set()
     d = S.check_mapping(data, MULTIROTOR_KEYS, where, "multirotor.", problems, bad)
@@ -486,47 +536,41 @@ def _multirotor(data: Any, where: str, problems: list[str]) -> Multirotor | None
         model = "propeller" if d["ct"] is not None and d["cp"] is not None else "momentum"
     missing = [key for key in POWER_MODEL_KEYS.get(model, ()) if d[key] is None]
     if missing:
-        problems.append(f"multirotor.power_model '{model}' needs "
-                        + " and ".join(f"'multirotor.{m}'" for m in missing))
+        problems.add(f"multirotor.power_model '{model}' needs "
+                     + " and ".join(f"'multirotor.{m}'" for m in missing))
     if (d["ct"] is None) != (d["cp"] is None):
-        problems.append("multirotor: give both 'ct' and 'cp' or neither")
+        problems.add("multirotor: give both 'ct' and 'cp' or neither")
     cruise, top = d["cruise_speed_ms"], d["max_airspeed_ms"]
     if not bad & {"cruise_speed_ms", "max_airspeed_ms"} and cruise > top:
-        problems.append(f"multirotor.cruise_speed_ms must be at most the maximum airspeed "
-                        f"(multirotor.max_airspeed_ms {top:g} m/s), got {cruise!r}")
+        problems.add(f"multirotor.cruise_speed_ms must be at most the maximum airspeed "
+                     f"(multirotor.max_airspeed_ms {top:g} m/s), got {cruise!r}")
     if model in ("momentum", "rotor_losses") and not bad & {"figure_of_merit",
                                                             "induced_factor"}:
         # momentum theory: profile power P0/P_ideal = 1/FM − κ must not be negative
-        from planner.physics.power.momentum import DEFAULT_FIGURE_OF_MERIT
         fm, kappa = d["figure_of_merit"], d["induced_factor"]
         if fm is None and kappa * DEFAULT_FIGURE_OF_MERIT > 1.0:
-            problems.append(f"multirotor.induced_factor must be at most "
-                            f"{1.0 / DEFAULT_FIGURE_OF_MERIT:.3g} with the default "
-                            f"figure of merit {DEFAULT_FIGURE_OF_MERIT:g} (profile power "
-                            f">= 0), got {kappa!r}")
+            problems.add(f"multirotor.induced_factor must be at most "
+                         f"{1.0 / DEFAULT_FIGURE_OF_MERIT:.3g} with the default "
+                         f"figure of merit {DEFAULT_FIGURE_OF_MERIT:g} (profile power "
+                         f">= 0), got {kappa!r}")
         elif fm is not None and kappa * fm > 1.0:
-            problems.append(f"multirotor.figure_of_merit must be at most 1/induced_factor "
-                            f"= {1.0 / kappa:.3g} (profile power >= 0), got {fm!r}")
+            problems.add(f"multirotor.figure_of_merit must be at most 1/induced_factor "
+                         f"= {1.0 / kappa:.3g} (profile power >= 0), got {fm!r}")
     given = [key for key in ROTOR_LOSSES_KEYS if isinstance(data, dict)
              and data.get(key) is not None]
     if model != "rotor_losses" and given:
-        problems.append(", ".join(f"multirotor.{k}" for k in given)
-                        + f" {'is' if len(given) == 1 else 'are'} read only by power_model "
-                        f"rotor_losses (this file's power_model is '{model}')")
+        problems.add(", ".join(f"multirotor.{k}" for k in given)
+                     + f" {'is' if len(given) == 1 else 'are'} read only by power_model "
+                     f"rotor_losses (this file's power_model is '{model}')")
     losses = {key: (d[key] if model == "rotor_losses" else None) for key in ROTOR_LOSSES_KEYS}
     if len(problems) > n:
         return None
-    return Multirotor(**losses, rotors=d["rotors"], rotor_diameter_m=d["rotor_diameter_m"],
-                      power_model=model, ct=d["ct"], cp=d["cp"],
-                      drag_area_m2=d["drag_area_m2"], cruise_speed_ms=d["cruise_speed_ms"],
-                      max_airspeed_ms=d["max_airspeed_ms"], induced_factor=d["induced_factor"],
-                      figure_of_merit=d["figure_of_merit"], tip_speed_ms=d["tip_speed_ms"],
-                      max_thrust_n=d["max_thrust_n"])
+    return Multirotor(**S.fields_from(Multirotor, d, power_model=model, **losses))
 
 
 def load_aircraft(path: str | Path) -> Aircraft:
-    """Load and validate an aircraft YAML file."""
-    return aircraft_from_mapping(S.load_yaml(path), str(path))
+    """Load and validate an aircraft YAML file (:func:`aircraft_from_mapping`)."""
+    return aircraft_from_mapping(files.load_yaml(path, empty_ok=False), str(path))
 
 
 def aspect_ratio_of(path: str | Path) -> float | None:
@@ -558,7 +602,7 @@ def load_aircraft_and_battery(aircraft_path, battery_path=None) -> tuple[Aircraf
         return aircraft, load_battery(battery_path)
     path = default_battery_path(aircraft)
     if path is None:
-        raise InputError(f"{aircraft_path}: no 'battery' key and no --battery given "
+        raise InputError(f"{aircraft_path}: no 'battery' key and no battery pack given "
                          "(expected a battery-pack YAML)")
     if not path.exists():
         raise InputError(f"{aircraft_path}: battery: {aircraft.battery_path} (resolved to "

@@ -1,6 +1,6 @@
 """Pack catalogs for ``select``: a YAML file with a ``packs:`` list, or a folder of packs.
 
-A catalog entry is either a whole pack (the schema of a pack file, DESIGN §8) or a
+A catalog entry is either a whole pack (the keys of a pack file, docs/formats.md) or a
 reference to a pack file, ``{file: ../batteries/x.yaml}`` (path relative to the catalog),
 optionally with its own ``count`` and ``price``: a pack that has a file is described
 there once, and ``select`` and ``check`` fly the same pack.
@@ -12,24 +12,34 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from planner.io import schema as S
 from planner.errors import InputError
-from planner.parameters.pack import BatteryPack, battery_from_mapping, load_battery
+from planner.io import files
+from planner.io import schema as S
+from planner.parameters.pack import (
+    BATTERY_KEYS,
+    BatteryPack,
+    battery_from_mapping,
+    load_battery,
+)
 
 __all__ = ["CATALOG_KEYS", "REFERENCE_KEYS", "catalog_from_mapping", "load_catalog"]
 
 #: Keys of a catalog entry that references a pack file.
 REFERENCE_KEYS = {
-    "file": S.Key(S.TEXT, required=True),
-    "count": S.Key(S.INTEGER, low=1, high=16),
-    "price": S.non_negative(high=1.0e9),
+    "file": S.text("the pack file, relative to the catalog", required=True),
+    # the pack file's own keys, given again to change them for this entry: same bounds
+    "count": replace(BATTERY_KEYS["count"], default=None,
+                     meaning=BATTERY_KEYS["count"].meaning + " (absent: the file's)"),
+    "price": replace(BATTERY_KEYS["price"],
+                     meaning=BATTERY_KEYS["price"].meaning + " (absent: the file's)"),
 }
 
 #: Top-level keys of a catalog file.
 CATALOG_KEYS = {
-    "packs": S.Key(S.LIST, required=True),
-    "name": S.Key(S.TEXT),
-    "source": S.Key(S.TEXT),
+    "packs": S.Key(S.LIST, required=True, meaning=(
+        "the packs: each a pack mapping (the keys of a pack file) or a file reference")),
+    "name": S.text("name of the catalog"),
+    "source": S.text("where the numbers come from"),
 }
 
 
@@ -49,7 +59,8 @@ def _referenced(item: dict, entry: str, base: Path) -> BatteryPack:
 
 def catalog_from_mapping(data: Any, where: str, base_dir: str | Path | None = None
                          ) -> list[BatteryPack]:
-    """Validate a catalog mapping (``packs:`` list of DESIGN §8 packs) and build the packs.
+    """Validate a catalog mapping (``packs:`` list of packs, :data:`CATALOG_KEYS`) and build
+    the packs.
 
     Each pack is validated with :func:`planner.parameters.pack.battery_from_mapping`
     (or loaded from the file it references) under the name ``"{where}: packs[i]"``,
@@ -88,7 +99,7 @@ def load_catalog(path: str | Path) -> list[BatteryPack]:
     Parameters
     ----------
     path : str or Path
-        A catalog file (``packs:`` list of battery mappings, DESIGN §8, each with
+        A catalog file (``packs:`` list of battery mappings, docs/formats.md, each with
         optional ``price`` and ``count``), or a folder whose ``*.yaml``/``*.yml``
         files are single packs or catalogs themselves (read in name order).
 
@@ -98,14 +109,14 @@ def load_catalog(path: str | Path) -> list[BatteryPack]:
     """
     path = Path(path)
     if path.is_dir():
-        files = sorted(p for p in path.iterdir()
+        found = sorted(p for p in path.iterdir()
                        if p.suffix.lower() in (".yaml", ".yml") and p.is_file())
-        if not files:
+        if not found:
             raise InputError(f"{path}: folder holds no pack files (*.yaml)")
         packs, problems = [], []
-        for f in files:
+        for f in found:
             try:
-                data = S.load_yaml(f)
+                data = files.load_yaml(f, empty_ok=False)
                 if isinstance(data, dict) and "packs" in data:
                     packs.extend(catalog_from_mapping(data, str(f)))
                 else:
@@ -115,4 +126,4 @@ def load_catalog(path: str | Path) -> list[BatteryPack]:
         if problems:
             raise InputError("; ".join(problems))
         return packs
-    return catalog_from_mapping(S.load_yaml(path), str(path))
+    return catalog_from_mapping(files.load_yaml(path, empty_ok=False), str(path))

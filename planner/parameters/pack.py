@@ -1,10 +1,12 @@
-"""Battery packs: the integral capacity model's parameters and the pack file (DESIGN §8).
+"""Battery packs: the integral capacity model's parameters and the pack file (docs/formats.md).
 
 :func:`load_battery` is the one reader of pack files. Every file is validated when it is
 loaded and every problem is reported at once in one line naming the file and the key
 (:class:`planner.errors.InputError`); the ``circuit:`` and ``thermal:`` blocks become
 typed objects then (:mod:`planner.parameters.blocks`). ``BATTERY_KEYS`` and ``MODEL_KEYS``
-are the schema, with the bounds of :mod:`planner.physics.limits`.
+declare each key once (type, unit, bound from :mod:`planner.physics.limits`, default,
+meaning): they validate the file, give :class:`BatteryPack` and :class:`IntegralModel`
+their defaults and print the tables of ``docs/formats.md``.
 """
 
 from __future__ import annotations
@@ -16,12 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from planner.io import schema as S
-from planner.physics.battery import integral
 from planner.physics.battery.chemistry import CHEMISTRY_NAMES
-from planner.physics.battery.circuit import CircuitParameters
-from planner.physics.battery.thermal import ThermalParameters
 from planner.errors import InputError
+from planner.io import files
+from planner.io import schema as S
 from planner.parameters.blocks import (
     CircuitBlock,
     circuit_block,
@@ -29,53 +29,78 @@ from planner.parameters.blocks import (
     thermal_from_mapping,
     thermal_to_mapping,
 )
-from planner.physics.limits import CAPACITY_MAX_MAH, CAPACITY_MIN_MAH, DISCHARGE_C_MAX, MASS_MAX_KG
+from planner.physics.battery import integral
+from planner.physics.battery.circuit import CircuitParameters
+from planner.physics.battery.thermal import ThermalParameters
+from planner.physics import limits as L
 from planner.physics.units import AS_PER_MAH
 
 __all__ = ["BATTERY_KEYS", "MODEL_KEYS", "BatteryPack", "IntegralModel",
            "battery_from_mapping", "load_battery"]
 
 BATTERY_KEYS = {
-    "name": S.Key(S.TEXT, required=True),
-    "cells_series": S.Key(S.INTEGER, required=True, low=1, high=40),
-    "cells_parallel": S.Key(S.INTEGER, default=1, low=1, high=100),
-    "capacity_mah": S.between(CAPACITY_MIN_MAH, CAPACITY_MAX_MAH, required=True),
-    "mass_kg": S.positive(required=True, high=MASS_MAX_KG),
-    "max_discharge_c": S.positive(high=DISCHARGE_C_MAX),
-    "internal_resistance_ohm": S.non_negative(high=10.0),
-    "cell_voltage_empty_v": S.Key(S.NUMBER, default=3.5, low=2.0, high=4.2),
-    "usable_fraction": S.Key(S.NUMBER, default=1.0, low=0.0, low_open=True, high=1.0),
-    "model": S.Key(S.MAPPING),
-    "circuit": S.Key(S.MAPPING),
-    "thermal": S.Key(S.MAPPING),
-    "chemistry": S.Key(S.TEXT, default="lipo", choices=CHEMISTRY_NAMES),
-    "price": S.non_negative(high=1.0e9),  # any currency; keeps totals finite
-    "count": S.Key(S.INTEGER, default=1, low=1, high=16),
-    "source": S.Key(S.TEXT),
+    "name": S.text("name shown in the reports", required=True),
+    "cells_series": S.count(L.CELLS_SERIES_MAX, required=True, meaning="cells in series"),
+    "cells_parallel": S.count(L.CELLS_PARALLEL_MAX, default=1, meaning="cells in parallel"),
+    "capacity_mah": S.between(L.CAPACITY_MIN_MAH, L.CAPACITY_MAX_MAH, required=True, unit="mAh",
+                              meaning="nominal capacity of one pack"),
+    "mass_kg": S.positive(required=True, high=L.MASS_MAX_KG, unit="kg",
+                          meaning="mass of one pack"),
+    "max_discharge_c": S.positive(high=L.DISCHARGE_C_MAX, unit="1/h", meaning=(
+        "continuous discharge rating (C rate): the current limit is C × capacity")),
+    "internal_resistance_ohm": S.non_negative(high=L.PACK_RESISTANCE_MAX_OHM, unit="Ω",
+                                              meaning="DC resistance of one pack"),
+    "cell_voltage_empty_v": S.between(L.CELL_CUTOFF_MIN_V, L.CELL_CUTOFF_MAX_V, default=3.5,
+                                      unit="V", meaning="cut-off voltage per cell, under load"),
+    "usable_fraction": S.positive(default=1.0, high=1.0, meaning=(
+        "share of the nominal capacity that may be drawn")),
+    "model": S.block("fitted integral capacity model (table below; absent: the literature "
+                     "start values)"),
+    "circuit": S.block("equivalent circuit per cell (table below)"),
+    "thermal": S.block("lumped thermal model (table below)"),
+    "chemistry": S.text("cell chemistry: its OCV curve, voltage window and cold laws "
+                        "(planner.physics.battery.chemistry)", default="lipo",
+                        choices=CHEMISTRY_NAMES),
+    "price": S.non_negative(high=L.PRICE_MAX, meaning="price of one pack, any currency (for `select`)"),
+    "count": S.count(L.PACKS_MAX, default=1, meaning="identical packs flown in parallel"),
+    "source": S.text("where the numbers come from"),
 }
 
 MODEL_KEYS = {
-    # δ's unit follows ε and β (t = δ P^ε C^β), so only its magnitude is bounded: fitted
-    # and literature values lie near 10–30, and within 1e±20 P^ε C^β stays finite
-    "delta": S.between(1.0e-20, 1.0e20, required=True),
-    "epsilon": S.Key(S.NUMBER, required=True, low=-3.0, high=0.5),
-    "beta": S.Key(S.NUMBER, default=integral.LITERATURE_BETA, low=0.5, high=1.5),
-    # extensions written by `endurance diagnose --out` (DESIGN §6)
-    "temperature_coefficient_per_c": S.Key(S.NUMBER, default=0.0, low=-0.2, high=0.2),
-    "reference_temperature_c": S.Key(S.NUMBER, default=25.0, low=-40, high=80),
-    "fade_per_cycle": S.Key(S.NUMBER, default=0.0, low=-0.01, high=0.05),
-    "cycle": S.Key(S.NUMBER, default=0.0, low=0.0, high=1.0e5),  # LiPo: 300–1000 cycles
+    "delta": S.between(L.INTEGRAL_DELTA_MIN, L.INTEGRAL_DELTA_MAX, required=True, meaning=(
+        "δ of t = δ P^ε C^β ([UAV23] eq. 14), t in s, P in W, C in A s")),
+    "epsilon": S.between(L.INTEGRAL_EPSILON_MIN, L.INTEGRAL_EPSILON_MAX, required=True,
+                         meaning="ε, the power exponent"),
+    "beta": S.between(L.INTEGRAL_BETA_MIN, L.INTEGRAL_BETA_MAX, default=integral.LITERATURE_BETA,
+                      meaning="β, the charge exponent"),
+    # extensions written by `endurance diagnose --out` (docs/diagnose_real_flights.md)
+    "temperature_coefficient_per_c": S.between(
+        -L.CHARGE_TEMPERATURE_COEFF_MAX_PER_C, L.CHARGE_TEMPERATURE_COEFF_MAX_PER_C, default=0.0,
+        unit="1/°C", meaning="relative rise of the charge drawn per °C below the reference"),
+    "reference_temperature_c": S.between(
+        L.MODEL_REFERENCE_TEMPERATURE_MIN_C, L.MODEL_REFERENCE_TEMPERATURE_MAX_C, default=25.0,
+        unit="°C", meaning="reference temperature of `temperature_coefficient_per_c`"),
+    "fade_per_cycle": S.between(L.FADE_PER_CYCLE_MIN, L.FADE_PER_CYCLE_MAX, default=0.0,
+                                unit="1/cycle",
+                                meaning="relative rise of the charge drawn per charge cycle"),
+    "cycle": S.between(0.0, L.CYCLES_MAX, default=0.0, unit="cycles",
+                       meaning="the pack's charge cycles, for `fade_per_cycle`"),
     # parameter covariance of the fit, rows and columns delta, epsilon, beta (written by
     # `endurance fit-battery`; the Monte Carlo of `check --uncertainty` samples it)
-    "covariance": S.Key(S.LIST),
-    "source": S.Key(S.TEXT),
+    "covariance": S.Key(S.LIST, meaning=(
+        "3×3 covariance of δ, ε, β from `endurance fit-battery` (the uncertainty of "
+        "`endurance check` samples it)")),
+    "source": S.text("where the numbers come from"),
 }
+
+_PACK = S.defaults(BATTERY_KEYS)
+_MODEL = S.defaults(MODEL_KEYS)
 
 #: Order of the rows and columns of ``model.covariance``.
 COVARIANCE_PARAMETERS = ("delta", "epsilon", "beta")
 
 
-def check_covariance(value, where: str, problems: list[str]):
+def check_covariance(value, where: str, problems: S.Problems):
     """``model.covariance`` → a 3×3 tuple of tuples, or None with the problem noted.
 
     It must be a symmetric 3×3 matrix of finite numbers (rows and columns δ, ε, β) that is
@@ -87,20 +112,20 @@ def check_covariance(value, where: str, problems: list[str]):
     except (TypeError, ValueError):
         m = None
     if m is None or m.shape != (3, 3):
-        problems.append(f"{key} must be a 3×3 list of numbers (rows and columns delta, "
-                        "epsilon, beta)")
+        problems.add(f"{key} must be a 3×3 list of numbers (rows and columns delta, "
+                     "epsilon, beta)")
         return None
     if not np.all(np.isfinite(m)):
-        problems.append(f"{key} must hold finite numbers")
+        problems.add(f"{key} must hold finite numbers")
         return None
     scale = float(np.max(np.abs(m))) or 1.0
     if not np.allclose(m, m.T, rtol=1e-6, atol=1e-12 * scale):
-        problems.append(f"{key} must be symmetric")
+        problems.add(f"{key} must be symmetric")
         return None
     low = float(np.linalg.eigvalsh(m).min())
     if low < -1e-9 * scale:
-        problems.append(f"{key} is not positive semi-definite (smallest eigenvalue "
-                        f"{low:.3g}): no distribution has it")
+        problems.add(f"{key} is not positive semi-definite (smallest eigenvalue "
+                     f"{low:.3g}): no distribution has it")
         return None
     return tuple(tuple(float(x) for x in row) for row in m)
 
@@ -111,7 +136,10 @@ LITERATURE_MAX_CELLS = 6
 
 @dataclass(frozen=True)
 class IntegralModel:
-    """Parameters of the integral capacity model (DESIGN §5).
+    """Parameters of the integral capacity model ([UAV23] eq. 14) and its extensions.
+
+    Each field but ``literature`` is the key of :data:`MODEL_KEYS` of that name (defaults
+    from there).
 
     Attributes
     ----------
@@ -134,12 +162,12 @@ class IntegralModel:
 
     delta: float
     epsilon: float
-    beta: float = integral.LITERATURE_BETA
+    beta: float = _MODEL["beta"]
     literature: bool = False
-    temperature_coefficient_per_c: float = 0.0
-    reference_temperature_c: float = 25.0
-    fade_per_cycle: float = 0.0
-    cycle: float = 0.0
+    temperature_coefficient_per_c: float = _MODEL["temperature_coefficient_per_c"]
+    reference_temperature_c: float = _MODEL["reference_temperature_c"]
+    fade_per_cycle: float = _MODEL["fade_per_cycle"]
+    cycle: float = _MODEL["cycle"]
     source: str | None = None
     covariance: tuple | None = None
 
@@ -219,6 +247,7 @@ class IntegralModel:
         return np.concatenate(([0.0], np.cumsum(inc)))
 
     def to_mapping(self) -> dict[str, Any]:
+        """The ``model:`` block as a YAML-ready mapping (extensions only where set)."""
         out: dict[str, Any] = {"delta": float(self.delta), "epsilon": float(self.epsilon),
                                "beta": float(self.beta)}
         if self.temperature_coefficient_per_c:
@@ -236,7 +265,13 @@ class IntegralModel:
 
 @dataclass(frozen=True)
 class BatteryPack:
-    """A battery pack (DESIGN §8). Capacity is per pack; ``count`` packs fly in parallel.
+    """A battery pack (``docs/formats.md``). Capacity is per pack; ``count`` packs fly in
+    parallel.
+
+    Each field but ``path`` (the file it was read from) is the key of
+    :data:`BATTERY_KEYS` of that name (unit and meaning there, defaults from there); a
+    pack without ``model`` flies the literature start values
+    (:meth:`IntegralModel.from_literature`).
 
     Attributes
     ----------
@@ -267,17 +302,17 @@ class BatteryPack:
     cells_series: int
     capacity_mah: float
     mass_kg: float
-    cells_parallel: int = 1
+    cells_parallel: int = _PACK["cells_parallel"]
     max_discharge_c: float | None = None
     internal_resistance_ohm: float | None = None
-    cell_voltage_empty_v: float = 3.5
-    usable_fraction: float = 1.0
+    cell_voltage_empty_v: float = _PACK["cell_voltage_empty_v"]
+    usable_fraction: float = _PACK["usable_fraction"]
     model: IntegralModel | None = None
     circuit: CircuitBlock | None = None
     thermal: ThermalParameters | None = None
-    chemistry: str = "lipo"
+    chemistry: str = _PACK["chemistry"]
     price: float | None = None
-    count: int = 1
+    count: int = _PACK["count"]
     source: str | None = None
     path: str | None = None
 
@@ -289,10 +324,12 @@ class BatteryPack:
     # totals over `count` packs in parallel
     @property
     def total_capacity_mah(self) -> float:
+        """Nominal capacity of the installed packs. [mAh]"""
         return self.capacity_mah * self.count
 
     @property
     def total_mass_kg(self) -> float:
+        """Mass of the installed packs. [kg]"""
         return self.mass_kg * self.count
 
     @property
@@ -318,6 +355,7 @@ class BatteryPack:
         return (self.internal_resistance_ohm or 0.0) / self.count
 
     def with_model(self, model: IntegralModel) -> BatteryPack:
+        """A copy of the pack with another integral model."""
         return replace(self, model=model)
 
     def circuit_parameters(self) -> CircuitParameters:
@@ -342,7 +380,7 @@ class BatteryPack:
         return self.thermal
 
     def to_mapping(self, folder: str | Path | None = None) -> dict[str, Any]:
-        """The pack as a YAML-ready mapping (keys of DESIGN §8).
+        """The pack as a YAML-ready mapping (the keys of :data:`BATTERY_KEYS`).
 
         ``folder``: where the mapping will be written; the ``circuit.ocv_csv`` path,
         relative to this pack's own file, is rewritten relative to it.
@@ -356,7 +394,7 @@ class BatteryPack:
                 out[key] = float(getattr(self, key))
         out["cell_voltage_empty_v"] = float(self.cell_voltage_empty_v)
         out["usable_fraction"] = float(self.usable_fraction)
-        if self.chemistry != "lipo":
+        if self.chemistry != _PACK["chemistry"]:
             out["chemistry"] = self.chemistry
         if self.count != 1:
             out["count"] = self.count
@@ -377,7 +415,8 @@ class BatteryPack:
 
 def battery_from_mapping(data: Any, where: str, base_dir: str | Path | None = None
                          ) -> BatteryPack:
-    """Validate a battery mapping (DESIGN §8) and build the pack.
+    """Validate a battery mapping (:data:`BATTERY_KEYS`, :data:`MODEL_KEYS` and the
+    blocks of :mod:`planner.parameters.blocks`) and build the pack.
 
     Parameters
     ----------
@@ -387,34 +426,33 @@ def battery_from_mapping(data: Any, where: str, base_dir: str | Path | None = No
     base_dir : str or Path, optional
         Folder that relative paths in the mapping (``circuit.ocv_csv``) are read from;
         default the folder of ``where``.
+
+    Raises
+    ------
+    InputError
+        Every problem of the mapping at once, in one line naming ``where`` and each key.
     """
-    problems: list[str] = []
+    problems = S.Problems(where)
     d = S.check_mapping(data, BATTERY_KEYS, where, problems=problems)
-    model = None
-    if d["model"] is not None:
-        m = S.check_mapping(d["model"], MODEL_KEYS, where, "model.", problems)
-        cov = (None if m.get("covariance") is None
-               else check_covariance(m["covariance"], where, problems))
-        if not problems:
-            model = IntegralModel(m["delta"], m["epsilon"], m["beta"], literature=False,
-                                  temperature_coefficient_per_c=m["temperature_coefficient_per_c"],
-                                  reference_temperature_c=m["reference_temperature_c"],
-                                  fade_per_cycle=m["fade_per_cycle"], cycle=m["cycle"],
-                                  source=m["source"], covariance=cov)
-    if problems:
-        raise InputError(f"{where}: " + "; ".join(problems))
+    model = None if d["model"] is None else _model(d["model"], where, problems)
+    problems.done()
     circuit = None if d["circuit"] is None else circuit_block(d["circuit"], where, base_dir)
     thermal = None if d["thermal"] is None else thermal_from_mapping(d["thermal"], where)
-    return BatteryPack(name=d["name"], cells_series=d["cells_series"],
-                       cells_parallel=d["cells_parallel"], capacity_mah=d["capacity_mah"],
-                       mass_kg=d["mass_kg"], max_discharge_c=d["max_discharge_c"],
-                       internal_resistance_ohm=d["internal_resistance_ohm"],
-                       cell_voltage_empty_v=d["cell_voltage_empty_v"],
-                       usable_fraction=d["usable_fraction"], model=model,
-                       circuit=circuit, thermal=thermal, chemistry=d["chemistry"],
-                       price=d["price"], count=d["count"], source=d["source"], path=where)
+    return BatteryPack(**S.fields_from(BatteryPack, d, model=model, circuit=circuit,
+                                       thermal=thermal, path=where))
+
+
+def _model(data: dict, where: str, problems: S.Problems) -> IntegralModel | None:
+    """The ``model:`` block (None with its problems recorded)."""
+    n = len(problems)
+    m = S.check_mapping(data, MODEL_KEYS, where, "model.", problems)
+    cov = (None if m["covariance"] is None
+           else check_covariance(m["covariance"], where, problems))
+    if len(problems) > n:
+        return None
+    return IntegralModel(**S.fields_from(IntegralModel, m, covariance=cov, literature=False))
 
 
 def load_battery(path: str | Path) -> BatteryPack:
-    """Load and validate a battery-pack YAML file."""
-    return battery_from_mapping(S.load_yaml(path), str(path))
+    """Load and validate a battery-pack YAML file (:func:`battery_from_mapping`)."""
+    return battery_from_mapping(files.load_yaml(path, empty_ok=False), str(path))

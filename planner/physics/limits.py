@@ -67,3 +67,110 @@ DRIVE_EFFICIENCY_MIN = 0.3
 #: replay correct for: sensor buses of small UAVs are synchronised to about 0.1–0.3 s; a
 #: lead beyond 1 s is a clock error, not a delay. [s]
 POWER_LEAD_MAX_S = 1.0
+
+# ---------------------------------------------------------------------------------------
+# Bounds of the other keys of the definition files (planner.parameters key tables). Each
+# is a sanity bound on input: far outside what flies, so that a typo or a unit slip is
+# refused with the file and the key named instead of running on.
+
+#: Reciprocal-efficiency slope η1 of the efficiency-against-load curve: η stays in (0, 1],
+#: so over the ±100 % of load the reference spans, |η1| of more than 1 would carry it out
+#: of that range. [unitless]
+EFFICIENCY_SLOPE_MAX = 1.0
+#: Least reference mechanical power of the efficiency curve: no aircraft flies on 1 W. [W]
+REFERENCE_POWER_MIN_W = 1.0
+#: Zero-lift drag coefficient: flying airframes lie at 0.01–0.1; a flat plate across the
+#: flow has about 1.2, so 0.5 is no wing. [unitless]
+CD0_MAX = 0.5
+#: Induced-drag factor K = 1/(π e AR): 0.02–0.1 for UAV wings (AR 6–20, e 0.7–0.9); 1 is
+#: an aspect ratio of about 0.3. [unitless]
+INDUCED_DRAG_FACTOR_MAX = 1.0
+#: Aspect ratio: below 1 a planform is no wing; sailplanes reach 50 (eta: 51). [unitless]
+ASPECT_RATIO_MIN, ASPECT_RATIO_MAX = 1.0, 60.0
+#: Oswald efficiency e: 1 is the elliptic ideal, measured wings lie at 0.6–0.9; 0.3 is far
+#: below any wing. [unitless]
+OSWALD_EFFICIENCY_MIN = 0.3
+#: Propellers of a fixed-wing aircraft: one to four on most UAVs, 14 on NASA's X-57
+#: Maxwell wing. [count]
+PROPELLERS_MAX = 16
+#: Induced-power factor κ of a propeller in forward flight (1 = ideal momentum theory):
+#: a non-uniform, lightly loaded inflow raises it above the 1.1–1.25 of hovering rotors;
+#: 3 leaves room for poor fits. [unitless]
+PROPELLER_INDUCED_FACTOR_MAX = 3.0
+#: Induced-power factor κ of a hovering multirotor rotor: 1.1–1.25 measured (Leishman,
+#: Principles of Helicopter Aerodynamics, 2nd ed., 2006, ch. 3); 2 would double the ideal
+#: induced power. [unitless]
+ROTOR_INDUCED_FACTOR_MAX = 2.0
+#: Rotors of a multirotor: up to eight on most, 18 on the Volocopter 2X. [count]
+ROTORS_MAX = 32
+#: Upper end of the static propeller coefficients C_T and C_P (rev/s convention), five to
+#: ten times the 0.05–0.2 and 0.02–0.1 of small propellers (Brandt and Selig 2011). [unitless]
+CT_MAX, CP_MAX = 1.0, 1.0
+#: Drag area f = C_D A of a multirotor's body: small quadcopters have 0.01–0.05 m²; a
+#: 1000 kg multicopter of 3 m² frontal area at C_D 1 has 3 m². [m²]
+DRAG_AREA_MAX_M2 = 10.0
+#: Least rotor figure of merit: FM ≤ 1 by definition, small rotors reach 0.5–0.75; below
+#: 0.2 the profile power would be four times the ideal. [unitless]
+FIGURE_OF_MERIT_MIN = 0.2
+#: Cells in series: UAV packs run 1S–14S, heavy lifters up to 24S; 40 LiPo cells are
+#: 168 V at full charge. [count]
+CELLS_SERIES_MAX = 40
+#: Cells in parallel: packs built of 18650 or 21700 cells reach tens in parallel. [count]
+CELLS_PARALLEL_MAX = 100
+#: Identical packs flown in parallel: one or two on most UAVs, up to 12 on heavy
+#: lifters. [count]
+PACKS_MAX = 16
+#: Resistance of a pack: LiPo cells have 2–20 mΩ, so a 40-cell string of 50 mΩ cells has
+#: 2 Ω. [Ω]
+PACK_RESISTANCE_MAX_OHM = 10.0
+#: Cut-off cell voltage under load: LiPo 3.0–3.5 V, LiFePO4 2.0–2.5 V; at 4.2 V (a full
+#: LiPo) nothing could be drawn. [V]
+CELL_CUTOFF_MIN_V, CELL_CUTOFF_MAX_V = 2.0, 4.2
+#: Price of a pack, in any currency: keeps the totals of ``select`` finite. [currency]
+PRICE_MAX = 1.0e9
+#: The integral model's δ (t = δ P^ε C^β): its unit follows ε and β, so only its magnitude
+#: is bounded; fitted and literature values lie near 10–30, and within 1e±20 P^ε C^β stays
+#: finite. [unit of t P^-ε C^-β]
+INTEGRAL_DELTA_MIN, INTEGRAL_DELTA_MAX = 1.0e-20, 1.0e20
+#: The integral model's power exponent ε: about −1 (the discharge time halves as the
+#: power doubles); fits on LiPo packs give −1.0 to −1.3. [unitless]
+INTEGRAL_EPSILON_MIN, INTEGRAL_EPSILON_MAX = -3.0, 0.5
+#: The integral model's charge exponent β: 0.9648 in [UAV23] eq. 16–17, 1 in the Peukert
+#: form. [unitless]
+INTEGRAL_BETA_MIN, INTEGRAL_BETA_MAX = 0.5, 1.5
+#: Relative change of the charge drawn per °C below the reference temperature (diagnose's
+#: temperature effect): LiPo packs lose about 0.5–1 %/°C. [1/°C]
+CHARGE_TEMPERATURE_COEFF_MAX_PER_C = 0.2
+#: Reference temperature of the integral model's extensions: the temperatures a pack is
+#: flown and stored at. [°C]
+MODEL_REFERENCE_TEMPERATURE_MIN_C, MODEL_REFERENCE_TEMPERATURE_MAX_C = -40.0, 80.0
+#: Relative rise of the charge drawn per charge cycle: a LiPo pack loses about 20 % over
+#: 300–1000 cycles (0.02–0.07 %/cycle); a negative value (a pack that gains) is a fit
+#: within its error. [1/cycle]
+FADE_PER_CYCLE_MIN, FADE_PER_CYCLE_MAX = -0.01, 0.05
+#: Charge cycles of a pack: LiPo packs last 300–1000 cycles. [cycles]
+CYCLES_MAX = 1.0e5
+#: Capacity of one cell of the equivalent circuit: far above any flight cell (a 21700 cell
+#: holds 5 A h, the largest prismatic cells some hundreds). [A h]
+CELL_CAPACITY_MAX_AH = 2000.0
+#: A resistance of the equivalent circuit per cell (R1): cells have 1–50 mΩ. [Ω]
+CELL_RESISTANCE_MAX_OHM = 10.0
+#: Largest hysteresis voltage M: LiPo cells show tens of mV, LiFePO4 cells some 50 mV. [V]
+HYSTERESIS_MAX_V = 0.5
+#: Largest hysteresis rate γ: the hysteresis settles within some 3 Q/γ of charge; at 1e5
+#: that is a few millionths of the capacity. [unitless]
+HYSTERESIS_GAMMA_MAX = 1.0e5
+#: Arrhenius activation energy of R0: electrode reactions and the electrolyte lie near
+#: 17–60 kJ/mol. [J/mol]
+ACTIVATION_ENERGY_MAX_J_MOL = 200_000.0
+#: Capacity loss per °C below the reference temperature: about 0.6 %/°C for Li-ion cells
+#: down to −20 °C (Zhang, Xu and Jow 2003); 2 %/°C would leave nothing at −25 °C. [1/°C]
+CAPACITY_TEMP_COEFF_MAX_PER_C = 0.02
+#: Series resistance (ESR) of one supercapacitor cell: large cells have 0.1–1 mΩ, the
+#: smallest coin cells some tens of Ω. [Ω]
+SUPERCAP_ESR_MAX_OHM = 100.0
+#: Rated voltage of one supercapacitor cell: 2.5–3.0 V for EDLC cells, about 3.8 V for
+#: lithium-ion capacitors. [V]
+SUPERCAP_VOLTAGE_MAX_V = 10.0
+#: Supercapacitor cells in series: a 1000 V bank of 2.7 V cells has 370. [count]
+SUPERCAP_CELLS_SERIES_MAX = 500

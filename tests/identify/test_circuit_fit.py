@@ -24,7 +24,7 @@ from planner.errors import FitError
 from planner.parameters.blocks import circuit_from_mapping, circuit_to_mapping
 
 TRUE = CircuitParameters(capacity_ah=5.0,
-                         r0_ohm={"soc": [0.0, 0.5, 1.0], "ohm": [0.012, 0.008, 0.009]},
+                         r0_ohm=([0.0, 0.5, 1.0], [0.012, 0.008, 0.009]),
                          r1_ohm=0.004, c1_f=7500.0, hysteresis_v=0.005, hysteresis_gamma=20.0)
 
 

@@ -135,7 +135,7 @@ def _fit_circuit_rates(mapping: dict, experiments, result: fit.IntegralFit,
     (:func:`identify.fit_rate_discharges`) and its score on the validation experiments."""
     from planner.identify import circuit_fit as identify
     from planner.physics.battery.circuit import CircuitParameters, simulate
-    from planner.parameters.ocv import write_ocv_csv
+    from planner.io.tables import write_ocv_csv
 
     ns, npar = int(mapping["cells_series"]), int(mapping.get("cells_parallel", 1))
     by_name = {e.name: e for e in experiments}
@@ -633,7 +633,7 @@ def run_bench(args) -> int:
               f"{np.trapezoid(p, t) / t[-1]:10.1f} {row.charge_mah:11.0f}  "
               f"{'cut-off' if row.tripped else 'end of schedule'}")
     if out:
-        record.write_record(records, out)
+        record.write_record(records, out, option="--out")
         print(f"wrote {out} ({len(records)} samples)")
     if args.report:
         report = campaign.cross_validate(records)

@@ -30,7 +30,8 @@ def export(log: str | Path, csv: str | Path, *, map: str | Path | None = None,
 
     # a voltage-only log (no current sensor) is exported as it is: the reader said once
     # that its charge and power cannot be replayed
-    write_record(df, csv, require_power=require_battery and not voltage_only(df))
+    write_record(df, csv, require_power=require_battery and not voltage_only(df),
+                 option="--csv")
     channels = [c for c in df.columns if c not in ("experiment", "time_s")]
     n_exp = df["experiment"].nunique() if "experiment" in df else 1
     if n_exp > 1:

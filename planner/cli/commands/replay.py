@@ -74,7 +74,8 @@ def run(args) -> int:
         from planner.io.record import write_record
         from planner.identify.replay import replay_table
         from planner.io.record import has_power
-        write_record(replay_table(data, result), csv_out, require_power=has_power(data))
+        write_record(replay_table(data, result), csv_out, require_power=has_power(data),
+                     option="--csv")
     if plot_out:
         from planner.cli.plots import common as plots
         plots.save_replay_plot(result, plot_out)

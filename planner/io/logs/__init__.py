@@ -1,4 +1,4 @@
-"""Log readers: every supported log format → the flight record (DESIGN §4).
+"""Log readers: every supported log format → the flight record (``docs/record.md``).
 
 :func:`read_log` picks the reader from the file's first bytes (the extension
 only breaks ties) and returns ``(DataFrame, metadata)`` like pvlib's iotools:
@@ -135,7 +135,7 @@ def detect_format(path: str | os.PathLike, *, csv_ok: bool = False) -> str:
         return "csv"
     if _looks_like_text(head):
         raise InputError(f"{path}: a text file, not a recognised log; a CSV file needs a "
-                         ".csv name (and --map for columns other than the flight record's)")
+                         ".csv name (and a column map for columns other than the flight record's)")
     raise InputError(f"{path}: not a recognised log (ArduPilot .bin, PX4 .px4log/.ulg, "
                      f"MAVLink .tlog or CSV); first bytes {head[:8].hex(' ')}")
 

@@ -6,7 +6,7 @@ field, in the reader's own clock, seconds) and hands them to
 each flight-record column to an ordered tuple of :class:`Field` sources; the
 first source whose message and field(s) exist and hold data wins. Then
 :func:`build_record` puts every channel onto the time base (see
-:mod:`planner.io.logs` for the rule) and returns the DESIGN §4 DataFrame.
+:mod:`planner.io.logs` for the rule) and returns the flight-record DataFrame (docs/record.md).
 """
 
 from __future__ import annotations
@@ -23,13 +23,25 @@ import pandas as pd
 
 from planner.errors import InputError
 from planner.io.record import NO_CURRENT_NOTE, COLUMNS, cumulative_trapezoid, interpolate_onto
+from planner.physics.limits import CELLS_SERIES_MAX
+from planner.physics.units import AS_PER_MAH
 
 #: Columns that come from the battery message (they define the time base).
 BATTERY_COLUMNS = ("voltage_v", "current_a", "consumed_mah", "temperature_c")
 #: Step-like channels: previous-value interpolation, held after the last sample.
 STATE_COLUMNS = ("mode",)
-#: Below this horizontal speed a course computed from velocity components is NaN. [m/s]
-COURSE_MIN_SPEED = 0.2
+#: Below this horizontal speed a course computed from velocity components is NaN: at rest
+#: (hovering) the direction of travel is undefined. [m/s]
+COURSE_MIN_SPEED_MS = 0.2
+
+
+def course_deg(north, east, speed) -> np.ndarray:
+    """Course of a velocity, degrees from north, clockwise, in [0, 360); NaN where
+    ``speed`` (the horizontal speed, m/s) is below :data:`COURSE_MIN_SPEED_MS`.
+    ``north``, ``east``: the velocity components (any one unit). [deg]"""
+    course = np.degrees(np.arctan2(east, north)) % 360.0
+    course[np.asarray(speed) < COURSE_MIN_SPEED_MS] = np.nan
+    return course
 
 
 def _outside_stacklevel() -> int:
@@ -63,7 +75,7 @@ class Field:
         ``hypot``: √(a² + b²) of two fields (speed from velocity components);
         ``course``: ``atan2(east, north)`` in degrees 0..360 from fields
         ``(north, east)``; ``scale`` then only converts the components to m/s
-        for the rule that course is NaN below ``COURSE_MIN_SPEED`` (undefined
+        for the rule that course is NaN below ``COURSE_MIN_SPEED_MS`` (undefined
         at rest).
     int_scale : float, optional
         DataFlash only: the scale to use instead when the field is stored as an
@@ -94,9 +106,11 @@ class Field:
 
     @property
     def fields(self) -> tuple[str, ...]:
+        """The message field(s) read, as a tuple."""
         return self.field if isinstance(self.field, tuple) else (self.field,)
 
     def describe(self) -> str:
+        """``message.field`` (or ``message.op(a,b)``), for the metadata's ``channels``."""
         f = "+".join(self.fields) if self.op is None else f"{self.op}({','.join(self.fields)})"
         return f"{self.message}.{f}"
 
@@ -124,6 +138,7 @@ class Channel:
 
     @property
     def rate_hz(self) -> float | None:
+        """Mean sample rate of the channel (None with fewer than two samples). [Hz]"""
         if len(self.t) < 2:
             return None
         span = float(self.t[-1] - self.t[0])
@@ -202,14 +217,31 @@ def serial_or_none(value) -> str | None:
 
 
 def cells_or_none(value) -> int | None:
-    """Series cell count parameter; missing, non-finite or outside 1–40 means unset."""
+    """Series cell count parameter; missing, non-finite or outside 1 to
+    :data:`~planner.physics.limits.CELLS_SERIES_MAX` means unset."""
     try:
         v = float(value)
     except (TypeError, ValueError):
         return None
-    if not math.isfinite(v) or not 1 <= round(v) <= 40:
+    if not math.isfinite(v) or not 1 <= round(v) <= CELLS_SERIES_MAX:
         return None
     return round(v)
+
+
+def battery_meta(meta: Meta, params: Mapping, *, capacity=(), cells=(), serial=()) -> None:
+    """The pack's ``battery_capacity_mah``, ``battery_cells`` and ``battery_serial`` in
+    ``meta`` from the log's parameters: each from the first of its parameter names the log
+    holds (firmware versions name them differently); a kind without names is left as
+    it is."""
+    def first(names):
+        return next((params[n] for n in names if n in params), None)
+
+    if capacity:
+        meta["battery_capacity_mah"] = capacity_or_none(first(capacity))
+    if cells:
+        meta["battery_cells"] = cells_or_none(first(cells))
+    if serial:
+        meta["battery_serial"] = serial_or_none(first(serial))
 
 
 def _apply(f: Field, msg: Message) -> np.ndarray:
@@ -227,8 +259,7 @@ def _apply(f: Field, msg: Message) -> np.ndarray:
     elif f.op == "hypot":
         v = np.hypot(vals[0], vals[1]) * f.scale + f.offset
     elif f.op == "course":
-        v = np.degrees(np.arctan2(vals[1], vals[0])) % 360.0
-        v[np.hypot(vals[0], vals[1]) * f.scale < COURSE_MIN_SPEED] = np.nan
+        v = course_deg(vals[0], vals[1], np.hypot(vals[0], vals[1]) * f.scale)
     else:  # pragma: no cover - a FIELD_MAP bug
         raise ValueError(f"unknown op {f.op!r}")
     return v
@@ -242,7 +273,8 @@ def resolve_channels(field_map: Mapping[str, tuple[Field, ...]],
     """Pick, for every column of ``field_map``, the first source with data.
 
     ``get(message_name)`` returns the decoded :class:`Message` or ``None``.
-    The ``mode`` column is passed through ``mode_names(raw, field)``.
+    The ``mode`` column is passed through ``mode_names(raw, field)``; ``throttle`` is
+    clipped to [0, 1].
     """
     out: dict[str, Channel] = {}
     for column, sources in field_map.items():
@@ -277,6 +309,8 @@ def resolve_channels(field_map: Mapping[str, tuple[Field, ...]],
             out[column] = Channel(column, np.asarray(msg.t, float)[keep], vals,
                                   f.describe(), msg.name)
             break
+    if "throttle" in out:  # 0..1 by definition of the record; PWM-derived values overshoot
+        out["throttle"].values = np.clip(out["throttle"].values, 0.0, 1.0)
     return out
 
 
@@ -353,21 +387,7 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
         Without battery voltage/current: raise :class:`InputError` (default),
         or use the fastest other channel as the time base.
     """
-    if base is None:
-        base = next((c for c in ("current_a", "voltage_v") if c in channels), None)
-    if base is None:
-        if require_battery:
-            raise InputError(f"{meta.source}: no battery voltage/current in this log; "
-                             "expected a log with battery data (export --allow-no-battery "
-                             "reads the other channels)")
-        if not channels:
-            raise InputError(f"{meta.source}: no usable data in this log")
-        cont = [c for c in channels.values() if c.column not in STATE_COLUMNS] or \
-            list(channels.values())
-        base = max(cont, key=lambda c: len(c.t)).column
-        meta.warn(f"{meta.source}: no battery voltage/current; time base is the "
-                  f"{channels[base].message} stream")
-    base_ch = channels[base]
+    base_ch = channels[_time_base(channels, meta, base, require_battery)]
     dropped: dict[str, int] = {}
     keep = _clean(base_ch, meta, dropped)
     if len(keep) == 0:
@@ -377,43 +397,85 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
                                    "time_s": t0_abs - t0_abs[0]}
     for column in COLUMNS:
         ch = channels.get(column)
-        if ch is None:
-            continue
-        if ch.message == base_ch.message and len(ch.t) == len(base_ch.t) and \
-                np.array_equal(ch.t, base_ch.t):
-            vals = np.asarray(ch.values)[keep]
-        else:
-            good = _clean(ch, meta, dropped)
-            t_ch, v_ch = ch.t[good], np.asarray(ch.values)[good]
-            if column in STATE_COLUMNS:
-                vals = interpolate_onto(t0_abs, t_ch, v_ch, "previous", hold_last=True)
-            else:
-                dt = np.diff(t_ch)
-                max_gap = max(2.0, 10.0 * float(np.median(dt))) if len(dt) else None
-                vals = interpolate_onto(t0_abs, t_ch, v_ch, "linear", max_gap_s=max_gap)
-        if column in STATE_COLUMNS:
-            if all(v is None for v in vals):
-                continue
-        elif not np.isfinite(np.asarray(vals, float)).any():
-            continue
-        if column == "temperature_c":
-            v = np.asarray(vals, float)
-            v[v == 0.0] = np.nan        # 0 °C exactly = no sensor on these autopilots
-            if not np.isfinite(v).any():
-                continue
-            vals = v
-        if column == "consumed_mah":
-            v = np.asarray(vals, float)
-            ok = np.flatnonzero(np.isfinite(v))
-            vals = v - v[ok[0]]      # autopilot counters count from boot
-        cols[column] = vals
-        meta["channels"][column] = ch.source
-        meta["rates_hz"][column] = ch.rate_hz
+        vals = None if ch is None else _on_time_base(ch, base_ch, keep, t0_abs, meta, dropped)
+        if vals is not None:
+            cols[column] = vals
+            meta["channels"][column] = ch.source
+            meta["rates_hz"][column] = ch.rate_hz
     if dropped:
         meta.warn(f"{meta.source}: dropped sample(s) whose time is missing, out of order or "
                   "beyond a gap of more than 6 h "
                   "(damaged data or a clock reset): "
                   + ", ".join(f"{n} {m}" for m, n in dropped.items()))
+    _battery_columns(cols, meta)
+    text = {"experiment", "mode"}
+    df = pd.DataFrame({c: (pd.array(cols[c], dtype="str") if c in text else cols[c])
+                       for c in COLUMNS if c in cols})
+    meta["samples"] = len(df)
+    meta["duration_s"] = float(cols["time_s"][-1]) if len(df) else 0.0
+    meta["time_base"] = base_ch.source.split(".")[0]
+    meta["time_base_start_s"] = float(t0_abs[0])
+    return df
+
+
+def _time_base(channels: dict[str, Channel], meta: Meta, base: str | None,
+               require_battery: bool) -> str:
+    """The column whose samples are the record's rows: the battery's current (else its
+    voltage); without battery data the fastest other stream, or an error."""
+    if base is None:
+        base = next((c for c in ("current_a", "voltage_v") if c in channels), None)
+    if base is not None:
+        return base
+    if require_battery:
+        raise InputError(f"{meta.source}: no battery voltage/current in this log; "
+                         "expected a log with battery data (an export that allows no "
+                         "battery reads the other channels)")
+    if not channels:
+        raise InputError(f"{meta.source}: no usable data in this log")
+    cont = [c for c in channels.values() if c.column not in STATE_COLUMNS] or \
+        list(channels.values())
+    base = max(cont, key=lambda c: len(c.t)).column
+    meta.warn(f"{meta.source}: no battery voltage/current; time base is the "
+              f"{channels[base].message} stream")
+    return base
+
+
+def _on_time_base(ch: Channel, base_ch: Channel, keep: np.ndarray, t0_abs: np.ndarray,
+                  meta: Meta, dropped: dict) -> np.ndarray | None:
+    """A channel on the time base (see :mod:`planner.io.logs`); None when it holds no
+    value there."""
+    column = ch.column
+    if ch.message == base_ch.message and len(ch.t) == len(base_ch.t) and \
+            np.array_equal(ch.t, base_ch.t):
+        vals = np.asarray(ch.values)[keep]
+    else:
+        good = _clean(ch, meta, dropped)
+        t_ch, v_ch = ch.t[good], np.asarray(ch.values)[good]
+        if column in STATE_COLUMNS:
+            vals = interpolate_onto(t0_abs, t_ch, v_ch, "previous", hold_last=True)
+        else:
+            dt = np.diff(t_ch)
+            max_gap = max(2.0, 10.0 * float(np.median(dt))) if len(dt) else None
+            vals = interpolate_onto(t0_abs, t_ch, v_ch, "linear", max_gap_s=max_gap)
+    if column in STATE_COLUMNS:
+        return None if all(v is None for v in vals) else vals
+    if not np.isfinite(np.asarray(vals, float)).any():
+        return None
+    if column == "temperature_c":
+        v = np.asarray(vals, float)
+        v[v == 0.0] = np.nan        # 0 °C exactly = no sensor on these autopilots
+        return v if np.isfinite(v).any() else None
+    if column == "consumed_mah":
+        v = np.asarray(vals, float)
+        ok = np.flatnonzero(np.isfinite(v))
+        return v - v[ok[0]]         # autopilot counters count from boot
+    return vals
+
+
+def _battery_columns(cols: dict, meta: Meta) -> None:
+    """Power (V·I) and charge drawn (∫I dt) where the log gives none; without a current
+    sensor, the autopilot's dead charge counter dropped and the record said not
+    replayable."""
     if "voltage_v" in cols and "current_a" not in cols and "power_w" not in cols:
         # no current sensor (PX4 logs current −1, ArduPilot no CURR): the autopilot's
         # consumed-charge counter then stays at zero and means nothing
@@ -427,13 +489,5 @@ def build_record(channels: dict[str, Channel], meta: Meta, *, experiment: str,
                                                                             float)
         meta["channels"]["power_w"] = "voltage_v * current_a"
     if "consumed_mah" not in cols and "current_a" in cols:
-        cols["consumed_mah"] = cumulative_trapezoid(cols["current_a"], cols["time_s"]) / 3.6
+        cols["consumed_mah"] = cumulative_trapezoid(cols["current_a"], cols["time_s"]) / AS_PER_MAH
         meta["channels"]["consumed_mah"] = "trapezoid integral of current_a"
-    text = {"experiment", "mode"}
-    df = pd.DataFrame({c: (pd.array(cols[c], dtype="str") if c in text else cols[c])
-                       for c in COLUMNS if c in cols})
-    meta["samples"] = len(df)
-    meta["duration_s"] = float(cols["time_s"][-1]) if len(df) else 0.0
-    meta["time_base"] = base_ch.source.split(".")[0]
-    meta["time_base_start_s"] = float(t0_abs[0])
-    return df

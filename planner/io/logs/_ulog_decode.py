@@ -251,6 +251,34 @@ def _dtype(name: str, formats: dict, memo: dict) -> np.dtype:
     return np.dtype([(f, TYPES[t][0]) for f, t in fields]).newbyteorder("<")
 
 
+_SKIPPED = (IndexError, ValueError, KeyError, OverflowError, struct.error)
+
+
+@dataclass
+class _Defs:
+    """What the definitions section holds, and where the data section starts."""
+
+    end: int
+    formats: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+    params: dict = field(default_factory=dict)
+    appended: list = field(default_factory=list)
+
+
+@dataclass
+class _Messages:
+    """The data section's messages of known type: offset, payload size and type of each."""
+
+    offs: np.ndarray
+    sizes: np.ndarray
+    types: np.ndarray
+    truncated: int = -1
+
+    def of(self, kind: str) -> np.ndarray:
+        """Indices of the messages of one type (``"A"``, ``"D"``, …)."""
+        return np.flatnonzero(self.types == ord(kind))
+
+
 def decode(buf: bytes, topics) -> ULogFile:
     """Decode a ULog file's bytes (module notes); ``topics``: the topic names wanted.
 
@@ -263,17 +291,23 @@ def decode(buf: bytes, topics) -> ULogFile:
         raise ULogError("Invalid file format (Header too short)")
     if buf[:7] != HEADER_BYTES:
         raise ULogError("Invalid file format (Failed to parse header)")
-    wanted = set(topics)
     arr = np.frombuffer(buf, np.uint8)
-    n = len(buf)
-    formats: dict[str, list] = {}
-    info: dict = {}
-    params: dict = {}
-    problems: list[str] = []
-    corrupt = False
-    appended: list[int] = []
+    out = ULogFile(data_list=[], initial_parameters={}, msg_info_dict={})
+    defs = _definitions(buf, out)
+    out.initial_parameters, out.msg_info_dict = defs.params, defs.info
+    msgs = _data_section(arr, defs, out)
+    _data_info(buf, msgs, out)
+    subs, filtered = _subscriptions(buf, msgs, set(topics), defs.formats, out)
+    out.data_list = _topics(arr, msgs, subs, filtered, out)
+    out.truncated_bytes = 0 if msgs.truncated < 0 else len(buf) - msgs.truncated
+    return out
 
-    # ---------------------------------------------------------------- definitions
+
+def _definitions(buf: bytes, out: ULogFile) -> _Defs:
+    """The info, format, parameter and flag messages before the first data-section
+    message; a bad one is skipped as corruption, as pyulog does."""
+    n = len(buf)
+    defs = _Defs(end=16)
     o = 16
     while o + 3 <= n:
         size, typ = struct.unpack_from("<HB", buf, o)
@@ -284,41 +318,48 @@ def decode(buf: bytes, topics) -> ULogFile:
         try:
             if typ == ord("I"):
                 _, key, value = _info(data)
-                info[key] = value
+                defs.info[key] = value
             elif typ == ord("F"):
                 name, fields = _parse_format(data)
-                formats[name] = fields
+                defs.formats[name] = fields
             elif typ == ord("P"):
                 _, key, value = _info(data)
-                params[key] = value
-            elif typ in (ord("M"), ord("Q")):
-                pass                                   # multi-info, defaults: not needed
+                defs.params[key] = value
             elif typ == ord("B"):
-                if size < 40:
-                    raise IndexError("flag bits message too short")
-                incompat = data[8:16]
-                offsets = [v for v in struct.unpack_from("<3Q", data, 16)]
-                while offsets and offsets[-1] == 0:
-                    offsets.pop()
-                if incompat[0] & ~1 or any(incompat[1:]):
-                    raise ULogError("Unknown incompatible flag set: cannot parse the log")
-                if incompat[0] & 1:
-                    appended = offsets
-            elif typ == 0 or size == 0 or size > 10000:
-                corrupt = True
+                defs.appended = _flag_bits(data, size) or defs.appended
+            elif typ not in (ord("M"), ord("Q")) and (typ == 0 or size == 0 or size > 10000):
+                out.file_corruption = True        # (multi-info, defaults: not needed)
                 nxt = o + 1
         except ULogError:
             raise
-        except (IndexError, ValueError, KeyError, OverflowError, struct.error):
-            if not corrupt:
-                problems.append("file corruption detected while reading the definitions")
-            corrupt = True
+        except _SKIPPED:
+            if not out.file_corruption:
+                out.problems.append("file corruption detected while reading the definitions")
+            out.file_corruption = True
         o = nxt
+    defs.end = o
+    return defs
 
-    # ---------------------------------------------------------------- data section
-    segments = []
-    start = o
-    for off in appended:
+
+def _flag_bits(data: bytes, size: int) -> list[int]:
+    """The offsets of appended data of a flag-bits message (none: an empty list)."""
+    if size < 40:
+        raise IndexError("flag bits message too short")
+    incompat = data[8:16]
+    offsets = list(struct.unpack_from("<3Q", data, 16))
+    while offsets and offsets[-1] == 0:
+        offsets.pop()
+    if incompat[0] & ~1 or any(incompat[1:]):
+        raise ULogError("Unknown incompatible flag set: cannot parse the log")
+    return offsets if incompat[0] & 1 else []
+
+
+def _data_section(arr: np.ndarray, defs: _Defs, out: ULogFile) -> _Messages:
+    """Every message of known type in the data section (and its appended segments),
+    walked by the compiled loop in two passes (count, then fill)."""
+    n = arr.size
+    segments, start = [], defs.end
+    for off in defs.appended:
         segments.append((start, off))
         start = off
     segments.append((start, 1 << 62))
@@ -330,38 +371,41 @@ def decode(buf: bytes, topics) -> ULogFile:
         offs, sizes, types, _, bad, cut, has_sync = _walk(arr, a, b, _DATA_KNOWN, has_sync,
                                                           count)
         parts.append((offs, sizes, types))
-        corrupt |= bad
+        out.file_corruption |= bad
         if cut >= 0:
             truncated = cut
-    if parts:
-        offs = np.concatenate([p[0] for p in parts])
-        sizes = np.concatenate([p[1] for p in parts])
-        types = np.concatenate([p[2] for p in parts])
-    else:
-        offs = sizes = np.zeros(0, np.int64)
-        types = np.zeros(0, np.uint8)
-    if corrupt and not problems:
-        problems.append("file corruption: bytes skipped to the next sync sequence")
+    if out.file_corruption and not out.problems:
+        out.problems.append("file corruption: bytes skipped to the next sync sequence")
+    if not parts:
+        return _Messages(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.uint8),
+                         truncated)
+    return _Messages(*(np.concatenate([p[i] for p in parts]) for i in range(3)), truncated)
 
-    # info and parameter messages of the data section: info only (changed parameters are
-    # not initial ones)
-    for k in np.flatnonzero(types == ord("I")):
-        o, size = int(offs[k]), int(sizes[k])
+
+def _data_info(buf: bytes, msgs: _Messages, out: ULogFile) -> None:
+    """Info messages of the data section (changed parameters are not initial ones, so
+    parameters are not read here) and the dropouts."""
+    for k in msgs.of("I"):
+        o, size = int(msgs.offs[k]), int(msgs.sizes[k])
         try:
             _, key, value = _info(buf[o + 3:o + 3 + size])
-            info[key] = value
-        except (IndexError, ValueError, KeyError, OverflowError, struct.error):
-            corrupt = True
-    dropouts = [int.from_bytes(buf[int(o) + 3:int(o) + 5], "little")
-                for o in offs[types == ord("O")] if int(o) + 5 <= n]
+            out.msg_info_dict[key] = value
+        except _SKIPPED:
+            out.file_corruption = True
+    out.dropouts_ms = [int.from_bytes(buf[int(o) + 3:int(o) + 5], "little")
+                       for o in msgs.offs[msgs.of("O")] if int(o) + 5 <= len(buf)]
 
-    # subscriptions, as pyulog keeps them: the last 'A' of a msg_id replaces an earlier
-    # one (whose data is dropped); data messages count from their subscription on
+
+def _subscriptions(buf: bytes, msgs: _Messages, wanted: set, formats: dict,
+                   out: ULogFile) -> tuple[dict, set]:
+    """Subscriptions of the wanted topics (msg_id → offset, name, multi_id, dtype) as
+    pyulog keeps them: the last 'A' of a msg_id replaces an earlier one (whose data is
+    dropped); and the msg_ids of the other topics."""
     memo: dict = {}
     subs: dict[int, tuple] = {}
     filtered: set[int] = set()
-    for k in np.flatnonzero(types == ord("A")):
-        o, size = int(offs[k]), int(sizes[k])
+    for k in msgs.of("A"):
+        o, size = int(msgs.offs[k]), int(msgs.sizes[k])
         data = buf[o + 3:o + 3 + size]
         try:
             multi_id, msg_id = struct.unpack_from("<BH", data, 0)
@@ -369,21 +413,25 @@ def decode(buf: bytes, topics) -> ULogFile:
             if name not in wanted:
                 filtered.add(msg_id)
                 continue
-            dt = _dtype(name, formats, memo)
-            subs[msg_id] = (o, name, multi_id, dt)
-        except (IndexError, ValueError, KeyError, OverflowError, struct.error) as exc:
-            corrupt = True
-            problems.append(f"subscription at byte {o} skipped ({exc})")
+            subs[msg_id] = (o, name, multi_id, _dtype(name, formats, memo))
+        except _SKIPPED as exc:
+            out.file_corruption = True
+            out.problems.append(f"subscription at byte {o} skipped ({exc})")
+    return subs, filtered
 
-    # data messages: msg_id of each, then one gather per subscription
-    d_idx = np.flatnonzero((types == ord("D")) & (sizes >= 2))
-    d_off, d_size = offs[d_idx], sizes[d_idx]
+
+def _topics(arr: np.ndarray, msgs: _Messages, subs: dict, filtered: set,
+            out: ULogFile) -> list[ULogTopic]:
+    """The data of each subscription: its data messages (from the subscription on),
+    gathered in one go through a strided view of the file's bytes."""
+    d_idx = np.flatnonzero((msgs.types == ord("D")) & (msgs.sizes >= 2))
+    d_off, d_size = msgs.offs[d_idx], msgs.sizes[d_idx]
     d_id = arr[d_off + 3].astype(np.int64) | (arr[d_off + 4].astype(np.int64) << 8)
     known = np.fromiter(list(subs) + list(filtered), np.int64)
     unknown = np.unique(d_id[~np.isin(d_id, known)])
     if unknown.size:
-        corrupt = True
-        problems += [f"no subscription found for message id {int(m)}" for m in unknown[:5]]
+        out.file_corruption = True
+        out.problems += [f"no subscription found for message id {int(m)}" for m in unknown[:5]]
     data_list = []
     for msg_id, (a_off, name, multi_id, dt) in subs.items():
         mine = (d_id == msg_id) & (d_off > a_off)
@@ -392,7 +440,7 @@ def decode(buf: bytes, topics) -> ULogFile:
         m_off, m_size = d_off[mine], d_size[mine] - 2
         ok = m_size == dt.itemsize            # pyulog skips any other size as corrupt
         if not ok.all():
-            corrupt = True
+            out.file_corruption = True
         rows = m_off[ok] + 5
         if rows.size == 0:
             continue
@@ -402,7 +450,4 @@ def decode(buf: bytes, topics) -> ULogFile:
         data_list.append(ULogTopic(name, multi_id, msg_id,
                                    {f: rec[f] for f in rec.dtype.names}))
     data_list.sort(key=lambda d: (d.name, d.multi_id))
-    trunc = 0 if truncated < 0 else n - truncated
-    return ULogFile(data_list=data_list, initial_parameters=params, msg_info_dict=info,
-                    dropouts_ms=dropouts, file_corruption=corrupt, problems=problems,
-                    truncated_bytes=trunc)
+    return data_list

@@ -1,214 +1,218 @@
 """Column maps: how the columns of someone else's CSV log become the flight record.
 
 A map (a YAML file, or the name of one shipped in ``planner/io/logs/maps``) names the CSV
-column behind each flight-record column (DESIGN §4), with scale and offset, derived
+column behind each flight-record column (docs/record.md), with scale and offset, derived
 columns (speed from velocity components, …), extra columns kept as they are, and the
-log's metadata. :func:`load_map` validates it once and returns the normalised mapping
-:func:`planner.logs.csvmap.read_csv_log` applies.
+log's metadata. Its keys are declared once, in the tables below, and validated by the one
+validator of YAML input (:mod:`planner.io.schema`): every problem of a map is reported at
+once, naming the file and the key path. :func:`load_map` returns the normalised mapping
+:func:`planner.io.logs.csvmap.read_csv_log` applies.
 """
 
 from __future__ import annotations
 
-import difflib
-import math
 import os
 from pathlib import Path
+from typing import Any
 
-import yaml
-
-from planner.io import files
 from planner.errors import InputError
+from planner.io import files
+from planner.io import schema as S
 from planner.io.record import COLUMNS
+from planner.physics.limits import CAPACITY_MAX_MAH, CAPACITY_MIN_MAH, CELLS_SERIES_MAX
 
-__all__ = ["MAPS_DIR", "load_map"]
+__all__ = ["COLUMN_KEYS", "DERIVED_KEYS", "MAPS_DIR", "META_KEYS", "ROTATE_OPS", "TIME_KEYS",
+           "TOP_KEYS", "load_map"]
 
 
 #: Where the maps shipped with the planner live.
-MAPS_DIR = Path(__file__).resolve().parents[1] / "logs" / "maps"
+MAPS_DIR = Path(__file__).resolve().parent / "maps"
 
-_TOP_KEYS = {"name", "source", "experiment", "time", "columns", "derived", "extra", "meta",
-             "license", "notes"}
-_COL_KEYS = {"column", "scale", "offset", "relative", "missing", "note"}
-_TIME_KEYS = {"column", "scale", "offset", "zero", "note"}
-_DERIVED_KEYS = {"op", "of", "scale", "offset", "note"}
 #: Ops that rotate a body-frame velocity by the attitude quaternion: seven CSV columns.
-ROTATE_OPS = {"enu_up", "enu_horizontal", "enu_course"}
-_OPS = {"hypot", "product", "course", "sum", "difference"} | ROTATE_OPS
-_META_KEYS = {"vehicle_type", "vehicle", "firmware", "battery_capacity_mah", "battery_cells",
-              "aircraft", "battery"}
+ROTATE_OPS = ("enu_up", "enu_horizontal", "enu_course")
+#: Every op of ``derived``, and the number of CSV columns each takes.
+OPS = {"hypot": (2, 3), "product": (2,), "course": (2,), "sum": (2,), "difference": (2,),
+       **{op: (7,) for op in ROTATE_OPS}}
 
+_NOTE = S.text("free text")
 
-def _unknown(where: str, key: str, allowed: set) -> InputError:
-    close = difflib.get_close_matches(str(key), sorted(allowed), n=3)
-    hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else \
-        f"; expected one of {', '.join(sorted(allowed))}"
-    return InputError(f"{where}: unknown key '{key}'{hint}")
+TOP_KEYS = {
+    "name": S.text("name of the map"),
+    "source": S.text("where the data and the map come from"),
+    "experiment": S.Key(S.ANY, meaning=(
+        "CSV column with the experiment id, or `{column: ...}` (absent: the file name)")),
+    "time": S.Key(S.ANY, required=True, meaning=(
+        "the CSV time column, or `{column: ..., scale: ..., offset: ..., zero: ...}`")),
+    "columns": S.block("record column ← `{column, scale, offset, relative, missing}` (or "
+                       "the CSV column's name)"),
+    "derived": S.block("record column ← `{op, of, scale, offset}`: from several CSV columns"),
+    "extra": S.block("new name ← `{column, scale, offset}`: CSV columns kept as they are"),
+    "meta": S.block("what the file does not say (table below)"),
+    "license": S.text("licence of the data"),
+    "notes": _NOTE,
+}
 
+TIME_KEYS = {
+    "column": S.text("the CSV time column", required=True),
+    "scale": S.positive(default=1.0, meaning="to seconds (0.001 for ms, 1e-6 for µs)"),
+    "offset": S.Key(S.NUMBER, default=0.0, unit="s", meaning="added after the scale"),
+    "zero": S.Key(S.BOOL, default=True, meaning="time from 0 at each experiment's first row"),
+    "note": _NOTE,
+}
 
-def _number(where: str, key: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}: {key} must be a number, got {value!r}")
-    try:
-        finite = math.isfinite(value)
-    except OverflowError:                    # an integer too large for a float
-        finite = False
-    if not finite:
-        shown = repr(value) if isinstance(value, float) else f"an integer of {len(str(value))} digits"
-        raise InputError(f"{where}: {key} must be a finite number, got {shown}")
-    return float(value)
+COLUMN_KEYS = {
+    "column": S.text("the CSV column", required=True),
+    "scale": S.Key(S.NUMBER, default=1.0, meaning="to the record column's unit"),
+    "offset": S.Key(S.NUMBER, default=0.0, meaning="added after the scale"),
+    "relative": S.Key(S.BOOL, default=False, meaning=(
+        "minus its first valid value in each experiment (altitude above the start)")),
+    "missing": S.Key(S.ANY, meaning="raw values that mean \"not measured\": a number or a list"),
+    "note": _NOTE,
+}
+
+EXTRA_KEYS = {key: COLUMN_KEYS[key] for key in ("column", "scale", "offset", "note")}
+
+DERIVED_KEYS = {
+    "op": S.text("`hypot` of two or three columns, `product`, `sum`, `difference`, `course` "
+                 "from north and east speeds; `enu_up`, `enu_horizontal`, `enu_course` of a "
+                 "body-frame velocity x, y, z rotated by the attitude quaternion x, y, z, w",
+                 required=True, choices=tuple(OPS)),
+    "of": S.Key(S.LIST, required=True, meaning="the CSV columns the op takes"),
+    "scale": COLUMN_KEYS["scale"],
+    "offset": COLUMN_KEYS["offset"],
+    "note": _NOTE,
+}
+
+META_KEYS = {
+    "vehicle_type": S.text("`multirotor`, `fixed_wing`, `vtol`, …"),
+    "vehicle": S.text("the vehicle's name"),
+    "firmware": S.text("the autopilot firmware"),
+    "battery_capacity_mah": S.between(CAPACITY_MIN_MAH, CAPACITY_MAX_MAH, unit="mAh",
+                                      meaning="capacity of the pack flown"),
+    "battery_cells": S.count(CELLS_SERIES_MAX, meaning="cells in series of the pack flown"),
+    "aircraft": S.text("the aircraft file that flew the log"),
+    "battery": S.text("the pack file that flew the log"),
+}
+
+#: Record columns a map may fill (the experiment and the time have keys of their own).
+MAPPABLE = tuple(c for c in COLUMNS if c not in ("experiment", "time_s"))
 
 
 def load_map(source: str | os.PathLike | dict) -> dict:
     """Load and validate a column map (a YAML file, a shipped map name, or a dict).
 
     ``source`` may be a path, or the name of a map in :data:`MAPS_DIR`
-    (``"dji_m100"``). Returns the normalised map; every problem raises
-    :class:`InputError` naming the file and the key.
+    (``"dji_m100"``). Returns the normalised map: ``name``, ``source``, ``where``,
+    ``experiment`` (a CSV column or None), ``time``, ``columns``, ``derived``, ``extra``
+    (each entry with every key, defaults filled in) and ``meta``.
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, or every problem of the map at once, naming the
+        file and the key path.
     """
-    if isinstance(source, dict):
-        raw, where = source, "<column map>"
-    else:
-        path = Path(source)
-        if not path.exists() and (MAPS_DIR / f"{path.name}.yaml").exists():
-            path = MAPS_DIR / f"{path.name}.yaml"
-        where = str(path)
-        if not path.exists():
-            raise InputError(f"{path}: column map not found")
-        try:
-            raw = files.load_yaml(path, "definition", "column map")
-        except yaml.YAMLError as exc:
-            raise InputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if not isinstance(raw, dict):
-        raise InputError(f"{where}: a column map must be a mapping with 'time' and 'columns'")
-    for key in raw:
-        if key not in _TOP_KEYS:
-            raise _unknown(where, key, _TOP_KEYS)
-    out: dict = {"name": raw.get("name"), "source": raw.get("source"), "where": where}
-
-    exp = raw.get("experiment")
-    if isinstance(exp, dict):
-        if set(exp) - {"column", "note"}:
-            raise _unknown(f"{where}: experiment", next(iter(set(exp) - {"column", "note"})),
-                           {"column"})
-        exp = exp.get("column")
-    if exp is not None and not isinstance(exp, str):
-        raise InputError(f"{where}: experiment must be a column name, got {exp!r}")
-    out["experiment"] = exp
-
-    t = raw.get("time")
-    if t is None:
-        raise InputError(f"{where}: missing required key 'time' (the CSV time column)")
-    if isinstance(t, str):
-        t = {"column": t}
-    if not isinstance(t, dict) or "column" not in t:
-        raise InputError(f"{where}: time must be a column name or {{column: ..., scale: ...}}")
-    for key in t:
-        if key not in _TIME_KEYS:
-            raise _unknown(f"{where}: time", key, _TIME_KEYS)
-    out["time"] = {"column": str(t["column"]),
-                   "scale": _number(where, "time.scale", t.get("scale", 1.0)),
-                   "offset": _number(where, "time.offset", t.get("offset", 0.0)),
-                   "zero": bool(t.get("zero", True))}
-    if not out["time"]["scale"] > 0:
-        raise InputError(f"{where}: time.scale must be > 0, got {out['time']['scale']}")
-
-    cols = raw.get("columns") or {}
-    if not isinstance(cols, dict):
-        raise InputError(f"{where}: columns must be a mapping record_column: {{column: ...}}")
-    out["columns"] = {}
-    for ours, spec in cols.items():
-        if ours not in COLUMNS or ours in ("experiment", "time_s"):
-            raise _unknown(f"{where}: columns", ours,
-                           set(COLUMNS) - {"experiment", "time_s"})
-        if isinstance(spec, str):
-            spec = {"column": spec}
-        if not isinstance(spec, dict) or "column" not in spec:
-            raise InputError(f"{where}: columns.{ours} must be {{column: <csv column>, ...}}")
-        for key in spec:
-            if key not in _COL_KEYS:
-                raise _unknown(f"{where}: columns.{ours}", key, _COL_KEYS)
-        missing = spec.get("missing", [])
-        if not isinstance(missing, list):
-            missing = [missing]
-        out["columns"][ours] = {
-            "column": str(spec["column"]),
-            "scale": _number(where, f"columns.{ours}.scale", spec.get("scale", 1.0)),
-            "offset": _number(where, f"columns.{ours}.offset", spec.get("offset", 0.0)),
-            "relative": bool(spec.get("relative", False)),
-            "missing": [_number(where, f"columns.{ours}.missing", m) for m in missing],
-        }
-
-    der = raw.get("derived") or {}
-    if not isinstance(der, dict):
-        raise InputError(f"{where}: derived must be a mapping record_column: {{op: ..., of: ...}}")
-    out["derived"] = {}
-    for ours, spec in der.items():
-        if ours not in COLUMNS or ours in ("experiment", "time_s"):
-            raise _unknown(f"{where}: derived", ours, set(COLUMNS) - {"experiment", "time_s"})
-        if not isinstance(spec, dict):
-            raise InputError(f"{where}: derived.{ours} must be {{op: ..., of: [...]}}")
-        for key in spec:
-            if key not in _DERIVED_KEYS:
-                raise _unknown(f"{where}: derived.{ours}", key, _DERIVED_KEYS)
-        op = spec.get("op")
-        if op not in _OPS:
-            raise InputError(f"{where}: derived.{ours}.op must be one of "
-                             f"{', '.join(sorted(_OPS))}, got {op!r}")
-        of = spec.get("of")
-        sizes = (2, 3) if op == "hypot" else (7,) if op in ROTATE_OPS else (2,)
-        if not isinstance(of, list) or len(of) not in sizes or not all(isinstance(c, str)
-                                                                     for c in of):
-            what = ("two CSV columns (three for hypot)" if op == "hypot" else
-                    "seven CSV columns: the body-frame velocity x, y, z and the attitude "
-                    "quaternion x, y, z, w" if op in ROTATE_OPS else "two CSV columns")
-            raise InputError(f"{where}: derived.{ours}.of must list {what}, got {of!r}")
-        out["derived"][ours] = {
-            "op": op, "of": of,
-            "scale": _number(where, f"derived.{ours}.scale", spec.get("scale", 1.0)),
-            "offset": _number(where, f"derived.{ours}.offset", spec.get("offset", 0.0)),
-        }
-
-    extra = raw.get("extra") or {}
-    if not isinstance(extra, dict):
-        raise InputError(f"{where}: extra must be a mapping new_name: {{column: ...}}")
-    out["extra"] = {}
-    for name, spec in extra.items():
-        if name in COLUMNS:
-            raise InputError(f"{where}: extra.{name} is a flight-record column; "
-                             "map it under 'columns'")
-        if isinstance(spec, str):
-            spec = {"column": spec}
-        if not isinstance(spec, dict) or "column" not in spec:
-            raise InputError(f"{where}: extra.{name} must be {{column: <csv column>}}")
-        for key in spec:
-            if key not in _COL_KEYS:
-                raise _unknown(f"{where}: extra.{name}", key, _COL_KEYS)
-        out["extra"][name] = {
-            "column": str(spec["column"]),
-            "scale": _number(where, f"extra.{name}.scale", spec.get("scale", 1.0)),
-            "offset": _number(where, f"extra.{name}.offset", spec.get("offset", 0.0)),
-            "relative": False, "missing": [],
-        }
-
-    meta = raw.get("meta") or {}
-    if not isinstance(meta, dict):
-        raise InputError(f"{where}: meta must be a mapping")
-    for key in meta:
-        if key not in _META_KEYS:
-            raise _unknown(f"{where}: meta", key, _META_KEYS)
-    for key, (low, high) in (("battery_cells", (1, 40)),
-                             ("battery_capacity_mah", (1.0, 1e7))):
-        if key in meta:
-            value = meta[key]
-            if (isinstance(value, bool) or not isinstance(value, (int, float))
-                    or not low <= value <= high
-                    or (key == "battery_cells" and not float(value).is_integer())):
-                raise InputError(f"{where}: meta.{key}: expected a "
-                                 f"{'whole ' if key == 'battery_cells' else ''}number in "
-                                 f"[{low:g}, {high:g}], got {value!r}")
-    out["meta"] = dict(meta)
+    raw, where = _read(source)
+    problems = S.Problems(where)
+    top = S.check_mapping(raw, TOP_KEYS, where, problems=problems)
+    out = {"name": top["name"], "source": top["source"], "where": where,
+           "experiment": _experiment(top["experiment"], problems),
+           "time": _entry(top["time"], TIME_KEYS, "time", problems),
+           "columns": _entries(top["columns"], COLUMN_KEYS, "columns", MAPPABLE, problems),
+           "derived": _entries(top["derived"], DERIVED_KEYS, "derived", MAPPABLE, problems),
+           "extra": _entries(top["extra"], EXTRA_KEYS, "extra", None, problems),
+           "meta": _meta(top["meta"], where, problems)}
+    problems.done()
     if not out["columns"] and not out["derived"]:
         raise InputError(f"{where}: the map has no 'columns'")
+    for spec in out["extra"].values():
+        spec.update(relative=False, missing=[])
     return out
 
 
+def _read(source) -> tuple[Any, str]:
+    """The map's mapping and its name for messages."""
+    if isinstance(source, dict):
+        return source, "<column map>"
+    path = Path(source)
+    if not path.exists() and (MAPS_DIR / f"{path.name}.yaml").exists():
+        path = MAPS_DIR / f"{path.name}.yaml"
+    if not path.exists():
+        raise InputError(f"{path}: column map not found")
+    return files.load_yaml(path, "definition", "column map", empty_ok=False), str(path)
+
+
+def _experiment(value, problems: S.Problems) -> str | None:
+    """``experiment``: a column name, or ``{column: ...}``."""
+    if isinstance(value, dict):
+        value = S.check_mapping(value, {"column": TIME_KEYS["column"], "note": _NOTE}, "",
+                                "experiment.", problems)["column"]
+    if value is not None and not isinstance(value, str):
+        problems.add(f"experiment must be a column name, got {value!r}")
+        return None
+    return value
+
+
+def _entry(spec, keys: dict[str, S.Key], path: str, problems: S.Problems) -> dict | None:
+    """One entry (``time``, ``columns.voltage_v`` …): a CSV column's name or a mapping of
+    ``keys``; every key filled in."""
+    if spec is None:
+        return None
+    if isinstance(spec, str) and "column" in keys:
+        spec = {"column": spec}
+    if not isinstance(spec, dict):
+        problems.add(f"{path} must be {'a column name or ' if 'column' in keys else ''}"
+                     f"a mapping of {', '.join(keys)}, got {spec!r}")
+        return None
+    d = S.check_mapping(spec, keys, "", f"{path}.", problems)
+    d.pop("note", None)
+    if "of" in d:
+        _check_of(d, path, problems)
+    if "missing" in d:
+        d["missing"] = _missing(d["missing"], f"{path}.missing", problems)
+    return d
+
+
+def _entries(block, keys: dict[str, S.Key], path: str, allowed, problems: S.Problems) -> dict:
+    """Every entry of ``columns``, ``derived`` or ``extra`` (names checked against
+    ``allowed``; ``extra``: any name but a record column's)."""
+    if block is None:
+        return {}
+    if allowed is not None:
+        S.unknown_keys(block, allowed, problems, f"{path}.")
+    out = {}
+    for name, spec in block.items():
+        if allowed is None and name in COLUMNS:
+            problems.add(f"{path}.{name} is a flight-record column; map it under 'columns'")
+        elif allowed is None or name in allowed:
+            entry = _entry(spec, keys, f"{path}.{name}", problems)
+            if entry is not None:
+                out[name] = entry
+    return out
+
+
+def _check_of(d: dict, path: str, problems: S.Problems) -> None:
+    """``of`` holds as many CSV column names as the op takes."""
+    op, of = d["op"], d["of"]
+    if op not in OPS or of is None:
+        return
+    if len(of) not in OPS[op] or not all(isinstance(c, str) for c in of):
+        what = ("two CSV columns (three for hypot)" if op == "hypot" else
+                "seven CSV columns: the body-frame velocity x, y, z and the attitude "
+                "quaternion x, y, z, w" if op in ROTATE_OPS else "two CSV columns")
+        problems.add(f"{path}.of must list {what}, got {of!r}")
+
+
+def _missing(value, path: str, problems: S.Problems) -> list[float]:
+    """``missing``: the raw values that mean "not measured", as a list of numbers."""
+    values = value if isinstance(value, list) else [] if value is None else [value]
+    number = S.Key(S.NUMBER)
+    return [float(v) for v in values if S.check_value(v, number, path, problems) is not None]
+
+
+def _meta(block, where: str, problems: S.Problems) -> dict:
+    """``meta``: the keys the map gives, checked."""
+    if block is None:
+        return {}
+    d = S.check_mapping(block, META_KEYS, where, "meta.", problems)
+    return {key: d[key] for key in block if key in META_KEYS}

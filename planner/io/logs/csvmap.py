@@ -52,11 +52,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from planner.io import files
 from planner.errors import InputError
-from planner.io.logs._common import Meta
+from planner.io import files
+from planner.io.logs._common import Meta, course_deg
 from planner.io.logs.columnmap import MAPS_DIR, ROTATE_OPS, load_map
-from planner.io.record import COLUMNS, add_consumed, drop_truncated_last_line, validate_record
+from planner.io.record import (
+    COLUMNS,
+    add_consumed,
+    complete_record,
+    drop_truncated_last_line,
+    validate_record,
+)
+from planner.io.tables import cell_error, row_label
 
 __all__ = ["FIELD_MAP", "MAPS_DIR", "load_map", "read_csv_log"]
 
@@ -65,22 +72,11 @@ FIELD_MAP: dict[str, dict] = {name: {"column": name, "scale": 1.0, "offset": 0.0
                               for name in COLUMNS if name not in ("experiment", "time_s")}
 
 
-#: Below this speed the course is undefined (hovering): NaN. [m/s]
-MIN_COURSE_SPEED_MS = 0.2
-
-
-def _course(north: np.ndarray, east: np.ndarray, speed: np.ndarray) -> np.ndarray:
-    """Course [deg from north, clockwise] of a velocity; NaN below
-    :data:`MIN_COURSE_SPEED_MS` of ``speed``."""
-    course = np.degrees(np.arctan2(east, north)) % 360.0
-    course[speed < MIN_COURSE_SPEED_MS] = np.nan
-    return course
-
-
 def _enu(op: str, v_body: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
     """Up component, horizontal speed or course [deg from north] of a body-frame velocity
     rotated into east-north-up by the attitude quaternion (x, y, z, w). Rows with a missing
-    value or a quaternion far from unit length give NaN; a course is NaN below 0.2 m/s."""
+    value or a quaternion far from unit length give NaN; a course is NaN below
+    :data:`planner.io.logs._common.COURSE_MIN_SPEED_MS`."""
     from scipy.spatial.transform import Rotation
 
     norm = np.linalg.norm(quat_xyzw, axis=1)
@@ -95,7 +91,7 @@ def _enu(op: str, v_body: np.ndarray, quat_xyzw: np.ndarray) -> np.ndarray:
     elif op == "enu_horizontal":
         out[ok] = np.hypot(east, north)
     else:
-        out[ok] = _course(north, east, np.hypot(east, north))
+        out[ok] = course_deg(north, east, np.hypot(east, north))
     return out
 
 
@@ -133,6 +129,27 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     path = Path(path)
     meta = Meta(str(path), "csv")
     cmap = load_map(map) if map is not None else None
+    raw = _read_raw(path)
+    if cmap is None:
+        df = complete_record(validate_record(raw, path, require_power=require_battery,
+                                             csv_lines=True))
+        for c in df.columns:
+            if c in FIELD_MAP:
+                meta["channels"][c] = c
+        meta["samples"] = len(df)
+        return df, meta.values
+    csv = _Csv(raw, path, cmap["where"])
+    out, groups = _experiment_and_time(csv, cmap, meta)
+    _mapped(out, csv, cmap, groups, meta)
+    _derived(out, csv, cmap, meta)
+    df = _record(pd.DataFrame(out), path, meta, require_battery)
+    _describe(df, cmap, meta)
+    return df, meta.values
+
+
+def _read_raw(path: Path) -> pd.DataFrame:
+    """The CSV file as pandas reads it, its header names stripped, a cut last line
+    dropped."""
     try:
         raw = pd.read_csv(files.input_path(path, "log", "CSV log"), low_memory=False)
     except FileNotFoundError:
@@ -143,91 +160,94 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
         raise InputError(f"{path}: not a readable CSV file ({type(exc).__name__}: "
                          f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
     raw.columns = [str(c).strip() for c in raw.columns]
-    raw = drop_truncated_last_line(raw, path)
+    return drop_truncated_last_line(raw, path)
 
-    if cmap is None:
-        from planner.io.record import complete_record
-        df = validate_record(raw, path, require_power=require_battery, csv_lines=True)
-        df = complete_record(df)
-        for c in df.columns:
-            if c in FIELD_MAP:
-                meta["channels"][c] = c
-        meta["samples"] = len(df)
-        return df, meta.values
 
-    where = cmap["where"]
+class _Csv:
+    """The CSV columns a map names, each checked where it is used."""
 
-    def need(col: str, role: str) -> pd.Series:
-        if col not in raw.columns:
-            close = difflib.get_close_matches(col, list(raw.columns), n=2)
+    def __init__(self, raw: pd.DataFrame, path: Path, where: str):
+        self.raw, self.path, self.where = raw, path, where
+
+    def need(self, col: str, role: str) -> pd.Series:
+        """The column ``col`` (for the record column ``role``), or an error naming both."""
+        if col not in self.raw.columns:
+            close = difflib.get_close_matches(col, list(self.raw.columns), n=2)
             hint = f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
-            raise InputError(f"{path}: column '{col}' named in {where} ({role}) is not in "
-                             f"the file{hint}")
-        return raw[col]
+            raise InputError(f"{self.path}: column '{col}' named in {self.where} ({role}) is "
+                             f"not in the file{hint}")
+        return self.raw[col]
 
-    def numeric(col: str, role: str) -> np.ndarray:
-        s = need(col, role)
+    def numeric(self, col: str, role: str) -> np.ndarray:
+        """The column ``col`` as numbers (blank cells NaN); text is an error at its row."""
+        s = self.need(col, role)
         num = pd.to_numeric(s, errors="coerce")
         bad = num.isna() & s.notna()
         if bad.any():
             first = int(np.flatnonzero(bad.to_numpy())[0])
-            raise InputError(f"{path}: column '{col}' row {first + 1} (line {first + 2}): "
-                             f"expected a number, got {s.iloc[first]!r}")
+            raise cell_error(self.path, col, row_label(first, first + 2), "a number",
+                             s.iloc[first])
         return num.to_numpy(float)
 
-    n = len(raw)
-    out: dict[str, np.ndarray] = {}
-    if cmap["experiment"]:
-        out["experiment"] = need(cmap["experiment"], "experiment").astype("str").to_numpy(object)
-    else:
-        out["experiment"] = np.full(n, path.name.split(".")[0], dtype=object)
-    groups = list(pd.Series(out["experiment"]).groupby(out["experiment"], sort=False)
-                  .indices.values()) if n else []
 
+def _experiment_and_time(csv: _Csv, cmap: dict, meta: Meta):
+    """The ``experiment`` and ``time_s`` columns, and the rows of each experiment."""
+    n = len(csv.raw)
+    if cmap["experiment"]:
+        exp = csv.need(cmap["experiment"], "experiment").astype("str").to_numpy(object)
+    else:
+        exp = np.full(n, csv.path.name.split(".")[0], dtype=object)
+    groups = list(pd.Series(exp).groupby(exp, sort=False).indices.values()) if n else []
     tspec = cmap["time"]
-    t = numeric(tspec["column"], "time") * tspec["scale"] + tspec["offset"]
+    t = csv.numeric(tspec["column"], "time") * tspec["scale"] + tspec["offset"]
     if tspec["zero"]:
         t = _per_experiment_first(t, groups)
-    out["time_s"] = t
     meta["channels"]["time_s"] = tspec["column"]
+    return {"experiment": exp, "time_s": t}, groups
 
+
+def _mapped(out: dict, csv: _Csv, cmap: dict, groups, meta: Meta) -> None:
+    """The record columns and extra columns read from one CSV column each."""
     for ours, spec in cmap["columns"].items():
         if ours == "mode":
-            out[ours] = need(spec["column"], ours).astype("str").to_numpy(object)
+            out[ours] = csv.need(spec["column"], ours).astype("str").to_numpy(object)
         else:
-            v = numeric(spec["column"], ours)
+            v = csv.numeric(spec["column"], ours)
             for m in spec["missing"]:
                 v = np.where(v == m, np.nan, v)
             v = v * spec["scale"] + spec["offset"]
-            if spec["relative"]:
-                v = _per_experiment_first(v, groups)
-            out[ours] = v
+            out[ours] = _per_experiment_first(v, groups) if spec["relative"] else v
         meta["channels"][ours] = spec["column"]
-    for ours, spec in cmap["derived"].items():
-        a, b, *rest = (numeric(c, ours) for c in spec["of"])
-        op = spec["op"]
-        if op in ROTATE_OPS:
-            v = _enu(op, np.column_stack([a, b, rest[0]]), np.column_stack(rest[1:]))
-            if op == "enu_course":
-                spec = {**spec, "scale": 1.0}
-        elif op == "hypot":
-            v = np.hypot(a, b) if not rest else np.sqrt(a * a + b * b + rest[0] ** 2)
-        elif op == "product":
-            v = a * b
-        elif op == "sum":
-            v = a + b
-        elif op == "difference":
-            v = a - b
-        else:  # course from (north, east)
-            v = _course(a, b, np.hypot(a, b) * spec["scale"])
-            spec = {**spec, "scale": 1.0}
-        out[ours] = v * spec["scale"] + spec["offset"]
-        meta["channels"][ours] = f"{op}({', '.join(spec['of'])})"
     for name, spec in cmap["extra"].items():
-        out[name] = numeric(spec["column"], name) * spec["scale"] + spec["offset"]
+        out[name] = csv.numeric(spec["column"], name) * spec["scale"] + spec["offset"]
         meta["channels"][name] = spec["column"]
 
-    df = pd.DataFrame(out)
+
+#: The ops of ``derived`` over two (or three) columns.
+_BINARY = {"product": np.multiply, "sum": np.add, "difference": np.subtract}
+
+
+def _derived(out: dict, csv: _Csv, cmap: dict, meta: Meta) -> None:
+    """The record columns derived from several CSV columns (``op`` over ``of``)."""
+    for ours, spec in cmap["derived"].items():
+        a, b, *rest = (csv.numeric(c, ours) for c in spec["of"])
+        op, scale = spec["op"], spec["scale"]
+        if op in ROTATE_OPS:
+            v = _enu(op, np.column_stack([a, b, rest[0]]), np.column_stack(rest[1:]))
+            scale = 1.0 if op == "enu_course" else scale
+        elif op == "hypot":
+            v = np.hypot(a, b) if not rest else np.sqrt(a * a + b * b + rest[0] ** 2)
+        elif op in _BINARY:
+            v = _BINARY[op](a, b)
+        else:  # course from (north, east): the scale converts the speed for the threshold
+            v, scale = course_deg(a, b, np.hypot(a, b) * scale), 1.0
+        out[ours] = v * scale + spec["offset"]
+        meta["channels"][ours] = f"{op}({', '.join(spec['of'])})"
+
+
+def _record(df: pd.DataFrame, path: Path, meta: Meta, require_battery: bool) -> pd.DataFrame:
+    """The mapped table checked as a flight record, with power and charge where absent,
+    in canonical column order."""
     df = validate_record(df, path, require_power=require_battery, csv_lines=True)
     if "power_w" not in df and "voltage_v" in df and "current_a" in df:
         df["power_w"] = df["voltage_v"].to_numpy(float) * df["current_a"].to_numpy(float)
@@ -236,20 +256,22 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
         df = add_consumed(df)
         meta["channels"]["consumed_mah"] = "trapezoid integral of current_a per experiment"
     known = [c for c in COLUMNS if c in df.columns]
-    df = df[known + [c for c in df.columns if c not in COLUMNS]]
+    return df[known + [c for c in df.columns if c not in COLUMNS]]
 
+
+def _describe(df: pd.DataFrame, cmap: dict, meta: Meta) -> None:
+    """The metadata of a mapped log: the map's ``meta``, experiments, samples, duration
+    [s] and each column's rate [Hz]."""
     for key, value in cmap["meta"].items():
         meta[key] = value
-    meta["map"] = where
+    meta["map"] = cmap["where"]
     meta["experiments"] = int(df["experiment"].nunique()) if len(df) else 0
     meta["samples"] = len(df)
     durations = df.groupby("experiment", sort=False)["time_s"].agg(lambda s: s.iloc[-1] - s.iloc[0])
     meta["duration_s"] = float(durations.sum()) if len(df) else 0.0
+    dt = df.groupby("experiment", sort=False)["time_s"].diff().to_numpy(float)
+    dt = dt[np.isfinite(dt) & (dt > 0)]
+    rate = float(1.0 / np.median(dt)) if len(dt) else None
     for c in df.columns:
-        if c in ("experiment", "time_s"):
-            continue
-        dt = df.groupby("experiment", sort=False)["time_s"].diff().to_numpy(float)
-        dt = dt[np.isfinite(dt) & (dt > 0)]
-        meta["rates_hz"][c] = float(1.0 / np.median(dt)) if len(dt) else None
-    return df, meta.values
-
+        if c not in ("experiment", "time_s"):
+            meta["rates_hz"][c] = rate

@@ -51,19 +51,8 @@ from pymavlink import mavutil
 from pymavlink.DFReader import FORMAT_TO_STRUCT
 
 from planner.errors import InputError
-from planner.io.logs._common import (
-    GPS_EPOCH_UNIX,
-    GPS_LEAP_S,
-    Field,
-    Message,
-    Meta,
-    build_record,
-    capacity_or_none,
-    cells_or_none,
-    resolve_channels,
-    serial_or_none,
-    start_time_unix,
-)
+from planner.io.logs._common import GPS_EPOCH_UNIX, GPS_LEAP_S, Field, Message, Meta, battery_meta
+from planner.io.logs._common import build_record, resolve_channels, start_time_unix
 
 __all__ = ["FIELD_MAP", "DataFlashLog", "MessageFormat", "read_dataflash"]
 
@@ -201,6 +190,8 @@ class MessageFormat:
 
     @classmethod
     def from_fmt(cls, mtype: int, name: str, length: int, fmt: str, columns: str):
+        """The format of an FMT message; ``dtype`` None when the format characters do not
+        add up to the message length (its messages are then skipped)."""
         cols = [c for c in columns.split(",")] if columns else []
         try:
             codes = [FORMAT_TO_STRUCT[c][0] for c in fmt]
@@ -220,6 +211,7 @@ class MessageFormat:
         return cls(mtype, name, length, fmt, cols[:len(fmt)], dtype)
 
     def char(self, column: str) -> str:
+        """The format character of a column (``f``, ``I``, ``c`` …)."""
         return self.format[self.columns.index(column)]
 
 
@@ -346,25 +338,50 @@ class DataFlashLog:
     def _index(self) -> None:
         """Build the message chain: ``self.offsets`` and ``self.types`` (see the module doc)."""
         it = self._itype = np.int32 if self.size < 2**31 - 1024 else np.int64
+        pos, typ, nxt = self._messages()
+        chain = self._chain(pos, nxt, it)
+        # a message running past the end of the file is truncated
+        ends = nxt[chain]
+        complete = ends <= self.size
+        if not complete.all():
+            first_bad = int(chain[~complete][0])
+            self.problems.append(f"last message ({self._type_name(int(typ[first_bad]))}) is "
+                                 f"truncated: skipped {self.size - int(pos[first_bad])} "
+                                 "byte(s) at the end")
+            chain, ends = chain[complete], ends[complete]
+        self.offsets = pos[chain]
+        self.types = typ[chain]
+        del pos, typ, nxt, chain
+        if not len(self.offsets):
+            raise InputError(f"{self.path}: no complete DataFlash message found")
+        self._count_skipped(ends, complete.all())
+        self.counts = np.bincount(self.types, minlength=256)
+        self.name_to_type = {f.name: t for t, f in self.formats.items()}
+        self._cache: dict = {}
+
+    def _messages(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(offset, type, end) of every header of a type with a format: the candidates
+        for the chain."""
         cand = self._headers()
         self._read_fmts(cand)
         if not self.formats:
             raise InputError(f"{self.path}: not a DataFlash/sdlog2 log (no FMT messages found)")
-        lengths = np.zeros(256, it)
+        lengths = np.zeros(256, self._itype)
         for t, f in self.formats.items():
             lengths[t] = f.length
         if FMT_TYPE not in self.formats:
             lengths[FMT_TYPE] = FMT_LEN
         typ = self.buf[cand + 2]
         known = lengths[typ] > 0
-        pos = cand[known]
-        typ = typ[known]
-        del cand, known
-        nxt = pos + lengths[typ]
-        m = len(pos)
-        n = self.size
-        if m == 0:
+        pos, typ = cand[known], typ[known]
+        if len(pos) == 0:
             raise InputError(f"{self.path}: no DataFlash message found")
+        return pos, typ, pos + lengths[typ]
+
+    def _chain(self, pos: np.ndarray, nxt: np.ndarray, it) -> np.ndarray:
+        """Indices into ``pos`` of the message chain: each message followed by the header
+        at its end; after damage, the next header that is itself followed by a header."""
+        m, n = len(pos), self.size
         # successor: first header at/after the end of each message
         succ = np.searchsorted(pos, nxt).astype(it)
         inb = succ < m
@@ -395,31 +412,19 @@ class DataFlashLog:
             b = int(breaks[j])
             segs.append((k, b))
             k = int(succ[b])
-        del succ, breaks
-        chain = (np.concatenate([np.arange(a, b + 1, dtype=it) for a, b in segs])
-                 if segs else np.zeros(0, it))
-        # a message running past the end of the file is truncated
-        ends = nxt[chain]
-        complete = ends <= n
-        if not complete.all():
-            first_bad = int(chain[~complete][0])
-            self.problems.append(f"last message ({self._type_name(int(typ[first_bad]))}) is "
-                                 f"truncated: skipped {n - int(pos[first_bad])} byte(s) at "
-                                 "the end")
-            chain, ends = chain[complete], ends[complete]
-        self.offsets = pos[chain]
-        self.types = typ[chain]
-        del pos, typ, nxt, chain
-        if not len(self.offsets):
-            raise InputError(f"{self.path}: no complete DataFlash message found")
-        # skipped bytes: before the first message, between messages, after the last
+        return (np.concatenate([np.arange(a, b + 1, dtype=it) for a, b in segs])
+                if segs else np.zeros(0, it))
+
+    def _count_skipped(self, ends: np.ndarray, complete: bool) -> None:
+        """``skipped_bytes``: the bytes outside the chain (before the first message,
+        between messages, after the last unless it is erased flash), with a warning."""
         gaps = []
         if self.offsets[0] > 0:
             gaps.append((0, int(self.offsets[0])))
         inner = np.flatnonzero(self.offsets[1:] != ends[:-1])
         gaps += [(int(ends[i]), int(self.offsets[i + 1] - ends[i])) for i in inner]
-        tail = n - int(ends[-1])
-        if tail > 0 and complete.all():
+        tail = self.size - int(ends[-1])
+        if tail > 0 and complete:
             tail_bytes = self.buf[int(ends[-1]):]
             if not (np.all(tail_bytes == 0) or np.all(tail_bytes == 0xFF)):
                 gaps.append((int(ends[-1]), tail))
@@ -428,9 +433,6 @@ class DataFlashLog:
             self.problems.append(f"skipped {total} byte(s) of damaged data in {len(gaps)} "
                                  f"place(s) (first at byte offset {gaps[0][0]})")
         self.skipped_bytes = sum(g[1] for g in gaps)
-        self.counts = np.bincount(self.types, minlength=256)
-        self.name_to_type = {f.name: t for t, f in self.formats.items()}
-        self._cache: dict = {}
 
     def _rows(self, starts: np.ndarray, size: int) -> np.ndarray:
         """Copy of ``size`` bytes at each offset, as one contiguous (n, size) array."""
@@ -445,10 +447,12 @@ class DataFlashLog:
 
     # ---------------------------------------------------------------- decoding
     def count(self, name: str) -> int:
+        """Messages of type ``name`` in the chain."""
         t = self.name_to_type.get(name)
         return int(self.counts[t]) if t is not None else 0
 
     def message_counts(self) -> dict[str, int]:
+        """Messages in the chain per type name."""
         return {self.formats[t].name: int(c) for t, c in enumerate(self.counts)
                 if c and t in self.formats}
 
@@ -521,6 +525,7 @@ class DataFlashLog:
         return out
 
     def integer_fields(self, name: str) -> frozenset:
+        """The fields of message ``name`` stored as integers."""
         fmt = self.formats[self.name_to_type[name]]
         return frozenset(c for c, ch in zip(fmt.columns, fmt.format) if ch in _INT_CHARS)
 
@@ -630,12 +635,14 @@ class DataFlashLog:
         return [] if f is None else sorted(np.unique(data[f]).tolist())
 
     def params(self) -> dict[str, float]:
+        """The log's parameters (``PARM`` messages), name → value; the last value wins."""
         data = self.decode("PARM", ("Name", "Value"))
         if data is None or "Name" not in data or "Value" not in data:
             return {}
         return dict(zip(data["Name"].tolist(), data["Value"].tolist()))
 
     def texts(self, name: str, field: str) -> list[str]:
+        """The text field ``field`` of every message ``name`` (``MSG.Message``)."""
         data = self.decode(name, (field,))
         if data is None or field not in data:
             return []
@@ -663,11 +670,22 @@ MAV_TYPE_CLASS = {1: "fixed_wing", 2: "multirotor", 3: "multirotor", 4: "helicop
 
 
 def mav_type_name(mav_type) -> str | None:
+    """The name of a MAV_TYPE number (``quadrotor``), as pymavlink's enum has it; None
+    for an unknown number."""
     try:
         entry = mavutil.mavlink.enums["MAV_TYPE"][int(mav_type)]
     except (KeyError, TypeError, ValueError):
         return None
     return entry.name.removeprefix("MAV_TYPE_").lower()
+
+
+def vehicle_meta(meta: Meta, mav_type) -> str | None:
+    """``vehicle`` and ``vehicle_type`` of ``meta`` from a MAV_TYPE (a PX4 parameter, a
+    HEARTBEAT's type; None: unknown); returns the vehicle type."""
+    vclass = MAV_TYPE_CLASS.get(int(mav_type)) if mav_type is not None else None
+    meta["vehicle"] = mav_type_name(mav_type)
+    meta["vehicle_type"] = vclass
+    return vclass
 
 
 def _ardupilot_identity(log: DataFlashLog, params: dict) -> tuple:
@@ -710,7 +728,7 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
     Returns
     -------
     (DataFrame, dict)
-        The flight record (DESIGN §4, one row per battery message) and the
+        The flight record (docs/record.md, one row per battery message) and the
         metadata: ``source``, ``format`` (``dataflash`` | ``px4log``),
         ``vehicle_type``, ``vehicle``, ``firmware``, ``battery_capacity_mah``,
         ``battery_cells``, ``rates_hz``, ``channels`` (source of each column),
@@ -737,13 +755,9 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
         if ver is not None and len(ver.get("FwGit", [])):
             meta["firmware"] = f"PX4 {ver['FwGit'][0]}" + (
                 f" ({ver['Arch'][0]})" if "Arch" in ver else "")
-        mav_type = params.get("MAV_TYPE")
-        meta["vehicle"] = mav_type_name(mav_type)
-        vclass = MAV_TYPE_CLASS.get(int(mav_type)) if mav_type is not None else None
-        meta["battery_capacity_mah"] = capacity_or_none(params.get("BAT_CAPACITY",
-                                                                   params.get("BAT1_CAPACITY")))
-        meta["battery_cells"] = cells_or_none(params.get("BAT_N_CELLS",
-                                                         params.get("BAT1_N_CELLS")))
+        vclass = vehicle_meta(meta, params.get("MAV_TYPE"))
+        battery_meta(meta, params, capacity=("BAT_CAPACITY", "BAT1_CAPACITY"),
+                     cells=("BAT_N_CELLS", "BAT1_N_CELLS"))
         ap_mav_type = None
     else:
         firmware, ap_mav_type, vclass = _ardupilot_identity(log, params)
@@ -753,9 +767,8 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
         if frame:
             meta["frame"] = frame.split(":", 1)[1].strip()
         meta["vehicle"] = " ".join(x for x in (product, meta.values.get("frame")) if x) or None
-        meta["battery_capacity_mah"] = capacity_or_none(params.get("BATT_CAPACITY"))
-        meta["battery_serial"] = serial_or_none(params.get("BATT_SERIAL_NUM"))
         # ArduPilot logs no cell count (only voltage thresholds)
+        battery_meta(meta, params, capacity=("BATT_CAPACITY",), serial=("BATT_SERIAL_NUM",))
     meta["vehicle_type"] = vclass
 
     def mode_names(raw: np.ndarray, f: Field) -> np.ndarray:
@@ -774,9 +787,6 @@ def read_dataflash(path: str | os.PathLike, *, require_battery: bool = True,
         return cache[name]
 
     channels = resolve_channels(FIELD_MAP, get, vehicle_type=vclass, mode_names=mode_names)
-    # throttle is 0..1 by definition of the record; PWM-derived values can overshoot
-    if "throttle" in channels:
-        channels["throttle"].values = np.clip(channels["throttle"].values, 0.0, 1.0)
     if "current_a" in channels:
         bmsg = channels["current_a"].message
         inst = log.instances(bmsg)

@@ -40,18 +40,9 @@ import pandas as pd
 from pymavlink import mavutil
 
 from planner.errors import InputError
-from planner.io.logs._common import (
-    Field,
-    Message,
-    Meta,
-    build_record,
-    capacity_or_none,
-    cells_or_none,
-    resolve_channels,
-    serial_or_none,
-    start_time_unix,
-)
-from planner.io.logs.dataflash import MAV_TYPE_CLASS, mav_type_name
+from planner.io.logs._common import Field, Message, Meta, battery_meta, build_record
+from planner.io.logs._common import resolve_channels, start_time_unix
+from planner.io.logs.dataflash import vehicle_meta
 
 __all__ = ["FIELD_MAP", "read_tlog"]
 
@@ -254,29 +245,57 @@ def read_tlog(path: str | os.PathLike, *, require_battery: bool = True
     meta = Meta(str(path), "tlog")
     if not path.is_file():
         raise InputError(f"{path}: file not found")
-    size = path.stat().st_size
-    if size == 0:
+    if path.stat().st_size == 0:
         raise InputError(f"{path}: empty file")
     rows, texts, params, stats = _collect(path)
-    n_msgs = sum(len(v) for v in rows.values())
-    if n_msgs == 0:
+    if sum(len(v) for v in rows.values()) == 0:
         raise InputError(f"{path}: no MAVLink messages found (not a telemetry log?)")
+    vehicle_sys, hb_type = _vehicle(rows)
+    _warn_damage(path, stats, meta)
+    vclass = vehicle_meta(meta, hb_type)
+    meta["firmware"] = next((t for t in texts if t.startswith(("Ardu", "APM:", "PX4 v"))), None)
+    meta["params"] = params
+    battery_meta(meta, params, capacity=("BATT_CAPACITY", "BAT1_CAPACITY", "BAT_CAPACITY"),
+                 cells=("BAT1_N_CELLS", "BAT_N_CELLS"), serial=("BATT_SERIAL_NUM",))
+    meta["message_counts"] = {k: len(v) for k, v in rows.items()}
+    meta["system_id"] = vehicle_sys
+    cache: dict = {}
 
-    # the vehicle: the system that reports its battery, else the first non-GCS heartbeat
+    def cached(mtype):
+        if mtype not in cache:
+            cache[mtype] = _message(rows, mtype, vehicle_sys)
+        return cache[mtype]
+
+    channels = resolve_channels(_field_map(cached("BATTERY_STATUS")), cached,
+                                vehicle_type=vclass,
+                                mode_names=lambda raw, f: np.asarray(raw, dtype=object))
+    df = build_record(channels, meta, experiment=path.stem, require_battery=require_battery)
+    # a tlog's clock is the ground station's receive time (UTC)
+    t0 = meta.values["time_base_start_s"]
+    meta["start_time_unix"] = start_time_unix(t0, [t0], [t0])
+    return df, meta.values
+
+
+def _vehicle(rows: dict) -> tuple:
+    """(system id, MAV_TYPE) of the vehicle: the system that reports its battery, else the
+    first non-GCS heartbeat."""
     vehicle_sys = None
     for mtype in ("BATTERY_STATUS", "SYS_STATUS"):
         if rows.get(mtype):
             vehicle_sys = rows[mtype][0][0]
             break
-    hb_type = None
     for src, _, typ, ap, *_ in rows.get("HEARTBEAT", []):
         if typ in _GCS_TYPES or ap == mavutil.mavlink.MAV_AUTOPILOT_INVALID:
             continue
         if vehicle_sys is None:
             vehicle_sys = src
         if src == vehicle_sys:
-            hb_type = typ
-            break
+            return vehicle_sys, typ
+    return vehicle_sys, None
+
+
+def _warn_damage(path: Path, stats: dict, meta: Meta) -> None:
+    """One warning for what the frame reader skipped (:func:`_frames`)."""
     damage = []
     if stats["skipped"]:
         damage.append(f"skipped {stats['skipped']} byte(s) outside MAVLink frames in "
@@ -290,69 +309,43 @@ def read_tlog(path: str | os.PathLike, *, require_battery: bool = True
         meta.warn(f"{path}: damaged telemetry log, read the intact messages ("
                   + "; ".join(damage) + ")")
 
-    def get(mtype: str) -> Message | None:
-        lst = [r for r in rows.get(mtype, []) if vehicle_sys is None or r[0] == vehicle_sys]
-        if mtype == "BATTERY_STATUS":
-            lst = [r for r in lst if (r[2] or 0) == 0]          # battery id 0
-        if mtype == "HEARTBEAT":
-            lst = [r for r in lst if r[2] not in _GCS_TYPES]
-        if not lst:
-            return None
-        t = np.array([r[1] for r in lst], dtype=np.float64)
-        data: dict[str, np.ndarray] = {}
-        for i, k in enumerate(_FIELDS[mtype]):
-            col = [r[2 + i] for r in lst]
-            data[k] = np.array([np.nan if v is None else v for v in col], dtype=np.float64)
-        if mtype == "WIND" and "direction" in data and "speed" in data:
-            # WIND.direction is where the wind comes FROM (deg); record wants the
-            # velocity the air moves with (towards), north/east components
-            frm = np.radians(data["direction"])
-            data["wind_n"] = -data["speed"] * np.cos(frm)
-            data["wind_e"] = -data["speed"] * np.sin(frm)
-        if mtype == "HEARTBEAT":
-            # pymavlink's name for the mode (ArduPilot tables by vehicle type, PX4 modes)
-            data["custom_mode_name"] = np.array(
-                [mavutil.mode_string_v10(_Heartbeat(*r[2:6])) for r in lst], dtype=object)
-        return Message(mtype, t, data)
 
-    def mode_names(raw: np.ndarray, f: Field) -> np.ndarray:
-        return np.asarray(raw, dtype=object)
+def _message(rows: dict, mtype: str, vehicle_sys) -> Message | None:
+    """The vehicle's messages of one type as arrays (battery 0 only; the WIND direction
+    and speed as north and east components; the HEARTBEAT's mode by name)."""
+    lst = [r for r in rows.get(mtype, []) if vehicle_sys is None or r[0] == vehicle_sys]
+    if mtype == "BATTERY_STATUS":
+        lst = [r for r in lst if (r[2] or 0) == 0]          # battery id 0
+    if mtype == "HEARTBEAT":
+        lst = [r for r in lst if r[2] not in _GCS_TYPES]
+    if not lst:
+        return None
+    t = np.array([r[1] for r in lst], dtype=np.float64)
+    data: dict[str, np.ndarray] = {}
+    for i, k in enumerate(_FIELDS[mtype]):
+        col = [r[2 + i] for r in lst]
+        data[k] = np.array([np.nan if v is None else v for v in col], dtype=np.float64)
+    if mtype == "WIND" and "direction" in data and "speed" in data:
+        # WIND.direction is where the wind comes FROM (deg); record wants the
+        # velocity the air moves with (towards), north/east components
+        frm = np.radians(data["direction"])
+        data["wind_n"] = -data["speed"] * np.cos(frm)
+        data["wind_e"] = -data["speed"] * np.sin(frm)
+    if mtype == "HEARTBEAT":
+        # pymavlink's name for the mode (ArduPilot tables by vehicle type, PX4 modes)
+        data["custom_mode_name"] = np.array(
+            [mavutil.mode_string_v10(_Heartbeat(*r[2:6])) for r in lst], dtype=object)
+    return Message(mtype, t, data)
 
-    vclass = MAV_TYPE_CLASS.get(int(hb_type)) if hb_type is not None else None
-    meta["vehicle_type"] = vclass
-    meta["vehicle"] = mav_type_name(hb_type)
-    meta["firmware"] = next((t for t in texts if t.startswith(("Ardu", "APM:", "PX4 v"))), None)
-    meta["params"] = params
-    meta["battery_capacity_mah"] = capacity_or_none(
-        params.get("BATT_CAPACITY", params.get("BAT1_CAPACITY", params.get("BAT_CAPACITY"))))
-    meta["battery_cells"] = cells_or_none(params.get("BAT1_N_CELLS", params.get("BAT_N_CELLS")))
-    meta["battery_serial"] = serial_or_none(params.get("BATT_SERIAL_NUM"))
-    meta["message_counts"] = {k: len(v) for k, v in rows.items()}
-    meta["system_id"] = vehicle_sys
 
-    cache: dict = {}
-
-    def cached(mtype):
-        if mtype not in cache:
-            cache[mtype] = get(mtype)
-        return cache[mtype]
-
-    # BATTERY_STATUS only counts when it measures current or voltage
-    bs = cached("BATTERY_STATUS")
-    fmap = dict(FIELD_MAP)
-    if bs is not None:
-        cur = bs.data.get("current_battery", np.array([-1.0]))
+def _field_map(battery_status: Message | None) -> dict:
+    """:data:`FIELD_MAP`, without ``BATTERY_STATUS`` when it measures no current."""
+    if battery_status is not None:
+        cur = battery_status.data.get("current_battery", np.array([-1.0]))
         if not np.any(cur != -1):
-            fmap = {k: tuple(f for f in v if f.message != "BATTERY_STATUS")
+            return {k: tuple(f for f in v if f.message != "BATTERY_STATUS")
                     for k, v in FIELD_MAP.items()}
-    channels = resolve_channels(fmap, cached, vehicle_type=vclass, mode_names=mode_names)
-    if "throttle" in channels:
-        channels["throttle"].values = np.clip(channels["throttle"].values, 0.0, 1.0)
-    df = build_record(channels, meta, experiment=path.stem, require_battery=require_battery)
-    # a tlog's clock is the ground station's receive time (UTC)
-    t0 = meta.values["time_base_start_s"]
-    meta["start_time_unix"] = start_time_unix(t0, [t0], [t0])
-    return df, meta.values
+    return dict(FIELD_MAP)
 
 
 class _Heartbeat:
@@ -366,4 +359,5 @@ class _Heartbeat:
 
     @staticmethod
     def get_type():
+        """The message type pymavlink asks for."""
         return "HEARTBEAT"

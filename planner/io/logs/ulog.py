@@ -33,19 +33,10 @@ import numpy as np
 import pandas as pd
 
 from planner.errors import InputError
-from planner.io.logs._common import (
-    Field,
-    Message,
-    Meta,
-    build_record,
-    capacity_or_none,
-    cells_or_none,
-    resolve_channels,
-    serial_or_none,
-    start_time_unix,
-)
+from planner.io.logs._common import Field, Message, Meta, battery_meta, build_record
+from planner.io.logs._common import resolve_channels, serial_or_none, start_time_unix
 from planner.io.logs._ulog_decode import ULogError, decode
-from planner.io.logs.dataflash import MAV_TYPE_CLASS, mav_type_name
+from planner.io.logs.dataflash import vehicle_meta
 
 __all__ = ["FIELD_MAP", "NAV_STATE_NAMES", "read_ulog"]
 
@@ -169,10 +160,30 @@ def read_ulog(path: str | os.PathLike, *, require_battery: bool = True
         The flight record (one row per ``battery_status`` sample of the kept
         instance) and the metadata (see :func:`planner.io.logs.read_log`).
     """
-    from planner.io import files
-
     path = Path(path)
     meta = Meta(str(path), "ulog")
+    ulog, damaged = _decode(path, meta)
+    vclass = _parameters(ulog, path, meta)
+    topics = _Topics(ulog)
+    topics.battery = _battery_instance(topics.by_topic.get("battery_status", []), path, meta)
+    channels = resolve_channels(FIELD_MAP, topics.get, vehicle_type=vclass,
+                                mode_names=_mode_names)
+    try:
+        df = build_record(channels, meta, experiment=path.stem,
+                          require_battery=require_battery)
+    except InputError as exc:
+        if damaged:
+            raise InputError(f"{exc} - the file is damaged, see the warning above") from None
+        raise
+    _start_time(topics, meta)
+    return df, meta.values
+
+
+def _decode(path: Path, meta: Meta):
+    """The decoded file (:func:`planner.io.logs._ulog_decode.decode`) and whether it is
+    damaged; damage, truncation and dropouts said in ``meta``."""
+    from planner.io import files
+
     buf = files.read_bytes(path, "log", "log file")
     if not buf:
         raise InputError(f"{path}: empty file")
@@ -192,7 +203,11 @@ def read_ulog(path: str | os.PathLike, *, require_battery: bool = True
         lost = sum(ulog.dropouts_ms)
         meta["dropouts"] = len(ulog.dropouts_ms)
         meta["notes"] = [f"{len(ulog.dropouts_ms)} logging dropout(s), {lost} ms in total"]
+    return ulog, damaged
 
+
+def _parameters(ulog, path: Path, meta: Meta) -> str | None:
+    """The parameters, firmware, vehicle and pack in ``meta``; returns the vehicle type."""
     raw_params = dict(ulog.initial_parameters)
     # a parameter is an int32 or a float; one whose type a damaged file garbled is ignored
     params = {k: v for k, v in raw_params.items()
@@ -209,69 +224,69 @@ def read_ulog(path: str | os.PathLike, *, require_battery: bool = True
     if mav_type is not None and not (np.isfinite(mav_type) and float(mav_type).is_integer()):
         meta.warn(f"{path}: MAV_TYPE {mav_type} is not a vehicle type: ignored")
         mav_type = None
-    meta["vehicle"] = mav_type_name(mav_type)
-    vclass = MAV_TYPE_CLASS.get(int(mav_type)) if mav_type is not None else None
-    meta["vehicle_type"] = vclass
-    meta["battery_capacity_mah"] = capacity_or_none(
-        params.get("BAT1_CAPACITY", params.get("BAT_CAPACITY")))
-    meta["battery_cells"] = cells_or_none(
-        params.get("BAT1_N_CELLS", params.get("BAT_N_CELLS")))
+    vclass = vehicle_meta(meta, mav_type)
+    battery_meta(meta, params, capacity=("BAT1_CAPACITY", "BAT_CAPACITY"),
+                 cells=("BAT1_N_CELLS", "BAT_N_CELLS"))
+    return vclass
 
-    by_topic: dict[str, list] = {}
-    for d in ulog.data_list:
-        by_topic.setdefault(d.name, []).append(d)
-    for lst in by_topic.values():
-        lst.sort(key=lambda d: d.multi_id)
 
-    batteries = by_topic.get("battery_status", [])
-    keep_battery = None
-    if batteries:
-        keep_battery = next((d for d in batteries if d.multi_id == 0 and _has_current(d)),
-                            None) or next((d for d in batteries if _has_current(d)),
-                                          batteries[0])
-        if len(batteries) > 1:
-            meta["battery_instances"] = [d.multi_id for d in batteries]
-            meta["battery_instance"] = keep_battery.multi_id
-            meta.warn(f"{path}: {len(batteries)} battery_status instances; kept instance "
-                      f"{keep_battery.multi_id}, ignored "
-                      f"{[d.multi_id for d in batteries if d is not keep_battery]}")
-        meta["battery_serial"] = serial_or_none(keep_battery.data.get("serial_number"))
-        cycles = keep_battery.data.get("cycle_count")
-        if meta["battery_serial"] is not None and cycles is not None and len(cycles):
-            meta["battery_cycle_count"] = int(np.max(cycles))     # a smart battery's count
+def _battery_instance(batteries: list, path: Path, meta: Meta):
+    """The ``battery_status`` instance the record follows: instance 0 if it measures
+    current, else the first that does, else the first; its serial and cycle count in
+    ``meta``."""
+    if not batteries:
+        return None
+    keep = next((d for d in batteries if d.multi_id == 0 and _has_current(d)), None) or \
+        next((d for d in batteries if _has_current(d)), batteries[0])
+    if len(batteries) > 1:
+        meta["battery_instances"] = [d.multi_id for d in batteries]
+        meta["battery_instance"] = keep.multi_id
+        meta.warn(f"{path}: {len(batteries)} battery_status instances; kept instance "
+                  f"{keep.multi_id}, ignored "
+                  f"{[d.multi_id for d in batteries if d is not keep]}")
+    meta["battery_serial"] = serial_or_none(keep.data.get("serial_number"))
+    cycles = keep.data.get("cycle_count")
+    if meta["battery_serial"] is not None and cycles is not None and len(cycles):
+        meta["battery_cycle_count"] = int(np.max(cycles))     # a smart battery's count
+    return keep
 
-    def get(topic: str) -> Message | None:
-        lst = by_topic.get(topic)
+
+class _Topics:
+    """The decoded topics, each as a :class:`Message` in seconds of the log's clock."""
+
+    def __init__(self, ulog):
+        self.by_topic: dict[str, list] = {}
+        for d in ulog.data_list:
+            self.by_topic.setdefault(d.name, []).append(d)
+        for lst in self.by_topic.values():
+            lst.sort(key=lambda d: d.multi_id)
+        self.battery = None
+
+    def get(self, topic: str) -> Message | None:
+        """The topic's first instance (``battery_status``: the kept one), or None."""
+        lst = self.by_topic.get(topic)
         if not lst:
             return None
-        d = keep_battery if topic == "battery_status" else lst[0]
-        data = d.data
-        if "timestamp" not in data:          # damaged format definition
+        d = self.battery if topic == "battery_status" else lst[0]
+        if "timestamp" not in d.data:          # damaged format definition
             return None
-        t = np.asarray(data["timestamp"], dtype=np.float64) * 1e-6
-        return Message(topic, t, data, instance=d.multi_id)
+        t = np.asarray(d.data["timestamp"], dtype=np.float64) * 1e-6
+        return Message(topic, t, d.data, instance=d.multi_id)
 
-    def mode_names(raw: np.ndarray, f: Field) -> np.ndarray:
-        return np.array([NAV_STATE_NAMES.get(int(v), f"NAV_STATE({int(v)})") for v in raw],
-                        dtype=object)
 
-    channels = resolve_channels(FIELD_MAP, get, vehicle_type=vclass, mode_names=mode_names)
-    if "throttle" in channels:
-        channels["throttle"].values = np.clip(channels["throttle"].values, 0.0, 1.0)
-    try:
-        df = build_record(channels, meta, experiment=path.stem,
-                          require_battery=require_battery)
-    except InputError as exc:
-        if damaged:
-            raise InputError(f"{exc} - the file is damaged, see the warning above") from None
-        raise
+def _mode_names(raw: np.ndarray, f: Field) -> np.ndarray:
+    return np.array([NAV_STATE_NAMES.get(int(v), f"NAV_STATE({int(v)})") for v in raw],
+                    dtype=object)
+
+
+def _start_time(topics: _Topics, meta: Meta) -> None:
+    """``start_time_unix`` from the GPS receiver's UTC, where the log has it."""
     for topic in GPS_TIME_TOPICS:
-        gps = get(topic)
+        gps = topics.get(topic)
         if gps is not None and "time_utc_usec" in gps.data:
             # 0 until the receiver has a fix: start_time_unix keeps only times in 2000–2100
             start = start_time_unix(meta.values["time_base_start_s"], gps.t,
                                     np.asarray(gps.data["time_utc_usec"], float) * 1e-6)
             if start is not None:
                 meta["start_time_unix"] = start
-                break
-    return df, meta.values
+                return

@@ -75,32 +75,11 @@ Temperature
   (:data:`planner.physics.battery.thermal.T_RANGE_C`); outside it raises
   :class:`planner.errors.ModelError`.
 
-YAML ``circuit:`` block (per cell; the pack supplies what is absent)
----------------------------------------------------------------------
-
-==============================  =========  ==============  ==================================
-key                             unit       default         meaning
-==============================  =========  ==============  ==================================
-``capacity_ah``                 A h        pack capacity   cell capacity at T_ref
-                                           / parallel
-``r0_ohm``                      Ω          pack R ·        ohmic resistance at T_ref: a number
-                                           parallel/series or ``{soc: [...], ohm: [...]}``
-``r1_ohm``                      Ω          0 (no RC)       RC-branch resistance
-``c1_f``                        F          required if     RC-branch capacitance
-                                           r1_ohm > 0
-``hysteresis_v``                V          0               maximum hysteresis voltage M
-``hysteresis_gamma``            1          required if     hysteresis rate γ (charge
-                                           hysteresis_v>0  constant Q/γ)
-``ocv_csv``                     path       LiPo curve      CSV ``soc [1], ocv [V]``, relative
-                                           (Chen 2006)     to the YAML file
-``r0_activation_energy_j_mol``  J/mol      25000           Arrhenius activation energy of R0
-``capacity_temp_coeff_per_c``   1/°C       0.006           capacity loss per °C below T_ref
-``reference_temperature_c``     °C         25              T_ref
-``coulombic_efficiency``        1          1.0             charge efficiency η on charge
-``cells_series``                —          pack            cells in series
-``cells_parallel``              —          pack            cells in parallel
-``source``                      text       —               where the numbers come from
-==============================  =========  ==============  ==================================
+Pack files
+----------
+A pack file's ``circuit:`` block gives these parameters per cell (the pack supplies the
+capacity, R0 and layout it leaves out); its keys, units, bounds and defaults are declared
+in :data:`planner.parameters.blocks.CIRCUIT_KEYS` and printed in ``docs/formats.md``.
 
 References
 ----------
@@ -142,6 +121,14 @@ from planner.physics.battery.thermal import (
     lumped_step,
 )
 from planner.errors import InputError, ModelError
+from planner.physics.limits import (
+    ACTIVATION_ENERGY_MAX_J_MOL,
+    CAPACITY_TEMP_COEFF_MAX_PER_C,
+    CELL_CAPACITY_MAX_AH,
+    CELL_RESISTANCE_MAX_OHM,
+    HYSTERESIS_GAMMA_MAX,
+    HYSTERESIS_MAX_V,
+)
 
 #: Universal gas constant. [J/(mol K)]
 R_GAS = 8.314462618
@@ -154,53 +141,63 @@ _GRID_N = 4001
 
 # --------------------------------------------------------------------------- parameters
 
-def parse_r0(value: Any, key: str, problems: list[str]):
-    """Parse ``r0_ohm``: a number, a ``(soc, ohm)`` pair or ``{soc: [...], ohm: [...]}``;
-    append what is wrong to ``problems`` (naming ``key``) and return None."""
-    if isinstance(value, bool):
-        problems.append(f"{key} must be a number or a mapping {{soc: [...], ohm: [...]}}, "
-                        f"got {value!r}")
-        return None
-    if isinstance(value, (int, float, np.floating, np.integer)):
-        if not math.isfinite(value) or value < 0:
-            problems.append(f"{key} must be >= 0 (a resistance), got {value!r}")
-            return None
-        return float(value)
-    if isinstance(value, dict):
-        extra = set(value) - {"soc", "ohm"}
-        if extra or not {"soc", "ohm"} <= set(value):
-            problems.append(f"{key} as a table needs exactly the keys 'soc' and 'ohm', "
-                            f"got {sorted(map(str, value))}")
-            return None
-        value = (value["soc"], value["ohm"])
+def r0_table(soc, ohm, name: str = "r0_ohm") -> tuple[np.ndarray, np.ndarray]:
+    """An R0(SoC) table, checked and sorted by state of charge.
+
+    Parameters
+    ----------
+    soc, ohm : array_like
+        States of charge in [0, 1] and the resistances there, of equal length >= 2, no
+        state of charge twice. [unitless], [Ω]
+    name : str
+        What the table is called in messages (``name.soc``, ``name.ohm``).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        The table sorted by state of charge.
+
+    Raises
+    ------
+    InputError
+        A table that breaks one of those rules, naming it.
+    """
+    try:
+        soc = np.asarray(soc, dtype=float).ravel()
+        ohm = np.asarray(ohm, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"{name}.soc and {name}.ohm must be lists of numbers") from None
+    if soc.size != ohm.size or soc.size < 2:
+        raise InputError(f"{name}.soc and {name}.ohm must be lists of equal length >= 2, "
+                         f"got {soc.size} and {ohm.size}")
+    if not (np.all(np.isfinite(soc)) and np.all(np.isfinite(ohm))):
+        raise InputError(f"{name} has a value that is not a finite number")
+    if soc.min() < 0 or soc.max() > 1:
+        raise InputError(f"{name}.soc must lie in [0, 1], got {soc.min():g}..{soc.max():g}")
+    if np.any(ohm < 0):
+        raise InputError(f"{name}.ohm must be >= 0 (a resistance), got {ohm.min():g}")
+    order = np.argsort(soc)
+    soc, ohm = soc[order], ohm[order]
+    if np.any(np.diff(soc) == 0):
+        raise InputError(f"{name}.soc has a repeated value")
+    return soc, ohm
+
+
+def _r0(value, problems: list[str]):
+    """``r0_ohm`` of :class:`CircuitParameters`: a resistance >= 0 or an R0(SoC) table
+    (:func:`r0_table`); None with the problem recorded."""
     if isinstance(value, (tuple, list)) and len(value) == 2:
         try:
-            soc = np.asarray(value[0], dtype=float).ravel()
-            ohm = np.asarray(value[1], dtype=float).ravel()
-        except (TypeError, ValueError):
-            problems.append(f"{key}.soc and {key}.ohm must be lists of numbers")
+            return r0_table(value[0], value[1])
+        except InputError as exc:
+            problems.append(str(exc))
             return None
-        if soc.size != ohm.size or soc.size < 2:
-            problems.append(f"{key}.soc and {key}.ohm must be lists of equal length >= 2, "
-                            f"got {soc.size} and {ohm.size}")
-            return None
-        if not (np.all(np.isfinite(soc)) and np.all(np.isfinite(ohm))):
-            problems.append(f"{key} has a value that is not a finite number")
-            return None
-        if soc.min() < 0 or soc.max() > 1:
-            problems.append(f"{key}.soc must lie in [0, 1], got {soc.min():g}..{soc.max():g}")
-            return None
-        if np.any(ohm < 0):
-            problems.append(f"{key}.ohm must be >= 0 (a resistance), got {ohm.min():g}")
-            return None
-        order = np.argsort(soc)
-        soc, ohm = soc[order], ohm[order]
-        if np.any(np.diff(soc) == 0):
-            problems.append(f"{key}.soc has a repeated value")
-            return None
-        return (soc, ohm)
-    problems.append(f"{key} must be a number or a mapping {{soc: [...], ohm: [...]}}, "
-                    f"got {value!r}")
+    if isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool):
+        if math.isfinite(value) and value >= 0:
+            return float(value)
+        problems.append(f"r0_ohm must be >= 0 (a resistance), got {value!r}")
+        return None
+    problems.append(f"r0_ohm must be a number or a table (soc, ohm), got {value!r}")
     return None
 
 
@@ -259,7 +256,7 @@ class CircuitParameters:
 
     def __post_init__(self):
         problems: list[str] = []
-        r0 = parse_r0(self.r0_ohm, "r0_ohm", problems)
+        r0 = _r0(self.r0_ohm, problems)
         if r0 is not None:
             object.__setattr__(self, "r0_ohm", r0)
 
@@ -276,16 +273,17 @@ class CircuitParameters:
                 rng = f" and <= {high:g}" if high is not None else ""
                 problems.append(f"{key} must be {rel} {low:g}{rng}, got {value!r}")
 
-        num("capacity_ah", strict=True)
-        num("r1_ohm")
+        # the bounds of the pack files' circuit: block (planner.physics.limits)
+        num("capacity_ah", strict=True, high=CELL_CAPACITY_MAX_AH)
+        num("r1_ohm", high=CELL_RESISTANCE_MAX_OHM)
         num("c1_f", strict=True, none_ok=True)
-        num("hysteresis_v")
-        num("hysteresis_gamma")
-        num("r0_activation_energy_j_mol")
-        num("capacity_temp_coeff_per_c", high=0.02)
+        num("hysteresis_v", high=HYSTERESIS_MAX_V)
+        num("hysteresis_gamma", high=HYSTERESIS_GAMMA_MAX)
+        num("r0_activation_energy_j_mol", high=ACTIVATION_ENERGY_MAX_J_MOL)
+        num("capacity_temp_coeff_per_c", high=CAPACITY_TEMP_COEFF_MAX_PER_C)
         num("coulombic_efficiency", strict=True, high=1.0)
         num("reference_temperature_c", low=T_RANGE_C[0], high=T_RANGE_C[1])
-        for key in ("cells_series", "cells_parallel"):
+        for key in ("cells_series", "cells_parallel"):  # the installed packs: no bound
             value = getattr(self, key)
             if not (isinstance(value, (int, np.integer)) and not isinstance(value, bool)
                     and value >= 1):

@@ -18,7 +18,8 @@ from planner.parameters.blocks import (
     circuit_to_mapping,
     thermal_from_mapping,
 )
-from planner.parameters.ocv import read_ocv_csv, write_ocv_csv
+from planner.io.tables import write_ocv_csv
+from planner.parameters.ocv import read_ocv_csv
 
 
 def cell(**kw):
@@ -362,10 +363,12 @@ def test_ocv_csv_reading_units_and_order(tmp_path):
 @pytest.mark.parametrize("text, match", [
     ("soc [1],ocv [V]\n0,3.0\n0.5,3.8\n1,3.7\n", r"must rise with soc \(monotonic"),
     ("soc [1],ocv [V]\n0,3.0\n0,3.1\n", "appears twice"),
-    ("soc [1],ocv\n0,3.0\n1,4.0\n", r"needs its unit in the header, \[V\] or \[mV\]"),
-    ("soc [1],ocv [V]\n0,3.0\n1,abc\n", r"line 3: column 'ocv' must be a number, got 'abc'"),
+    ("soc [1],ocv\n0,3.0\n1,4.0\n",
+     r"column 'ocv' \(header\): expected its unit, \[V\] or \[mV\], got no unit"),
+    ("soc [1],ocv [V]\n0,3.0\n1,abc\n",
+     r"column 'ocv' row 2 \(line 3\): expected a number, got 'abc'"),
     ("soc [1],ocv [V]\n0,3.0\n1.5,4.0\n", r"soc must lie in \[0, 1\]"),
-    ("state,volts\n0,3\n1,4\n", "header must name"),
+    ("state,volts\n0,3\n1,4\n", r"header: expected the columns 'soc \[1\]' and 'ocv \[V\]'"),
     ("soc [1],ocv [V]\n0,3.0\n", "at least 2 rows"),
 ])
 def test_ocv_csv_errors(tmp_path, text, match):
