@@ -576,7 +576,7 @@ def load_aircraft(path: str | Path) -> Aircraft:
 def aspect_ratio_of(path: str | Path) -> float | None:
     """The ``fixed_wing.aspect_ratio`` an aircraft file gives, if any (the loaded
     :class:`Aircraft` keeps only K): the fixed-wing fit's Oswald factor needs it."""
-    data = S.load_yaml(path)
+    data = files.load_yaml(path, empty_ok=False)
     block = data.get("fixed_wing") if isinstance(data, dict) else None
     ar = block.get("aspect_ratio") if isinstance(block, dict) else None
     return float(ar) if isinstance(ar, (int, float)) and not isinstance(ar, bool) else None
