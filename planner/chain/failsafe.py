@@ -3,8 +3,9 @@ r"""Battery failsafe parameters of ArduPilot and PX4, derived from the mission.
 The autopilot's battery failsafe fires on a fixed threshold; the right threshold is the
 charge the aircraft needs, from the worst point of *this* mission in *this* wind, to fly
 home and land with the landing reserve. :func:`failsafe_parameters` reads it from a
-:class:`~planner.chain.mission_chain.ChainResult` (one pack, run with its per-leg detail), which holds the
-return-home reserve at :data:`~planner.chain.mission_chain.RTL_POINTS_PER_LEG` points of every leg.
+:class:`~planner.chain.mission_chain.ChainResult` (one pack, run with its per-leg
+detail), which holds the return-home reserve at
+:data:`~planner.chain.kinematics.RTL_POINTS_PER_LEG` points of every leg.
 
 The return from a point
 -----------------------
@@ -17,7 +18,7 @@ return_home_points`). The charge of that return is taken as the larger of
 * the charge at the power of each return segment through the pack's resistance at the
   state of charge of a landing with exactly the reserve (the lowest voltage the return can
   see): :math:`Q = \sum_k I_k t_k`, :math:`I_k` from :math:`P_k = (V_{oc} - I_k R) I_k`
-  ([HESS] eq. 2, :func:`planner.physics.battery.circuit.loaded_current`), :math:`V_{oc}` from the
+  ([HESS] eq. 2, :func:`planner.physics.battery.elements.loaded_current`), :math:`V_{oc}` from the
   open-circuit curve (:func:`planner.physics.battery.ocv.lipo_ocv`).
 
 The second is what a current sensor integrates when the voltage sags late in the flight;
@@ -55,7 +56,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planner.physics.battery.circuit import loaded_current
+from planner.physics.battery.elements import loaded_current, pack_resistance
 from planner.physics.battery.ocv import lipo_ocv
 from planner.errors import InputError
 from planner.physics.units import AS_PER_MAH
@@ -162,7 +163,7 @@ def pack_resistance_ohm(pack) -> float | None:
         return pack.resistance_ohm
     r0 = getattr(pack.circuit, "r0_ohm", None) if pack.circuit is not None else None
     if isinstance(r0, (int, float)):
-        return float(r0) * pack.cells_series / (pack.cells_parallel * pack.count)
+        return pack_resistance(float(r0), pack.cells_series, pack.cells_parallel * pack.count)
     return None
 
 

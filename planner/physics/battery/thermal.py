@@ -204,7 +204,7 @@ def lumped_temperature(time_s, heat_w, t_air_c, r_th, c_th, t0_c=None):
 
     Notes
     -----
-    Exact solution of :math:`C_{th} \dot T + (T - T_{air})/R_{th} = Q` (seed
+    Exact solution of :math:`C_{th} \dot T + (T - T_{air})/R_{th} = Q` ([HESS]
     eq. 11) for heat and air temperature constant over each step:
 
     .. math:: T_{k+1} = a_k T_k + (1 - a_k)(T_{air,k} + R_{th} Q_k), \quad
