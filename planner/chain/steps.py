@@ -245,10 +245,12 @@ class FlightStates:
 
     @property
     def legs(self) -> int:
+        """Legs of the mission."""
         return len(self.table)
 
     @property
     def points(self) -> int:
+        """Return-home points (those of the subset, when one is given)."""
         return len(self.rtl["leg"])
 
 

@@ -101,6 +101,7 @@ class Leg:
                                 self.end_en_m[1] - self.start_en_m[1]))
 
     def with_(self, **changes) -> Leg:
+        """A copy of the leg with some fields changed."""
         return replace(self, **changes)
 
 

@@ -304,6 +304,7 @@ class CircuitParameters:
     # ---------------------------------------------------------------- evaluation
     @property
     def r0_is_table(self) -> bool:
+        """Whether R0 is a table against the state of charge (else one number)."""
         return isinstance(self.r0_ohm, tuple)
 
     @property

@@ -191,10 +191,12 @@ class HybridResult:
 
     @property
     def peak_battery_current_a(self) -> float:
+        """Largest battery current magnitude with the supercap. [A]"""
         return float(np.max(np.abs(self.battery_current_a)))
 
     @property
     def sag_margin_v(self) -> float:
+        """Lowest loaded pack voltage less the pack cut-off ``n_s·v_cutoff_cell``. [V]"""
         return float(np.min(self.voltage_v) - self.cells_series * self.v_cutoff_cell)
 
     def summary(self) -> HybridSummary:

@@ -183,6 +183,7 @@ class SupercapParameters:
     # ------------------------------------------------------------ bank
     @property
     def n_cells(self) -> int:
+        """Cells in the bank, series × parallel."""
         return self.cells_series * self.cells_parallel
 
     @property
@@ -197,6 +198,7 @@ class SupercapParameters:
 
     @property
     def bank_mass_kg(self) -> float | None:
+        """Mass of the bank (None when the cell's is unknown). [kg]"""
         return None if self.mass_kg is None else self.mass_kg * self.n_cells
 
     def bank(self, cells_series: int, cells_parallel: int = 1) -> SupercapParameters:
