@@ -19,8 +19,9 @@ r"""The steps of the mission chain, each a function you can call and test alone.
 
 With the integral model the charge of a profile is not additive but its *stress*
 :math:`S = \int dt/(\delta P^\varepsilon)` is, so the return-home charge from a point is
-:math:`(S_{point} + S_{return})^{1/\beta}` (:func:`planner.physics.battery.integral.
-charge_from_stress`). Charges are in A s inside, mAh where the result reports them.
+:math:`(S_{point} + S_{return})^{1/\beta}`
+(:func:`planner.physics.battery.integral.charge_from_stress`). Charges are in A s inside,
+mAh where the result reports them.
 """
 
 from __future__ import annotations

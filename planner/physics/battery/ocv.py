@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from planner.errors import InputError
 from planner.physics.battery.elements import compiled
