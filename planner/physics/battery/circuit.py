@@ -516,7 +516,7 @@ _NAN = float("nan")
 
 @numba.njit(cache=True)
 def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
-            ns, npar, cap_as, eta_c, m_h, gamma, r1, tau1, ea, t_ref, kq,
+            ns, npar, cap_as, eta_c, m_h, gamma, r1, r1_pack, tau1, ea, t_ref, kq,
             ocv_tab, ocv_idx, r0_tab, r0_idx, r0_scale, diff_gain, tau_d,
             thermal, r_th, tau_th, t_air, t0, temps, t_lo, t_hi,
             cut, stop_at_cutoff, end_at_cutoff, n_window, probe_slot, n_probes,
@@ -615,9 +615,7 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
                 prev_t[i] = t[j]
             if np.isnan(ev[0, i]):
                 all_cut = False
-            heat = cur * cur * r_p
-            if tau1[i] > 0.0:
-                heat += ns[i] * npar[i] * v1[i] * v1[i] / r1[i]
+            heat = el.joule_heat_jit(cur, r_p, ns[i] * v1[i], r1_pack[i])
             if record:
                 out[0, i, j] = cur
                 out[1, i, j] = volt * cur
@@ -763,6 +761,8 @@ def _prepare(params_list, thermal_list, t, temperature_c):
         m_h=arr(lambda p: p.hysteresis_v),
         gamma=arr(lambda p: p.hysteresis_gamma if p.hysteresis_v > 0 else 0.0),
         r1=arr(lambda p: p.r1_ohm), tau1=arr(lambda p: p.tau1_s),
+        r1_pack=arr(lambda p: el.pack_resistance(p.r1_ohm, p.cells_series, p.cells_parallel)
+                    if p.r1_ohm > 0 else np.inf),
         ea=arr(lambda p: p.r0_activation_energy_j_mol),
         t_ref=arr(lambda p: p.reference_temperature_c),
         kq=arr(lambda p: p.capacity_temp_coeff_per_c),

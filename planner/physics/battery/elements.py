@@ -16,6 +16,9 @@ hysteresis step                        :func:`hysteresis_step` ([HESS] eq. 4)
 RC step                                :func:`rc_step` ([HESS] eq. 5)
 loaded current                         :func:`loaded_current` ([HESS] eq. 2)
 power limit                            :func:`power_limit`
+Joule heat                             :func:`joule_heat` ([HESS] eq. 10)
+lumped thermal step                    :func:`planner.physics.battery.thermal.lumped_step`
+                                       ([HESS] eq. 11, compiled)
 current the pack gives at a load       :func:`delivered_current` (compiled only)
 pack scaling                           :func:`pack_resistance`, :func:`cell_resistance`,
                                        :func:`pack_capacitance`
@@ -41,8 +44,8 @@ import pandas as pd
 from planner.physics.units import ZERO_CELSIUS_K
 
 __all__ = ["R_GAS", "arrhenius_factor", "capacity_factor", "cell_resistance", "compiled",
-           "delivered_current", "hysteresis_step", "loaded_current", "pack_capacitance",
-           "pack_resistance", "power_limit", "quiet", "rc_step"]
+           "delivered_current", "hysteresis_step", "joule_heat", "loaded_current",
+           "pack_capacitance", "pack_resistance", "power_limit", "quiet", "rc_step"]
 
 #: Universal gas constant. [J/(mol K)]
 R_GAS = 8.314462618
@@ -216,6 +219,42 @@ def rc_step(v_rc, current_a, r1_ohm, decay):
 
 
 rc_step_jit = compiled(_rc_step)
+
+
+def _joule_heat(current_a, r0_ohm, v_rc, r1_ohm):
+    return current_a * current_a * r0_ohm + v_rc * v_rc / r1_ohm
+
+
+@quiet
+def joule_heat(current_a, r0_ohm, v_rc, r1_ohm):
+    r"""Heat generated in the equivalent circuit's resistors.
+
+    .. math:: Q_{gen} = I^2 R_0 + v_{RC}^2 / R_1
+
+    ([HESS] eq. 10): the Joule heat of the ohmic resistance and of the RC branch's
+    resistor, whose current is :math:`v_{RC}/R_1`. In steady state (:math:`v_{RC} = I R_1`)
+    it is :math:`I^2 (R_0 + R_1)`.
+
+    Parameters
+    ----------
+    current_a : numeric
+        Current through R0. [A]
+    r0_ohm : numeric
+        Ohmic resistance. [Ω]
+    v_rc : numeric
+        Voltage across the RC branch. [V]
+    r1_ohm : numeric
+        Resistance of the RC branch; +inf where there is none. [Ω]
+
+    Returns
+    -------
+    heat : numeric
+        [W]
+    """
+    return _joule_heat(current_a, r0_ohm, v_rc, r1_ohm)
+
+
+joule_heat_jit = compiled(_joule_heat)
 
 
 # --------------------------------------------------------------------------- load

@@ -40,7 +40,7 @@ def lipo_ocv(soc):
        Convers., vol. 21, no. 2, pp. 504–511, 2006, doi:10.1109/TEC.2006.874229.
     """
     s = np.minimum(np.maximum(soc, 0.0), 1.0)
-    return -1.031 * np.exp(-35.0 * s) + 3.685 + 0.2156 * s - 0.1178 * s**2 + 0.3201 * s**3
+    return -1.031 * np.exp(-35.0 * s) + 3.685 + s * (0.2156 + s * (-0.1178 + 0.3201 * s))
 
 
 #: :func:`lipo_ocv` compiled for the time loops (one value per call; the same source).
