@@ -507,8 +507,8 @@ class LegFigures:
         :math:`\\ln P` of every state (:attr:`ChainPower.table`).
     rate : ndarray, packs × states
         :math:`dS/dt = 1/(\\delta P^\\varepsilon)` of every state. [(A s)^β/s]
-    power_w : ndarray
-        [W]
+    log_power_leg : ndarray
+        :math:`\\ln P` of every leg (:attr:`power_w` is its exponential). [ln W]
     increment, stress_end : ndarray
         Stress of each leg and at its end. [(A s)^β]
     charge_end_as : ndarray
@@ -526,7 +526,7 @@ class LegFigures:
 
     log_power: np.ndarray
     rate: np.ndarray
-    power_w: np.ndarray
+    log_power_leg: np.ndarray
     increment: np.ndarray
     stress_end: np.ndarray
     charge_end_as: np.ndarray
@@ -538,6 +538,11 @@ class LegFigures:
     undeliverable_leg: np.ndarray
     p_undeliverable_w: np.ndarray
     p_max_w: np.ndarray
+
+    @property
+    def power_w(self) -> np.ndarray:
+        """Battery power of every leg. [W]"""
+        return np.exp(self.log_power_leg)
 
     @property
     def stress_start(self) -> np.ndarray:
@@ -562,7 +567,7 @@ def leg_figures(inputs: ChainInputs, states: FlightStates, power: ChainPower,
         pa["beta"][rows], pa["scale"][rows], pa["cap"][rows], pa["r"][rows],
         pa["cells"][rows], inc, s_end, c_end, current)
     return LegFigures(
-        log_power=lp, rate=rate, power_w=np.exp(lp_leg), increment=inc, stress_end=s_end,
+        log_power=lp, rate=rate, log_power_leg=lp_leg, increment=inc, stress_end=s_end,
         charge_end_as=c_end, current_a=current, used_as=used, energy_wh=energy,
         peak_current_a=peak, peak_leg=peak_leg, undeliverable_leg=first,
         p_undeliverable_w=p_bad, p_max_w=p_max)
@@ -633,14 +638,15 @@ def leg_kernel(lp_leg, rate_leg, dur, beta, scale, cap, r, cells, inc, s_end, c_
     return used, energy, peak, peak_leg, first, p_bad, p_max
 
 
-def leg_end_voltage(inputs: ChainInputs, legs: LegFigures, rows: slice) -> np.ndarray:
+def leg_end_voltage(inputs: ChainInputs, legs: LegFigures, rows: slice,
+                    power_w=None) -> np.ndarray:
     """Loaded voltage at the end of every leg (open-circuit curve at the leg's end state of
     charge, less the drop through the pack resistance); NaN where the pack cannot deliver
-    the leg's power. [V]"""
+    the leg's power (``power_w``, default the legs'). [V]"""
     pa = inputs.pack
     cells, r = pa["cells"][rows, None], pa["r"][rows, None]
     v_oc = cells * lipo_ocv(1.0 - legs.charge_end_as / pa["cap"][rows, None])
-    current = loaded_current(legs.power_w, v_oc, r)
+    current = loaded_current(legs.power_w if power_w is None else power_w, v_oc, r)
     return np.where(np.isnan(current), np.nan, v_oc - current * r)
 
 
@@ -783,9 +789,10 @@ class PackFigures:
             return
         c_end = legs.charge_end_as
         c_start = np.concatenate([np.zeros((c_end.shape[0], 1)), c_end[:, :-1]], axis=1)
-        d["power_w"][rows] = legs.power_w
+        leg_power = legs.power_w
+        d["power_w"][rows] = leg_power
         d["current_a"][rows] = legs.current_a
-        d["voltage_v"][rows] = leg_end_voltage(inputs, legs, rows)
+        d["voltage_v"][rows] = leg_end_voltage(inputs, legs, rows, leg_power)
         d["charge_mah"][rows] = (c_end - c_start) / AS_PER_MAH
         d["charge_end_mah"][rows] = c_end / AS_PER_MAH
         d["stress_end"][rows] = legs.stress_end
@@ -793,14 +800,14 @@ class PackFigures:
         d["rtl_down_power_w"][rows] = np.exp(legs.log_power[:, power.down])
         d["rtl_margin_mah"][rows] = margin.reshape(
             -1, states.legs, kinematics.RTL_POINTS_PER_LEG).min(axis=2) / AS_PER_MAH
-        self._series(rows, inputs, states, legs)
+        self._series(rows, inputs, states, legs, leg_power)
 
     def circuit_voltages(self, circuit: CircuitRun) -> None:
         """The circuit model's loaded voltage at every leg's end for its packs (detail)."""
         if self.detail is not None and "voltage_v" in self.detail and circuit.which:
             self.detail["voltage_v"][circuit.which] = circuit.leg_voltage_v
 
-    def _series(self, rows, inputs, states, legs, points=12):
+    def _series(self, rows, inputs, states, legs, power, points=12):
         """Power [W] and remaining charge [unitless] sampled inside every leg (plots)."""
         table, pa = states.table, inputs.pack
         f = np.linspace(0.0, 1.0, points)
@@ -811,7 +818,7 @@ class PackFigures:
         d = self.detail
         for j, i in enumerate(range(rows.start, rows.stop)):
             d.setdefault("series_time_s", {})[i] = t
-            d.setdefault("series_power_w", {})[i] = np.repeat(legs.power_w[j], points)
+            d.setdefault("series_power_w", {})[i] = np.repeat(power[j], points)
             d.setdefault("series_remaining_fraction", {})[i] = (
                 1.0 - pa["scale"][i] * integral.charge_from_stress(s[j], pa["beta"][i])
                 / pa["cap"][i])
