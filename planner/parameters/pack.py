@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from planner.physics.battery.chemistry import CHEMISTRY_NAMES
-from planner.errors import InputError
 from planner.io import files
 from planner.io import schema as S
 from planner.parameters.blocks import (

@@ -23,6 +23,9 @@ from typing import Any
 
 import numpy as np
 
+from planner.physics.units import S_PER_H
+from planner.physics.wind import course_deg
+
 LEG_KINDS = ("climb", "cruise", "hover", "loiter", "descend")
 
 #: Most legs, waypoints or mission items a mission file may hold: a survey of a few
@@ -33,7 +36,7 @@ MAX_ITEMS = 10_000
 #: Longest total flight time the planner simulates (the legs at their planned speeds);
 #: beyond it a mission is refused, which bounds the memory of the time-stepped battery
 #: models. [s]
-MAX_FLIGHT_S = 24 * 3600.0
+MAX_FLIGHT_S = 24 * S_PER_H
 
 
 def too_many(where: str, what: str, n: int) -> str | None:
@@ -101,11 +104,11 @@ class Leg:
     @property
     def course_deg(self) -> float:
         """Direction of travel over ground, 0 = north, clockwise. [deg]"""
-        de = self.end_en_m[0] - self.start_en_m[0]
-        dn = self.end_en_m[1] - self.start_en_m[1]
-        return float(np.degrees(np.arctan2(de, dn)) % 360.0)
+        return float(course_deg(self.end_en_m[0] - self.start_en_m[0],
+                                self.end_en_m[1] - self.start_en_m[1]))
 
     def with_(self, **changes) -> Leg:
+        """A copy of the leg with some fields changed."""
         return replace(self, **changes)
 
 

@@ -6,7 +6,8 @@ import dataclasses
 import math
 
 from planner.io import files
-from planner.chain.result import MissionChain, MissionResult
+from planner.chain.mission_chain import MissionChain
+from planner.chain.result import MissionResult
 from planner.cli.commands.common import (
     flags_for,
     fmt,

@@ -34,7 +34,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from planner.physics.battery.hybrid import BCAP1500, matched_bank, simulate_hybrid
-    from planner.chain.result import MissionChain
+    from planner.chain.mission_chain import MissionChain
 
     json_out = output_path(args.json, "--json")
     aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
