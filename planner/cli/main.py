@@ -1,7 +1,7 @@
 """Command line: ``endurance <command> ...`` (also ``python -m planner``).
 
 Argparse only; every command calls importable library functions. Exit status
-(DESIGN §7): 0 success (``check``: GO), 1 ``check`` says NO-GO, 2 bad input
+(docs/commands.md): 0 success (``check``: GO), 1 ``check`` says NO-GO, 2 bad input
 (one line on stderr naming the file, the field and what was expected),
 3 unexpected internal error.
 

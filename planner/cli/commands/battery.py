@@ -46,7 +46,7 @@ def _register_fit(sub) -> None:
         description="Fit the integral capacity model t = δ P^ε C^β to measured discharges "
                     "(flight-record CSV: time_s, power_w or voltage_v+current_a, and "
                     "current_a or consumed_mah; several experiments told apart by "
-                    "'experiment'). Default split (seed paper): the experiments with the "
+                    "'experiment'). Default split ([UAV23]): the experiments with the "
                     "lowest and the highest mean power train, the rest validate.")
     p.add_argument("data", nargs="+", help="flight-record CSV file(s)")
     p.add_argument("--out", required=True, help="battery-pack YAML to write")
@@ -457,7 +457,7 @@ def run_aprbs(args) -> int:
     if min_duration / max(lo, resolution) > MAX_APRBS_STEPS:
         raise InputError(f"--hold {args.hold}: holds this short make more than "
                          f"{MAX_APRBS_STEPS:,} steps in {min_duration:g} s; expected longer "
-                         "holds (the seed paper holds 30–300 s)")
+                         "holds ([UAV23] holds 30–300 s)")
     if args.seed is not None:
         seed = parse_int(args.seed, "--seed", 0, 2**32 - 1)
     else:
@@ -560,7 +560,7 @@ def _register_bench(sub) -> None:
                     "the virtual bench (equivalent-circuit LiPo pack with a diffusion-limited "
                     "capacity, constant-power load, 1 Hz logging with seeded measurement "
                     "noise, stop at the loaded cut-off) and write it as a flight-record CSV. "
-                    "With --report, fit the seed paper's m_const, m_2step and m_APRBS (β held "
+                    "With --report, fit [UAV23]'s m_const, m_2step and m_APRBS (β held "
                     "at 0.9648 and free) and print their cross-validation table (seed "
                     "Fig. 12–13).")
     p.add_argument("--campaign", required=True, choices=list(campaign.CAMPAIGNS),

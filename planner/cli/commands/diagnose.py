@@ -31,7 +31,7 @@ def register(sub) -> None:
                     "model) on training splits of the data, then fit each candidate effect ("
                     + ", ".join(EFFECTS) + ") and keep only those whose gain on held-out "
                     "experiments or time blocks is statistically and practically significant "
-                    "(DESIGN §6).")
+                    "(docs/commands.md).")
     p.add_argument("data", nargs="+", metavar="DATA",
                    help="flight-record CSV files or logs (.bin, .px4log, .tlog, .ulg, mapped CSV)")
     p.add_argument("--battery", help="battery-pack YAML flown (start values of the integral "
@@ -41,7 +41,7 @@ def register(sub) -> None:
     p.add_argument("--map", help="column map for CSV data that is not a flight record "
                                  "(e.g. dji_m100)")
     add_battery_instance(p)
-    p.add_argument("--json", help="write the findings as JSON (DESIGN §6); - for standard "
+    p.add_argument("--json", help="write the findings as JSON (docs/commands.md); - for standard "
                                   "output")
     p.add_argument("--plot", help="write a PNG: residuals against time and against each "
                                   "finding's driver, before and after")
