@@ -68,8 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: Options (``dest``) that name output files: all checked against every file the command
-#: read before its first write (:mod:`planner.io.files`).
+#: Options (``dest``) that name outputs: all checked before the command starts (read-only
+#: files are not replaced) and against every file the command reads
+#: (:mod:`planner.io.files`). A command whose output option names a folder sets
+#: ``output_folders`` (the flags) in its parser's defaults.
 OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out")
 
 
@@ -90,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     to_stdout = "-" in outputs.values()
     saved = sys.stdout
     try:
-        files.reset(outputs)
+        files.reset(outputs, folders=tuple(getattr(args, "output_folders", ())))
         if to_stdout:
             # standard output carries that output alone; the command's text goes to stderr
             files.STDOUT, sys.stdout = saved, sys.stderr
@@ -115,6 +117,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return EXIT_INTERNAL
     finally:
+        files.finish()
         if to_stdout:
             sys.stdout, files.STDOUT = saved, None
 

@@ -196,6 +196,8 @@ def run_fit(args) -> int:
     plot_out = plot_path(args.plot)
     json_out = output_path(args.json, "--json")
     beta = parse_float(args.fix_beta, "--fix-beta", 0.5, 1.5) if args.fix_beta else None
+    mass_kg = (parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0, "kg")
+               if args.mass_kg is not None else None)
     train, validate = _ids(args.train, "--train"), _ids(args.validate, "--validate")
     base_raw = None
     if args.battery:
@@ -227,9 +229,9 @@ def run_fit(args) -> int:
         cells = (parse_int(args.cells, "--cells", 1, 40) if args.cells
                  else _cells_from_voltage(experiments))
         capacity = max(m.final_charge_mah for m in result.metrics)
+        check_pack_mass(mass_kg, args.mass_kg, cells, capacity)
         mapping = {"name": args.name, "cells_series": cells,
-                   "capacity_mah": float(round(capacity)),
-                   "mass_kg": parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0),
+                   "capacity_mah": float(round(capacity)), "mass_kg": mass_kg,
                    "model": model.to_mapping()}
     mapping["source"] = source
     if args.circuit and args.circuit_rates:
@@ -264,6 +266,36 @@ def run_fit(args) -> int:
     if plot_out:
         save_fit_plot(experiments, result, plot_out)
     return 0
+
+
+#: Nominal cell voltage of the specific-energy check of ``--mass-kg`` (LiPo 3.7 V,
+#: Li-ion 3.6 V: the check's range is far wider than their difference). [V]
+CHECK_CELL_VOLTAGE_V = 3.7
+
+
+def check_pack_mass(mass_kg: float, text: str, cells: int, capacity_mah: float) -> None:
+    """``--mass-kg`` against the pack's nominal energy (cells × 3.7 V × the charge its
+    discharges drew): a specific energy outside
+    [:data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MIN_WH_KG`,
+    :data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MAX_WH_KG`] is a mass in another
+    unit."""
+    from planner.physics import limits as L
+
+    if not (capacity_mah > 0 and mass_kg):
+        return
+    energy_wh = cells * CHECK_CELL_VOLTAGE_V * capacity_mah / 1000.0
+    spec = energy_wh / mass_kg
+    low, high = L.PACK_SPECIFIC_ENERGY_MIN_WH_KG, L.PACK_SPECIFIC_ENERGY_MAX_WH_KG
+    if low <= spec <= high:
+        return
+    hint = "; expected kg"
+    if spec < low and low <= spec * 1000.0 <= high:
+        hint = f": grams? ({mass_kg:g} g = {mass_kg / 1000:g} kg, {spec * 1000:.0f} Wh/kg)"
+    elif spec > high and low <= spec / 1000.0 <= high:
+        hint = f": tonnes? ({spec / 1000:.0f} Wh/kg in tonnes)"
+    raise InputError(f"--mass-kg {text}: {mass_kg:g} kg for a {cells}S pack of "
+                     f"{capacity_mah:.0f} mAh ({energy_wh:.0f} Wh) is {spec:.3g} Wh/kg, "
+                     f"outside the [{low:g}, {high:g}] Wh/kg of battery packs{hint}")
 
 
 def fit_covariance(result: fit.IntegralFit):
@@ -430,7 +462,7 @@ def run_two_step(args) -> int:
     if out:
         write_schedule(test.schedule(), out,
                               comment=f"two-step test P1={p1:g} W, P2={p2:g} W, k={k:g}, "
-                                      f"C0={cap:g} mAh; model {what}")
+                                      f"C0={cap:g} mAh; model {what}", option="--out")
         print(f"wrote {out}")
     return 0
 
@@ -467,7 +499,7 @@ def run_aprbs(args) -> int:
     mean_p = float((schedule["duration_s"] * schedule["power_w"]).sum() / total)
     write_schedule(schedule, out, comment=(
         f"APRBS levels_w={','.join(f'{v:g}' for v in levels)} hold_s={lo:g}..{hi:g} "
-        f"min_duration_s={min_duration:g} seed={seed}"))
+        f"min_duration_s={min_duration:g} seed={seed}"), option="--out")
     print(f"APRBS schedule: {len(schedule)} steps, {total:.0f} s ({_duration(total)}), "
           f"mean power {mean_p:.1f} W, seed {seed}")
     for level in sorted(set(levels)):
