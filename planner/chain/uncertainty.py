@@ -369,15 +369,15 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
     columns = [
         ("integral model δ, ε, β", model_charge, "covariance of the fit" if cov is not None
          else "—", cov_origin),
-        ("wind speed", wind[group], f"±{s.wind_sd_ms:g} m/s", "--wind-sd"),
-        ("wind direction", direction[group], f"±{s.wind_direction_sd_deg:g}°", "--wind-sd"),
+        ("wind speed", wind[group], f"±{s.wind_sd_ms:g} m/s", "wind_sd_ms"),
+        ("wind direction", direction[group], f"±{s.wind_direction_sd_deg:g}°", "wind_direction_sd_deg"),
         ("gusts", (1.0 + (s.gust_factor - 1.0) * u[:, 3])[group] if weather_spread
          else np.ones(samples), f"factor {s.gust_factor:g}",
-         "--gust: effective wind uniform between the mean and factor × mean"),
-        ("air temperature", temp[group], f"±{s.temperature_sd_c:g} °C", "--temperature-sd"),
+         "gust_factor: effective wind uniform between the mean and factor × mean"),
+        ("air temperature", temp[group], f"±{s.temperature_sd_c:g} °C", "temperature_sd_c"),
         ("state of health", soh_eff, f"{s.soh:g}±{s.soh_sd:g}",
-         "--soh: usable charge × SoH"),
-        ("payload", pay, f"±{s.payload_sd_kg:g} kg", "--payload-sd"),
+         "soh: usable charge × SoH"),
+        ("payload", pay, f"±{s.payload_sd_kg:g} kg", "payload_sd_kg"),
     ]
     sources, xs, names = [], [], []
     for name, x, spread, origin in columns:

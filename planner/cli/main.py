@@ -21,7 +21,7 @@ import warnings
 
 from planner import __version__
 from planner.io import files
-from planner.errors import InputError, ModelError, PlannerError
+from planner.errors import InputError, ModelError, PlannerError, WrongFileError
 
 #: Modules that each register one or more sub-commands, in help order.
 COMMAND_MODULES = (
@@ -75,6 +75,22 @@ def build_parser() -> argparse.ArgumentParser:
 OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out")
 
 
+#: Where each kind of file is given, by the option (``dest``) that takes it: the first of
+#: the command's options.
+KIND_OPTIONS = {"battery pack": ("battery", "packs"), "aircraft": ("aircraft",),
+                "pack catalog": ("packs",), "mission": ("mission",)}
+
+
+def where_to_give(kind: str, args) -> str:
+    """``": give it as --battery"``: the option of this command that takes a file of
+    ``kind`` (a mission is the command's first argument); "" when it has none."""
+    for dest in KIND_OPTIONS.get(kind, ()):
+        if dest in vars(args):
+            return (": give it as the mission (the first argument)" if dest == "mission"
+                    else f": give it as --{dest}")
+    return ""
+
+
 def _format_warning(message, category, filename, lineno, line=None):
     return f"warning: {message}\n"
 
@@ -97,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
             # standard output carries that output alone; the command's text goes to stderr
             files.STDOUT, sys.stdout = saved, sys.stderr
         return int(args.func(args))
+    except WrongFileError as exc:
+        print(f"error: {exc}{where_to_give(exc.kind, args)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except (InputError, ModelError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

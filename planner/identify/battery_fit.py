@@ -805,7 +805,7 @@ def _poorly_determined(problem: _StressProblem, res, values: dict[str, float],
         if "epsilon" in poorly or "delta" in poorly:
             hints.append("train on experiments at clearly different powers")
         if "beta" in poorly and not problem.fix_beta:
-            hints.append("or hold beta fixed (beta=0.9648, --fix-beta)")
+            hints.append("or hold beta fixed (e.g. at the literature's 0.9648)")
         warnings.warn("fit_integral: poorly determined parameter(s) "
                       f"{', '.join(poorly)}: {'; '.join(reasons)}"
                       + (f"; {' '.join(hints)}" if hints else ""),

@@ -431,6 +431,7 @@ def battery_from_mapping(data: Any, where: str, base_dir: str | Path | None = No
     InputError
         Every problem of the mapping at once, in one line naming ``where`` and each key.
     """
+    S.refuse_other_kind(data, "battery pack", where)
     problems = S.Problems(where)
     d = S.check_mapping(data, BATTERY_KEYS, where, problems=problems)
     model = None if d["model"] is None else _model(d["model"], where, problems)

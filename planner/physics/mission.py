@@ -204,6 +204,9 @@ class NavDefaults:
         Multirotor circle radius of a ``LOITER_TURNS`` of radius 0 (``CIRCLE_RADIUS``). [m]
     accel_ms2 : float
         Multirotor horizontal acceleration limit (``WPNAV_ACCEL``). [m/s²]
+    max_speed_ms : float or None
+        The aircraft's maximum airspeed: a mission speed beyond it was typed in another
+        unit where it is plausible in km/h. [m/s]
     """
 
     vehicle_type: str
@@ -214,6 +217,7 @@ class NavDefaults:
     circle_rate_dps: float = CIRCLE_RATE_DPS
     circle_radius_m: float = CIRCLE_RADIUS_M
     accel_ms2: float = WPNAV_ACCEL_MS2
+    max_speed_ms: float | None = None
 
     @classmethod
     def of(cls, aircraft: Any) -> NavDefaults:
@@ -225,4 +229,6 @@ class NavDefaults:
                    climb_rate_ms=float(aircraft.climb_rate_ms),
                    descent_rate_ms=float(aircraft.descent_rate_ms),
                    loiter_radius_m=(float(fw.loiter_radius_m) if fw is not None
-                                    and getattr(fw, "loiter_radius_m", None) else None))
+                                    and getattr(fw, "loiter_radius_m", None) else None),
+                   max_speed_ms=(float(aircraft.max_airspeed_ms)
+                                 if getattr(aircraft, "max_airspeed_ms", None) else None))

@@ -273,12 +273,19 @@ def run_fit(args) -> int:
 CHECK_CELL_VOLTAGE_V = 3.7
 
 
+#: Least share of the pack's charge a discharge of the training data is taken to have
+#: drawn when ``--mass-kg`` is checked against it: the charge drawn is a lower bound of
+#: the capacity (a short flight draws a tenth of it), so a low specific energy refuses the
+#: mass only below this share of the range's floor. [unitless]
+DRAWN_SHARE_FLOOR = 0.05
+
+
 def check_pack_mass(mass_kg: float, text: str, cells: int, capacity_mah: float) -> None:
     """``--mass-kg`` against the pack's nominal energy (cells × 3.7 V × the charge its
-    discharges drew): a specific energy outside
-    [:data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MIN_WH_KG`,
-    :data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MAX_WH_KG`] is a mass in another
-    unit."""
+    discharges drew): a specific energy above
+    :data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MAX_WH_KG`, or below
+    :data:`DRAWN_SHARE_FLOOR` × :data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MIN_WH_KG`
+    (the charge drawn may be a small part of the capacity), is a mass in another unit."""
     from planner.physics import limits as L
 
     if not (capacity_mah > 0 and mass_kg):
@@ -286,10 +293,10 @@ def check_pack_mass(mass_kg: float, text: str, cells: int, capacity_mah: float) 
     energy_wh = cells * CHECK_CELL_VOLTAGE_V * capacity_mah / 1000.0
     spec = energy_wh / mass_kg
     low, high = L.PACK_SPECIFIC_ENERGY_MIN_WH_KG, L.PACK_SPECIFIC_ENERGY_MAX_WH_KG
-    if low <= spec <= high:
+    if DRAWN_SHARE_FLOOR * low <= spec <= high:
         return
     hint = "; expected kg"
-    if spec < low and low <= spec * 1000.0 <= high:
+    if spec < low and DRAWN_SHARE_FLOOR * low <= spec * 1000.0 <= high:
         hint = f": grams? ({mass_kg:g} g = {mass_kg / 1000:g} kg, {spec * 1000:.0f} Wh/kg)"
     elif spec > high and low <= spec / 1000.0 <= high:
         hint = f": tonnes? ({spec / 1000:.0f} Wh/kg in tonnes)"

@@ -480,7 +480,7 @@ def _literature_pack(df: pd.DataFrame, metas: list[dict], notes: list[str]) -> B
     pack, _ = literature_pack(cells, cap, df["voltage_v"] if "voltage_v" in df else None)
     if pack is None:
         raise InputError("no battery given and no pack voltage to find the cell count from: "
-                         "give --battery B.yaml")
+                         "give the battery-pack file flown")
     n = pack.cells_series
     if cap:
         notes.append(f"no battery file: literature start values δ₀({n}), ε₀({n}) and "
@@ -838,7 +838,7 @@ def _power_step(df: pd.DataFrame, pack: BatteryPack, aircraft: Aircraft | None, 
 def _power_level(df, pack, aircraft, opts, effects, notes):
     """The power level of the data, or None and why it cannot run."""
     if aircraft is None:
-        why = "no aircraft given (--aircraft): power level not run"
+        why = "no aircraft definition given: the power level cannot run"
         if effects:
             notes.append(why)
         return None, why

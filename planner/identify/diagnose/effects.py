@@ -665,7 +665,8 @@ class Wind(PowerEffect):
         return (f"Steady wind{extra}: {_pm(p['wind_speed_ms'], p['wind_speed_ms_stderr'], 1)} "
                 f"m/s from {p['wind_from_deg']:.0f}° ({_compass(p['wind_from_deg'])}); airspeed "
                 "differs from groundspeed, so the power depends on the direction of travel "
-                f"(check with --wind {p['wind_speed_ms']:.1f}@{p['wind_from_deg']:.0f})")
+                f"(check missions in it: {p['wind_speed_ms']:.1f} m/s from "
+                f"{p['wind_from_deg']:.0f}°)")
 
     def headline(self, p, pw):
         """``Wind: …`` in one line."""
