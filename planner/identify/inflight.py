@@ -139,9 +139,40 @@ PX4_FILTER_TAU_S = 50.0
 #: share of the modelled hold power. [m], [unitless]
 AIRBORNE_ALT_M = 1.0
 AIRBORNE_POWER_SHARE = 0.4
+#: A first reading of the autopilot's charge counter up to this share of the capacity is
+#: taken as counted from a full pack at boot; beyond it, from the first reading.
+COUNTER_FROM_BOOT_SHARE = 1.5
+#: A battery voltage that moves by more than this share within 5 s is a damaged sample.
+VOLTAGE_JUMP = 0.25
+#: Physical ranges of the events' values (NaN is "not measured" and passes).
+PLAUSIBLE = {
+    "battery": ((0.0, 1000.0), (-500.0, 2000.0), (-1e7, 1e7), (0.0, 1.0)),
+    "position": ((-90.0, 90.0), (-180.0, 180.0), (-1e4, 3e4), (-1e3, 3e4), (-300.0, 300.0),
+                 (-300.0, 300.0), (-300.0, 300.0)),
+    "local": ((-1e6, 1e6), (-1e6, 1e6), (-1e4, 3e4), (-300.0, 300.0), (-300.0, 300.0),
+              (-300.0, 300.0)),
+    "hud": ((-50.0, 300.0), (0.0, 300.0), (-300.0, 300.0), (0.0, 1.0)),
+    "wind": ((-100.0, 100.0), (-100.0, 100.0), (0.0, 1e4)),
+    "home": ((-90.0, 90.0), (-180.0, 180.0), (-1e3, 3e4)),
+    "air": ((1e3, 2e5), (-100.0, 100.0)),
+}
 #: A point of no return never reached stands for this in the percentiles. [s]
 NEVER_S = 1.0e12
 _NAN = float("nan")
+
+
+def _plausible(kind: str, data) -> bool:
+    """Whether an event's numbers lie in their physical ranges (:data:`PLAUSIBLE`)."""
+    ranges = PLAUSIBLE.get(kind)
+    if ranges is None:
+        return True
+    try:
+        for (lo, hi), x in zip(ranges, data):
+            if x == x and not lo <= x <= hi:      # NaN passes
+                return False
+    except TypeError:
+        return False
+    return True
 
 
 def px4_filter_alpha(dt_s: float, tau_s: float = PX4_FILTER_TAU_S) -> float:
@@ -330,6 +361,8 @@ class InflightEstimator:
         self.pressure_pa = None
         self.params: dict[str, float] = {}
         self.texts = 0
+        self.rejected = 0
+        self.dropped = 0
         self.reboots = 0
         self.flights = 0
         self.buf_p: list[float] = []
@@ -376,13 +409,20 @@ class InflightEstimator:
         kind, t, d = ev
         if not math.isfinite(t):
             return
-        if self.t is not None and t < self.t - 1.0 and kind not in ("reboot", "flight"):
+        restart = kind in ("reboot", "flight")
+        if self.t is not None and t < self.t - 1.0 and not restart:
+            self.dropped += 1
             return                     # out of order by more than a second: dropped
-        self.t = t if self.t is None else max(t, self.t) if kind not in ("reboot", "flight") \
-            else t
         handler = getattr(self, "_on_" + kind, None)
+        if handler is not None and not _plausible(kind, d):
+            self.rejected += 1
+            return
+        self.t = t if self.t is None or restart else max(t, self.t)
         if handler is not None:
-            handler(t, d)
+            try:
+                handler(t, d)
+            except (ValueError, OverflowError, ZeroDivisionError, FloatingPointError):
+                self.rejected += 1
         if self.t_tick is None:
             self.t_tick = t
         elif t - self.t_tick >= 1.0:
@@ -401,6 +441,8 @@ class InflightEstimator:
         self.t_battery = None
         self.t_tick = t
         self.px4_t = None
+        self._p_t = None
+        self.wind_t = t if self.wind_t is not None else None
         self.cwin = None
         self.k_window_t = None
         self.buf_p.clear()
@@ -545,21 +587,14 @@ class InflightEstimator:
 
     def _on_battery(self, t, d):
         v, i, consumed, remaining = d[:4]
-        src = d[4] if len(d) > 4 else 0
+        measured = math.isfinite(v) and math.isfinite(i) and v > 0
+        if measured and self.t_battery is not None and t - self.t_battery < 5.0 and \
+                abs(v - self.v) > VOLTAGE_JUMP * self.v:
+            self.rejected += 1          # a pack does not jump so: a damaged sample
+            return
         if math.isfinite(remaining):
             self.fw_remaining = (remaining, t)
-        if math.isfinite(consumed):
-            if self.q_counter0 is None:
-                self.q_counter0 = consumed
-            elif consumed < (self.q_counter_last or 0.0) - 1.0:
-                # the counter went back without a reboot seen: carry what was counted
-                self.q_offset += self.q_counter_last - self.q_counter0
-                self.q_counter0 = consumed
-            self.q_counter_last = consumed
-            self.q_own = 0.0
-        if not (math.isfinite(v) and math.isfinite(i)) or v <= 0:
-            return
-        if self.t_battery is not None and t > self.t_battery:
+        if measured and self.t_battery is not None and t > self.t_battery:
             dt = t - self.t_battery
             if dt < 30.0:
                 self.q_own += 0.5 * (i + self.i) * dt / AS_PER_MAH
@@ -569,6 +604,20 @@ class InflightEstimator:
             if self.armed:
                 a = px4_filter_alpha(dt)
                 self.px4_i += a * (max(i, 0.0) - self.px4_i)
+        if math.isfinite(consumed):
+            if self.q_counter0 is None:
+                # the autopilot counts from its boot: joining in flight, the charge drawn
+                # before counts too (a counter beyond the pack's capacity has another origin)
+                self.q_counter0 = (0.0 if self.q_offset == 0 and 0 <= consumed
+                                   <= COUNTER_FROM_BOOT_SHARE * self.c0_mah else consumed)
+            elif consumed < (self.q_counter_last or 0.0) - 1.0:
+                # the counter went back without a reboot seen: carry what was counted
+                self.q_offset += self.q_counter_last - self.q_counter0
+                self.q_counter0 = consumed
+            self.q_counter_last = consumed
+            self.q_own = 0.0            # the counter holds everything up to now
+        if not measured:
+            return
         if self.t_battery is not None and abs(i - self.i) > max(1.0, STEADY_SPREAD * abs(i)):
             self.t_step = t
         self.v, self.i, self.t_battery = v, i, t
@@ -578,8 +627,8 @@ class InflightEstimator:
             if self.p_ewma is None:
                 self.p_ewma = power
             else:
-                a = 1.0 - math.exp(-min(t - (self._p_t or t), 60.0) / POWER_TAU_S)
-                dl = math.log(power / self.p_ewma)
+                a = 1.0 - math.exp(-min(max(t - (self._p_t or t), 0.0), 60.0) / POWER_TAU_S)
+                dl = min(max(math.log(power / self.p_ewma), -5.0), 5.0)
                 self.p_ewma *= math.exp(a * dl)
                 self.lnp_var = (1 - a) * (self.lnp_var + a * dl * dl)
             self._p_t = t
@@ -819,7 +868,7 @@ class InflightEstimator:
         # present condition: the measured power (airborne) or the hold power
         if self.airborne and self.p_ewma:
             p_now = self.p_ewma
-            sd_lnp = math.sqrt(self.lnp_var / 10.0 + 0.02**2)
+            sd_lnp = math.sqrt(max(self.lnp_var, 0.0) / 10.0 + 0.02**2)
         else:
             p_now = self._hold_power_model() * math.exp(self.k.x)
             sd_lnp = math.hypot(self.k.sd, 0.05)
@@ -1003,7 +1052,8 @@ class InflightEstimator:
         delta_m = self.delta * c ** (-beta)
         p_now = self.p_ewma if (self.airborne and self.p_ewma) else (
             self._hold_power_model() * math.exp(self.k.x))
-        sd = math.sqrt(self.lnp_var / 10.0 + 0.02**2 + POWER_WALK_PER_S * horizon_s / 3.0)
+        sd = math.sqrt(max(self.lnp_var, 0.0) / 10.0 + 0.02**2
+                       + POWER_WALK_PER_S * horizon_s / 3.0)
         p_k = p_now * np.exp(sd * self.z[4])
         d_now = np.maximum((1.0 - s0) / g + self.q_now, 0.0) * AS_PER_MAH
         s_now = (d_now / scale) ** beta

@@ -89,6 +89,8 @@ MAX_PARAMS = 4096
 #: The boot clock going back by more than this is a reboot (small steps back are messages
 #: that arrived out of order). [s]
 REBOOT_STEP_S = 2.0
+#: A boot-clock reading further ahead of the receive clock than this is ignored. [s]
+AHEAD_S = 10.0
 #: Events received before the first boot time wait this long for it (then the receive
 #: clock is used), and at most this many of them. [s]
 BOOT_WAIT_S = 2.0
@@ -214,14 +216,25 @@ class StreamClock:
         self._first_recv = None
 
     def update(self, time_boot_s: float, recv_s: float) -> bool:
-        """Take a boot-clock reading received at ``recv_s``; True when it is a reboot."""
+        """Take a boot-clock reading received at ``recv_s``; True when it is a reboot.
+
+        A reading far ahead of the clock (more than :data:`AHEAD_S`: the boot clock cannot
+        run faster than the receive clock) is a stale or damaged message and is ignored.
+        """
         if self._first_recv is None:
             self._first_recv = recv_s
-        rebooted = (self._boot is not None
-                    and time_boot_s < self.now(recv_s) - REBOOT_STEP_S)
-        if self._boot is None or rebooted or time_boot_s >= self._boot:
+        if self._boot is None:
             self._boot, self._recv_at_boot = time_boot_s, recv_s
-        return rebooted
+            return False
+        expected = self.now(recv_s)
+        if time_boot_s < expected - REBOOT_STEP_S:
+            self._boot, self._recv_at_boot = time_boot_s, recv_s
+            return True
+        if time_boot_s > expected + AHEAD_S:
+            return False
+        if time_boot_s >= self._boot:
+            self._boot, self._recv_at_boot = time_boot_s, recv_s
+        return False
 
     @property
     def booted(self) -> bool:
