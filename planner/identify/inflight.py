@@ -1021,7 +1021,13 @@ class InflightEstimator:
                 "reboots": self.reboots}
 
     def _finish(self, out, t_now):
-        out["mission_items"] = (len(self.mission_items.items) if self.mission_items else None)
+        if self.mission_items is not None:
+            out["mission_items"] = len(self.mission_items.items)
+        elif self.mission_legs is not None:
+            out["mission_items"] = len(self.mission_legs.legs)
+            out["mission_leg"] = self.leg_index + 1
+        else:
+            out["mission_items"] = None
         return out
 
     def mean_current(self) -> float | None:

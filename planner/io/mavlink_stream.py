@@ -89,8 +89,6 @@ MAX_PARAMS = 4096
 #: The boot clock going back by more than this is a reboot (small steps back are messages
 #: that arrived out of order). [s]
 REBOOT_STEP_S = 2.0
-#: A boot-clock reading further ahead of the receive clock than this is ignored. [s]
-AHEAD_S = 10.0
 #: Events received before the first boot time wait this long for it (then the receive
 #: clock is used), and at most this many of them. [s]
 BOOT_WAIT_S = 2.0
@@ -204,13 +202,14 @@ class StreamClock:
     A message without one is placed after the last that had one by the receive clock
     (the tlog's receive time, or this machine's monotonic clock on a live link). Before
     the first ``time_boot_ms`` the clock counts from the first message. A boot clock that
-    steps back by more than :data:`REBOOT_STEP_S` is a reboot: :meth:`update` then
-    returns True and the clock follows the new boot.
+    steps back by more than :data:`REBOOT_STEP_S`, twice in a row, is a reboot:
+    :meth:`update` then returns True and the clock follows the new boot.
     """
 
-    __slots__ = ("_boot", "_recv_at_boot", "_first_recv")
+    __slots__ = ("_boot", "_recv_at_boot", "_first_recv", "_candidate")
 
     def __init__(self):
+        self._candidate = None
         self._boot = None
         self._recv_at_boot = 0.0
         self._first_recv = None
@@ -218,20 +217,26 @@ class StreamClock:
     def update(self, time_boot_s: float, recv_s: float) -> bool:
         """Take a boot-clock reading received at ``recv_s``; True when it is a reboot.
 
-        A reading far ahead of the clock (more than :data:`AHEAD_S`: the boot clock cannot
-        run faster than the receive clock) is a stale or damaged message and is ignored.
+        A step back is a reboot only when the next reading confirms it (a second reading
+        on the same new clock): one stale or damaged message does not restart the clock.
+        A step forward is taken as it comes (a link back after a gap, a log replayed
+        faster than real time).
         """
         if self._first_recv is None:
             self._first_recv = recv_s
         if self._boot is None:
             self._boot, self._recv_at_boot = time_boot_s, recv_s
             return False
-        expected = self.now(recv_s)
-        if time_boot_s < expected - REBOOT_STEP_S:
-            self._boot, self._recv_at_boot = time_boot_s, recv_s
-            return True
-        if time_boot_s > expected + AHEAD_S:
+        if time_boot_s < self.now(recv_s) - REBOOT_STEP_S:
+            cand = self._candidate
+            if cand is not None and abs(time_boot_s - (cand[0] + recv_s - cand[1])) \
+                    <= REBOOT_STEP_S + abs(time_boot_s - cand[0]):
+                self._candidate = None
+                self._boot, self._recv_at_boot = time_boot_s, recv_s
+                return True
+            self._candidate = (time_boot_s, recv_s)
             return False
+        self._candidate = None
         if time_boot_s >= self._boot:
             self._boot, self._recv_at_boot = time_boot_s, recv_s
         return False
@@ -348,7 +353,7 @@ class MissionClient:
     :attr:`backoff_s`. The items arrive through the decoder's :class:`MissionCapture`.
     """
 
-    def __init__(self, send, timeout_s: float = 1.5, retries: int = 4, backoff_s: float = 30.0):
+    def __init__(self, send, timeout_s: float = 1.5, retries: int = 6, backoff_s: float = 10.0):
         self.send = send
         self.timeout_s, self.retries, self.backoff_s = timeout_s, retries, backoff_s
         self.target: tuple[int, int] | None = None

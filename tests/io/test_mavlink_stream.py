@@ -75,19 +75,29 @@ def test_the_clock_follows_the_boot_time_between_readings():
     assert c.now(5001.25) == pytest.approx(101.25)
 
 
-def test_a_boot_clock_going_back_is_a_reboot_and_small_steps_back_are_not():
+def test_a_boot_clock_going_back_twice_is_a_reboot_and_small_steps_back_are_not():
     c = StreamClock()
     c.update(300.0, 0.0)
     assert c.update(299.5, 0.1) is False          # out of order by half a second
-    assert c.update(3.0, 1.0) is True             # rebooted
-    assert c.now(2.0) == pytest.approx(4.0)
+    assert c.update(3.0, 1.0) is False            # one message: not yet
+    assert c.now(1.0) == pytest.approx(301.0)
+    assert c.update(3.2, 1.2) is True             # confirmed: rebooted
+    assert c.now(2.2) == pytest.approx(4.2)
 
 
-def test_a_boot_reading_far_ahead_of_the_receive_clock_is_ignored():
+def test_one_stale_message_from_before_a_reboot_does_not_restart_the_clock():
+    c = StreamClock()
+    c.update(300.0, 0.0)
+    assert c.update(5.0, 0.5) is False
+    assert c.update(301.0, 1.0) is False          # the old clock goes on
+    assert c.now(1.0) == pytest.approx(301.0)
+
+
+def test_a_boot_clock_running_faster_than_the_receive_clock_is_followed():
     c = StreamClock()
     c.update(10.0, 0.0)
-    assert c.update(5000.0, 1.0) is False
-    assert c.now(1.0) == pytest.approx(11.0)
+    assert c.update(50.0, 1.0) is False           # a log replayed 40 times faster
+    assert c.now(1.0) == pytest.approx(50.0)
 
 
 # --------------------------------------------------------------------------- decoding
@@ -197,9 +207,13 @@ def test_a_reboot_is_an_event():
     dec.decode(_heartbeat(link), 0.0)
     dec.decode(_decoded(mav.MAVLink_global_position_int_message(500_000, 0, 0, 0, 0, 0, 0, 0,
                                                                 0), link), 0.0)
-    events = dec.decode(_decoded(mav.MAVLink_global_position_int_message(
+    first = dec.decode(_decoded(mav.MAVLink_global_position_int_message(
         2_000, 0, 0, 0, 0, 0, 0, 0, 0), link), 1.0)
+    assert [e.kind for e in first] == ["position"] and dec.stats.reboots == 0
+    events = dec.decode(_decoded(mav.MAVLink_global_position_int_message(
+        2_200, 0, 0, 0, 0, 0, 0, 0, 0), link), 1.2)
     assert events[0].kind == "reboot" and dec.stats.reboots == 1
+    assert events[1].time_s == pytest.approx(2.2)
 
 
 def test_a_damaged_log_replays_its_intact_messages(tmp_path):

@@ -179,9 +179,14 @@ def render_block(p: dict, source: str) -> list[str]:
             else f"link {_num(p.get('link_age_s'), 1, ' s')} ago")
     state = ("airborne" if p.get("airborne") else "armed" if p.get("armed")
              else "disarmed")
-    mission = ("no mission" if p.get("mission_items") is None and p.get("mission_source")
-               is None else f"item {p.get('mission_item')} of "
-               f"{p.get('mission_items') or '?'} ({p.get('mission_source')})")
+    if p.get("mission_source") is None:
+        mission = "no mission"
+    elif p.get("mission_source") == "legs":
+        mission = f"leg {p.get('mission_leg')} of {p.get('mission_items')} (legs file)"
+    else:
+        item = p.get("mission_item")
+        mission = (f"item {'-' if item is None else item} of {p.get('mission_items') or '?'} "
+                   f"({p.get('mission_source')})")
     lines = [
         f"t {_num(p.get('time_s'), 0, ' s')}  {p.get('mode') or '-'} {state}  {mission}  "
         f"wind {_num(p.get('wind_speed_ms'), 1, ' m/s')} from "
@@ -338,10 +343,18 @@ def run(args) -> int:
                                 settings=settings, environment=env)
     stdout = files.STDOUT or sys.stdout
     text_out = sys.stderr if jsonl == "-" else stdout
-    out = JsonLines(jsonl, stdout)
+    # every input is opened (and so registered) before the output: it can never be one
     source = open_source(spec, rate=rate, system_id=system_id,
                          download=not args.passive and args.mission is None,
                          column_map=args.map, experiment=args.flight)
+    if spec.is_file:
+        files.input_path(spec.address, "log", "log file")
+    try:
+        out = JsonLines(jsonl, stdout)
+    except InputError:
+        if source.link is not None:
+            source.link.close()
+        raise
     display = Display(text_out, spec.text, print_every)
     warner = Warner(source.link if args.send_warnings else None)
     last = None
