@@ -718,9 +718,12 @@ class InflightEstimator:
                 self._kp, self._km = [], []
             p_meas = float(np.mean(self.buf_p))
             st = np.asarray(self.buf_state, float)
-            p_model = float(np.mean(self.aircraft.battery_power(
-                st[:, 0], st[:, 1], self._rho(), self.mass)))
-            if p_meas > 0 and p_model > 0:
+            try:
+                p_model = float(np.mean(self.aircraft.battery_power(
+                    np.clip(st[:, 0], 0.0, None), st[:, 1], self._rho(), self.mass)))
+            except ValueError:            # a state outside the power model's range
+                p_model = math.nan
+            if p_meas > 0 and p_model > 0 and math.isfinite(p_model):
                 self._kp.append(p_meas)
                 self._km.append(p_model)
             if t - self.k_window_t >= POWER_WINDOW_S and self._kp:

@@ -89,6 +89,9 @@ MAX_PARAMS = 4096
 #: The boot clock going back by more than this is a reboot (small steps back are messages
 #: that arrived out of order). [s]
 REBOOT_STEP_S = 2.0
+#: A boot time older than this (receive clock) is not trusted for the next events: they
+#: wait for a fresh one (the vehicle may have rebooted while the link was silent). [s]
+RESYNC_GAP_S = 10.0
 #: Events received before the first boot time wait this long for it (then the receive
 #: clock is used), and at most this many of them. [s]
 BOOT_WAIT_S = 2.0
@@ -240,6 +243,15 @@ class StreamClock:
         if time_boot_s >= self._boot:
             self._boot, self._recv_at_boot = time_boot_s, recv_s
         return False
+
+    @property
+    def unconfirmed(self) -> bool:
+        """A step back of the boot clock waits for its confirmation."""
+        return self._candidate is not None
+
+    def since_reading(self, recv_s: float) -> float:
+        """Receive time since the last boot reading (inf: none yet). [s]"""
+        return math.inf if self._boot is None else recv_s - self._recv_at_boot
 
     @property
     def booted(self) -> bool:
@@ -466,6 +478,7 @@ class MavlinkDecoder:
         self.mission_count: int | None = None
         self.last_recv: float | None = None
         self.receive_clock = False
+        self._resync: float | None = None
         self._first_recv: float | None = None
         self._pending: list[Event] = []
         self._handlers = {
@@ -514,6 +527,19 @@ class MavlinkDecoder:
         if holding and recv_s - self._first_recv >= BOOT_WAIT_S:
             # no boot clock in the stream: the receive clock it is, for good
             self.receive_clock, holding = True, False
+        if not holding and boot_ms is None and self.clock.booted and not self.receive_clock:
+            # after a long silence (the vehicle may have rebooted) events wait for a fresh
+            # boot time, at most BOOT_WAIT_S
+            since = self.clock.since_reading(recv_s)
+            if since > RESYNC_GAP_S and (self._resync is None or recv_s - self._resync
+                                         < BOOT_WAIT_S):
+                if self._resync is None:
+                    self._resync = recv_s
+                holding = True
+        if boot_ms is not None:
+            self._resync = None
+        if self.clock.unconfirmed and len(self._pending) < MAX_PENDING:
+            holding = True           # a step back not yet confirmed: which clock is it?
         handler = self._handlers.get(mtype)
         if handler is not None:
             try:
@@ -526,8 +552,10 @@ class MavlinkDecoder:
                 self._pending.extend(out)
             return []
         if self._pending:
-            out = [Event(k, self.clock.now(r), d) for k, r, d in self._pending] + out
+            held = [Event(k, self.clock.now(r), d) for k, r, d in self._pending]
             self._pending.clear()
+            first = 1 if out and out[0].kind == "reboot" else 0
+            out = out[:first] + held + out[first:]
         return out
 
     def poll(self, recv_s: float) -> None:

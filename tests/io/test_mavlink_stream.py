@@ -209,11 +209,29 @@ def test_a_reboot_is_an_event():
                                                                 0), link), 0.0)
     first = dec.decode(_decoded(mav.MAVLink_global_position_int_message(
         2_000, 0, 0, 0, 0, 0, 0, 0, 0), link), 1.0)
-    assert [e.kind for e in first] == ["position"] and dec.stats.reboots == 0
+    assert first == [] and dec.stats.reboots == 0      # held: which clock is it?
     events = dec.decode(_decoded(mav.MAVLink_global_position_int_message(
         2_200, 0, 0, 0, 0, 0, 0, 0, 0), link), 1.2)
-    assert events[0].kind == "reboot" and dec.stats.reboots == 1
-    assert events[1].time_s == pytest.approx(2.2)
+    assert [e.kind for e in events] == ["reboot", "position", "position"]
+    assert dec.stats.reboots == 1
+    times = [e.time_s for e in events[1:]]
+    assert times == sorted(times) and 2.0 <= times[0] and times[-1] == pytest.approx(2.2)
+
+
+def test_after_a_long_silence_and_a_reboot_events_are_on_the_new_boot_clock():
+    link = _link()
+    dec = MavlinkDecoder()
+    dec.decode(_heartbeat(link), 0.0)
+    dec.decode(_decoded(mav.MAVLink_global_position_int_message(500_000, 0, 0, 0, 0, 0, 0, 0,
+                                                                0), link), 0.0)
+    # 100 s of silence: the vehicle was power-cycled; its heartbeat comes first
+    assert dec.decode(_heartbeat(link), 100.0) == []
+    assert dec.decode(_decoded(mav.MAVLink_global_position_int_message(
+        3_000, 0, 0, 0, 0, 0, 0, 0, 0), link), 100.3) == []
+    events = dec.decode(_decoded(mav.MAVLink_global_position_int_message(
+        3_500, 0, 0, 0, 0, 0, 0, 0, 0), link), 100.8)
+    assert [e.kind for e in events][0] == "reboot"
+    assert max(e.time_s for e in events) < 10.0          # none on the old clock (600 s)
 
 
 def test_a_damaged_log_replays_its_intact_messages(tmp_path):

@@ -405,8 +405,11 @@ class Warner:
                 self.sent_at = None
 
 
-def _emit(est, display, out, warner, now):
+def _emit(est, display, out, warner, now, decoder=None):
     p = est.predict(now)
+    if decoder is not None:
+        st = decoder.stats
+        p.update(messages=st.messages, bad_frames=st.bad, other_systems=st.other_systems)
     display.show(p)
     out.write(p)
     warner.update(p, now)
@@ -427,7 +430,7 @@ def _loop(source, est, display, out, warner, every, duration):
                 last_pred = None
             if est.t is not None and (last_pred is None or est.t - last_pred >= every):
                 last_pred = est.t
-                p = _emit(est, display, out, warner, est.t)
+                p = _emit(est, display, out, warner, est.t, source.decoder)
             if duration is not None and time.monotonic() - start > duration:
                 break
         return p
@@ -441,5 +444,5 @@ def _loop(source, est, display, out, warner, every, duration):
         dec.poll(now_wall)
         if est.t is not None and now_wall - wall_last >= every:
             wall_last = now_wall
-            p = _emit(est, display, out, warner, _now(source, est))
+            p = _emit(est, display, out, warner, _now(source, est), dec)
     return p
