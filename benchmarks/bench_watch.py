@@ -14,10 +14,9 @@ Scores on real flights (``--scores``; they need ``../shared/data``):
 * the McGill PX4 hexacopter's 44-min hover to "Critical battery level!": the predicted time
   to critical at 5, 10, 20, 30 and 40 min after take-off against the truth, played over
   loopback (``--via loopback``, default) or replayed from the file (``--via file``), with
-  the pack's capacity unknown; the reserve is PX4's critical level, its ``BAT_CRIT_THR`` on
-  its linear scale between ``BAT_V_EMPTY`` and ``BAT_V_CHARGED`` read from the log's
-  parameters, taken as an open-circuit cell voltage; then the same with a label capacity
-  (sensitivity: 4500, 5500, 6500 mAh, from the file);
+  the pack's capacity unknown; the reserve is PX4's own critical level
+  (``--reserve px4-critical``: the firmware's code and the parameters it sent); then the
+  same with a label capacity (sensitivity: 4500, 5500, 6500 mAh, from the file);
 * every real log with current in ``../shared/data/logs`` (ArduPilot, PX4) and every DJI
   M100 flight (through the record player, ``--map dji_m100``): the charge drawn from 25, 50
   and 75 % of each flight to its landing, predicted at the present condition over the
@@ -264,8 +263,8 @@ def mcgill_truth(path: Path) -> dict:
 def score_mcgill(via: str, capacity: str, speed: float = 20.0) -> dict:
     path = SHARED / MCGILL
     truth = mcgill_truth(path)
-    args = ["--aircraft", "aircraft/dji_m100.yaml", "--reserve",
-            f"{truth['reserve_cell_v']:.4f}V", "--capacity", capacity]
+    args = ["--aircraft", "aircraft/dji_m100.yaml", "--reserve", "px4-critical",
+            "--capacity", capacity]
     if via == "loopback":
         rows, _ = watch_loopback(path, args, speed)
     else:
@@ -326,25 +325,35 @@ def segments(events, est_factory) -> list[tuple]:
 def score_landing(name: str, events_fn, est_factory) -> list[dict]:
     """Charge drawn from 25/50/75 % of each flight to its landing: predicted vs measured."""
     segs = segments(events_fn(), est_factory)
-    marks = sorted((on + s * (off - on), k, s) for k, (_, on, off) in enumerate(segs)
-                   for s in SHARES)
-    ends = {k: off for k, (_, on, off) in enumerate(segs)}
+    # the marks of each flight of the record (a record's flights each start at 0 s)
+    marks: dict[str, list] = {}
+    for k, (flight, on, off) in enumerate(segs):
+        marks.setdefault(flight, []).extend((on + s * (off - on), k, s) for s in SHARES)
+    for v in marks.values():
+        v.sort()
     est = est_factory()
-    pending, results, q_mark = list(marks), [], {}
-    q_land = {}
+    flight = ""
+    pending = list(marks.get(flight, []))
+    q_mark, q_land, results = {}, {}, []
+    open_k = set()
     for ev in events_fn():
+        if ev.kind == "flight":
+            flight = ev.data[0]
+            pending = list(marks.get(flight, []))
         est.feed(ev)
-        while pending and est.t is not None and est.t >= pending[0][0]:
+        if est.t is None:
+            continue
+        while pending and est.t >= pending[0][0]:
             t, k, s = pending.pop(0)
-            h = est.horizon_charge(ends[k] - est.t)
-            q_mark[(k, s)] = (est.q_now, h)
-        for k, off in ends.items():
-            if k not in q_land and est.t is not None and est.t >= off and \
-                    any(kk == k for kk, _ in q_mark):
+            q_mark[(k, s)] = (est.q_now, est.horizon_charge(segs[k][2] - est.t))
+            open_k.add(k)
+        for k in list(open_k):
+            if est.t >= segs[k][2]:
                 q_land[k] = est.q_now
+                open_k.discard(k)
+    for k in open_k:
+        q_land[k] = est.q_now
     for (k, s), (q0, h) in q_mark.items():
-        if k not in q_land:
-            q_land[k] = est.q_now
         truth = q_land[k] - q0
         results.append({"log": name, "flight": segs[k][0], "share": s, "truth_mah": truth,
                         "ours_mah": h["p50"], "p5_mah": h["p5"], "p95_mah": h["p95"],
@@ -441,7 +450,7 @@ def main() -> None:
         for run in result["mcgill"]:
             print(f"McGill hover, capacity {run['capacity']} ({run['via']}): critical at "
                   f"{run['truth']['critical_s']:.1f} s, take-off {run['truth']['takeoff_s']:.1f} s,"
-                  f" reserve {run['truth']['reserve_cell_v']:.3f} V/cell")
+                  f" firmware {run['truth']['params']}")
             for m in run["marks"]:
                 print(f"  {m['minutes']:>2} min: truth {m['truth_s']:6.0f} s  ours "
                       f"{m['ours_s']:6.0f} s [P5 {m['p5_s']:6.0f}, P95 {m['p95_s']:6.0f}]  "

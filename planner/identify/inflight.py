@@ -122,11 +122,17 @@ CHARGE_WALK_PER_S = 0.01**2 / 600.0
 #: Power-scale updates use means over this window; the charge scale this one. [s]
 POWER_WINDOW_S = 5.0
 CHARGE_WINDOW_S = 60.0
+#: Largest step of one power-scale window from the learnt scale, ln units.
+POWER_Y_CLIP = 0.5
 #: Smallest SD of one power-scale measurement, ln units (the model's scatter is learnt
 #: above it).
 POWER_Y_SD_MIN = 0.03
 #: Time constant of the present power (the present condition) and of the wind. [s]
 POWER_TAU_S = 30.0
+#: The present condition priced by the power model: over this time constant, once the
+#: power scale's SD is below this. [s], [unitless]
+PRESENT_MODEL_TAU_S = 10.0
+PRESENT_SCALE_SD = 0.10
 WIND_TAU_S = 60.0
 #: Wind SD added to the estimate's own (the wind changes), and without any wind source.
 #: [m/s]
@@ -139,6 +145,12 @@ PX4_FILTER_TAU_S = 50.0
 #: share of the modelled hold power. [m], [unitless]
 AIRBORNE_ALT_M = 1.0
 AIRBORNE_POWER_SHARE = 0.4
+#: PX4's battery parameters (v1.11 defaults, ``battery_params*.c``), used where the
+#: vehicle has not sent its own.
+PX4_DEFAULTS = {"V_EMPTY": 3.5, "V_CHARGED": 4.05, "V_LOAD_DROP": 0.3, "R_INTERNAL": -1.0,
+                "LOW_THR": 0.15, "CRIT_THR": 0.07, "EMERGEN_THR": 0.05}
+#: The firmware levels a reserve may be.
+FIRMWARE_LEVELS = ("px4-low", "px4-critical", "px4-emergency")
 #: A first reading of the autopilot's charge counter up to this share of the capacity is
 #: taken as counted from a full pack at boot; beyond it, from the first reading.
 COUNTER_FROM_BOOT_SHARE = 1.5
@@ -210,6 +222,9 @@ class WatchSettings:
     reserve_cell_v : float or None
         Or the reserve as an open-circuit cell voltage: the state of charge where the
         curve reaches it. [V]
+    reserve_firmware : str or None
+        Or the firmware's own level: ``px4-low``, ``px4-critical``, ``px4-emergency``
+        (:meth:`InflightEstimator.firmware_level_soc`).
     capacity_known : bool
         The pack file's capacity is the pack's (a label); False: not known.
     samples : int
@@ -227,6 +242,7 @@ class WatchSettings:
 
     reserve: float = 0.2
     reserve_cell_v: float | None = None
+    reserve_firmware: str | None = None
     capacity_known: bool = True
     samples: int = 200
     weather_draws: int = 4
@@ -294,6 +310,9 @@ class InflightEstimator:
         self.aircraft, self.pack, self.settings = aircraft, pack, settings
         if not 0.0 <= settings.reserve < 1.0:
             raise InputError(f"reserve must be in [0, 1), got {settings.reserve}")
+        if settings.reserve_firmware not in (None, *FIRMWARE_LEVELS):
+            raise InputError(f"reserve must be a fraction, a cell voltage or one of "
+                             f"{', '.join(FIRMWARE_LEVELS)}, got {settings.reserve_firmware!r}")
         if settings.samples < 20:
             raise InputError(f"samples must be at least 20, got {settings.samples}")
         self.mission_legs = mission
@@ -329,8 +348,10 @@ class InflightEstimator:
         # common random numbers: the same draws every prediction (smooth, reproducible)
         rng = np.random.default_rng(settings.seed)
         k = settings.samples
-        u = (np.argsort(rng.random((5, k)), axis=1) + rng.random((5, k))) / k
-        self.z = ndtri(np.clip(u, 1e-9, 1 - 1e-9))          # (5, K): battery×2, c, k, power
+        u = (np.argsort(rng.random((8, k)), axis=1) + rng.random((8, k))) / k
+        # (8, K): s0, 1/C, R, charge scale, power scale, present power, its drift, the
+        # curve's error at the reserve
+        self.z = ndtri(np.clip(u, 1e-9, 1 - 1e-9))
         w = max(1, min(settings.weather_draws, k))
         uw = (np.argsort(rng.random((2, w)), axis=1) + rng.random((2, w))) / w
         self.zw = ndtri(np.clip(uw, 1e-9, 1 - 1e-9))        # (2, W)
@@ -388,6 +409,9 @@ class InflightEstimator:
         self.t_step = -math.inf
         self.t_load_end = -math.inf
         self.p_ewma = None
+        self.pm_ewma = None
+        self.i_ewma = None
+        self.thr_ewma = None
         self.lnp_var = 0.0
         self.px4_i = PX4_AVRG_CURRENT_A
         self.px4_t = None
@@ -630,6 +654,11 @@ class InflightEstimator:
                 a = 1.0 - math.exp(-min(max(t - (self._p_t or t), 0.0), 60.0) / POWER_TAU_S)
                 dl = min(max(math.log(power / self.p_ewma), -5.0), 5.0)
                 self.p_ewma *= math.exp(a * dl)
+                self.i_ewma = i if self.i_ewma is None else self.i_ewma + a * (i - self.i_ewma)
+                thr = self.hud[3] if self.hud is not None else math.nan
+                if math.isfinite(thr):
+                    self.thr_ewma = (thr if self.thr_ewma is None
+                                     else self.thr_ewma + a * (thr - self.thr_ewma))
                 self.lnp_var = (1 - a) * (self.lnp_var + a * dl * dl)
             self._p_t = t
         elif not self.airborne and self.p_ewma is None:
@@ -723,12 +752,19 @@ class InflightEstimator:
                     np.clip(st[:, 0], 0.0, None), st[:, 1], self._rho(), self.mass)))
             except ValueError:            # a state outside the power model's range
                 p_model = math.nan
+            if p_model > 0 and math.isfinite(p_model):
+                a = 1.0 - math.exp(-1.0 / PRESENT_MODEL_TAU_S)
+                self.pm_ewma = (p_model if self.pm_ewma is None
+                                else self.pm_ewma + a * (p_model - self.pm_ewma))
             if p_meas > 0 and p_model > 0 and math.isfinite(p_model):
                 self._kp.append(p_meas)
                 self._km.append(p_model)
             if t - self.k_window_t >= POWER_WINDOW_S and self._kp:
                 y = math.log(float(np.mean(self._kp)) / float(np.mean(self._km)))
                 sd = math.sqrt(max(self.k_y_var, POWER_Y_SD_MIN**2))
+                # a window far from the learnt scale (a glitch, a landing) counts as at most
+                # POWER_Y_CLIP away from it: the scale and its scatter stay robust
+                y = self.k.x + min(max(y - self.k.x, -POWER_Y_CLIP), POWER_Y_CLIP)
                 innov = self.k.update(y, sd, t)
                 self.k_y_var = 0.95 * self.k_y_var + 0.05 * innov * innov
                 self.k_window_t = t
@@ -831,19 +867,21 @@ class InflightEstimator:
         return ch
 
     def samples(self):
-        """Per-sample battery and scale draws (common random numbers)."""
+        """Per-sample battery and scale draws (common random numbers): s0, 1/C, R, the
+        charge scale and the power scale."""
         z = self.z
         try:
-            chol = np.linalg.cholesky(self.P[:2, :2] + np.eye(2) * 1e-18)
+            chol = np.linalg.cholesky(self.P + np.eye(3) * 1e-18)
         except np.linalg.LinAlgError:
-            chol = np.diag(np.sqrt(np.clip(np.diag(self.P)[:2], 0, None)))
-        th = self.theta[:2, None] + chol @ z[:2]
+            chol = np.diag(np.sqrt(np.clip(np.diag(self.P), 0, None)))
+        th = self.theta[:, None] + chol @ z[:3]
         g0 = 1.0 / self.c0_mah
         s0 = th[0]
         g = np.clip(th[1], 0.1 * g0, 10 * g0)
-        c = np.exp(self.c.x + self.c.sd * z[2])
-        k = np.exp(self.k.x + self.k.sd * z[3])
-        return s0, g, c, k
+        r = np.clip(th[2], 0.0, None)
+        c = np.exp(self.c.x + self.c.sd * z[3])
+        k = np.exp(self.k.x + self.k.sd * z[4])
+        return s0, g, r, c, k
 
     def predict(self, now: float | None = None) -> dict:
         """The prediction at stream time ``now`` (default the last event's): see the
@@ -864,36 +902,34 @@ class InflightEstimator:
         age = max(t_now - self.t_battery, 0.0)
         out["link_age_s"] = age
         out["stale"] = age > self.settings.silent_after_s
-        s0, g, c, k = self.samples()
+        s0, g, r_pack, c, k = self.samples()
         beta, scale = self.beta, self.scale
         cap_mah = 1.0 / g
         q_now = self.q_now
-        # present condition: the measured power (airborne) or the hold power
-        if self.airborne and self.p_ewma:
-            p_now = self.p_ewma
-            sd_lnp = math.sqrt(max(self.lnp_var, 0.0) / 10.0 + 0.02**2)
-        else:
-            p_now = self._hold_power_model() * math.exp(self.k.x)
-            sd_lnp = math.hypot(self.k.sd, 0.05)
+        p_now, sd_lnp = self.present_power()
         delta_m = self.delta * c ** (-beta)                       # measured power
         d_now = np.maximum((1.0 - s0) / g + q_now, 0.0) * AS_PER_MAH
         s_now = (d_now / scale) ** beta                           # stress: C = scale S^(1/β)
-        p_k = p_now * np.exp(sd_lnp * self.z[4])
+        p_k = p_now * np.exp(sd_lnp * self.z[5])
         if age > 0:                     # a silent link: fly the gap at the present power
             s_now = s_now + age / (delta_m * p_k ** self.eps)
         d_now = scale * s_now ** (1.0 / beta)
         soc_now = 1.0 - d_now / AS_PER_MAH * g
-        above = (soc_now - self.floor_soc) / g                     # [mAh]
-        d_lim = (1.0 - self.floor_soc) / g * AS_PER_MAH
+        floor = self.floor(r_pack)
+        # the curve's error between here and the reserve: its random walk over the way
+        floor = floor + np.sqrt(CURVE_WALK_PER_SOC * np.abs(soc_now - floor)) * self.z[7]
+        above = (soc_now - floor) / g                              # [mAh]
+        d_lim = (1.0 - floor) / g * AS_PER_MAH
         s_lim = (np.maximum(d_lim, 0.0) / scale) ** beta
         ttr = delta_m * p_k ** self.eps * (s_lim - s_now)
         # horizon of the present power's drift
         sd_drift = math.sqrt(POWER_WALK_PER_S * max(float(np.nanmedian(ttr)), 0.0) / 3.0)
         if sd_drift > 0:
-            p_k2 = p_k * np.exp(sd_drift * self.z[3])
+            p_k2 = p_k * np.exp(sd_drift * self.z[6])
             ttr = delta_m * p_k2 ** self.eps * (s_lim - s_now)
         ttr = np.where(above > 0, ttr, 0.0)
         out["soc"] = _pct(soc_now)[1]
+        out["reserve_soc"] = _pct(floor)[1]
         self._put(out, "capacity_mah", cap_mah)
         self._put(out, "time_to_reserve_s", ttr)
         self._put(out, "charge_above_reserve_mah", above)
@@ -1039,10 +1075,54 @@ class InflightEstimator:
             return None
         return (self.q_now - self.q_takeoff) * AS_PER_MAH / (self.t - self.t_takeoff)
 
+    def floor(self, resistance=None):
+        """The state of charge at the reserve (or where the pack's usable charge ends, if
+        higher), per resistance sample. [unitless]"""
+        r = self.reserve_soc
+        if self.settings.reserve_firmware is not None:
+            r = self.firmware_level_soc(self.settings.reserve_firmware, resistance)
+        return np.maximum(r, 1.0 - self.pack.usable_fraction)
+
+    def firmware_level_soc(self, level: str, resistance=None):
+        """The state of charge at which the firmware will declare ``level``, on our curve.
+
+        PX4 (``src/lib/battery/battery.cpp``, ``estimateRemaining`` of v1.11, the versions
+        whose state of charge is read from the voltage alone): the cell voltage
+        compensated by ``BAT_R_INTERNAL`` × current (when it is set, ≥ 0) or else by
+        ``BAT_V_LOAD_DROP`` × throttle is placed linearly between ``BAT_V_EMPTY`` and
+        ``BAT_V_CHARGED``, and the level is that fraction falling below ``BAT_LOW_THR``,
+        ``BAT_CRIT_THR`` or ``BAT_EMERGEN_THR``. The loaded cell voltage there, plus our
+        sag at the present current (:math:`I R / N`), is the open-circuit voltage of the
+        level; the curve gives its state of charge. The parameters are the vehicle's
+        (``PARAM_VALUE`` on the link), else PX4's defaults (:data:`PX4_DEFAULTS`).
+        """
+        p = dict(PX4_DEFAULTS)
+        for name in p:
+            for pre in ("BAT1_", "BAT_"):
+                if pre + name in self.params:
+                    p[name] = self.params[pre + name]
+                    break
+        frac = p[{"px4-low": "LOW_THR", "px4-critical": "CRIT_THR",
+                  "px4-emergency": "EMERGEN_THR"}[level]]
+        v_level = p["V_EMPTY"] + frac * (p["V_CHARGED"] - p["V_EMPTY"])
+        i = self.i_ewma if self.i_ewma is not None else (self.i if math.isfinite(self.i)
+                                                         else 0.0)
+        thr = self.thr_ewma if self.thr_ewma is not None else (
+            self.hud[3] if self.hud is not None and math.isfinite(self.hud[3]) else 0.0)
+        comp = p["R_INTERNAL"] * i if p["R_INTERNAL"] >= 0 else thr * p["V_LOAD_DROP"]
+        r = np.maximum(self.theta[2] if resistance is None else resistance, 0.0)
+        ocv = v_level - comp + max(i, 0.0) * r / self.cells
+        return self.curve.soc(ocv)
+
     def firmware_reserve(self) -> float:
         """The reserve on the firmware's remaining-percentage scale: a fraction as given;
         a cell voltage on PX4's linear scale between ``BAT_V_EMPTY`` and
         ``BAT_V_CHARGED`` where those parameters were seen, else on our curve."""
+        if self.settings.reserve_firmware is not None:
+            key = {"px4-low": "LOW_THR", "px4-critical": "CRIT_THR",
+                   "px4-emergency": "EMERGEN_THR"}[self.settings.reserve_firmware]
+            return next((self.params[pre + key] for pre in ("BAT1_", "BAT_")
+                         if pre + key in self.params), PX4_DEFAULTS[key])
         v = self.settings.reserve_cell_v
         if v is None:
             return self.settings.reserve
@@ -1052,21 +1132,55 @@ class InflightEstimator:
                 return min(max((v - ve) / (vc - ve), 0.0), 1.0)
         return self.reserve_soc
 
-    def horizon_charge(self, horizon_s: float) -> dict:
-        """Charge drawn over the next ``horizon_s`` at the present condition: ours (P5,
-        median, P95) and the baselines' (PX4's filtered current, the mean current since
-        take-off). [mAh]"""
-        s0, g, c, k = self.samples()
+    def present_power(self) -> tuple[float, float]:
+        """The present condition's power and the SD of its log. [W], [unitless]
+
+        Airborne, once the power scale is learnt (:data:`PRESENT_SCALE_SD`): the power
+        model at the present flight state (a :data:`PRESENT_MODEL_TAU_S` average) times the
+        learnt scale — the model knows that a climb has ended or a turn costs more;
+        before that, the measured power (a :data:`POWER_TAU_S` average); on the ground,
+        the hold power times the scale.
+        """
+        if self.airborne and self.pm_ewma and self.k.sd < PRESENT_SCALE_SD:
+            sd = math.sqrt(self.k.p + max(self.k_y_var, POWER_Y_SD_MIN**2))
+            return self.pm_ewma * math.exp(self.k.x), sd
+        if self.airborne and self.p_ewma:
+            return self.p_ewma, math.sqrt(max(self.lnp_var, 0.0) / 10.0 + 0.02**2)
+        return self._hold_power_model() * math.exp(self.k.x), math.hypot(self.k.sd, 0.05)
+
+    def _descent(self) -> tuple[float, float]:
+        """Time and power of the descent to land from the present altitude: the power
+        model at the aircraft's descent rate (hovering in the wind), times the scale.
+        [s], [W]"""
+        alt = self._alt()
+        if not (math.isfinite(alt) and alt > 0):
+            return 0.0, 0.0
+        rate = self.aircraft.descent_rate_ms
+        wind = math.hypot(self.wind_n or 0.0, self.wind_e or 0.0)
+        try:
+            p = float(self.aircraft.battery_power(wind, -rate, self._rho(), self.mass))
+        except ValueError:
+            return 0.0, 0.0
+        return alt / rate, p * math.exp(self.k.x)
+
+    def horizon_charge(self, horizon_s: float, land: bool = True) -> dict:
+        """Charge drawn over the next ``horizon_s`` at the present condition, the last
+        part of it descending to land (``land``): ours (P5, median, P95) and the
+        baselines' (PX4's filtered current, the mean current since take-off), which
+        know nothing of a landing. [mAh]"""
+        s0, g, _, c, k = self.samples()
         beta, scale = self.beta, self.scale
         delta_m = self.delta * c ** (-beta)
-        p_now = self.p_ewma if (self.airborne and self.p_ewma) else (
-            self._hold_power_model() * math.exp(self.k.x))
-        sd = math.sqrt(max(self.lnp_var, 0.0) / 10.0 + 0.02**2
-                       + POWER_WALK_PER_S * horizon_s / 3.0)
-        p_k = p_now * np.exp(sd * self.z[4])
+        p_now, sd0 = self.present_power()
+        sd = math.sqrt(sd0**2 + POWER_WALK_PER_S * horizon_s / 3.0)
+        p_k = p_now * np.exp(sd * self.z[5])
+        t_down, p_down = self._descent() if land else (0.0, 0.0)
+        t_down = min(t_down, horizon_s)
         d_now = np.maximum((1.0 - s0) / g + self.q_now, 0.0) * AS_PER_MAH
         s_now = (d_now / scale) ** beta
-        s_end = s_now + horizon_s / (delta_m * p_k ** self.eps)
+        s_end = s_now + (horizon_s - t_down) / (delta_m * p_k ** self.eps)
+        if t_down > 0 and p_down > 0:
+            s_end = s_end + t_down / (delta_m * (p_down * p_k / p_now) ** self.eps)
         drawn = scale * (s_end ** (1 / beta) - s_now ** (1 / beta)) / AS_PER_MAH
         p5, p50, p95 = _pct(drawn)
         mean_i = self.mean_current()

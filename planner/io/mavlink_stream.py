@@ -481,6 +481,7 @@ class MavlinkDecoder:
         self._resync: float | None = None
         self._first_recv: float | None = None
         self._pending: list[Event] = []
+        self._prelock: list = []
         self._handlers = {
             "HEARTBEAT": self._heartbeat, "SYS_STATUS": self._sys_status,
             "BATTERY_STATUS": self._battery_status, "GLOBAL_POSITION_INT": self._position,
@@ -502,9 +503,15 @@ class MavlinkDecoder:
         src = msg.get_srcSystem()
         if self.system_id is None:
             if mtype == "HEARTBEAT" and self._is_vehicle(msg):
+                # the vehicle is known: its messages that came before its heartbeat first
                 self.system_id = src
-            else:
-                return []
+                early = [(m, r) for m, r in self._prelock if m.get_srcSystem() == src]
+                self._prelock.clear()
+                out = [ev for m, r in early for ev in self.decode(m, r)]
+                return out + self.decode(msg, recv_s)
+            if len(self._prelock) < MAX_PENDING:
+                self._prelock.append((msg, recv_s))
+            return []
         if src != self.system_id:
             # the mission protocol's answers to another ground station come from the vehicle;
             # everything from other systems is someone else's

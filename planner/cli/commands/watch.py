@@ -59,8 +59,9 @@ def register(sub) -> None:
     p.add_argument("--mission", help="mission file (.waypoints, .plan or .yaml); default: "
                                      "downloaded from the vehicle")
     p.add_argument("--reserve", default="0.2",
-                   help="landing reserve: a fraction of the pack's capacity (0.2, 20%%) or "
-                        "an open-circuit cell voltage (3.6V) (default 0.2)")
+                   help="landing reserve: a fraction of the pack's capacity (0.2, 20%%), an "
+                        "open-circuit cell voltage (3.6V), or the firmware's own level "
+                        "(px4-low, px4-critical, px4-emergency) (default 0.2)")
     p.add_argument("--capacity", metavar="MAH|unknown",
                    help="the pack's capacity [mAh], or 'unknown': learnt from the voltage "
                         "(default: the pack file's, as a label)")
@@ -98,14 +99,18 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def parse_reserve(text: str) -> tuple[float, float | None]:
-    """``0.2``, ``20%`` → (0.2, None); ``3.6V`` → (nan, 3.6) (an open-circuit cell
-    voltage)."""
+def parse_reserve(text: str) -> tuple[float, float | None, str | None]:
+    """``0.2``, ``20%`` → (0.2, None, None); ``3.6V`` → (0, 3.6, None) (an open-circuit
+    cell voltage); ``px4-critical`` → (0, None, "px4-critical") (the firmware's level)."""
+    from planner.identify.inflight import FIRMWARE_LEVELS
+
     t = text.strip()
+    if t.lower() in FIRMWARE_LEVELS:
+        return 0.0, None, t.lower()
     if t.lower().endswith("v"):
         v = parse_float(t[:-1], "--reserve", 2.0, 4.5)
-        return math.nan, v
-    return parse_fraction(t, "--reserve"), None
+        return 0.0, v, None
+    return parse_fraction(t, "--reserve"), None, None
 
 
 def load_inputs(args):
@@ -126,7 +131,7 @@ def load_inputs(args):
             model = (IntegralModel.from_literature(pack.cells_series, cap * pack.count * 3.6)
                      if pack.model.literature else pack.model)
             pack = dataclasses.replace(pack, capacity_mah=cap, model=model)
-    reserve, reserve_v = parse_reserve(args.reserve)
+    reserve, reserve_v, reserve_fw = parse_reserve(args.reserve)
     temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
                    if args.temperature is not None else None)
     payload = (parse_float(args.payload, "--payload", 0.0, 1000.0)
@@ -143,7 +148,7 @@ def load_inputs(args):
         speed, direction = parse_wind(args.wind)
         env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
     settings = WatchSettings(
-        reserve=0.0 if reserve_v is not None else reserve, reserve_cell_v=reserve_v,
+        reserve=reserve, reserve_cell_v=reserve_v, reserve_firmware=reserve_fw,
         capacity_known=known, samples=parse_int(args.samples, "--samples", 20, 100_000),
         seed=parse_int(args.seed, "--seed", 0, 2**63 - 1), temperature_c=temperature,
         payload_kg=payload,
