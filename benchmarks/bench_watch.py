@@ -101,10 +101,17 @@ def tlog_events(path):
         yield from dec.decode(m, m._recv)
 
 
+#: Specific energy of a LiPo pack, for the mass of a pack known by its cells and capacity.
+#: [Wh/kg]
+LIPO_WH_PER_KG = 180.0
+
+
 def generic_pack(cells: int, capacity_mah: float) -> BatteryPack:
-    """A LiPo pack of which only the cell count (and a capacity) is known."""
+    """A LiPo pack of which only the cell count (and a capacity) is known: 3.7 V a cell,
+    :data:`LIPO_WH_PER_KG`."""
+    mass = 3.7 * cells * capacity_mah / 1000.0 / LIPO_WH_PER_KG
     return BatteryPack(name=f"{cells}S LiPo", cells_series=cells, capacity_mah=capacity_mah,
-                       mass_kg=0.1 * cells * capacity_mah / 1000.0 * 1.3)
+                       mass_kg=mass)
 
 
 def watch_loopback(tlog: Path, args: list[str], speed: float) -> tuple[list[dict], dict]:
@@ -261,6 +268,7 @@ def mcgill_truth(path: Path) -> dict:
 
 
 def score_mcgill(via: str, capacity: str, speed: float = 20.0) -> dict:
+    """The McGill hover through ``endurance watch`` (over loopback, or the file)."""
     path = SHARED / MCGILL
     truth = mcgill_truth(path)
     args = ["--aircraft", "aircraft/dji_m100.yaml", "--reserve", "px4-critical",
@@ -284,17 +292,64 @@ def score_mcgill(via: str, capacity: str, speed: float = 20.0) -> dict:
             finally:
                 os.chdir(cwd)
             rows = [json.loads(x) for x in out.read_text().splitlines()]
+    return {"via": via, "capacity": capacity, "curve": "lipo (default)", "truth": truth,
+            "marks": _marks(rows, truth)}
+
+
+def _marks(rows, truth):
     times = np.array([r["time_s"] for r in rows])
     out = []
-    for minutes in MARKS_MIN:
+    half = 0.5 * (truth["critical_s"] - truth["takeoff_s"]) / 60.0
+    for minutes in (*MARKS_MIN, half):
         t = truth["takeoff_s"] + 60.0 * minutes
         r = rows[int(np.argmin(np.abs(times - t)))]
-        true_ttr = truth["critical_s"] - r["time_s"]
-        out.append({"minutes": minutes, "at_s": r["time_s"], "truth_s": true_ttr,
+        out.append({"minutes": minutes, "at_s": r["time_s"],
+                    "truth_s": truth["critical_s"] - r["time_s"],
                     "ours_s": r["time_to_reserve_s"], "p5_s": r["time_to_reserve_p5_s"],
                     "p95_s": r["time_to_reserve_p95_s"], "px4_s": r["px4_time_to_reserve_s"],
                     "rate_s": r["rate_time_to_reserve_s"], "capacity_mah": r["capacity_mah"]})
-    return {"via": via, "capacity": capacity, "truth": truth, "marks": out}
+    return out
+
+
+def lco_curve():
+    """A LiPo (LiCoO2 pouch) cell's open-circuit curve from its C/10 discharge
+    (``../shared/data/battery/enertech_lco_pouch``; read here, never copied)."""
+    from planner.physics.battery.ocv import OcvTable
+
+    raw = np.loadtxt(SHARED / "battery/enertech_lco_pouch/raw/0.1C_discharge_U.txt")
+    t, v = raw[:, 0], raw[:, 1]
+    soc = 1.0 - t / t[-1]
+    order = np.argsort(soc)
+    grid = np.linspace(0.0, 1.0, 101)
+    vg = np.interp(grid, soc[order], np.maximum.accumulate(v[order]))
+    return OcvTable(grid, np.maximum.accumulate(vg + np.arange(grid.size) * 1e-6),
+                    "Enertech LiCoO2 pouch cell, C/10 discharge")
+
+
+def score_mcgill_curve(capacity: str, curve) -> dict:
+    """The same hover through the estimator in this process, with another open-circuit
+    curve as the pack's (``circuit.ocv``): how much the curve matters."""
+    from planner.parameters import CircuitBlock
+
+    path = SHARED / MCGILL
+    truth = mcgill_truth(path)
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/dji_m100.yaml")
+    known = capacity != "unknown"
+    if known:
+        pack = replace(pack, capacity_mah=float(capacity), model=None)
+    if curve is not None:
+        pack = replace(pack, circuit=CircuitBlock(ocv=curve))
+    est = InflightEstimator(aircraft, pack, settings=WatchSettings(
+        capacity_known=known, reserve_firmware="px4-critical"))
+    rows, last = [], None
+    for ev in tlog_events(path):
+        est.feed(ev)
+        if est.t is not None and (last is None or est.t - last >= 10.0):
+            last = est.t
+            rows.append(est.predict())
+    return {"via": "file", "capacity": capacity,
+            "curve": "lipo (default)" if curve is None else curve.source, "truth": truth,
+            "marks": _marks(rows, truth)}
 
 
 # --------------------------------------------------------------------------- landing charge
@@ -445,14 +500,17 @@ def main() -> None:
             print(f"skipped: {SHARED} is absent")
             return
         result["mcgill"] = [score_mcgill(args.via, "unknown")]
-        for cap in ("4500", "5500", "6500"):
-            result["mcgill"].append(score_mcgill("file", cap))
+        lco = lco_curve()
+        for curve in (None, lco):
+            for cap in ("unknown", "4500", "5500", "6500"):
+                result["mcgill"].append(score_mcgill_curve(cap, curve))
         for run in result["mcgill"]:
-            print(f"McGill hover, capacity {run['capacity']} ({run['via']}): critical at "
+            print(f"McGill hover, capacity {run['capacity']}, curve {run['curve']} "
+                  f"({run['via']}): critical at "
                   f"{run['truth']['critical_s']:.1f} s, take-off {run['truth']['takeoff_s']:.1f} s,"
                   f" firmware {run['truth']['params']}")
             for m in run["marks"]:
-                print(f"  {m['minutes']:>2} min: truth {m['truth_s']:6.0f} s  ours "
+                print(f"  {m['minutes']:>4.1f} min: truth {m['truth_s']:6.0f} s  ours "
                       f"{m['ours_s']:6.0f} s [P5 {m['p5_s']:6.0f}, P95 {m['p95_s']:6.0f}]  "
                       f"PX4 {m['px4_s']:6.0f} s  rate {m['rate_s']:6.0f} s")
         rows = landing_scores(include_m100=not args.no_m100)

@@ -122,15 +122,13 @@ CHARGE_WALK_PER_S = 0.01**2 / 600.0
 #: Power-scale updates use means over this window; the charge scale this one. [s]
 POWER_WINDOW_S = 5.0
 CHARGE_WINDOW_S = 60.0
-#: Largest step of one power-scale window from the learnt scale, ln units.
-POWER_Y_CLIP = 0.5
 #: Smallest SD of one power-scale measurement, ln units (the model's scatter is learnt
 #: above it).
 POWER_Y_SD_MIN = 0.03
 #: Time constant of the present power (the present condition) and of the wind. [s]
 POWER_TAU_S = 30.0
-#: The present condition priced by the power model: over this time constant, once the
-#: power scale's SD is below this. [s], [unitless]
+#: The present condition priced by the power model: its state averaged over this time
+#: constant, once the power scale's SD is below this. [s], [unitless]
 PRESENT_MODEL_TAU_S = 10.0
 PRESENT_SCALE_SD = 0.10
 WIND_TAU_S = 60.0
@@ -344,6 +342,7 @@ class InflightEstimator:
         self.reset_battery()
         self.k = _Scalar(0.0, POWER_SCALE_SD, POWER_WALK_PER_S)
         self.k_y_var = 0.1**2
+        self._k_out = None
         self.c = _Scalar(0.0, CHARGE_SCALE_SD, CHARGE_WALK_PER_S)
         # common random numbers: the same draws every prediction (smooth, reproducible)
         rng = np.random.default_rng(settings.seed)
@@ -410,6 +409,7 @@ class InflightEstimator:
         self.t_load_end = -math.inf
         self.p_ewma = None
         self.pm_ewma = None
+        self.pm_long = None
         self.i_ewma = None
         self.thr_ewma = None
         self.lnp_var = 0.0
@@ -756,17 +756,31 @@ class InflightEstimator:
                 a = 1.0 - math.exp(-1.0 / PRESENT_MODEL_TAU_S)
                 self.pm_ewma = (p_model if self.pm_ewma is None
                                 else self.pm_ewma + a * (p_model - self.pm_ewma))
+                a = 1.0 - math.exp(-1.0 / POWER_TAU_S)
+                self.pm_long = (p_model if self.pm_long is None
+                                else self.pm_long + a * (p_model - self.pm_long))
             if p_meas > 0 and p_model > 0 and math.isfinite(p_model):
                 self._kp.append(p_meas)
                 self._km.append(p_model)
             if t - self.k_window_t >= POWER_WINDOW_S and self._kp:
                 y = math.log(float(np.mean(self._kp)) / float(np.mean(self._km)))
                 sd = math.sqrt(max(self.k_y_var, POWER_Y_SD_MIN**2))
-                # a window far from the learnt scale (a glitch, a landing) counts as at most
-                # POWER_Y_CLIP away from it: the scale and its scatter stay robust
-                y = self.k.x + min(max(y - self.k.x, -POWER_Y_CLIP), POWER_Y_CLIP)
-                innov = self.k.update(y, sd, t)
-                self.k_y_var = 0.95 * self.k_y_var + 0.05 * innov * innov
+                # a window more than 3 SD from the learnt scale is a glitch and counts as
+                # 3 SD away; two in a row on the same side are the model being off (a
+                # prior far from the truth, a payload dropped): the scale's variance is
+                # widened to the step so that it moves there at once
+                spread = 3.0 * math.sqrt(self.k.p + sd * sd)
+                step = y - self.k.x
+                if abs(step) > spread:
+                    if self._k_out is not None and self._k_out * step > 0:
+                        self.k.p = max(self.k.p, step * step)
+                    else:
+                        step = math.copysign(spread, step)
+                    self._k_out = step
+                else:
+                    self._k_out = None
+                innov = self.k.update(self.k.x + step, sd, t)
+                self.k_y_var = 0.95 * self.k_y_var + 0.05 * min(innov * innov, 0.25)
                 self.k_window_t = t
                 self._kp, self._km = [], []
         self.buf_p.clear()
@@ -1135,11 +1149,11 @@ class InflightEstimator:
     def present_power(self) -> tuple[float, float]:
         """The present condition's power and the SD of its log. [W], [unitless]
 
-        Airborne, once the power scale is learnt (:data:`PRESENT_SCALE_SD`): the power
-        model at the present flight state (a :data:`PRESENT_MODEL_TAU_S` average) times the
-        learnt scale — the model knows that a climb has ended or a turn costs more;
-        before that, the measured power (a :data:`POWER_TAU_S` average); on the ground,
-        the hold power times the scale.
+        Airborne, once the power scale is learnt (its SD below
+        :data:`PRESENT_SCALE_SD`): the power model at the present flight state (a
+        :data:`PRESENT_MODEL_TAU_S` average) times the learnt scale — the model knows that
+        a climb has ended or a turn costs more; before that, the measured power (a
+        :data:`POWER_TAU_S` average); on the ground, the hold power times the scale.
         """
         if self.airborne and self.pm_ewma and self.k.sd < PRESENT_SCALE_SD:
             sd = math.sqrt(self.k.p + max(self.k_y_var, POWER_Y_SD_MIN**2))

@@ -238,3 +238,51 @@ def test_a_legs_mission_is_followed_forward_as_the_aircraft_flies():
     assert j == 0 and rest.legs[0].distance_m == pytest.approx(200.0)
     rest, j = remaining_from_legs(m, (800.0, 0.0), 30.0, 1)   # on the way back
     assert j == 1 and rest.legs[0].distance_m == pytest.approx(800.0)
+
+
+def _px4_estimator(params):
+    aircraft, pack = solo()
+    est = InflightEstimator(aircraft, replace(pack, cells_series=6, model=None),
+                            settings=WatchSettings(reserve_firmware="px4-critical"))
+    for name, value in params.items():
+        est.feed(Event("param", 0.0, (name, value)))
+    est.feed(Event("state", 0.0, (True, "POSCTL", "multirotor", 12)))
+    est.feed(Event("hud", 0.0, (0.0, 0.0, 0.0, 0.7)))
+    est.feed(Event("battery", 0.0, (22.0, 7.5, 0.0, 0.5)))
+    est.theta[2] = 0.09
+    return est
+
+
+def test_px4s_critical_level_follows_its_code_with_the_vehicles_parameters():
+    """PX4 v1.11 battery.cpp: cell voltage + V_LOAD_DROP × throttle (R_INTERNAL < 0), linear
+    between V_EMPTY and V_CHARGED; critical below CRIT_THR. The loaded cell voltage there
+    plus our sag I R / N is the level's open-circuit voltage."""
+    est = _px4_estimator({"BAT_V_EMPTY": 3.6, "BAT_V_CHARGED": 4.2, "BAT_CRIT_THR": 0.07,
+                          "BAT_V_LOAD_DROP": 0.3, "BAT_R_INTERNAL": -1.0})
+    ocv = 3.6 + 0.07 * 0.6 - 0.3 * 0.7 + 7.5 * 0.09 / 6
+    assert est.firmware_level_soc("px4-critical") == pytest.approx(
+        float(est.curve.soc(ocv)), abs=1e-9)
+    assert est.firmware_reserve() == pytest.approx(0.07)
+    # with BAT_R_INTERNAL set, the compensation is R_INTERNAL × current instead
+    est2 = _px4_estimator({"BAT_V_EMPTY": 3.6, "BAT_V_CHARGED": 4.2, "BAT_CRIT_THR": 0.07,
+                           "BAT_R_INTERNAL": 0.01})
+    ocv2 = 3.6 + 0.07 * 0.6 - 0.01 * 7.5 + 7.5 * 0.09 / 6
+    assert est2.firmware_level_soc("px4-critical") == pytest.approx(
+        float(est2.curve.soc(ocv2)), abs=1e-9)
+    # the low level lies above the critical one
+    assert est.firmware_level_soc("px4-low") > est.firmware_level_soc("px4-critical")
+
+
+def test_the_descent_is_part_of_the_charge_to_landing():
+    aircraft, pack = solo()
+    est = InflightEstimator(aircraft, pack)
+    est.feed(Event("state", 0.0, (True, "AUTO", "multirotor", 3)))
+    for k in range(120):
+        t = float(k)
+        est.feed(Event("battery", t, (16.0, 14.0, 14.0 * t / 3.6, math.nan)))
+        est.feed(Event("local", t, (0.0, 0.0, 60.0, 0.0, 0.0, 0.0)))
+    with_landing = est.horizon_charge(100.0)
+    without = est.horizon_charge(100.0, land=False)
+    # 60 m at 1.5 m/s: the last 40 s descend, which costs less than hovering
+    assert with_landing["p50"] < without["p50"]
+    assert without["p50"] == pytest.approx(14.0 * 100 / 3.6, rel=0.15)

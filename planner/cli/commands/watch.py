@@ -110,7 +110,12 @@ def parse_reserve(text: str) -> tuple[float, float | None, str | None]:
     if t.lower().endswith("v"):
         v = parse_float(t[:-1], "--reserve", 2.0, 4.5)
         return 0.0, v, None
-    return parse_fraction(t, "--reserve"), None, None
+    try:
+        return parse_fraction(t, "--reserve"), None, None
+    except InputError:
+        raise InputError(f"--reserve: expected a fraction of the capacity (0.2, 20%), an "
+                         f"open-circuit cell voltage (3.6V) or one of "
+                         f"{', '.join(FIRMWARE_LEVELS)}, got {text!r}") from None
 
 
 def load_inputs(args):
@@ -202,7 +207,7 @@ def render_block(p: dict, source: str) -> list[str]:
         f"{_num(_milli(p.get('resistance_ohm')), 0, ' mΩ')}",
         f"above reserve     {_band(p, 'charge_above_reserve_mah', mah)}",
         f"time to reserve   {_band(p, 'time_to_reserve_s', _dur)} at "
-        f"{_num(p.get('power_w'), 0, ' W')}",
+        f"{_num(p.get('power_w'), 0, ' W')} (power model × {_num(p.get('power_scale'), 2)})",
         f"rest of mission   {_band(p, 'mission_remaining_mah', mah)}",
         f"return home       {_band(p, 'return_home_mah', mah)}",
         f"landing margin    {_band(p, 'landing_margin_mah', smah)}",
@@ -233,10 +238,19 @@ def render_line(p: dict) -> str:
             f"{_num(p.get('mission_remaining_mah'), 0, ' mAh')}, home "
             f"{_num(p.get('return_home_mah'), 0, ' mAh')}, landing margin "
             f"{_num(p.get('landing_margin_mah'), 0, ' mAh', sign=True)}, no return in "
-            f"{_num(p.get('point_of_no_return_in_s'), 0, ' s')}, item "
-            f"{p.get('mission_item') if p.get('mission_item') is not None else '-'}, link "
+            f"{_num(p.get('point_of_no_return_in_s'), 0, ' s')}, {_where(p)}, link "
             f"{_num(p.get('link_age_s'), 1, ' s')}" + (" SILENT" if p.get("stale") else "")
             + ("  RETURN NOW" if p.get("return_due") else ""))
+
+
+def _where(p: dict) -> str:
+    """Where in the mission: ``item 5``, ``leg 3/18``, or ``no mission``."""
+    if p.get("mission_source") == "legs":
+        return f"leg {p.get('mission_leg')}/{p.get('mission_items')}"
+    if p.get("mission_source") is None:
+        return "no mission"
+    item = p.get("mission_item")
+    return f"item {'-' if item is None else item}"
 
 
 def return_text(p: dict) -> str:
@@ -263,6 +277,8 @@ class Display:
             self.stream.write(up + "\n".join(block) + "\n")
             self.lines = len(block)
         else:
+            if p.get("link_age_s") is None:
+                return                     # no battery sample yet: nothing to say
             flags = (bool(p.get("stale")), bool(p.get("return_due")), p.get("mission_item"),
                      p.get("mission_items"))
             t = p.get("time_s") or 0.0

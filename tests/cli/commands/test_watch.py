@@ -142,6 +142,8 @@ def test_a_record_is_played_by_the_record_player(capsys, monkeypatch):
     (["udpin:127.0.0.1", "--aircraft", SOLO], "HOST:PORT"),
     ([str(SIM_TLOG), "--aircraft", SOLO, "--send-warnings"], "--send-warnings"),
     ([str(SIM_TLOG), "--aircraft", SOLO, "--reserve", "150%"], "--reserve"),
+    ([str(SIM_TLOG), "--aircraft", SOLO, "--reserve", "px4-nonsense"], "px4-critical"),
+    ([str(SIM_TLOG), "--aircraft", SOLO, "--reserve", "9V"], "--reserve"),
     ([str(SIM_TLOG), "--aircraft", SOLO, "--capacity", "-5"], "--capacity"),
     ([str(SIM_TLOG), "--aircraft", SOLO, "--jsonl", "/no/such/folder/x.jsonl"], "--jsonl"),
     ([str(SIM_TLOG), "--aircraft", SOLO, "--map", "dji_m100"], "--map"),
