@@ -125,6 +125,12 @@ CHARGE_WINDOW_S = 60.0
 #: Smallest SD of one power-scale measurement, ln units (the model's scatter is learnt
 #: above it).
 POWER_Y_SD_MIN = 0.03
+#: Seconds of flight kept to measure how well the present condition forecast the power
+#: (one row a second), and the least needed. [s]
+HISTORY_S = 1800
+HISTORY_MIN_S = 60
+#: Largest error of one window of that history, ln units (a factor 2).
+FORECAST_ERR_CLIP = math.log(2.0)
 #: Time constant of the present power (the present condition) and of the wind. [s]
 POWER_TAU_S = 30.0
 #: The present condition priced by the power model: its state averaged over this time
@@ -410,6 +416,8 @@ class InflightEstimator:
         self.p_ewma = None
         self.pm_ewma = None
         self.pm_long = None
+        self._hist = np.full((HISTORY_S, 3), np.nan)   # (t, measured, forecast) a second
+        self._hist_n = 0
         self.i_ewma = None
         self.thr_ewma = None
         self.lnp_var = 0.0
@@ -740,7 +748,12 @@ class InflightEstimator:
 
     # ------------------------------------------------------------------ learning tick
     def _tick(self, t: float) -> None:
-        """Once a second of stream time: the power and charge scales (vectorised)."""
+        """Once a second of stream time: the power and charge scales (vectorised), and the
+        history of the present condition's forecasts."""
+        if self.buf_p and self.airborne:
+            k = self._hist_n % HISTORY_S
+            self._hist[k] = (t, float(np.mean(self.buf_p)), self.present_power()[0])
+            self._hist_n += 1
         if self.buf_state and self.buf_p and self.airborne:
             if self.k_window_t is None:
                 self.k_window_t = t
@@ -937,7 +950,7 @@ class InflightEstimator:
         s_lim = (np.maximum(d_lim, 0.0) / scale) ** beta
         ttr = delta_m * p_k ** self.eps * (s_lim - s_now)
         # horizon of the present power's drift
-        sd_drift = math.sqrt(POWER_WALK_PER_S * max(float(np.nanmedian(ttr)), 0.0) / 3.0)
+        sd_drift = self.forecast_spread(max(float(np.nanmedian(ttr)), 0.0))
         if sd_drift > 0:
             p_k2 = p_k * np.exp(sd_drift * self.z[6])
             ttr = delta_m * p_k2 ** self.eps * (s_lim - s_now)
@@ -1162,6 +1175,37 @@ class InflightEstimator:
             return self.p_ewma, math.sqrt(max(self.lnp_var, 0.0) / 10.0 + 0.02**2)
         return self._hold_power_model() * math.exp(self.k.x), math.hypot(self.k.sd, 0.05)
 
+    def forecast_spread(self, horizon_s: float) -> float:
+        """SD of ln(mean power over the next ``horizon_s`` / the present condition's power),
+        as this flight has shown it: over its last :data:`HISTORY_S` seconds, how far the
+        mean measured power over every window of that length (at most half the history)
+        fell from the present condition forecast at the window's start (RMS, bias
+        included). With under :data:`HISTORY_MIN_S` of history: the random walk
+        :data:`POWER_WALK_PER_S`. [unitless]"""
+        walk = math.sqrt(POWER_WALK_PER_S * max(horizon_s, 0.0) / 3.0)
+        n = min(self._hist_n, HISTORY_S)
+        if n < HISTORY_MIN_S or horizon_s <= 0:
+            return walk
+        h = self._hist[:n] if self._hist_n <= HISTORY_S else np.roll(
+            self._hist, -(self._hist_n % HISTORY_S), axis=0)
+        t, p, f = h[:, 0], h[:, 1], h[:, 2]
+        ok = np.isfinite(p) & np.isfinite(f) & (p > 0) & (f > 0)
+        t, p, f = t[ok], p[ok], f[ok]
+        if t.size < HISTORY_MIN_S:
+            return walk
+        span = t[-1] - t[0]
+        w = min(horizon_s, 0.5 * span)
+        j = np.searchsorted(t, t + w, side="right")          # windows (i, j): t_i … t_i + w
+        c = np.concatenate(([0.0], np.cumsum(p)))
+        valid = (j - np.arange(t.size) > 1) & (t + w <= t[-1])
+        if valid.sum() < 10:
+            return walk
+        i = np.flatnonzero(valid)
+        mean_p = (c[j[i]] - c[i + 1]) / (j[i] - i - 1)
+        # a window with a landing or a glitch in it counts as a factor 2 at most
+        err = np.clip(np.log(mean_p / f[i]), -FORECAST_ERR_CLIP, FORECAST_ERR_CLIP)
+        return max(float(np.sqrt(np.mean(err * err))), walk)
+
     def _descent(self) -> tuple[float, float]:
         """Time and power of the descent to land from the present altitude: the power
         model at the aircraft's descent rate (hovering in the wind), times the scale.
@@ -1186,7 +1230,7 @@ class InflightEstimator:
         beta, scale = self.beta, self.scale
         delta_m = self.delta * c ** (-beta)
         p_now, sd0 = self.present_power()
-        sd = math.sqrt(sd0**2 + POWER_WALK_PER_S * horizon_s / 3.0)
+        sd = math.hypot(sd0, self.forecast_spread(horizon_s))
         p_k = p_now * np.exp(sd * self.z[5])
         t_down, p_down = self._descent() if land else (0.0, 0.0)
         t_down = min(t_down, horizon_s)
