@@ -206,26 +206,32 @@ def bench_speed() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "hour.tlog"
         n = long_stream(path)
-        # (a) in this process, a prediction every second of flight
-        est = InflightEstimator(aircraft, replace(pack, capacity_mah=30000.0, model=None))
-        dec = MavlinkDecoder()
+        # (a) in this process, a prediction every second of flight: CPU, then (a second
+        # pass, traced) the Python heap
         msgs = list(TlogSource(path, rate=0).messages())
-        tracemalloc.start()
-        heap = []
-        cpu0 = time.process_time()
-        last = None
-        predictions = 0
-        for k, m in enumerate(msgs):
-            for ev in dec.decode(m, m._recv):
-                est.feed(ev)
-            if est.t is not None and (last is None or est.t - last >= 1.0):
-                last = est.t
-                est.predict()
-                predictions += 1
-            if k % 20000 == 0:
+
+        def replay(trace):
+            est = InflightEstimator(aircraft, replace(pack, capacity_mah=30000.0, model=None))
+            dec = MavlinkDecoder()
+            heap, last, predictions = [], None, 0
+            cpu0 = time.process_time()
+            for k, m in enumerate(msgs):
+                for ev in dec.decode(m, m._recv):
+                    est.feed(ev)
+                if est.t is not None and (last is None or est.t - last >= 1.0):
+                    last = est.t
+                    est.predict()
+                    predictions += 1
+                if trace and k % 20000 == 0:
+                    heap.append(tracemalloc.get_traced_memory()[0])
+            cpu = time.process_time() - cpu0
+            if trace:
                 heap.append(tracemalloc.get_traced_memory()[0])
-        cpu = time.process_time() - cpu0
-        heap.append(tracemalloc.get_traced_memory()[0])
+            return cpu, predictions, heap
+
+        cpu, predictions, _ = replay(False)
+        tracemalloc.start()
+        _, _, heap = replay(True)
         tracemalloc.stop()
         # (b) over loopback at 20x, the watcher in its own process
         rows, usage = watch_loopback(path, ["--aircraft", "aircraft/solo_survey.yaml",
