@@ -285,7 +285,8 @@ def test_aircraft_at_its_bounds_gives_a_finite_verdict(tmp_path, aircraft, missi
     """The bounds are tight enough: the heaviest, fastest aircraft in the strongest wind
     gives finite numbers (a NO-GO), not an overflow."""
     data = changed(aircraft, block, **values)
-    data.update(empty_mass_kg=1000.0, system_power_w=1.0e6, climb_rate_ms=50.0)
+    data.update(empty_mass_kg=1000.0, max_takeoff_mass_kg=1000.0, system_power_w=1.0e6,
+                climb_rate_ms=50.0)
     out = tmp_path / "r.json"
     code = main(["check", mission, "--aircraft", str(write(tmp_path, data)), "--quiet",
                  "--wind", "100@90", "--json", str(out)])
