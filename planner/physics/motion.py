@@ -46,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Move", "landing", "speed_change", "straight_move", "takeoff"]
+__all__ = ["Move", "landing", "speed_change", "straight_move", "takeoff", "time_to_speed"]
 
 #: Bisection steps of the peak speed of a move between two non-zero speeds (each halves
 #: the bracket: 60 steps reach the float resolution).
@@ -92,6 +92,39 @@ def speed_change(v_from, v_to, accel, jerk):
     t = np.where(reached, dv / a + a_over_j, t_short)
     t = np.where(dv > 0.0, t, 0.0)
     return t, t * 0.5 * (np.asarray(v_from, float) + np.asarray(v_to, float))
+
+
+def time_to_speed(u, speed, accel, jerk):
+    """Time a jerk-limited start from rest to ``speed`` takes to reach the speed ``u``.
+
+    With the acceleration limit reached (:math:`V \ge A^2/J`): :math:`\sqrt{2u/J}` up to
+    :math:`A^2/(2J)`, then :math:`A/J + (u - A^2/(2J))/A` up to :math:`V - A^2/(2J)`, then
+    :math:`T - \sqrt{2(V - u)/J}` with :math:`T = V/A + A/J`; else (peak acceleration
+    :math:`\sqrt{VJ}`): :math:`\sqrt{2u/J}` up to :math:`V/2`, then
+    :math:`2\sqrt{V/J} - \sqrt{2(V - u)/J}`. The inverse of the ramp of
+    :func:`speed_change`, for fitting ``A`` and ``J`` to measured starts.
+
+    Parameters
+    ----------
+    u : array_like
+        Speed reached (0 <= u <= speed). [m/s]
+    speed, accel, jerk : array_like
+        V [m/s], A [m/s²], J [m/s³] (finite).
+
+    Returns
+    -------
+    ndarray
+        [s]
+    """
+    u, V, A, J = np.broadcast_arrays(*(np.asarray(x, float) for x in (u, speed, accel, jerk)))
+    u = np.clip(u, 0.0, V)
+    reached = V >= A * A / J
+    v1 = np.where(reached, 0.5 * A * A / J, 0.5 * V)
+    total = np.where(reached, V / A + A / J, 2.0 * np.sqrt(V / J))
+    first = np.sqrt(2.0 * u / J)
+    middle = A / J + (u - v1) / A
+    last = total - np.sqrt(2.0 * np.maximum(V - u, 0.0) / J)
+    return np.where(u <= v1, first, np.where(reached & (u <= V - v1), middle, last))
 
 
 def _rest_to_rest_peak(length, speed, accel, jerk):
