@@ -13,7 +13,8 @@ The record (:mod:`planner.io.record`): ``experiment``, ``time_s``, ``groundspeed
 
 * **spin-up**: from the first sample whose power exceeds :data:`SPINUP_POWER_SHARE` of
   the flight's median airborne power to the lift-off (the altitude first above
-  :data:`LIFTOFF_HEIGHT_M`);
+  :data:`LIFTOFF_HEIGHT_M`), less the time the fitted climb takes to rise that high
+  (:func:`planner.physics.motion.takeoff`'s climb profile);
 * **climb rate**: the median climb rate of the vertical climb after lift-off (climb
   rate above :data:`VERTICAL_MIN_MS`, ground speed below :data:`REST_SPEED_MS`);
 * **descent**: the final descent is what follows the flight's last horizontal move;
@@ -72,13 +73,19 @@ def _runs(flag):
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
 
 
-def _first_at_or_above(x, level, start, end):
-    """Index of the first sample from ``start`` to ``end`` with ``x >= level`` (per run;
-    ``end`` when none)."""
-    out = np.full(len(start), -1)
+def _crossing_time(t, x, level, start, end):
+    """Time ``x`` first reaches ``level`` in each run from ``start`` to ``end``
+    (linear between the samples around the crossing). [s]"""
+    out = np.full(len(start), np.nan)
     for k, (a, b, lv) in enumerate(zip(start, end, level)):  # one step per move
         hit = np.flatnonzero(x[a:b] >= lv)
-        out[k] = a + hit[0] if hit.size else b - 1
+        if not hit.size:
+            continue
+        i = a + hit[0]
+        if i == 0 or x[i] == x[i - 1]:
+            out[k] = t[i]
+        else:
+            out[k] = t[i - 1] + (lv - x[i - 1]) / (x[i] - x[i - 1]) * (t[i] - t[i - 1])
     return out
 
 
@@ -146,7 +153,8 @@ def _flight(t, gs, vz, alt, p):
         v = np.array([np.median(gs[i:j][gs[i:j] >= 0.8 * m]) for i, j, m in
                       zip(a, b, top_speed)])
         t0 = t[np.maximum(a - 1, 0)]
-        times = [t[_first_at_or_above(gs, q * v, a, b)] - t0 for q in (0.1, 0.5, 0.9)]
+        lead = np.maximum(a - 1, 0)                 # from the last sample at rest
+        times = [_crossing_time(t, gs, q * v, lead, b) - t0 for q in (0.1, 0.5, 0.9)]
         starts = np.column_stack([v, *times])
         out["moves"] = int(a.size)
         # rests at altitude between two moves
@@ -209,6 +217,11 @@ def navigation_measures(record: pd.DataFrame) -> tuple[dict[str, float], dict[st
         x = x[np.isfinite(x) & (x >= 0)]
         values[key] = float(np.median(x)) if x.size else np.nan
         counts[key] = int(x.size)
+    if np.isfinite(values["takeoff_spinup_s"]) and np.isfinite(values["vertical_accel_ms2"]):
+        # rising LIFTOFF_HEIGHT_M from rest at the vertical acceleration, then the rate
+        vc, az, h = values["climb_rate_ms"], values["vertical_accel_ms2"], LIFTOFF_HEIGHT_M
+        rise = np.sqrt(2 * h / az) if h < vc * vc / (2 * az) else vc / (2 * az) + h / vc
+        values["takeoff_spinup_s"] = max(values["takeoff_spinup_s"] - float(rise), 0.0)
     a, j = _fit_accel_jerk(st)
     values["horizontal_accel_ms2"], values["horizontal_jerk_ms3"] = a, j
     counts["horizontal_accel_ms2"] = counts["horizontal_jerk_ms3"] = int(len(st))

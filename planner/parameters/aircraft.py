@@ -232,20 +232,25 @@ NAVIGATION_DEFAULTS: dict[str, dict[str, tuple[Any, str]]] = {
         "waypoint_dwell_s": (0.0, "mission item hold time 0"),
     },
     "dji": {
-        # measured: planner.identify.navigation_fit.fit_navigation on the DJI Matrice 100
-        # flights of Rodrigues et al. (Sci. Data 8, 155, 2021), routes R1 (see
-        # docs/results.md); DJI publishes no waypoint acceleration or jerk limit
-        "takeoff_spinup_s": (5.4, "measured, DJI M100 flights (power > 100 W on the ground)"),
-        "climb_rate_ms": (2.9, "measured, DJI M100 flights"),
-        "descent_rate_ms": (3.0, "measured, DJI M100 flights"),
-        "landing_slow_height_m": (20.0, "measured, DJI M100 flights"),
-        "landing_descent_rate_ms": (1.0, "measured, DJI M100 flights"),
-        "horizontal_accel_ms2": (2.0, "measured, DJI M100 flights (starts from rest)"),
-        "horizontal_jerk_ms3": (1.0, "measured, DJI M100 flights (starts from rest)"),
-        "vertical_accel_ms2": (1.0, "measured, DJI M100 flights"),
+        # measured: planner.identify.navigation_fit.fit_navigation on the 182 route-R1
+        # flights of the DJI Matrice 100 of Rodrigues et al. (Sci. Data 8, 155, 2021,
+        # doi:10.1184/R1/12683453; ../shared/data/energy, column map dji_m100): medians,
+        # counts of flights or events in each text. DJI publishes no waypoint
+        # acceleration or jerk limit.
+        "takeoff_spinup_s": (4.0, "measured, M100: 170 flights (power above 20 % of "
+                                  "airborne, to the 1 m lift-off, less the rise)"),
+        "climb_rate_ms": (2.98, "measured, M100: 182 flights"),
+        "descent_rate_ms": (2.80, "measured, M100: 138 flights descending from above the "
+                                  "slow height"),
+        "landing_slow_height_m": (24.0, "measured, M100: 138 flights"),
+        "landing_descent_rate_ms": (1.03, "measured, M100: 180 flights"),
+        "horizontal_accel_ms2": (2.03, "measured, M100: 523 starts from rest"),
+        "horizontal_jerk_ms3": (1.65, "measured, M100: 523 starts from rest"),
+        "vertical_accel_ms2": (0.94, "measured, M100: 182 climbs"),
         "stop_at_waypoints": (True, "measured: the M100 stops at every route vertex (the "
-                                    "OSDK waypoint traceMode 0, point to point)"),
-        "waypoint_dwell_s": (2.0, "measured, DJI M100 flights"),
+                                    "OSDK waypoint traceMode 0, point to point: "
+                                    "dji-sdk/Onboard-SDK dji_mission_type.hpp)"),
+        "waypoint_dwell_s": (0.14, "measured, M100: 341 rests between moves"),
     },
 }
 

@@ -95,7 +95,7 @@ def speed_change(v_from, v_to, accel, jerk):
 
 
 def time_to_speed(u, speed, accel, jerk):
-    """Time a jerk-limited start from rest to ``speed`` takes to reach the speed ``u``.
+    r"""Time a jerk-limited start from rest to ``speed`` takes to reach the speed ``u``.
 
     With the acceleration limit reached (:math:`V \ge A^2/J`): :math:`\sqrt{2u/J}` up to
     :math:`A^2/(2J)`, then :math:`A/J + (u - A^2/(2J))/A` up to :math:`V - A^2/(2J)`, then
