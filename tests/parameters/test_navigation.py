@@ -60,3 +60,10 @@ def test_round_trip_through_the_mapping():
     a = aircraft_from_mapping(with_block({"defaults": "arducopter-4.1"}), "x.yaml")
     b = aircraft_from_mapping(a.to_mapping(), "y.yaml")
     assert b.navigation == a.navigation
+
+
+def test_the_m100_navigation_file_holds_the_measured_dji_values():
+    nav = load_aircraft(REPO / "aircraft" / "dji_m100_navigation.yaml").navigation
+    dji = Navigation.defaults("dji")
+    assert {k: v for k, v in vars(nav).items() if k != "source"} == \
+        {k: v for k, v in vars(dji).items() if k != "source"}
