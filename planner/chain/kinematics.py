@@ -522,7 +522,9 @@ def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, te
     :data:`RTL_POINTS_PER_LEG` points on every leg; from each, the aircraft flies
     straight home at its cruise speed (a multirotor holds ground speed up to its
     maximum airspeed, a fixed-wing aircraft airspeed) at its current altitude, then
-    descends over home (a fixed-wing aircraft in a loiter circle).
+    descends over home (a fixed-wing aircraft in a loiter circle). With a multirotor's
+    navigation block the way home is a jerk-limited move from rest to rest and the
+    descent the two-rate landing, flown at the descent's mean rate.
 
     Returns the points' leg, fraction along the leg, time, position, distance home and
     the two flight states (straight back at cruise speed, descent at home) with their
@@ -556,8 +558,20 @@ def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, te
         t_back = np.where(home, 0.0, dist / gs)
     va = np.where(home | ~np.isfinite(va), ac.cruise_speed_ms, va)
     t_down = alt_pos / ac.descent_rate_ms
+    down_rate = ac.descent_rate_ms
+    nav = ac.navigation if ac.is_multirotor else None
+    if nav is not None:
+        # the autopilot's move home (from and to rest) and its two-rate landing
+        move = motion.straight_move(dist, np.where(gs > 0, gs, 1.0), nav.horizontal_accel_ms2,
+                                    nav.horizontal_jerk_ms3)
+        t_back = np.where(home | ~(gs > 0), t_back, move.time_s)
+        fast, slow = motion.landing(alt_pos, nav.descent_rate_ms, nav.landing_slow_height_m,
+                                    nav.landing_descent_rate_ms)
+        t_down = fast + slow
+        with np.errstate(invalid="ignore", divide="ignore"):
+            down_rate = np.where(t_down > 0, alt_pos / t_down, nav.descent_rate_ms)
     if ac.is_multirotor:
-        down = (np.full(dist.shape, float(env.wind_speed_ms)), -ac.descent_rate_ms, rho, 1.0)
+        down = (np.full(dist.shape, float(env.wind_speed_ms)), -down_rate, rho, 1.0)
     else:
         v, nload = loiter_state(ac)
         down = (np.full(dist.shape, float(v)), -ac.descent_rate_ms, rho, nload)

@@ -125,3 +125,20 @@ def test_a_problem_names_its_mission_leg():
     assert plain.problems and len(t.problems) == len(plain.problems)
     assert ([(t.origin[r], why) for r, why in t.problems]
             == [(plain.origin[r], why) for r, why in plain.problems])
+
+
+def test_return_home_with_navigation_moves_and_lands_as_the_autopilot():
+    air, _ = m100(NAV)
+    t = kinematics.leg_table(triangle(), air)
+    pts = kinematics.return_home_points(t, air, CALM, None)
+    far = pts["distance_m"] > 100.0
+    d, h = pts["distance_m"][far], pts["altitude_m"][far]
+    v = air.cruise_speed_ms                          # the way home at the cruise speed
+    np.testing.assert_allclose(pts["t_back"][far], d / v + v / 2.0 + 2.0 / 1.0)
+    high = np.clip(h, 0, None)
+    np.testing.assert_allclose(pts["t_down"][far], np.maximum(high - 20.0, 0) / 3.0
+                               + np.minimum(high, 20.0) / 1.0)
+    plain, _ = m100()
+    base = kinematics.return_home_points(kinematics.leg_table(triangle(), plain), plain,
+                                         CALM, None)
+    assert base["t_down"].max() == pytest.approx(60.0 / plain.descent_rate_ms)
