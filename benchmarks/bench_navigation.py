@@ -26,7 +26,7 @@ held-out flights (not the 9 random ones): both predictions share it, so the diff
 between the two rows is the navigation model's; the absolute errors of the R1 flights are
 not fully held out.
 
-Run: ``python benchmarks/bench_navigation.py`` (about a minute on 2 shared cores).
+Run: ``python benchmarks/bench_navigation.py`` (about 20 s on 2 shared cores).
 """
 
 from __future__ import annotations
