@@ -96,6 +96,15 @@ def sections() -> dict[str, str]:
         "aircraft": key_table(aircraft.AIRCRAFT_KEYS),
         "fixed_wing": key_table(aircraft.FIXED_WING_KEYS, "fixed_wing."),
         "multirotor": key_table(aircraft.MULTIROTOR_KEYS, "multirotor."),
+        "navigation": key_table(aircraft.NAVIGATION_KEYS, "navigation.") + "\n\n"
+        + "\n".join(["| key | " + " | ".join(f"`{a}`" for a in aircraft.AUTOPILOTS) + " |",
+                     "|---|" + "---|" * len(aircraft.AUTOPILOTS)]
+                    + [f"| `{k}` | " + " | ".join(
+                        f"{aircraft.NAVIGATION_DEFAULTS[a][k][0]!s}".lower()
+                        if isinstance(aircraft.NAVIGATION_DEFAULTS[a][k][0], bool)
+                        else f"{aircraft.NAVIGATION_DEFAULTS[a][k][0]:g}"
+                        for a in aircraft.AUTOPILOTS) + " |"
+                       for k in aircraft.NAVIGATION_DEFAULTS[aircraft.AUTOPILOTS[0]]]),
         "pack": key_table(pack.BATTERY_KEYS),
         "model": key_table(pack.MODEL_KEYS, "model."),
         "circuit": key_table(blocks.CIRCUIT_KEYS, "circuit."),

@@ -1,4 +1,4 @@
-"""Mission + aircraft + environment → per-leg kinematics and power profile.
+r"""Mission + aircraft + environment → per-leg kinematics and power profile.
 
 Part of the mission chain (``docs/architecture.md``). Everything here is vectorised over legs
 (and, for pack selection, over take-off masses): the legs of a mission become
@@ -12,6 +12,18 @@ its commanded *airspeed*. Hovering in wind costs forward-flight power at an
 airspeed equal to the wind speed. Fixed-wing aircraft fly ``hover`` legs, and
 ``climb``/``descend`` legs, as circles of the loiter radius over the point,
 with the load factor of the banked turn.
+
+With the aircraft's ``navigation:`` block (:class:`~planner.parameters.Navigation`), a
+multirotor flies the plan as its autopilot does (:func:`_navigate`): the take-off spins
+the motors up on the ground and climbs with a vertical acceleration limit, every
+straight leg is a jerk-limited move (:func:`planner.physics.motion.straight_move`: from
+rest to rest when the vehicle stops at its waypoints, with a dwell there), and the
+landing slows down near the ground. Each mission leg then becomes up to
+:data:`NAV_SLOTS` rows of the table (empty ones dropped), each at one flight state:
+accelerating and braking at the phase's mean speed with the load factor
+:math:`\sqrt{1 + (a/g)^2}` of the thrust tilted to give the mean acceleration (the
+kinetic energy is not recovered: a multirotor brakes with thrust). Without the block, and
+for fixed-wing aircraft, the legs are flown at constant speed as before.
 """
 
 from __future__ import annotations
@@ -20,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planner.physics import atmosphere
+from planner.physics import atmosphere, motion
 from planner.errors import InputError
 from planner.physics.mission import LEG_KINDS, MAX_FLIGHT_S, Environment, Mission
 from planner.physics.power.fixed_wing import bank_load_factor
@@ -30,6 +42,22 @@ from planner.physics.wind import capped_groundspeed, course_deg, wind_triangle, 
 
 #: Points per leg at which the return-home reserve is checked.
 RTL_POINTS_PER_LEG = 5
+
+#: The rows a mission leg may become with a navigation model, in flight order: spin-up
+#: (a take-off) or accelerating (a straight leg); the leg itself; braking; the slow
+#: stage of a landing; the dwell at a waypoint stop.
+NAV_SLOTS = ("spin-up or accelerating", "leg", "braking", "landing slow stage", "dwell")
+
+#: Height below which a leg starts or ends on the ground (a take-off, a landing). [m]
+GROUND_HEIGHT_M = 0.5
+
+#: Load factor of the spin-up on the ground: flown at the hover state. Measured on the DJI
+#: M100 flights (Rodrigues et al., Sci. Data 8, 155, 2021; power > 100 W before the
+#: altitude passes 1 m, 182 flights) the median spin-up power is 0.84 of the median
+#: airborne power; the power models hold a thrust of at least the weight (load factor
+#: >= 1), so the spin-up is counted at hover power: about 0.1 Wh too much on an M100
+#: flight of 40 Wh (0.16 × 5.4 s × 500 W).
+SPINUP_LOAD_FACTOR = 1.0
 
 
 @dataclass
@@ -66,6 +94,9 @@ class LegTable:
         Legs the aircraft cannot fly, with the reason (NO-GO).
     notes : list of str
         Things the user should know (ground speed reduced, …).
+    leg_index : ndarray of int
+        The mission leg of each row (a leg is several rows with a navigation model;
+        absent: one row per leg).
     """
 
     kind: np.ndarray
@@ -86,10 +117,13 @@ class LegTable:
     end_time_s: np.ndarray = field(init=False)
     problems: list[tuple[int, str]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    leg_index: np.ndarray | None = None
 
     def __post_init__(self):
         self.end_time_s = np.cumsum(self.duration_s)
         self.start_time_s = self.end_time_s - self.duration_s
+        if self.leg_index is None:
+            self.leg_index = np.arange(len(self.kind))
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -187,6 +221,10 @@ def leg_table(mission: Mission, aircraft: Aircraft, environment: Environment | N
         _multirotor_holds(plan, aircraft, env)
     else:
         _fixed_wing_circles(plan, aircraft, env)
+    origin = [leg.origin for leg in mission.legs]
+    leg_index = None
+    if aircraft.is_multirotor and aircraft.navigation is not None:
+        origin, leg_index = _navigate(plan, aircraft, env, origin)
     total = float(np.nansum(plan.duration))
     if total > MAX_FLIGHT_S:
         raise InputError(f"{mission.source or mission.name}: the legs take {total / S_PER_H:.1f} h "
@@ -195,14 +233,15 @@ def leg_table(mission: Mission, aircraft: Aircraft, environment: Environment | N
     n = len(plan.kind)
     amsl = env.site_altitude_m + 0.5 * (plan.alt0 + plan.alt1)
     rho = np.broadcast_to(np.asarray(air_density_at(amsl, env, temperature_c), float), (n,))
-    return LegTable(kind=np.asarray(plan.kind), origin=[leg.origin for leg in mission.legs],
+    return LegTable(kind=np.asarray(plan.kind), origin=origin,
                     duration_s=np.nan_to_num(plan.duration, nan=0.0),
                     distance_m=plan.distance, course_deg=plan.course,
                     airspeed_ms=np.nan_to_num(plan.airspeed, nan=0.0),
                     groundspeed_ms=np.nan_to_num(plan.ground, nan=0.0),
                     climb_rate_ms=plan.climb, load_factor=plan.load, air_density=rho.copy(),
                     start_en_m=plan.start, end_en_m=plan.end, start_alt_m=plan.alt0,
-                    end_alt_m=plan.alt1, problems=plan.problems, notes=plan.notes)
+                    end_alt_m=plan.alt1, problems=plan.problems, notes=plan.notes,
+                    leg_index=leg_index)
 
 
 def _cruise(plan: _LegPlan, aircraft: Aircraft, env: Environment) -> None:
@@ -296,6 +335,152 @@ def _fixed_wing_circles(plan: _LegPlan, aircraft: Aircraft, env: Environment) ->
                                                 "loiter airspeed: the aircraft drifts away"))
 
 
+def _navigate(plan: _LegPlan, aircraft: Aircraft, env: Environment, origin: list[str]):
+    """Fly the legs of ``plan`` as the autopilot does (``aircraft.navigation``): each
+    mission leg becomes the rows of :data:`NAV_SLOTS` (empty ones dropped), in place.
+
+    * A climb from the ground: the spin-up (on the ground, at the hover state,
+      :data:`SPINUP_LOAD_FACTOR`), then the climb with the vertical acceleration
+      (:func:`planner.physics.motion.takeoff`) at its mean climb rate.
+    * A straight (``cruise``) leg: :func:`planner.physics.motion.straight_move` at the
+      ground speed the wind triangle gave, from rest to rest when the vehicle stops at
+      waypoints (then a dwell), else from and to the speed of the legs around it; the
+      accelerating and braking rows at their mean ground speed (the airspeed through the
+      wind) with the load factor of their mean acceleration.
+    * A descent to the ground: at the descent rate down to the slow height, then at the
+      landing rate (:func:`planner.physics.motion.landing`).
+    * Climbs and descents without a rate of their own take the navigation's rates.
+
+    Returns the rows' origins and their mission leg; the problems keep naming their leg
+    (mapped to the leg's own row).
+    """
+    nav = aircraft.navigation
+    n, k = len(plan.kind), len(NAV_SLOTS)
+    kind = plan.kind
+    cruise = kind == "cruise"
+    climb_leg, descend_leg = kind == "climb", kind == "descend"
+    dalt = plan.alt1 - plan.alt0
+    own_rate = ~np.isnan(plan.rate)
+    up_rate = np.where(own_rate, np.abs(plan.rate), nav.climb_rate_ms)
+    down_rate = np.where(own_rate, np.abs(plan.rate), nav.descent_rate_ms)
+    from_ground = climb_leg & (plan.alt0 <= GROUND_HEIGHT_M)
+    to_ground = descend_leg & (plan.alt1 <= GROUND_HEIGHT_M) & (dalt < 0)
+
+    dur = np.zeros((n, k))
+    dur[:, 1] = plan.duration
+    air = np.repeat(plan.airspeed[:, None], k, axis=1)
+    gnd = np.repeat(plan.ground[:, None], k, axis=1)
+    load = np.repeat(plan.load[:, None], k, axis=1)
+    rows_kind = np.repeat(kind[:, None], k, axis=1).astype(object)
+    # fraction of the leg's path (horizontal or vertical) at the end of each row
+    frac_end = np.ones((n, k))
+    frac_end[:, 0] = 0.0
+    wind = float(env.wind_speed_ms)
+
+    # climbs: spin-up on the ground, climb with the vertical acceleration
+    spin, t_climb = motion.takeoff(np.abs(dalt), up_rate, nav.vertical_accel_ms2,
+                                   nav.takeoff_spinup_s)
+    dur[:, 0] = np.where(from_ground, spin, dur[:, 0])
+    dur[:, 1] = np.where(climb_leg & (dalt > 0), t_climb, dur[:, 1])
+    rows_kind[:, 0] = np.where(from_ground, "hover", rows_kind[:, 0])
+    air[:, 0] = np.where(from_ground, wind, air[:, 0])
+    gnd[:, 0] = np.where(from_ground, 0.0, gnd[:, 0])
+    load[:, 0] = np.where(from_ground, SPINUP_LOAD_FACTOR, load[:, 0])
+
+    # descents: the navigation's rate, and the slow stage of a landing
+    fast, slow = motion.landing(-dalt, down_rate, nav.landing_slow_height_m,
+                                nav.landing_descent_rate_ms)
+    plain_down = descend_leg & ~to_ground & (dalt < 0)
+    dur[:, 1] = np.where(plain_down, -dalt / down_rate, dur[:, 1])
+    dur[:, 1] = np.where(to_ground, fast, dur[:, 1])
+    dur[:, 3] = np.where(to_ground, slow, 0.0)
+    rows_kind[:, 3] = "descend"
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac_end[:, 1] = np.where(to_ground, np.where(-dalt > 0, (fast * down_rate) / -dalt,
+                                                      1.0), frac_end[:, 1])
+
+    # straight legs: the jerk-limited move at the ground speed held
+    v = np.where(cruise & np.isfinite(plan.ground), plan.ground, 0.0)
+    if nav.stop_at_waypoints:
+        v0 = v1 = np.zeros(n)
+    else:
+        prev_v = np.concatenate(([0.0], np.where(cruise, v, 0.0)[:-1]))
+        next_v = np.concatenate((np.where(cruise, v, 0.0)[1:], [0.0]))
+        v0, v1 = np.minimum(v, prev_v), np.minimum(v, next_v)
+    go = cruise & (v > 0) & (plan.distance > 0)
+    m = motion.straight_move(plan.distance, np.where(go, v, 1.0), nav.horizontal_accel_ms2,
+                             nav.horizontal_jerk_ms3, v0, v1)
+    dur[:, 0] = np.where(go, m.accel_time_s, dur[:, 0])
+    dur[:, 1] = np.where(go, m.cruise_time_s, dur[:, 1])
+    dur[:, 2] = np.where(go, m.brake_time_s, 0.0)
+    dwell = cruise & bool(nav.stop_at_waypoints)
+    dur[:, 4] = np.where(dwell, nav.waypoint_dwell_s, 0.0)
+    rows_kind[:, 4] = "hover"
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.where(go, plan.distance, 1.0)
+        frac_end[:, 0] = np.where(go, m.accel_distance_m / d, frac_end[:, 0])
+        frac_end[:, 1] = np.where(go, (m.accel_distance_m + m.cruise_distance_m) / d,
+                                  frac_end[:, 1])
+    # the phases' airspeed: the mean ground velocity along the course less the wind
+    w_e, w_n = wind_vector(env.wind_speed_ms, env.wind_from_deg)
+    delta = plan.end - plan.start
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = delta / np.where(plan.distance > 0, plan.distance, 1.0)[:, None]
+    for slot, speed, acc in ((0, m.accel_mean_speed_ms, m.accel_mean_accel_ms2),
+                             (2, m.brake_mean_speed_ms, m.brake_mean_accel_ms2)):
+        va = np.hypot(speed * u[:, 0] - w_e, speed * u[:, 1] - w_n)
+        air[:, slot] = np.where(go, va, air[:, slot])
+        gnd[:, slot] = np.where(go, speed, gnd[:, slot])
+        load[:, slot] = np.where(go, np.sqrt(1.0 + (acc / atmosphere.G) ** 2), load[:, slot])
+        rows_kind[:, slot] = np.where(go, "cruise", rows_kind[:, slot])
+    # a dwell and a landing's slow stage hold position
+    for slot in (3, 4):
+        air[:, slot], gnd[:, slot], load[:, slot] = wind, 0.0, 1.0
+
+    # the rows: positions and altitudes along each leg, climb rate over the row
+    frac_end[:, 2] = np.where(to_ground, frac_end[:, 1], frac_end[:, 2])
+    frac_end = np.maximum.accumulate(np.clip(np.nan_to_num(frac_end, nan=1.0), 0.0, 1.0),
+                                     axis=1)
+    frac_start = np.concatenate((np.zeros((n, 1)), frac_end[:, :-1]), axis=1)
+    horizontal = cruise[:, None]
+    slot = np.arange(k)[None, :]
+    # a leg that does not move over ground: at its start before its own row, at its end
+    # from there on
+    h0 = np.where(horizontal, frac_start, (slot > 1).astype(float))
+    h1 = np.where(horizontal, frac_end, (slot > 0).astype(float))
+    pos0 = plan.start[:, None, :] + h0[..., None] * delta[:, None, :]
+    pos1 = plan.start[:, None, :] + h1[..., None] * delta[:, None, :]
+    alt0 = plan.alt0[:, None] + frac_start * dalt[:, None]
+    alt1 = plan.alt0[:, None] + frac_end * dalt[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        climb = np.where(dur > 0, (alt1 - alt0) / dur, 0.0)
+    climb[:, 1] = np.where(dur[:, 1] > 0, climb[:, 1], plan.climb)
+    hdist = np.where(horizontal, (frac_end - frac_start) * plan.distance[:, None], 0.0)
+
+    keep = (dur > 0) | (np.arange(k) == 1)[None, :]
+    keep &= ~np.isnan(dur) | (np.arange(k) == 1)[None, :]
+    flat = keep.ravel()
+    leg_of = np.repeat(np.arange(n), k)[flat]
+    slot_of = np.tile(np.arange(k), n)[flat]
+    names = [o or f"leg {i + 1}" for i, o in enumerate(origin)]
+    suffix = ("", "", " (braking)", " (landing slow stage)", " (waypoint dwell)")
+    first = np.where(from_ground, " (spin-up)", np.where(cruise, " (accelerating)", ""))
+    row_origin = [names[i] + (first[i] if s == 0 else suffix[s])
+                  for i, s in zip(leg_of.tolist(), slot_of.tolist())]
+    main_row = {int(i): int(r) for r, (i, s) in enumerate(zip(leg_of, slot_of)) if s == 1}
+
+    plan.kind = rows_kind.ravel()[flat].astype(str)
+    plan.duration = dur.ravel()[flat]
+    plan.airspeed, plan.ground = air.ravel()[flat], gnd.ravel()[flat]
+    plan.load, plan.climb = load.ravel()[flat], climb.ravel()[flat]
+    plan.start, plan.end = pos0.reshape(-1, 2)[flat], pos1.reshape(-1, 2)[flat]
+    plan.alt0, plan.alt1 = alt0.ravel()[flat], alt1.ravel()[flat]
+    plan.distance = hdist.ravel()[flat]
+    plan.course = np.repeat(plan.course, k)[flat]
+    plan.problems = [(main_row[i], why) for i, why in plan.problems]
+    return row_origin, leg_of
+
+
 def leg_power(table: LegTable, aircraft: Aircraft, mass_kg):
     """Battery power of every leg. ``mass_kg`` may be an array of shape (k, 1). [W]"""
     return aircraft.battery_power(table.airspeed_ms, table.climb_rate_ms, table.air_density,
@@ -337,7 +522,9 @@ def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, te
     :data:`RTL_POINTS_PER_LEG` points on every leg; from each, the aircraft flies
     straight home at its cruise speed (a multirotor holds ground speed up to its
     maximum airspeed, a fixed-wing aircraft airspeed) at its current altitude, then
-    descends over home (a fixed-wing aircraft in a loiter circle).
+    descends over home (a fixed-wing aircraft in a loiter circle). With a multirotor's
+    navigation block the way home is a jerk-limited move from rest to rest and the
+    descent the two-rate landing, flown at the descent's mean rate.
 
     Returns the points' leg, fraction along the leg, time, position, distance home and
     the two flight states (straight back at cruise speed, descent at home) with their
@@ -371,8 +558,20 @@ def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, te
         t_back = np.where(home, 0.0, dist / gs)
     va = np.where(home | ~np.isfinite(va), ac.cruise_speed_ms, va)
     t_down = alt_pos / ac.descent_rate_ms
+    down_rate = ac.descent_rate_ms
+    nav = ac.navigation if ac.is_multirotor else None
+    if nav is not None:
+        # the autopilot's move home (from and to rest) and its two-rate landing
+        move = motion.straight_move(dist, np.where(gs > 0, gs, 1.0), nav.horizontal_accel_ms2,
+                                    nav.horizontal_jerk_ms3)
+        t_back = np.where(home | ~(gs > 0), t_back, move.time_s)
+        fast, slow = motion.landing(alt_pos, nav.descent_rate_ms, nav.landing_slow_height_m,
+                                    nav.landing_descent_rate_ms)
+        t_down = fast + slow
+        with np.errstate(invalid="ignore", divide="ignore"):
+            down_rate = np.where(t_down > 0, alt_pos / t_down, nav.descent_rate_ms)
     if ac.is_multirotor:
-        down = (np.full(dist.shape, float(env.wind_speed_ms)), -ac.descent_rate_ms, rho, 1.0)
+        down = (np.full(dist.shape, float(env.wind_speed_ms)), -down_rate, rho, 1.0)
     else:
         v, nload = loiter_state(ac)
         down = (np.full(dist.shape, float(v)), -ac.descent_rate_ms, rho, nload)

@@ -618,7 +618,7 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
         notes.append(f"{len(sorties)} sorties; the charge bound allows {lb}: transit to "
                      "and from the split points costs the difference")
     return SortiePlan(pack=pack, sorties=sorties,
-                      splits=[_split_point(mission, search.whole.legs, s.end)
+                      splits=[_split_point(mission, search.leg_times, s.end)
                               for s in sorties[:-1]], lower_bound=lb, notes=notes)
 
 
@@ -636,7 +636,13 @@ class _SortieSearch:
         pack = chain.pack
         flown = chain.run(mission, env, detail=True)
         self.whole = flown.mission_result(0)
-        self.cum = np.concatenate([[0.0], flown.detail["stress_end"][0]])
+        # a mission leg is several rows of the table with a navigation model: the stress
+        # and times at the end of each mission leg's last row
+        leg_of = np.asarray(flown.table.leg_index)
+        last = np.flatnonzero(np.append(leg_of[1:] != leg_of[:-1], True))
+        self.cum = np.concatenate([[0.0], flown.detail["stress_end"][0][last]])
+        end = np.asarray(flown.table.end_time_s)[last]
+        self.leg_times = (np.concatenate([[0.0], end[:-1]]), np.diff(end, prepend=0.0))
         self.leg_stress = np.diff(self.cum)
         scale = float(np.asarray(pack.model.charge_scale(flown.environment.temperature_c)))
         self.limit_mah = self.whole.usable_mah - self.whole.reserve_mah
@@ -695,15 +701,16 @@ class _SortieSearch:
         return best_b, best_r
 
 
-def _split_point(mission: Mission, legs: pd.DataFrame, pos: float) -> SplitPoint:
+def _split_point(mission: Mission, leg_times, pos: float) -> SplitPoint:
     """The point of the route at position ``pos`` (leg index + fraction), timed on the
-    single-flight timeline of ``legs`` (the check's leg table)."""
+    single-flight timeline of ``leg_times`` (each mission leg's start and duration in the
+    check, [s])."""
     n = len(mission.legs)
     i = min(math.floor(pos), n - 1)
     f = pos - i
     e, nn, h = _point(mission.legs, pos)
     return SplitPoint(position=pos, leg=i, fraction=f,
-                      time_s=float(legs.start_time_s.iloc[i] + f * legs.duration_s.iloc[i]),
+                      time_s=float(leg_times[0][i] + f * leg_times[1][i]),
                       east_m=e, north_m=nn, altitude_m=h,
                       origin=mission.legs[i].origin or f"leg {i + 1}")
 

@@ -12,6 +12,7 @@ from planner.parameters.aircraft import (
     Aircraft,
     FixedWing,
     Multirotor,
+    Navigation,
     aircraft_from_mapping,
     default_battery_path,
     load_aircraft,
@@ -52,6 +53,6 @@ def read_definition(path, to_folder=None):
 
 
 __all__ = ["read_definition", "Aircraft", "BatteryPack", "CircuitBlock", "FixedWing", "IntegralModel",
-           "Multirotor", "aircraft_from_mapping", "battery_from_mapping",
+           "Multirotor", "Navigation", "aircraft_from_mapping", "battery_from_mapping",
            "catalog_from_mapping", "default_battery_path", "load_aircraft",
            "load_aircraft_and_battery", "load_battery", "load_catalog"]

@@ -31,8 +31,8 @@ from planner.physics.power.efficiency import load_dependent_battery_power
 from planner.physics.power.fixed_wing import min_loiter_radius
 from planner.physics.power.momentum import DEFAULT_FIGURE_OF_MERIT
 
-__all__ = ["AIRCRAFT_KEYS", "FIXED_WING_KEYS", "MULTIROTOR_KEYS", "Aircraft", "FixedWing",
-           "Multirotor", "aircraft_from_mapping", "default_battery_path", "load_aircraft",
+__all__ = ["AIRCRAFT_KEYS", "FIXED_WING_KEYS", "MULTIROTOR_KEYS", "NAVIGATION_DEFAULTS",
+           "NAVIGATION_KEYS", "Aircraft", "FixedWing", "Multirotor", "Navigation", "aircraft_from_mapping", "default_battery_path", "load_aircraft",
            "load_aircraft_and_battery"]
 
 AIRCRAFT_TYPES = ("fixed_wing", "multirotor")
@@ -78,6 +78,9 @@ AIRCRAFT_KEYS = {
         "cell counts the aircraft's ESCs take (a list of whole numbers, for `select`)")),
     "fixed_wing": S.block("the fixed-wing parameters (table below)"),
     "multirotor": S.block("the multirotor parameters (table below)"),
+    "navigation": S.block("how the autopilot flies the plan: take-off, acceleration and "
+                          "stops at waypoints, landing (table below; absent: legs at "
+                          "constant speed)"),
     "source": S.text("where the numbers come from"),
     "fit_status": S.text("what `fit-aircraft` said of its fit: `ok`, or `misfit: <parameter> …` "
                          "(read, not used)"),
@@ -162,6 +165,137 @@ MULTIROTOR_KEYS = {
     "power_lead_s": S.between(0.0, L.POWER_LEAD_MAX_S, default=0.0, unit="s", meaning=(
         "delay of a log's power channel behind its flight state (`rotor_losses` fits)")),
 }
+
+#: The autopilots whose navigation defaults :meth:`Navigation.defaults` knows.
+AUTOPILOTS = ("arducopter-4.1", "px4", "dji")
+
+NAVIGATION_KEYS = {
+    "defaults": S.text("start from an autopilot's defaults (`arducopter-4.1`, `px4`, `dji`); "
+                       "the keys given override them", choices=AUTOPILOTS),
+    "takeoff_spinup_s": S.between(0.0, L.NAV_WAIT_MAX_S, unit="s", meaning=(
+        "motors turning on the ground before lift-off")),
+    "climb_rate_ms": S.positive(high=L.VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
+        "climb speed of take-offs and climbs (a leg's own rate overrides it)")),
+    "descent_rate_ms": S.positive(high=L.VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
+        "descent speed, down to `landing_slow_height_m` when landing")),
+    "landing_slow_height_m": S.between(0.0, L.LANDING_SLOW_HEIGHT_MAX_M, unit="m", meaning=(
+        "height above the ground below which a landing slows down")),
+    "landing_descent_rate_ms": S.positive(high=L.VERTICAL_SPEED_MAX_MS, unit="m/s", meaning=(
+        "descent speed of the landing's last `landing_slow_height_m`")),
+    "horizontal_accel_ms2": S.positive(high=L.NAV_ACCEL_MAX_MS2, unit="m/s²", meaning=(
+        "acceleration limit A of straight legs")),
+    "horizontal_jerk_ms3": S.positive(high=L.NAV_JERK_MAX_MS3, unit="m/s³", meaning=(
+        "jerk limit J of straight legs")),
+    "vertical_accel_ms2": S.positive(high=L.NAV_ACCEL_MAX_MS2, unit="m/s²", meaning=(
+        "vertical acceleration limit of climbs")),
+    "stop_at_waypoints": S.Key(S.BOOL, meaning=(
+        "`true`: the vehicle stops at every waypoint (rest-to-rest legs); `false`: it "
+        "flies through them at speed")),
+    "waypoint_dwell_s": S.between(0.0, L.NAV_WAIT_MAX_S, unit="s", meaning=(
+        "hover at each waypoint stop")),
+    "source": S.text("where the values come from"),
+}
+
+#: Navigation defaults per autopilot, SI, each value with where it comes from.
+NAVIGATION_DEFAULTS: dict[str, dict[str, tuple[Any, str]]] = {
+    "arducopter-4.1": {
+        "takeoff_spinup_s": (0.5, "MOT_SPOOL_TIME 0.5 s (libraries/AP_Motors/"
+                                  "AP_MotorsMulticopter.h AP_MOTORS_SPOOL_UP_TIME_DEFAULT)"),
+        "climb_rate_ms": (2.5, "WPNAV_SPEED_UP 250 cm/s (libraries/AC_WPNav/AC_WPNav.h)"),
+        "descent_rate_ms": (1.5, "LAND_SPEED_HIGH 0 → WPNAV_SPEED_DN 150 cm/s "
+                                 "(ArduCopter/Parameters.cpp, AC_WPNav.h)"),
+        "landing_slow_height_m": (10.0, "LAND_ALT_LOW 1000 cm (ArduCopter/Parameters.cpp)"),
+        "landing_descent_rate_ms": (0.5, "LAND_SPEED 50 cm/s (ArduCopter/config.h)"),
+        "horizontal_accel_ms2": (2.5, "WPNAV_ACCEL 250 cm/s² (AC_WPNav.h, 4.1 and later)"),
+        "horizontal_jerk_ms3": (1.0, "WPNAV_JERK 1 m/s³ (AC_WPNav.cpp)"),
+        "vertical_accel_ms2": (1.0, "WPNAV_ACCEL_Z 100 cm/s² (AC_WPNav.h)"),
+        "stop_at_waypoints": (False, "waypoints without a delay are fast waypoints: the "
+                                     "S-curves blend through them (ArduCopter/mode_auto.cpp "
+                                     "set_next_wp, libraries/AP_Math/SCurve.cpp)"),
+        "waypoint_dwell_s": (0.0, "NAV_WAYPOINT delay (param 1) 0"),
+    },
+    "px4": {
+        "takeoff_spinup_s": (1.0, "COM_SPOOLUP_TIME 1 s (src/modules/commander)"),
+        "climb_rate_ms": (3.0, "MPC_Z_V_AUTO_UP 3 m/s (src/modules/mc_pos_control/"
+                               "multicopter_autonomous_params.c)"),
+        "descent_rate_ms": (1.5, "MPC_Z_V_AUTO_DN 1.5 m/s (multicopter_autonomous_params.c)"),
+        "landing_slow_height_m": (5.0, "MPC_LAND_ALT2 5 m (multicopter_takeoff_land_params.c; "
+                                       "FlightTaskAuto.cpp ramps from MPC_LAND_ALT1 10 m)"),
+        "landing_descent_rate_ms": (0.7, "MPC_LAND_SPEED 0.7 m/s "
+                                         "(multicopter_takeoff_land_params.c)"),
+        "horizontal_accel_ms2": (3.0, "MPC_ACC_HOR 3 m/s² (multicopter_autonomous_params.c)"),
+        "horizontal_jerk_ms3": (4.0, "MPC_JERK_AUTO 4 m/s³ (multicopter_autonomous_params.c)"),
+        "vertical_accel_ms2": (4.0, "MPC_ACC_UP_MAX 4 m/s² (mc_pos_control params)"),
+        "stop_at_waypoints": (False, "corners flown at √(MPC_XY_TRAJ_P·MPC_ACC_HOR·"
+                                     "NAV_ACC_RAD·tan(α/2)) (src/lib/motion_planning/"
+                                     "TrajectoryConstraints.hpp): not a stop"),
+        "waypoint_dwell_s": (0.0, "mission item hold time 0"),
+    },
+    "dji": {
+        # measured: planner.identify.navigation_fit.fit_navigation on the 182 route-R1
+        # flights of the DJI Matrice 100 of Rodrigues et al. (Sci. Data 8, 155, 2021,
+        # doi:10.1184/R1/12683453; ../shared/data/energy, column map dji_m100): medians,
+        # counts of flights or events in each text. DJI publishes no waypoint
+        # acceleration or jerk limit.
+        "takeoff_spinup_s": (4.0, "measured, M100: 170 flights (power above 20 % of "
+                                  "airborne, to the 1 m lift-off, less the rise)"),
+        "climb_rate_ms": (2.98, "measured, M100: 182 flights"),
+        "descent_rate_ms": (2.80, "measured, M100: 138 flights descending from above the "
+                                  "slow height"),
+        "landing_slow_height_m": (24.0, "measured, M100: 138 flights"),
+        "landing_descent_rate_ms": (1.03, "measured, M100: 180 flights"),
+        "horizontal_accel_ms2": (2.03, "measured, M100: 523 starts from rest"),
+        "horizontal_jerk_ms3": (1.65, "measured, M100: 523 starts from rest"),
+        "vertical_accel_ms2": (0.94, "measured, M100: 182 climbs"),
+        "stop_at_waypoints": (True, "measured: the M100 stops at every route vertex (the "
+                                    "OSDK waypoint traceMode 0, point to point: "
+                                    "dji-sdk/Onboard-SDK dji_mission_type.hpp)"),
+        "waypoint_dwell_s": (0.14, "measured, M100: 341 rests between moves"),
+    },
+}
+
+_NAV_FIELDS = tuple(k for k in NAVIGATION_KEYS if k not in ("defaults", "source"))
+
+
+@dataclass(frozen=True)
+class Navigation:
+    """How the autopilot flies a plan (the ``navigation:`` block): each field is the key
+    of :data:`NAVIGATION_KEYS` of that name (SI; unit and meaning there). The chain
+    (:func:`planner.chain.kinematics.leg_table`) flies a multirotor's legs with it
+    (:mod:`planner.physics.motion`)."""
+
+    takeoff_spinup_s: float
+    climb_rate_ms: float
+    descent_rate_ms: float
+    landing_slow_height_m: float
+    landing_descent_rate_ms: float
+    horizontal_accel_ms2: float
+    horizontal_jerk_ms3: float
+    vertical_accel_ms2: float
+    stop_at_waypoints: bool
+    waypoint_dwell_s: float
+    source: str | None = None
+
+    @classmethod
+    def defaults(cls, autopilot: str) -> Navigation:
+        """The defaults of ``autopilot`` (:data:`AUTOPILOTS`), their sources in ``source``
+        (DJI's are measured on the M100 flights: DJI publishes none)."""
+        if autopilot not in NAVIGATION_DEFAULTS:
+            raise ValueError(f"unknown autopilot {autopilot!r}; expected one of "
+                             + ", ".join(AUTOPILOTS))
+        table = NAVIGATION_DEFAULTS[autopilot]
+        cited = "; ".join(f"{k}: {why}" for k, (_, why) in table.items())
+        return cls(**{k: v for k, (v, _) in table.items()},
+                   source=f"{autopilot} defaults ({cited})")
+
+    def to_mapping(self) -> dict[str, Any]:
+        """The block as a YAML-ready mapping (the keys of :data:`NAVIGATION_KEYS`)."""
+        out: dict[str, Any] = {k: (bool(v) if isinstance(v, (bool, np.bool_)) else float(v))
+                               for k in _NAV_FIELDS for v in [getattr(self, k)]}
+        if self.source:
+            out["source"] = self.source
+        return out
+
 
 #: Keys of MULTIROTOR_KEYS only the rotor_losses power model reads.
 ROTOR_LOSSES_KEYS = ("no_load_power_w", "copper_loss_power_w", "drive_efficiency",
@@ -258,6 +392,7 @@ class Aircraft:
     multirotor: Multirotor | None = None
     source: str | None = None
     path: str | None = None
+    navigation: Navigation | None = None
 
     @property
     def is_multirotor(self) -> bool:
@@ -419,6 +554,8 @@ class Aircraft:
         if not self.is_multirotor and self.fixed_wing.propeller_diameter_m is None:
             for k in ("propellers", "propeller_induced_factor", "propeller_profile_power_w"):
                 out[self.type].pop(k, None)
+        if self.navigation is not None:
+            out["navigation"] = self.navigation.to_mapping()
         if self.source:
             out["source"] = self.source
         return out
@@ -474,12 +611,32 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
         problems.add("efficiency_slope is not used with multirotor.power_model "
                      "rotor_losses (its no-load and copper losses are how the efficiency "
                      "changes with load): remove it")
+    nav = (None if d["navigation"] is None
+           else _navigation(d["navigation"], where, problems))
     problems.done()
     climb, descent = DEFAULT_VERTICAL_SPEEDS[kind]
     return Aircraft(**S.fields_from(
         Aircraft, d, climb_rate_ms=d["climb_rate_ms"] or climb,
         descent_rate_ms=d["descent_rate_ms"] or descent, battery_path=d["battery"],
-        cells_series_allowed=allowed, **blocks, path=where))
+        cells_series_allowed=allowed, **blocks, path=where, navigation=nav))
+
+
+def _navigation(data: Any, where: str, problems: S.Problems) -> Navigation | None:
+    """The ``navigation:`` block: an autopilot's defaults (``defaults:``) with the keys
+    given on top, else every key."""
+    n = len(problems)
+    d = S.check_mapping(data, NAVIGATION_KEYS, where, "navigation.", problems)
+    if len(problems) > n:
+        return None
+    base = (Navigation.defaults(d["defaults"]).__dict__ if d["defaults"] else {})
+    values = {k: (d[k] if d[k] is not None else base.get(k)) for k in _NAV_FIELDS}
+    missing = [k for k, v in values.items() if v is None]
+    if missing:
+        problems.add("navigation needs " + ", ".join(f"'navigation.{k}'" for k in missing)
+                     + " (or 'navigation.defaults': " + ", ".join(AUTOPILOTS) + ")")
+        return None
+    source = d["source"] or (base.get("source") if d["defaults"] else None)
+    return Navigation(**values, source=source)
 
 
 def _check_masses(d: dict, kind: str, block, problems: S.Problems) -> None:

@@ -186,3 +186,17 @@ WING_LOADING_MAX_N_M2 = 6000.0
 #: about 90 Wh/kg, LiPo 130–200 Wh/kg, the best Li-ion cells some 270 Wh/kg; outside this
 #: range the mass or the capacity was written in another unit. [Wh/kg]
 PACK_SPECIFIC_ENERGY_MIN_WH_KG, PACK_SPECIFIC_ENERGY_MAX_WH_KG = 20.0, 500.0
+#: Horizontal and vertical acceleration of waypoint navigation. Autopilot defaults are
+#: 1–3 m/s² (ArduCopter WPNAV_ACCEL 2.5 m/s², PX4 MPC_ACC_HOR 3 m/s²); a multirotor's
+#: thrust tilted by 70° gives about 27 m/s², so 30 m/s² bounds any real vehicle. [m/s²]
+NAV_ACCEL_MAX_MS2 = 30.0
+#: Jerk of waypoint navigation: defaults 1–4 m/s³ (ArduCopter WPNAV_JERK range 1–20,
+#: PX4 MPC_JERK_AUTO 4); 500 m/s³ is a step in acceleration for any leg time. [m/s³]
+NAV_JERK_MAX_MS3 = 500.0
+#: Spin-up on the ground before lift-off and dwell at a waypoint: seconds for an
+#: autopilot (ArduCopter MOT_SPOOL_TIME 0.5 s, PX4 COM_SPOOLUP_TIME 1 s); ten minutes
+#: bounds a waypoint wait that is a typo for something else. [s]
+NAV_WAIT_MAX_S = 600.0
+#: Height of the slow final stage of a landing (ArduCopter LAND_ALT_LOW 10 m, PX4
+#: MPC_LAND_ALT2 5 m). [m]
+LANDING_SLOW_HEIGHT_MAX_M = 500.0

@@ -264,3 +264,26 @@ def test_the_plot_draws_the_sortie_plan_and_names_why_packs_were_rejected():
     e = selection.evaluation
     words = {plots_select.REJECT_WORDS[e.binding(i)] for i in range(len(e))}
     assert {n.split(": ", 1)[1].rsplit(" (", 1)[0] for n in rejected} == words
+
+
+def test_sorties_with_a_navigation_model_split_on_the_mission_legs():
+    """With a navigation block a mission leg is several rows of the leg table; the sortie
+    search sums them per mission leg, and each sortie still passes the check."""
+    from planner.parameters import Navigation
+    ac = replace(load_aircraft(REPO / "aircraft/solo_survey.yaml"),
+                 navigation=Navigation.defaults("arducopter-4.1"))
+    mission = long_survey()
+    pack = small_catalog()[0]
+    plan = sizing.plan_sorties(mission, ac, pack)
+    chain = MissionChain(ac, pack)
+    whole = chain.run(mission, mission.environment, detail=True)
+    leg_of = whole.table.leg_index
+    assert len(leg_of) > len(mission.legs)
+    ends = whole.table.end_time_s
+    for s in plan.splits:
+        rows = np.flatnonzero(leg_of == s.leg)
+        t0 = ends[rows[0]] - whole.table.duration_s[rows[0]]
+        assert t0 <= s.time_s <= ends[rows[-1]] + 1e-9
+    for s in plan.sorties:
+        assert chain.check(s.mission).go
+    assert plan.sorties[-1].end == len(mission.legs)

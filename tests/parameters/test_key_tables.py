@@ -24,7 +24,8 @@ from planner.physics.battery.thermal import T_RANGE_C, ThermalParameters
 
 TABLES = {
     "aircraft": aircraft.AIRCRAFT_KEYS, "fixed_wing": aircraft.FIXED_WING_KEYS,
-    "multirotor": aircraft.MULTIROTOR_KEYS, "pack": pack.BATTERY_KEYS,
+    "multirotor": aircraft.MULTIROTOR_KEYS, "navigation": aircraft.NAVIGATION_KEYS,
+    "pack": pack.BATTERY_KEYS,
     "model": pack.MODEL_KEYS, "circuit": blocks.CIRCUIT_KEYS,
     "thermal": blocks.THERMAL_KEYS, "supercap": blocks.SUPERCAP_KEYS,
     "catalog": catalog.CATALOG_KEYS, "catalog reference": catalog.REFERENCE_KEYS,
