@@ -521,13 +521,11 @@ def run_backtest(data: pd.DataFrame, aircraft: Aircraft, pack: BatteryPack,
             rows += _fold_rows(aircraft, pack, data, train, test, options, masses, payloads,
                                sources, k)
     else:
-        futures = []
-        for train, test, k in jobs:
-            keep = set(train) | set(test)
-            part = data[data["experiment"].isin(keep)]
-            futures.append(client.submit(_fold_rows, aircraft, pack, part, train, test,
-                                         options, masses, payloads, sources, k,
-                                         pure=False))
+        # the record goes to every worker once; each fold picks its flights from it
+        shared = client.scatter(data, broadcast=True, hash=False)
+        futures = [client.submit(_fold_rows, aircraft, pack, shared, train, test, options,
+                                 masses, payloads, sources, k, pure=False)
+                   for train, test, k in jobs]
         for got in client.gather(futures):
             rows += got
     table = pd.DataFrame(rows)

@@ -158,10 +158,14 @@ def run(args) -> int:
                               missions_dir=missions, weather=weather)
     client = cluster = None
     if workers > 1:
+        import warnings
+
         from dask.distributed import Client, LocalCluster
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
+        with warnings.catch_warnings():     # no dashboard: its port is of no use here
+            warnings.simplefilter("ignore")
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+            client = Client(cluster)
     try:
         table = run_backtest(data, aircraft, pack, options, payload_kg=payload, client=client)
     finally:
