@@ -214,8 +214,8 @@ def render(s: dict) -> str:
     """The report: the errors, who was left out and why, the worst flights, and the
     energy error against speed, payload, altitude and wind."""
     lines = [f"Backtest of {s['flights']} flight(s): {s['scored']} scored, {s['left_out']} "
-             f"left out; aircraft {s['aircraft']} calibrated per fold ({s['calibration']}); "
-             f"{s['elapsed_s']:.1f} s", "",
+             f"left out; aircraft {s['aircraft']} calibrated per fold ({s['calibration']})",
+             "",
              "prediction error (predicted − measured, % of measured):",
              _line("energy", s["energy"]), _line("charge", s["charge"]),
              _line("flight time", s["time"])]
@@ -237,4 +237,5 @@ def render(s: dict) -> str:
             lines += ["", f"energy error by {title} [{unit}]:"] + [
                 f"  {k:>6}  n {g['n']:3d}  bias {g['bias_pct']:+6.1f} %  median |error| "
                 f"{g['median_abs_pct']:5.1f} %" for k, g in groups.items()]
+    lines += ["", f"wall time {s['elapsed_s']:.1f} s"]
     return "\n".join(lines)
