@@ -222,3 +222,18 @@ def test_a_mission_file_named_after_the_flight_is_its_plan(m100_sample, tmp_path
                          BacktestOptions(folds=2, missions_dir=tmp_path)).set_index("experiment")
     assert table.loc["1", "plan"] == "mission file 1.yaml"
     assert table.loc["3", "plan"].startswith("rebuilt from the track")
+
+
+def test_a_flight_the_per_flight_table_lacks_is_left_out_with_the_reason(m100_sample):
+    """Flight 3 without a payload while the others have theirs: its row says why, it trains
+    no fold, and the other flights are scored."""
+    data = m100_sample.copy()
+    data.loc[data.experiment == "3", "payload_kg"] = float("nan")
+    ac, pack = load_aircraft_and_battery(M100)
+    table = run_backtest(data, ac, pack, BacktestOptions(folds=2)).set_index("experiment")
+    assert table.loc["3", "status"] == "left out"
+    assert table.loc["3", "reason"] == "no payload for this flight in the per-flight table"
+    assert set(table.index[table.status == "scored"]) == {"1", "4", "12", "14"}
+    # one payload given for every flight overrides the table: flight 3 is scored again
+    table = run_backtest(data, ac, pack, BacktestOptions(folds=2), payload_kg=0.1)
+    assert (table.status == "scored").sum() == 5 and set(table.payload_kg) == {0.1}
