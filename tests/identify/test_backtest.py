@@ -237,3 +237,19 @@ def test_a_flight_the_per_flight_table_lacks_is_left_out_with_the_reason(m100_sa
     # one payload given for every flight overrides the table: flight 3 is scored again
     table = run_backtest(data, ac, pack, BacktestOptions(folds=2), payload_kg=0.1)
     assert (table.status == "scored").sum() == 5 and set(table.payload_kg) == {0.1}
+
+
+def test_the_folds_on_dask_give_the_serial_run_s_table(m100_sample):
+    """The folds run on a Dask cluster (as ``--workers`` does) score every flight as the
+    serial run does."""
+    from dask.distributed import Client, LocalCluster
+
+    ac, pack = load_aircraft_and_battery(M100)
+    options = BacktestOptions(folds=2)
+    serial = run_backtest(m100_sample, ac, pack, options)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                          dashboard_address=None) as cluster, Client(cluster) as client:
+            parallel = run_backtest(m100_sample, ac, pack, options, client=client)
+    pd.testing.assert_frame_equal(serial, parallel)
