@@ -39,11 +39,11 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 ENERGY = REPO.parent / "shared" / "data" / "energy"
 
-import pandas as pd  # noqa: E402
+import pandas as pd
 
-from planner.identify.backtest import BacktestOptions, run_backtest, summarise  # noqa: E402
-from planner.io.flightdata import load_flight_data  # noqa: E402
-from planner.parameters import load_aircraft_and_battery  # noqa: E402
+from planner.identify.backtest import BacktestOptions, run_backtest, summarise
+from planner.io.flightdata import load_flight_data
+from planner.parameters import load_aircraft_and_battery
 
 #: The data set's site: Pittsburgh PA, about 300 m above sea level (GNSS altitude of the
 #: take-off points 270–300 m, PROVENANCE.md). [m]

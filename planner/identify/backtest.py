@@ -53,9 +53,21 @@ from planner.io.mission import load_mission
 from planner.parameters import Aircraft, BatteryPack
 from planner.physics.mission import Environment, Leg, Mission, NavDefaults
 
-__all__ = ["BacktestOptions", "FLYING_POWER_FRACTION", "MIN_FLIGHT_S", "ROW_COLUMNS",
-           "TURN_TOLERANCE_M", "calibrate_fold", "folds_of", "forecast", "measured",
-           "plan_from_track", "predict_flight", "run_backtest", "summarise"]
+__all__ = [
+    "FLYING_POWER_FRACTION",
+    "MIN_FLIGHT_S",
+    "ROW_COLUMNS",
+    "TURN_TOLERANCE_M",
+    "BacktestOptions",
+    "calibrate_fold",
+    "folds_of",
+    "forecast",
+    "measured",
+    "plan_from_track",
+    "predict_flight",
+    "run_backtest",
+    "summarise",
+]
 
 #: Flying = drawing more than this share of the median airborne power (the M100 idles
 #: its propellers at 36 W on the ground, 8 % of its 450–600 W airborne; a copter's
@@ -136,7 +148,7 @@ def folds_of(flights: list[str], options: BacktestOptions,
         if not days:
             raise InputError("folds by day: the data give no date per flight (a per-flight "
                              "'date' column); expected folds by flight")
-        order = sorted(set(days.get(f, "") for f in flights))
+        order = sorted({days.get(f, "") for f in flights})
         group = {d: i % k for i, d in enumerate(order)}
         label = {f: group[days.get(f, "")] for f in flights}
         if len(order) < k:
@@ -554,7 +566,7 @@ def summarise(table: pd.DataFrame, worst: int = 5) -> dict[str, Any]:
     the energy error against speed, payload, altitude and wind; who was left out and
     why."""
     ok = table[table["status"] == "scored"]
-    out: dict[str, Any] = {"flights": int(len(table)), "scored": int(len(ok)),
+    out: dict[str, Any] = {"flights": len(table), "scored": len(ok),
                            "left_out": int((table["status"] != "scored").sum())}
     reasons = table.loc[table["status"] != "scored", "reason"].fillna("?")
     out["left_out_reasons"] = {str(k): int(v) for k, v in reasons.value_counts().items()}
@@ -575,7 +587,7 @@ def summarise(table: pd.DataFrame, worst: int = 5) -> dict[str, Any]:
                          ("altitude_m", ok["altitude_m"].round(0)),
                          ("wind_ms", wind_bins.astype(str))):
             g = ok.groupby(key, observed=True)["energy_error_pct"]
-            against[col] = {str(k): {"n": int(len(v)), "bias_pct": float(v.mean()),
+            against[col] = {str(k): {"n": len(v), "bias_pct": float(v.mean()),
                                      "median_abs_pct": float(v.abs().median())}
                             for k, v in g}
         out["energy_error_against"] = against

@@ -2,6 +2,7 @@
 from a track, a forecast from before take-off only, what a flight measured, and a real
 sample of the DJI Matrice 100 flights (Rodrigues et al., Scientific Data 8, 155, 2021)."""
 
+import itertools
 import math
 import warnings
 from pathlib import Path
@@ -70,7 +71,7 @@ def _square_flight(side=150.0, speed=8.0, alt=40.0, wind_before=(3.0, 250.0),
 
     def hold(secs, x, y, z, power, v=0.0):
         nonlocal now
-        for _ in range(int(round(secs / dt))):
+        for _ in range(round(secs / dt)):
             t.append(now), e.append(x), n.append(y), h.append(z), gs.append(v), p.append(power)
             now += dt
 
@@ -79,8 +80,8 @@ def _square_flight(side=150.0, speed=8.0, alt=40.0, wind_before=(3.0, 250.0),
     for z in np.arange(0, alt, 3 * dt):
         hold(dt, 0, 0, z, 600.0)
     corners = [(0, 0), (side, 0), (side, side), (0, side), (0, 0)]
-    for (x0, y0), (x1, y1) in zip(corners, corners[1:]):
-        steps = int(round(math.hypot(x1 - x0, y1 - y0) / speed / dt))
+    for (x0, y0), (x1, y1) in itertools.pairwise(corners):
+        steps = round(math.hypot(x1 - x0, y1 - y0) / speed / dt)
         for s in np.linspace(0, 1, steps, endpoint=False):
             hold(dt, x0 + s * (x1 - x0), y0 + s * (y1 - y0), alt, 450.0, speed)
         hold(2, x1, y1, alt, 500.0)

@@ -213,8 +213,8 @@ def _line(name: str, s: dict, unit: str = "%") -> str:
 def render(s: dict) -> str:
     """The report: the errors, who was left out and why, the worst flights, and the
     energy error against speed, payload, altitude and wind."""
-    lines = [f"Backtest of {s['flights']} flight(s): {s['scored']} scored, {s['left_out']} "
-             f"left out; aircraft {s['aircraft']} calibrated per fold ({s['calibration']})",
+    lines = [(f"Backtest of {s['flights']} flight(s): {s['scored']} scored, {s['left_out']} "
+              f"left out; aircraft {s['aircraft']} calibrated per fold ({s['calibration']})"),
              "",
              "prediction error (predicted − measured, % of measured):",
              _line("energy", s["energy"]), _line("charge", s["charge"]),
