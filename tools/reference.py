@@ -128,7 +128,9 @@ def sections() -> dict[str, str]:
                  "columns.<c>."),
                 ("each `derived.<record column>`", columnmap.DERIVED_KEYS, "derived.<c>."),
                 ("each `extra.<name>` (as a mapping)", columnmap.EXTRA_KEYS, "extra.<name>."),
-                ("`meta`", columnmap.META_KEYS, "meta."))]),
+                ("`meta`", columnmap.META_KEYS, "meta."),
+                ("`flights` (a per-flight table joined by experiment id)",
+                 columnmap.FLIGHTS_KEYS, "flights."))]),
         "record": "\n".join(["| column | unit | meaning |", "|---|---|---|"] + [
             f"| `{c.name}` | {c.unit} | {c.meaning} |" for c in record.COLUMNS.values()]),
     }

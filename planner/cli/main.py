@@ -35,6 +35,7 @@ COMMAND_MODULES = (
     "planner.cli.commands.diagnose",
     "planner.cli.commands.fleet",
     "planner.cli.commands.watch",
+    "planner.cli.commands.backtest",
 )
 
 EXIT_OK, EXIT_NOGO, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3

@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from planner.io import files
+from planner.io import record
 from planner.errors import PlannerError
 from planner.identify.aircraft_fit import fit_aircraft
 from planner.fleet.summary import safe_stem
@@ -105,6 +106,9 @@ def calibrate_aircraft(key: str, samples: pd.DataFrame, table: pd.DataFrame, air
         if data[c].dtype == np.float32:
             data[c] = data[c].astype(float)
     mass = aircraft.empty_mass_kg + (pack.total_mass_kg if pack is not None else 0.0)
+    own = record.experiment_payloads(data)      # each flight's payload where logged
+    if own is not None:
+        mass = {k: mass + (v if np.isfinite(v) else 0.0) for k, v in own.items()}
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

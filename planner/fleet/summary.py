@@ -66,7 +66,8 @@ CALIBRATION_SAMPLES = 300
 #: and :func:`planner.identify.aircraft_fit.fit_aircraft` read).
 CALIBRATION_COLUMNS = ("time_s", "power_w", "altitude_m", "climb_rate_ms", "groundspeed_ms",
                        "airspeed_ms", "course_deg", "pressure_pa", "ambient_temperature_c",
-                       "wind_n_ms", "wind_e_ms", "specific_force_ms2", "throttle", "mode")
+                       "wind_n_ms", "wind_e_ms", "specific_force_ms2", "throttle", "mode",
+                       "payload_kg")
 
 #: Columns of the fleet table, in order, with their pandas/Arrow types.
 COLUMNS: dict[str, str] = {
@@ -177,7 +178,7 @@ class NotReplayable(PlannerError):
 
 def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "unknown",
                   cycle: float | None = None, *, aircraft: Aircraft | None = None,
-                  pack: BatteryPack | None = None, payload_kg: float = 0.0,
+                  pack: BatteryPack | None = None, payload_kg: float | None = None,
                   models: dict | None = None, aircraft_key: str | None = None,
                   samples: bool = False) -> dict[str, Any]:
     """Read, replay and calibrate one log: a row of :data:`COLUMNS` (module notes).
@@ -194,8 +195,9 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
         The pack flown, from ``--packs``; the log's own battery serial wins.
     cycle : float, optional
         The pack's charge-cycle count at this flight, from ``--packs``.
-    payload_kg : float
-        Payload carried. [kg]
+    payload_kg : float, optional
+        Payload carried [kg]; default the log's own ``payload_kg`` (a flight record
+        that carries one), else 0.
     models : dict, optional
         Aircraft key → (Aircraft, pack or None) of a fleet of several aircraft, instead of
         ``aircraft`` and ``pack``; the log's aircraft is :func:`choose_aircraft`'s.
@@ -292,6 +294,10 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
         notes.append(f"battery level skipped: {label}")
     if aircraft is not None:
         if {"climb_rate_ms", "groundspeed_ms"} & set(df.columns):
+            if payload_kg is None:
+                own = record.experiment_payloads(df)
+                payload_kg = next(iter(own.values())) if own else 0.0
+                payload_kg = payload_kg if np.isfinite(payload_kg) else 0.0
             mass = aircraft.empty_mass_kg + payload_kg + (
                 pack.total_mass_kg if pack is not None else 0.0)
             pw, _ = power_replay(df, MissionChain(aircraft, pack), mass)

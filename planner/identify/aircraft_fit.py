@@ -188,6 +188,20 @@ def _predict(aircraft: Aircraft, s: Samples, mass: np.ndarray) -> np.ndarray:
                                                  mass))
 
 
+def sample_masses(s: Samples, mass_kg) -> np.ndarray:
+    """The all-up mass of every sample [kg]: ``mass_kg`` is one mass for every flight, or a
+    mapping experiment id → that flight's mass (a mass per flight, e.g. empty + pack + the
+    payload of :func:`planner.io.record.experiment_payloads`)."""
+    if not isinstance(mass_kg, dict):
+        return np.full(len(s.time_s), float(mass_kg))
+    missing = sorted(set(map(str, s.experiment)) - set(mass_kg))
+    if missing:
+        raise InputError(f"no mass for experiment(s) {', '.join(missing[:10])}; expected one "
+                         "per flight")
+    ids, inverse = np.unique(s.experiment.astype(str), return_inverse=True)
+    return np.array([float(mass_kg[i]) for i in ids])[inverse]
+
+
 def _is_rotor_losses(aircraft: Aircraft) -> bool:
     return aircraft.is_multirotor and aircraft.multirotor.power_model == "rotor_losses"
 
@@ -274,8 +288,8 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         Flight record(s) with power and flight state.
     aircraft : Aircraft
         Start values and the fixed parameters.
-    mass_kg : float
-        All-up mass of the flights. [kg]
+    mass_kg : float or dict
+        All-up mass of the flights, or of each flight (experiment id → mass). [kg]
     parameters : list of str, optional
         Which of :data:`PARAMETERS` to fit (default all for the type).
     train, validate : list of str, optional
@@ -312,7 +326,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     s = airborne_samples(data, site_altitude_m, airborne_height_m)
     trn, val, how = _fit_split(s, validate, train)
     s_trn, s_val = _subset(s, trn), _subset(s, val)
-    mass_trn = np.full(len(s_trn.time_s), float(mass_kg))
+    mass_trn = sample_masses(s_trn, mass_kg)
     x0 = np.array([get_param(aircraft, n) for n in names])
     lo = np.array([table[n][0] for n in names])
     hi = np.array([table[n][1] for n in names])
@@ -347,7 +361,7 @@ def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg
         if name == "validation" and rows.sum() < 2:
             break
         b, a = _subset(before, rows), _subset(after, rows)
-        m = np.full(int(rows.sum()), float(mass_kg))
+        m = sample_masses(b, mass_kg)
         out[name] = {"before": _metrics(_predict(aircraft, b, m), b.measured_w, b.dt),
                      "after": _metrics(_predict(fitted, a, m), a.measured_w, a.dt)}
         if name == "train":
@@ -526,8 +540,7 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     stop = _held_stopped_power(states, set(s0.experiment[trn]), p_air, aircraft)
     base = with_params(aircraft, {"system_power_w": stop["value_w"]})
     x0, lo, hi, scale = _rotor_losses_start(base, names, p_air)
-    mass = float(mass_kg)
-    fits = {lead: _fit_at_lead(_subset(samples[lead], trn), base, mass, lead, names,
+    fits = {lead: _fit_at_lead(_subset(samples[lead], trn), base, mass_kg, lead, names,
                                (x0, lo, hi, scale), kwargs)
             for lead in leads_s}
     lead = min(fits, key=lambda k: fits[k][0])
@@ -552,7 +565,7 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "validation_experiments": sorted(set(s0.experiment[val])),
     }
     result.update(_scores(aircraft, fitted, samples[given_lead], samples[lead], trn, val,
-                          mass))
+                          mass_kg))
     return result
 
 
@@ -606,13 +619,15 @@ def _rotor_losses_start(base: Aircraft, names: list[str], p_air: float):
     return x0, lo, hi, scale
 
 
-def _fit_at_lead(s_trn: Samples, base: Aircraft, mass: float, lead: float, names, start,
+def _fit_at_lead(s_trn: Samples, base: Aircraft, mass_kg, lead: float, names, start,
                  kwargs):
     """Least squares of the rotor_losses power on the training samples read ``lead``
-    seconds late: (training RMS [W], solution, reference aircraft, samples)."""
+    seconds late: (training RMS [W], solution, reference aircraft, samples). With a mass
+    per flight the reference mass of the copper loss is the training samples' mean mass."""
     x0, lo, hi, scale = start
-    m_trn = np.full(len(s_trn.time_s), mass)
-    ref = with_params(base, {"reference_mass_kg": mass, "power_lead_s": lead})
+    m_trn = sample_masses(s_trn, mass_kg)
+    ref = with_params(base, {"reference_mass_kg": float(np.mean(m_trn)),
+                             "power_lead_s": lead})
     cache: dict[float, Any] = {}
 
     def residual(x):

@@ -70,7 +70,9 @@ import numpy as np
 from scipy.special import ndtri
 
 from planner.chain.kinematics import hold_power
-from planner.chain.mission_chain import CHECK_CONSTRAINTS, RTL_POINTS_PER_LEG, MissionChain
+from planner.chain.kinematics import RTL_POINTS_PER_LEG
+from planner.chain.mission_chain import MissionChain
+from planner.chain.steps import CHECK_CONSTRAINTS
 from planner.errors import InputError
 from planner.io import mavlink_mission as mm
 from planner.io.mavlink_stream import Event, MissionItems

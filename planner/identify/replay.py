@@ -323,9 +323,15 @@ def power_replay(exp: pd.DataFrame, chain: MissionChain, mass_kg: float,
 # ---------------------------------------------------------------------- driver
 def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
            pack: BatteryPack | None = None, aircraft: Aircraft | None = None,
-           payload_kg: float = 0.0, reserve: float = 0.2,
+           payload_kg: float | dict | None = None, reserve: float = 0.2,
            site_altitude_m: float = 0.0) -> ReplayResult:
-    """Replay every experiment of a flight record (see the module docstring)."""
+    """Replay every experiment of a flight record (see the module docstring).
+
+    ``payload_kg``: one payload for every experiment, or a mapping experiment id →
+    payload [kg]; None: the record's own ``payload_kg`` per experiment where it has one,
+    else 0."""
+    if payload_kg is None:
+        payload_kg = record.experiment_payloads(data) or 0.0
     metas = metas or [{}]
     meta_of = {}
     for meta in metas:
@@ -361,7 +367,12 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
                 notes.append(f"battery model: {label}")
         pw = None
         if aircraft is not None:
-            mass = aircraft.empty_mass_kg + payload_kg + (
+            payload = (payload_kg.get(str(exp_id), float("nan"))
+                       if isinstance(payload_kg, dict) else payload_kg)
+            if not np.isfinite(payload):
+                notes.append("no payload known for this flight: 0 kg assumed")
+                payload = 0.0
+            mass = aircraft.empty_mass_kg + payload + (
                 pack.total_mass_kg if pack is not None else 0.0)
             if pack is None:
                 notes.append("no battery-pack file: take-off mass excludes the pack")

@@ -45,6 +45,7 @@ __all__ = [
     "add_power",
     "complete_record",
     "cumulative_trapezoid",
+    "experiment_payloads",
     "experiments",
     "interpolate_onto",
     "read_header",
@@ -79,6 +80,9 @@ COLUMNS: dict[str, Column] = {c.name: c for c in (
     Column("ambient_temperature_c", "°C", "float", "outside air temperature"),
     Column("pressure_pa", "Pa", "float", "static (barometric) pressure"),
     Column("cycle", "integer", "int", "charge-cycle count of the pack at this experiment"),
+    Column("payload_kg", "kg", "float",
+           "payload carried in this experiment (constant within one; the take-off mass is "
+           "the aircraft's empty mass + the pack + this)"),
     Column("altitude_m", "m", "float", "altitude above home"),
     Column("climb_rate_ms", "m/s", "float", "vertical speed, up positive"),
     Column("groundspeed_ms", "m/s", "float", "horizontal speed over ground"),
@@ -124,6 +128,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "wind_e_ms": (-150.0, 150.0),
     "specific_force_ms2": (0.0, 1000.0),  # IMUs of small UAVs saturate at 16 g (157 m/s²)
     "axial_speed_ms": (-100.0, 100.0),
+    "payload_kg": (0.0, 1000.0),
 }
 
 #: Other units a column is often written in by mistake: (unit, factor to the column's
@@ -146,6 +151,7 @@ OTHER_UNITS: dict[str, tuple[tuple[str, float, float], ...]] = {
     "wind_e_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
     "specific_force_ms2": (("mm/s²", 1e-3, 0.0), ("mg", 9.80665e-3, 0.0)),
     "axial_speed_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
+    "payload_kg": (("g", 1e-3, 0.0),),
 }
 #: Magnitude from which a value is a no-data sentinel (−3.4e38 is −FLT_MAX), not a reading.
 SENTINEL = 1e30
@@ -461,6 +467,21 @@ def experiments(df: pd.DataFrame):
         yield None, df
         return
     yield from df.groupby("experiment", sort=False)
+
+
+def experiment_payloads(df: pd.DataFrame) -> dict[str, float] | None:
+    """The payload of each experiment [kg] from the record's ``payload_kg`` column (its
+    median within the experiment; NaN where the experiment has none), or None when the
+    record has no payload at all."""
+    if "payload_kg" not in df.columns or not np.isfinite(
+            df["payload_kg"].to_numpy(float)).any():
+        return None
+    out = {}
+    for exp_id, exp in experiments(df):
+        v = exp["payload_kg"].to_numpy(float)
+        v = v[np.isfinite(v)]
+        out[str(exp_id)] = float(np.median(v)) if v.size else float("nan")
+    return out
 
 
 def cumulative_trapezoid(y: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -40,6 +40,8 @@ def test_columns_units_match_design_table():
     expected = {"experiment": "text", "time_s": "s", "voltage_v": "V", "current_a": "A",
                 "power_w": "W", "consumed_mah": "mAh", "temperature_c": "°C",
                 "ambient_temperature_c": "°C", "pressure_pa": "Pa", "cycle": "integer",
+                # the payload of each experiment (a mass per flight)
+                "payload_kg": "kg",
                 "altitude_m": "m", "climb_rate_ms": "m/s", "groundspeed_ms": "m/s",
                 "course_deg": "deg", "airspeed_ms": "m/s", "wind_n_ms": "m/s",
                 "wind_e_ms": "m/s", "throttle": "0..1", "mode": "text",

@@ -11,7 +11,9 @@ from planner.io import files
 from planner.cli.commands.common import (
     add_battery_instance,
     battery_instance,
+    flight_payloads,
     fmt,
+    mass_text,
     output_path,
     parse_float,
     parse_mass,
@@ -39,7 +41,8 @@ def register(sub) -> None:
     p.add_argument("--aircraft", required=True, help="aircraft YAML (start values)")
     p.add_argument("--out", required=True, help="write the fitted aircraft YAML here")
     p.add_argument("--battery", help="pack flown (default: the aircraft's)")
-    p.add_argument("--payload", default="0", help="payload mass [kg] (default 0)")
+    p.add_argument("--payload", help="payload mass [kg] of every flight (default: each "
+                                     "flight's own payload_kg in the data, else 0)")
     p.add_argument("--mass", help="all-up mass [kg] (overrides aircraft + pack + payload)")
     p.add_argument("--map", help="column map for CSV data that is not a flight record "
                                  "(e.g. dji_m100)")
@@ -78,11 +81,19 @@ def run(args) -> int:
         path = args.battery or default_battery_path(aircraft)
         if path is None:
             raise InputError(f"{args.aircraft}: no pack known: give --battery or --mass")
-        mass = (aircraft.empty_mass_kg + load_battery(path).total_mass_kg
-                + parse_mass(args.payload, "--payload", aircraft))
+        if args.payload is not None:
+            parse_mass(args.payload, "--payload", aircraft)
+        base = aircraft.empty_mass_kg + load_battery(path).total_mass_kg
     site = parse_float(args.site_altitude, "--site-altitude", -500, 9000, "m")
     data, _ = load_flight_data(args.data, column_map=args.map,
                                battery_instance=battery_instance(args))
+    if args.mass is None:
+        payload = flight_payloads(data, args.payload, "--payload", aircraft)
+        mass = ({k: base + v for k, v in payload.items()} if isinstance(payload, dict)
+                else base + payload)
+        if fixed_wing and isinstance(mass, dict):
+            raise InputError("--payload: the fixed-wing fit flies one mass; the data give a "
+                             "payload per flight: give --payload or --mass")
     opts = {"airborne_height_m": None if args.airborne_height is None else
             parse_float(args.airborne_height, "--airborne-height", 0.0, 1000.0)}
     fit = fit_aircraft
@@ -110,7 +121,8 @@ def run(args) -> int:
     mapping = fitted.to_mapping(folder=Path(args.out).parent)
     src = ", ".join(str(d) for d in args.data)
     mapping["source"] = (f"fit-aircraft on {src} ({result['split']}; "
-                         f"{result['samples']['train']} airborne samples; mass {mass:.3f} kg); "
+                         f"{result['samples']['train']} airborne samples; mass "
+                         f"{mass_text(mass)}); "
                          f"start values from {args.aircraft}")
     if fixed_wing:
         from planner.identify.fixed_wing_fit import fitted_mapping
@@ -119,7 +131,7 @@ def run(args) -> int:
                      "--out")
     if json_out:
         report = {k: v for k, v in result.items() if k not in ("aircraft", "samples_table")}
-        report["mass_kg"] = mass
+        report["mass_kg"] = mass      # one value, or one per flight
         write_json(report, json_out)
     if plot_out:
         from planner.cli.commands import fixed_wing_report
@@ -129,7 +141,7 @@ def run(args) -> int:
 
 def render(r, mass) -> str:
     lines = [f"Fit on {len(r['train_experiments'])} experiment(s), "
-             f"{r['samples']['train']} airborne samples, mass {mass:.3f} kg; validation: "
+             f"{r['samples']['train']} airborne samples, mass {mass_text(mass)}; validation: "
              f"{r['split']} ({r['samples']['validation']} samples)", "",
              f"{'parameter':<19} {'start':>10} {'fitted':>10} {'± stderr':>10}"]
     units = {"no_load_power_w": "W", "copper_loss_power_w": "W", "drag_area_m2": "m²",

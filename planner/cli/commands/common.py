@@ -106,6 +106,42 @@ def parse_mass(text: str, option: str, aircraft, what: str = "payload",
     return value
 
 
+def flight_payloads(data, payload_text: str | None, option: str, aircraft):
+    """The payload of each flight [kg]: ``--payload`` when given (one value for every
+    flight, said to override the data's own), else the record's ``payload_kg`` per
+    experiment (a flight without one carries 0, said), else 0. Returns a float or a
+    mapping experiment id → payload; prints what it used."""
+    from planner.io.record import experiment_payloads
+
+    own = experiment_payloads(data) if data is not None else None
+    if payload_text is not None:
+        value = (parse_mass(payload_text, option, aircraft) if aircraft is not None
+                 else parse_float(payload_text, option, 0.0, 1000.0, "kg"))
+        if own is not None:
+            print(f"{option} {value:g} kg overrides the payload of each flight given by the "
+                  "data")
+        return value
+    if own is None:
+        return 0.0
+    unknown = sorted(k for k, v in own.items() if not np.isfinite(v))
+    if unknown:
+        print(f"warning: no payload for experiment(s) {', '.join(unknown[:10])}"
+              f"{' …' if len(unknown) > 10 else ''} in the data: 0 kg assumed")
+    own = {k: (v if np.isfinite(v) else 0.0) for k, v in own.items()}
+    values = sorted(set(own.values()))
+    print(f"payload per flight from the data: {', '.join(f'{v:g}' for v in values)} kg "
+          f"over {len(own)} flight(s)")
+    return own
+
+
+def mass_text(mass) -> str:
+    """A mass or a mass per flight for a report line."""
+    if isinstance(mass, dict):
+        lo, hi = min(mass.values()), max(mass.values())
+        return (f"{lo:.3f} kg" if lo == hi else f"{lo:.3f}–{hi:.3f} kg (one per flight)")
+    return f"{mass:.3f} kg"
+
+
 def check_speed(value: float, option: str, text: str, aircraft, what: str) -> None:
     """A speed [m/s] a user typed that no flight of ``aircraft`` reaches (more than twice
     its maximum airspeed) was typed in another unit: km/h or knots."""

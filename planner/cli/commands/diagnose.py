@@ -49,7 +49,8 @@ def register(sub) -> None:
     p.add_argument("--out", help="write the extended battery YAML (capacity-level findings; "
                                  "or the aircraft YAML when only power-level effects are "
                                  "found; both: the aircraft goes to <stem>_aircraft.yaml)")
-    p.add_argument("--payload", default="0", help="payload carried at take-off [kg] (default 0)")
+    p.add_argument("--payload", help="payload carried at take-off [kg] by every flight "
+                                     "(default: each flight's payload_kg in the data, else 0)")
     p.add_argument("--mass", help="all-up mass at take-off [kg] (overrides aircraft + pack + "
                                   "payload)")
     p.add_argument("--site-altitude", default="0",
@@ -68,12 +69,16 @@ def run(args) -> int:
     effects = [s.strip() for s in args.effects.split(",") if s.strip()] if args.effects \
         else None
     pack, aircraft = load_definitions(args.battery, args.aircraft)
-    if aircraft is not None:
+    if args.payload is None:
+        payload = None          # each flight's own payload_kg where the data give one
+    elif aircraft is not None:
         payload = parse_mass(args.payload, "--payload", aircraft)
+    else:
+        payload = parse_float(args.payload, "--payload", 0.0, 1000.0, "kg")
+    if aircraft is not None:
         mass = (parse_mass(args.mass, "--mass", aircraft, "all-up mass", 0.01, 1.5)
                 if args.mass else None)
     else:
-        payload = parse_float(args.payload, "--payload", 0.0, 1000.0, "kg")
         mass = parse_float(args.mass, "--mass", 0.01, 10000.0, "kg") if args.mass else None
     if out and pack is None and aircraft is None:
         raise InputError("--out needs --battery or --aircraft (the definition to extend)")

@@ -8,12 +8,12 @@ import sys
 from planner.cli.commands.common import (
     add_battery_instance,
     battery_instance,
+    flight_payloads,
     fmt,
     name_width,
     output_path,
     parse_float,
     parse_fraction,
-    parse_mass,
     plot_path,
     write_json,
 )
@@ -34,7 +34,8 @@ def register(sub) -> None:
                                      "the log's cell count)")
     p.add_argument("--map", help="column map YAML for CSV data that is not a flight record")
     add_battery_instance(p)
-    p.add_argument("--payload", default="0", help="payload mass [kg] (default 0)")
+    p.add_argument("--payload", help="payload mass [kg] of every flight (default: each "
+                                     "flight's own payload_kg in the data, else 0)")
     p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
     p.add_argument("--site-altitude", default="0",
                    help="site altitude AMSL [m] for ISA density when the log has no "
@@ -56,8 +57,8 @@ def run(args) -> int:
     reserve = parse_fraction(args.reserve, "--reserve")
     site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0, "m")
     aircraft = load_aircraft(args.aircraft) if args.aircraft else None
-    payload = (parse_mass(args.payload, "--payload", aircraft) if aircraft is not None
-               else parse_float(args.payload, "--payload", 0.0, 1000.0, "kg"))
+    if args.payload is not None:   # checked before the data are read
+        flight_payloads(None, args.payload, "--payload", aircraft)
     pack = load_battery(args.battery) if args.battery else None
     if aircraft is not None and pack is None and aircraft.battery_path:
         from planner.parameters import default_battery_path
@@ -67,6 +68,7 @@ def run(args) -> int:
                                    battery_instance=battery_instance(args))
     for message in failed:  # a batch: each bad file named, the others replayed
         print(f"error: {message}", file=sys.stderr)
+    payload = flight_payloads(data, args.payload, "--payload", aircraft)
     result = replay(data, metas, pack=pack, aircraft=aircraft, payload_kg=payload,
                     reserve=reserve, site_altitude_m=site)
     print(render(result))

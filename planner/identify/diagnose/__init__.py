@@ -688,8 +688,8 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     aircraft : Aircraft, optional
         Enables the power level (with a flight state in the data).
     **opts
-        ``payload_kg`` (0) [kg], ``mass_kg`` (all-up mass; default aircraft + pack +
-        payload) [kg], ``site_altitude_m`` (0, for the standard density) [m],
+        ``payload_kg`` [kg] (default: each flight's ``payload_kg`` in the record, else
+        0), ``mass_kg`` (all-up mass; default aircraft + pack + payload) [kg], ``site_altitude_m`` (0, for the standard density) [m],
         ``effects`` (names to test; default all), ``column_map`` (for CSV data
         that is not a flight record), ``battery_instance`` (of PX4 topic exports).
 
@@ -849,12 +849,19 @@ def _power_level(df, pack, aircraft, opts, effects, notes):
         return None, why
     mass = opts.get("mass_kg")
     if mass is None:
-        mass = aircraft.empty_mass_kg + pack.total_mass_kg + float(opts.get("payload_kg", 0))
+        base = aircraft.empty_mass_kg + pack.total_mass_kg
+        own = rec.experiment_payloads(df) if opts.get("payload_kg") is None else None
+        if own is not None:        # each flight at its own payload (the record's payload_kg)
+            mass = {k: base + (v if np.isfinite(v) else 0.0) for k, v in own.items()}
+            notes.append("payload per flight from the data: "
+                         + ", ".join(f"{v:g}" for v in sorted(set(own.values()))) + " kg")
+        else:
+            mass = base + float(opts.get("payload_kg") or 0.0)
     exps = [(str(k), sub) for k, sub in rec.experiments(df)]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            level = S.PowerLevel(exps, aircraft, float(mass),
+            level = S.PowerLevel(exps, aircraft, mass if isinstance(mass, dict) else float(mass),
                                  float(opts.get("site_altitude_m", 0.0)))
         notes += level.notes
         if level.n_rows < S.MIN_ROWS:

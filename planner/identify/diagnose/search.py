@@ -625,8 +625,8 @@ class PowerLevel:
     exps : list of (name, DataFrame)
         The experiments (flight record columns, docs/record.md).
     aircraft : Aircraft
-    mass_kg : float
-        All-up mass at the start of every flight. [kg]
+    mass_kg : float or dict
+        All-up mass at the start of every flight, or of each (experiment → mass). [kg]
     site_altitude_m : float
         Site altitude for the standard (ISA) density. [m]
 
@@ -650,10 +650,12 @@ class PowerLevel:
     name = "power"
     unit = "W"
 
-    def __init__(self, exps, aircraft, mass_kg: float, site_altitude_m: float = 0.0):
+    def __init__(self, exps, aircraft, mass_kg, site_altitude_m: float = 0.0):
         self.aircraft = aircraft
         self.file_system_power_w = float(aircraft.system_power_w)
-        self.mass0 = float(mass_kg)
+        per_flight = mass_kg if isinstance(mass_kg, dict) else None
+        self.mass0 = (float(np.mean(list(per_flight.values()))) if per_flight
+                      else float(mass_kg))
         self.notes: list[str] = []
         s, spans = self._airborne_samples(exps, site_altitude_m)
         self._choose_climb(s)
@@ -664,6 +666,10 @@ class PowerLevel:
         self._bin_flight_state(s, bins)
         self._bin_air_density(s, bins, site_altitude_m)
         self.mass = np.full(bins.n, self.mass0)
+        if per_flight:      # each flight at its own take-off mass
+            of = np.array([float(per_flight.get(str(n), self.mass0)) for n in self.names])
+            self.mass = of[self.exp]
+            self.mass0 = float(np.mean(self.mass))
         self.n_rows = bins.n
         self._set_base_inputs(s, bins)
         self._set_shape()

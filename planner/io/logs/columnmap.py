@@ -21,8 +21,8 @@ from planner.io import schema as S
 from planner.io.record import COLUMNS
 from planner.physics.limits import CAPACITY_MAX_MAH, CAPACITY_MIN_MAH, CELLS_SERIES_MAX
 
-__all__ = ["COLUMN_KEYS", "DERIVED_KEYS", "MAPS_DIR", "META_KEYS", "ROTATE_OPS", "TIME_KEYS",
-           "TOP_KEYS", "load_map"]
+__all__ = ["COLUMN_KEYS", "DERIVED_KEYS", "FLIGHTS_KEYS", "MAPS_DIR", "META_KEYS",
+           "PER_FLIGHT", "ROTATE_OPS", "TIME_KEYS", "TOP_KEYS", "load_map"]
 
 
 #: Where the maps shipped with the planner live.
@@ -48,6 +48,8 @@ TOP_KEYS = {
     "derived": S.block("record column ← `{op, of, scale, offset}`: from several CSV columns"),
     "extra": S.block("new name ← `{column, scale, offset}`: CSV columns kept as they are"),
     "meta": S.block("what the file does not say (table below)"),
+    "flights": S.block("a per-flight table joined by experiment id (table below): what each "
+                       "flight carried or was commanded (payload, speed, altitude)"),
     "license": S.text("licence of the data"),
     "notes": _NOTE,
 }
@@ -97,6 +99,19 @@ META_KEYS = {
 #: Record columns a map may fill (the experiment and the time have keys of their own).
 MAPPABLE = tuple(c for c in COLUMNS if c not in ("experiment", "time_s"))
 
+FLIGHTS_KEYS = {
+    "file": S.text("the per-flight CSV: found next to the data file, else relative to the "
+                   "map", required=True),
+    "key": S.text("its column holding the experiment id", required=True),
+    "columns": S.block("record column ← `{column, scale, offset}` of the per-flight table "
+                       "(one value per flight: `payload_kg`, `cycle`)"),
+    "extra": S.block("new name ← `{column, scale, offset}` (or the column's name): "
+                     "per-flight values kept as they are (text kept as text)"),
+    "note": _NOTE,
+}
+#: Record columns a per-flight table may fill: one value per experiment.
+PER_FLIGHT = ("payload_kg", "cycle")
+
 
 def load_map(source: str | os.PathLike | dict) -> dict:
     """Load and validate a column map (a YAML file, a shipped map name, or a dict).
@@ -121,7 +136,8 @@ def load_map(source: str | os.PathLike | dict) -> dict:
            "columns": _entries(top["columns"], COLUMN_KEYS, "columns", MAPPABLE, problems),
            "derived": _entries(top["derived"], DERIVED_KEYS, "derived", MAPPABLE, problems),
            "extra": _entries(top["extra"], EXTRA_KEYS, "extra", None, problems),
-           "meta": _meta(top["meta"], where, problems)}
+           "meta": _meta(top["meta"], where, problems),
+           "flights": _flights(top["flights"], problems)}
     problems.done()
     if not out["columns"] and not out["derived"]:
         raise InputError(f"{where}: the map has no 'columns'")
@@ -189,6 +205,17 @@ def _entries(block, keys: dict[str, S.Key], path: str, allowed, problems: S.Prob
             if entry is not None:
                 out[name] = entry
     return out
+
+
+def _flights(block, problems: S.Problems) -> dict | None:
+    """``flights``: the per-flight table's file, key column, record columns and extras."""
+    if block is None:
+        return None
+    d = S.check_mapping(block, FLIGHTS_KEYS, "", "flights.", problems)
+    return {"file": d["file"], "key": d["key"],
+            "columns": _entries(d["columns"], EXTRA_KEYS, "flights.columns", PER_FLIGHT,
+                                problems),
+            "extra": _entries(d["extra"], EXTRA_KEYS, "flights.extra", None, problems)}
 
 
 def _check_of(d: dict, path: str, problems: S.Problems) -> None:

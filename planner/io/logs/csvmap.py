@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -142,6 +143,8 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     out, groups = _experiment_and_time(csv, cmap, meta)
     _mapped(out, csv, cmap, groups, meta)
     _derived(out, csv, cmap, meta)
+    if cmap["flights"] is not None:
+        _join_flights(out, path, cmap, meta)
     df = _record(pd.DataFrame(out), path, meta, require_battery)
     _describe(df, cmap, meta)
     return df, meta.values
@@ -221,6 +224,56 @@ def _mapped(out: dict, csv: _Csv, cmap: dict, groups, meta: Meta) -> None:
     for name, spec in cmap["extra"].items():
         out[name] = csv.numeric(spec["column"], name) * spec["scale"] + spec["offset"]
         meta["channels"][name] = spec["column"]
+
+
+def _flights_file(path: Path, cmap: dict) -> Path | None:
+    """The per-flight table of a map: next to the data file, else relative to the map."""
+    name = Path(cmap["flights"]["file"])
+    candidates = [name] if name.is_absolute() else [path.parent / name]
+    if not name.is_absolute() and cmap["where"] != "<column map>":
+        candidates.append(Path(cmap["where"]).parent / name)
+    return next((c for c in candidates if c.is_file()), None)
+
+
+def _join_flights(out: dict, path: Path, cmap: dict, meta: Meta) -> None:
+    """The per-flight table's values (``flights`` of the map) joined to every sample by
+    experiment id. A missing table, or experiments it does not name, give a warning and
+    NaN (missing) values: the samples are kept."""
+    spec = cmap["flights"]
+    table_path = _flights_file(path, cmap)
+    if table_path is None:
+        warnings.warn(f"{path}: the per-flight table {spec['file']} named in {cmap['where']} "
+                      "is not next to the data: no per-flight values (payload) joined",
+                      stacklevel=3)
+        return
+    raw = _read_raw(table_path)
+    table = _Csv(raw, table_path, cmap["where"])
+    keys = table.need(spec["key"], "flights.key").astype("str").str.strip().to_numpy(object)
+    dup = pd.Series(keys).duplicated().to_numpy()
+    if dup.any():
+        first = int(np.flatnonzero(dup)[0])
+        raise InputError(f"{table_path}: column '{spec['key']}' {row_label(first, first + 2)}: "
+                         f"experiment {keys[first]!r} named twice; expected one row per flight")
+    exp = out["experiment"]
+    ids = pd.unique(exp)
+    unknown = [e for e in ids if e not in set(keys)]
+    if unknown:
+        warnings.warn(f"{table_path}: no row for experiment(s) "
+                      f"{', '.join(map(str, unknown[:10]))}{' …' if len(unknown) > 10 else ''}"
+                      " of the data: their per-flight values are missing", stacklevel=3)
+    where = pd.Index(keys).get_indexer(exp)
+    for name, col in [*spec["columns"].items(), *spec["extra"].items()]:
+        s = table.need(col["column"], f"flights.{name}")
+        num = pd.to_numeric(s, errors="coerce").to_numpy(float)
+        if name in spec["columns"] or not (np.isnan(num) & s.notna().to_numpy()).any():
+            if name in spec["columns"]:
+                table.numeric(col["column"], f"flights.{name}")   # text: an error at its row
+            values = num * col["scale"] + col["offset"]
+            out[name] = np.where(where >= 0, values[np.maximum(where, 0)], np.nan)
+        else:                                       # a text column (a route, "25-50-100")
+            values = s.astype("str").to_numpy(object)
+            out[name] = np.where(where >= 0, values[np.maximum(where, 0)], None)
+        meta["channels"][name] = f"{table_path.name}:{col['column']}"
 
 
 #: The ops of ``derived`` over two (or three) columns.

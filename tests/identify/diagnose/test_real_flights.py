@@ -280,3 +280,23 @@ def test_m100_power_residual_steps_at_the_turnaround_with_the_flights_own_wind(s
     assert w["correlation"] < -0.3 and w["p_value"] < 1e-3
     assert w["model_slope_w_per_ms"] < 0.0
     assert 0.4 <= w["slope_w_per_ms"] / w["model_slope_w_per_ms"] <= 2.5
+
+
+def test_the_power_level_flies_each_m100_flight_at_its_own_payload(shared_data):
+    """The shipped map joins the data set's per-flight payloads (m100_parameters.csv):
+    flight 14 carried 250 g, flights 1, 3, 4 and 12 none. The power level's mass of each
+    flight's bins is its own take-off mass, and ``diagnose`` says where it came from."""
+    from planner.io import record as rec
+    from planner.identify.diagnose import diagnose, search as S
+
+    pack, ac = _m100_definitions()
+    df = _m100_sample(shared_data)
+    base = ac.empty_mass_kg + pack.total_mass_kg
+    masses = {k: base + v for k, v in rec.experiment_payloads(df).items()}
+    pw = S.PowerLevel([(str(k), s) for k, s in rec.experiments(df)], ac, masses)
+    for e, name in enumerate(pw.names):
+        assert pw.mass[pw.exp == e] == pytest.approx(masses[name])
+    assert pw.mass[pw.exp == pw.names.index("14")][0] == pytest.approx(base + 0.25)
+    result = diagnose([shared_data / "energy" / "m100_flights_sample.csv"], pack, ac,
+                      column_map="dji_m100", effects=[])
+    assert "payload per flight from the data: 0, 0.25 kg" in result.notes

@@ -245,3 +245,56 @@ def test_scale_offset_relative_and_identity_map(tmp_path):
     df, meta = read_log(p)
     assert_allclose(df["power_w"], [12.0, 12.0]) and meta["format"] == "csv"
     assert set(FIELD_MAP) >= {"voltage_v", "current_a", "mode"}
+
+
+# --------------------------------------------------------------- a per-flight table joined
+def test_m100_map_joins_each_flights_payload_speed_and_altitude(m100):
+    """The data set's own parameters.csv (Rodrigues et al. 2021, PROVENANCE.md): flight 14
+    carried 250 g at 12 m/s, flights 1/3/4/12 none at 4/6/8/10 m/s; all at 25 m."""
+    df, meta = m100
+    per = df.groupby("experiment")[["payload_kg", "commanded_speed_ms"]].agg(["min", "max"])
+    assert (per.xs("min", axis=1, level=1) == per.xs("max", axis=1, level=1)).all().all()
+    first = df.groupby("experiment").first()
+    assert first.loc["14", "payload_kg"] == pytest.approx(0.250)
+    assert first.loc[["1", "3", "4", "12"], "payload_kg"].tolist() == [0.0] * 4
+    assert first.loc[CRUISE, "commanded_speed_ms"].tolist() == [4.0, 6.0, 8.0, 10.0, 12.0]
+    assert set(first.loc[CRUISE, "commanded_altitude"]) == {"25"}
+    assert meta["channels"]["payload_kg"] == "m100_parameters.csv:payload"
+
+
+def _joined_csv(tmp_path, table: str):
+    (tmp_path / "log.csv").write_text("flight,t,v,i\n" + "".join(
+        f"{f},{k},{16 - 0.01 * k},{10 + f}\n" for f in (1, 2) for k in range(5)))
+    (tmp_path / "per_flight.csv").write_text(table)
+    return {"experiment": "flight", "time": "t",
+            "columns": {"voltage_v": "v", "current_a": "i"},
+            "flights": {"file": "per_flight.csv", "key": "flight",
+                        "columns": {"payload_kg": {"column": "payload", "scale": 0.001}},
+                        "extra": {"route": {"column": "route"}}}}
+
+
+def test_a_flight_the_table_lacks_keeps_its_samples_without_a_payload(tmp_path):
+    cmap = _joined_csv(tmp_path, "flight,payload,route\n1,500,R1\n9,250,R2\n")
+    with pytest.warns(UserWarning, match=r"no row for experiment\(s\) 2"):
+        df, _ = read_csv_log(tmp_path / "log.csv", map=cmap)
+    one, two = df[df.experiment == "1"], df[df.experiment == "2"]
+    assert_allclose(one["payload_kg"], 0.5)
+    assert two["payload_kg"].isna().all() and len(two) == 5
+    assert set(one["route"]) == {"R1"}
+
+
+def test_a_flight_named_twice_or_a_payload_that_is_text_is_refused(tmp_path):
+    cmap = _joined_csv(tmp_path, "flight,payload,route\n1,500,R1\n1,250,R2\n2,0,R1\n")
+    with pytest.raises(InputError, match=r"per_flight.csv: column 'flight' .*3.*named twice"):
+        read_csv_log(tmp_path / "log.csv", map=cmap)
+    cmap = _joined_csv(tmp_path, "flight,payload,route\n1,heavy,R1\n2,0,R1\n")
+    with pytest.raises(InputError, match=r"per_flight.csv.*payload.*heavy"):
+        read_csv_log(tmp_path / "log.csv", map=cmap)
+
+
+def test_a_missing_per_flight_table_is_said_and_the_log_still_read(tmp_path):
+    cmap = _joined_csv(tmp_path, "flight,payload,route\n1,500,R1\n2,0,R1\n")
+    (tmp_path / "per_flight.csv").unlink()
+    with pytest.warns(UserWarning, match="per_flight.csv .* is not next to the data"):
+        df, _ = read_csv_log(tmp_path / "log.csv", map=cmap)
+    assert "payload_kg" not in df and len(df) == 10

@@ -1,0 +1,241 @@
+"""``endurance backtest``: many flights predicted from before take-off, scored against the
+logs."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from planner.cli.commands.common import (
+    flight_payloads,
+    parse_float,
+    parse_fraction,
+    parse_int,
+    write_json,
+)
+from planner.errors import InputError
+from planner.io import files
+from planner.io.tables import cell_error, row_label
+
+#: Files written into the output folder.
+OUTPUTS = ("backtest.parquet", "backtest.csv", "report.txt", "report.json",
+           "predicted_vs_measured.png")
+#: Columns of a weather table besides the flight's id, and their units.
+WEATHER_COLUMNS = {"wind_speed_ms": "m/s", "wind_from_deg": "deg", "temperature_c": "°C"}
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "backtest", help="predict many flights as before take-off; score against the logs",
+        description="Predict each flight as its operator would have before take-off (the plan "
+                    "from a mission file matched by name, else rebuilt from the flown track "
+                    "at the commanded speed and altitude; the forecast from before take-off; "
+                    "the aircraft calibrated on other flights only, k-fold) with the chain "
+                    "of 'check', and compare with what the flight did. Writes DIR/backtest."
+                    "parquet and .csv (one row per flight), DIR/report.txt and .json, and "
+                    "DIR/predicted_vs_measured.png.")
+    p.add_argument("data", nargs="+", metavar="DATA",
+                   help="logs or CSV files (with --map: e.g. the M100 flights)")
+    p.add_argument("--aircraft", required=True, help="aircraft YAML (start values of the "
+                                                     "per-fold calibration)")
+    p.add_argument("--battery", help="pack flown (default: the aircraft's)")
+    p.add_argument("--map", help="column map for CSV data that is not a flight record "
+                                 "(e.g. dji_m100: joins each flight's payload, commanded "
+                                 "speed and altitude)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--folds", default="5", help="calibration folds (default 5): each flight "
+                                                "predicted by an aircraft fitted on the others")
+    p.add_argument("--by", choices=("flight", "day"), default="flight",
+                   help="fold by flight (dealt in turn) or by the day flown (default flight)")
+    p.add_argument("--held-out", metavar="IDS",
+                   help="comma-separated flights to predict, calibrated on all the others "
+                        "(instead of --folds)")
+    p.add_argument("--flights", metavar="IDS",
+                   help="comma-separated flights to use (default: all in the data)")
+    p.add_argument("--missions", metavar="FOLDER",
+                   help="mission files named after the flights (<flight>.plan, .waypoints, "
+                        ".txt, .yaml); a flight without one is rebuilt from its track")
+    p.add_argument("--weather", metavar="CSV",
+                   help="per-flight forecast: columns experiment, wind_speed_ms, "
+                        "wind_from_deg[, temperature_c] (default: the log's samples before "
+                        "take-off)")
+    p.add_argument("--payload", help="payload [kg] of every flight (default: each flight's "
+                                     "payload_kg in the data, else 0)")
+    p.add_argument("--site-altitude", default="0", help="site altitude AMSL [m] for ISA "
+                                                        "density (default 0)")
+    p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
+    p.add_argument("--workers", default="1",
+                   help="process workers of a local Dask cluster running the folds "
+                        "(default 1: no cluster)")
+    p.set_defaults(func=run, output_folders=("--out",))
+
+
+def _ids(text: str | None) -> list[str] | None:
+    return [s.strip() for s in text.split(",") if s.strip()] if text else None
+
+
+def read_weather(path: str) -> dict[str, dict[str, float]]:
+    """A per-flight weather table: experiment → {wind_speed_ms, wind_from_deg,
+    temperature_c}; a missing column or a cell that is not a number is an error naming
+    the file, the column and the row."""
+    try:
+        raw = pd.read_csv(files.input_path(path, "table", "weather table"), dtype=str)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a readable CSV file ({type(exc).__name__})") from None
+    raw.columns = [str(c).strip() for c in raw.columns]
+    key = next((c for c in ("experiment", "flight") if c in raw.columns), None)
+    need = [c for c in ("wind_speed_ms", "wind_from_deg") if c not in raw.columns]
+    if key is None or need:
+        missing = ([] if key else ["experiment"]) + need
+        raise InputError(f"{path}: no column {', '.join(missing)}; expected experiment, "
+                         "wind_speed_ms [m/s], wind_from_deg [deg] and optionally "
+                         "temperature_c [°C]")
+    out: dict[str, dict[str, float]] = {}
+    for i, r in raw.iterrows():          # one row per flight: a short table
+        values = {}
+        for col, unit in WEATHER_COLUMNS.items():
+            if col not in raw.columns or pd.isna(r[col]):
+                if col != "temperature_c":
+                    raise cell_error(path, col, row_label(i, i + 2), f"a number [{unit}]",
+                                     r[col])
+                continue
+            try:
+                values[col] = float(r[col])
+            except ValueError:
+                raise cell_error(path, col, row_label(i, i + 2), f"a number [{unit}]",
+                                 r[col]) from None
+        if not 0.0 <= values["wind_speed_ms"] < 100.0:
+            raise cell_error(path, "wind_speed_ms", row_label(i, i + 2),
+                             "a wind speed in [0, 100) m/s", r["wind_speed_ms"])
+        out[str(r[key]).strip()] = values
+    return out
+
+
+def run(args) -> int:
+    from planner.identify.backtest import BacktestOptions, run_backtest, summarise
+    from planner.io.flightdata import load_flight_data
+    from planner.parameters import default_battery_path, load_aircraft, load_battery
+
+    folds = parse_int(args.folds, "--folds", 2, 1000)
+    workers = parse_int(args.workers, "--workers", 1, 1024)
+    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0, "m")
+    reserve = parse_fraction(args.reserve, "--reserve")
+    aircraft = load_aircraft(args.aircraft)
+    path = args.battery or default_battery_path(aircraft)
+    if path is None:
+        raise InputError(f"{args.aircraft}: no pack known: give --battery")
+    pack = load_battery(path)
+    if args.payload is not None:
+        flight_payloads(None, args.payload, "--payload", aircraft)
+    missions = Path(args.missions) if args.missions else None
+    if missions is not None and not missions.is_dir():
+        raise InputError(f"--missions {args.missions}: not a folder")
+    weather = read_weather(args.weather) if args.weather else None
+    t0 = time.perf_counter()
+    failed: list[str] = []
+    data, _ = load_flight_data(args.data, column_map=args.map, failed=failed)
+    for message in failed:
+        print(f"error: {message}", file=sys.stderr)
+    subset = _ids(args.flights)
+    if subset:
+        unknown = sorted(set(subset) - set(data["experiment"].astype(str)))
+        if unknown:
+            raise InputError(f"--flights: {', '.join(unknown[:10])} not in the data")
+        data = data[data["experiment"].astype(str).isin(subset)].reset_index(drop=True)
+    payload = (flight_payloads(data, args.payload, "--payload", aircraft)
+               if args.payload is not None else None)
+    if weather is not None:
+        extra = sorted(set(weather) - set(data["experiment"].astype(str)))
+        if extra:
+            print(f"note: the weather table names {len(extra)} flight(s) the data lack "
+                  f"({', '.join(extra[:5])}{' …' if len(extra) > 5 else ''})")
+    options = BacktestOptions(folds=folds, by=args.by, held_out=tuple(_ids(args.held_out) or ())
+                              or None, site_altitude_m=site, reserve=reserve,
+                              missions_dir=missions, weather=weather)
+    client = cluster = None
+    if workers > 1:
+        import warnings
+
+        from dask.distributed import Client, LocalCluster
+        with warnings.catch_warnings():     # no dashboard: its port is of no use here
+            warnings.simplefilter("ignore")
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+            client = Client(cluster)
+    try:
+        table = run_backtest(data, aircraft, pack, options, payload_kg=payload, client=client)
+    finally:
+        if client is not None:
+            client.close()
+            cluster.close()
+    elapsed = time.perf_counter() - t0
+    summary = summarise(table)
+    summary.update(elapsed_s=elapsed, aircraft=args.aircraft, battery=str(path),
+                   data=[str(d) for d in args.data],
+                   calibration=(f"held out {len(options.held_out)} flights, calibrated on the "
+                                "others" if options.held_out else
+                                f"{folds}-fold by {args.by}"))
+    text = render(summary)
+    print(text)
+    out = Path(args.out)
+    out.mkdir(exist_ok=True)
+    with files.output_file(out / OUTPUTS[0], "--out") as tmp:
+        table.astype({"date": "string"}).to_parquet(tmp, index=False)
+    files.write_text(out / OUTPUTS[1], table.to_csv(index=False), "--out")
+    files.write_text(out / OUTPUTS[2], text + "\n", "--out")
+    write_json({**summary, "flights_table": [r for r in _records(table)]},
+               out / OUTPUTS[3], "--out")
+    from planner.cli.plots.backtest import save_backtest_plot
+    save_backtest_plot(table, out / OUTPUTS[4], "--out")
+    print(f"per-flight table: {out / OUTPUTS[0]} and {OUTPUTS[1]}; report: {OUTPUTS[2]}, "
+          f"{OUTPUTS[3]}; plot: {OUTPUTS[4]}")
+    return 0
+
+
+def _records(table: pd.DataFrame):
+    for r in table.to_dict("records"):
+        yield {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+               for k, v in r.items()}
+
+
+def _line(name: str, s: dict, unit: str = "%") -> str:
+    if not s.get("n"):
+        return f"{name:<12} no flight scored"
+    return (f"{name:<12} bias {s['bias_pct']:+6.1f} {unit}, median |error| "
+            f"{s['median_abs_pct']:5.1f} {unit}, P90 {s['p90_abs_pct']:5.1f} {unit}, "
+            f"worst {s['max_abs_pct']:5.1f} {unit}  ({s['n']} flights)")
+
+
+def render(s: dict) -> str:
+    """The report: the errors, who was left out and why, the worst flights, and the
+    energy error against speed, payload, altitude and wind."""
+    lines = [(f"Backtest of {s['flights']} flight(s): {s['scored']} scored, {s['left_out']} "
+              f"left out; aircraft {s['aircraft']} calibrated per fold ({s['calibration']})"),
+             "",
+             "prediction error (predicted − measured, % of measured):",
+             _line("energy", s["energy"]), _line("charge", s["charge"]),
+             _line("flight time", s["time"])]
+    if s["scored"]:
+        lines.append(f"verdicts: {', '.join(f'{k} {v}' for k, v in s['verdicts'].items())}; "
+                     f"{s['landed_with_reserve']} of {s['scored']} flights landed with the "
+                     "reserve (from a full pack)")
+    if s["left_out"]:
+        lines += ["", "left out:"] + [f"  {n:4d}  {why}"
+                                      for why, n in s["left_out_reasons"].items()]
+    if s.get("worst"):
+        lines += ["", "worst flights (energy error):"] + [
+            f"  {w['experiment']:>8}  energy {w['energy_error_pct']:+6.1f} %, time "
+            f"{w['time_error_pct']:+6.1f} %  plan {w['plan']}" for w in s["worst"]]
+    for col, title, unit in (("speed_ms", "speed", "m/s"), ("payload_kg", "payload", "kg"),
+                             ("altitude_m", "altitude", "m"), ("wind_ms", "wind", "m/s")):
+        groups = s.get("energy_error_against", {}).get(col)
+        if groups:
+            lines += ["", f"energy error by {title} [{unit}]:"] + [
+                f"  {k:>6}  n {g['n']:3d}  bias {g['bias_pct']:+6.1f} %  median |error| "
+                f"{g['median_abs_pct']:5.1f} %" for k, g in groups.items()]
+    lines += ["", f"wall time {s['elapsed_s']:.1f} s"]
+    return "\n".join(lines)
