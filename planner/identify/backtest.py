@@ -48,6 +48,7 @@ import pandas as pd
 from planner.chain.mission_chain import MissionChain
 from planner.errors import InputError, PlannerError
 from planner.identify.aircraft_fit import fit_aircraft
+from planner.identify.navigation_fit import fit_navigation
 from planner.io import record
 from planner.io.mission import load_mission
 from planner.parameters import Aircraft, BatteryPack
@@ -118,6 +119,12 @@ class BacktestOptions:
         temperature_c}.
     parameters : the aircraft parameters fitted per fold (default: every one of its
         power model).
+    kinematics : how the chain flies the plan: ``"fitted"`` (default) with the vehicle's
+        navigation — take-off, jerk-limited legs, stops, two-rate landing
+        (:mod:`planner.physics.motion`) — fitted per fold on the training flights
+        (:func:`~planner.identify.navigation_fit.fit_navigation`), the aircraft file's own
+        ``navigation:`` block where the training flights do not show it; ``"file"`` the
+        aircraft file's block as it is; ``"none"`` every leg at constant speed.
     """
 
     folds: int = 5
@@ -128,6 +135,7 @@ class BacktestOptions:
     missions_dir: Path | None = None
     weather: dict[str, dict[str, float]] | None = field(default=None, repr=False)
     parameters: tuple[str, ...] | None = None
+    kinematics: str = "fitted"
 
 
 # ------------------------------------------------------------------------- folds
@@ -180,7 +188,16 @@ def calibrate_fold(aircraft: Aircraft, train_record: pd.DataFrame, options: Back
         fit = fit_aircraft(train_record, aircraft, mass_kg={e: masses[e] for e in ids},
                            parameters=list(options.parameters) if options.parameters
                            else None, train=ids, site_altitude_m=options.site_altitude_m)
-    return fit["aircraft"]
+    fitted = fit["aircraft"]
+    if options.kinematics == "none":
+        return replace(fitted, navigation=None)
+    if options.kinematics == "fitted":
+        try:
+            nav = fit_navigation(train_record, f"{len(ids)} training flights")
+        except InputError:      # the flights lack the channels: the file's block stays
+            return fitted
+        return replace(fitted, navigation=nav)
+    return fitted
 
 
 # ---------------------------------------------------------------------- measured

@@ -68,6 +68,12 @@ def register(sub) -> None:
     p.add_argument("--site-altitude", default="0", help="site altitude AMSL [m] for ISA "
                                                         "density (default 0)")
     p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
+    p.add_argument("--kinematics", choices=("fitted", "file", "none"), default="fitted",
+                   help="how the plan is flown: 'fitted' (default) with the vehicle's "
+                        "navigation (take-off, acceleration and stops at waypoints, two-rate "
+                        "landing) fitted per fold on the training flights; 'file' with the "
+                        "aircraft file's navigation: block, if any; 'none' every leg at "
+                        "constant speed")
     p.add_argument("--workers", default="1",
                    help="process workers of a local Dask cluster running the folds "
                         "(default 1: no cluster)")
@@ -155,7 +161,8 @@ def run(args) -> int:
                   f"({', '.join(extra[:5])}{' …' if len(extra) > 5 else ''})")
     options = BacktestOptions(folds=folds, by=args.by, held_out=tuple(_ids(args.held_out) or ())
                               or None, site_altitude_m=site, reserve=reserve,
-                              missions_dir=missions, weather=weather)
+                              missions_dir=missions, weather=weather,
+                              kinematics=args.kinematics)
     client = cluster = None
     if workers > 1:
         import warnings
