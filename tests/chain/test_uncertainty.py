@@ -43,16 +43,30 @@ def test_same_seed_same_answer_other_seed_other_draws():
     assert not np.array_equal(a.landing_samples_mah, c.landing_samples_mah)
 
 
-def test_without_spread_every_sample_is_the_deterministic_check():
+def test_with_a_vanishing_spread_every_sample_is_the_deterministic_check():
+    """The machinery adds nothing of its own: with a power error of 10⁻⁹ and nothing else
+    drawn, every sample is the pre-flight check."""
     ac, pack, mission = solo(integral_only=False)   # circuit + thermal pack
     chain = MissionChain(ac, pack)
     check = chain.check(mission)
-    u = monte_carlo(chain, mission, spreads=Spreads(), samples=40, seed=0)
+    u = monte_carlo(chain, mission, spreads=Spreads.only(model_error_sd=1e-9), samples=40,
+                    seed=0)
     assert u.weather_draws == 1
-    np.testing.assert_allclose(u.landing_samples_mah, check.landing_charge_mah, rtol=1e-9)
-    np.testing.assert_allclose(u.rtl_samples_mah, check.rtl_min_margin_mah, rtol=1e-9)
+    np.testing.assert_allclose(u.landing_samples_mah, check.landing_charge_mah, rtol=1e-6)
+    np.testing.assert_allclose(u.rtl_samples_mah, check.rtl_min_margin_mah, rtol=1e-6)
     assert u.p_landing == (1.0 if check.margin_mah >= 0 else 0.0)
-    assert all(s["share"] is None for s in u.sources)
+    drawn = [s["name"] for s in u.sources if s["share"] is not None]
+    assert drawn == ["power model error"]
+
+
+def test_nothing_drawn_is_refused_not_a_band_of_one_number(capsys):
+    ac, pack, mission = solo()
+    with pytest.raises(InputError, match="nothing is drawn"):
+        monte_carlo(MissionChain(ac, pack), mission, spreads=Spreads.only(), samples=40)
+    status = main(["check", str(SURVEY), "--aircraft", str(SOLO), "--uncertainty",
+                   "--wind-sd", "0@0", "--temperature-sd", "0", "--model-error-sd", "0"])
+    err = capsys.readouterr().err
+    assert status == 2 and "nothing is drawn" in err and "Traceback" not in err
 
 
 def test_state_of_health_alone_gives_the_normal_distribution_of_the_landing_charge():
@@ -65,7 +79,7 @@ def test_state_of_health_alone_gives_the_normal_distribution_of_the_landing_char
     chain = MissionChain(ac, pack)
     nominal = chain.check(mission)
     mu, sd = 0.97, 0.04
-    u = monte_carlo(chain, mission, spreads=Spreads(soh=mu, soh_sd=sd), samples=6000,
+    u = monte_carlo(chain, mission, spreads=Spreads.only(soh=mu, soh_sd=sd), samples=6000,
                     seed=3)
     usable, used, reserve = nominal.usable_mah, nominal.charge_used_mah, nominal.reserve_mah
     m_l, s_l = usable * mu - used, usable * sd
@@ -89,13 +103,13 @@ def test_the_variance_split_names_the_input_that_drives_the_spread():
     ac, pack, mission = solo()
     chain = MissionChain(ac, pack)
     heavy = monte_carlo(chain, mission, samples=1500, seed=1,
-                        spreads=Spreads(soh=0.99, soh_sd=0.002, payload_sd_kg=0.08))
+                        spreads=Spreads.only(soh=0.99, soh_sd=0.002, payload_sd_kg=0.08))
     assert heavy.driver == "payload"
     weak = monte_carlo(chain, mission, samples=1500, seed=1,
-                       spreads=Spreads(soh=0.95, soh_sd=0.04, payload_sd_kg=0.005))
+                       spreads=Spreads.only(soh=0.95, soh_sd=0.04, payload_sd_kg=0.005))
     assert weak.driver == "state of health"
     windy = monte_carlo(chain, mission, samples=1500, seed=1,
-                        spreads=Spreads(wind_sd_ms=3.0, soh=0.99, soh_sd=0.001))
+                        spreads=Spreads.only(wind_sd_ms=3.0, soh=0.99, soh_sd=0.001))
     assert windy.driver == "wind speed" and windy.weather_draws > 1
     assert windy.r2 > 0.5
 
@@ -104,9 +118,9 @@ def test_more_spread_lowers_the_probability_and_widens_the_band():
     ac, pack, mission = solo()
     chain = MissionChain(ac, pack)
     narrow = monte_carlo(chain, mission, samples=1500, seed=2,
-                         spreads=Spreads(soh=0.99, soh_sd=0.01))
+                         spreads=Spreads.only(soh=0.99, soh_sd=0.01))
     wide = monte_carlo(chain, mission, samples=1500, seed=2,
-                       spreads=Spreads(soh=0.99, soh_sd=0.06))
+                       spreads=Spreads.only(soh=0.99, soh_sd=0.06))
     assert (wide.landing_mah["p95"] - wide.landing_mah["p5"]
             > 3 * (narrow.landing_mah["p95"] - narrow.landing_mah["p5"]))
     assert wide.p_landing < narrow.p_landing
@@ -156,11 +170,11 @@ def test_model_covariance_is_drawn_and_drives_the_spread(tmp_path):
     pack = load_battery(_pack_with_covariance(tmp_path, cov))
     ac, _, mission = solo()
     u = monte_carlo(MissionChain(ac, pack), mission, samples=800, seed=0,
-                    spreads=Spreads(soh=1.0, soh_sd=0.001))
+                    spreads=Spreads.only(soh=1.0, soh_sd=0.001))
     src = next(s for s in u.sources if s["name"].startswith("integral model"))
     assert "model.covariance" in src["origin"] and src["share"] > 0.5
     off = monte_carlo(MissionChain(ac, pack), mission, samples=800, seed=0,
-                      spreads=Spreads(soh=1.0, soh_sd=0.001, model_covariance=False))
+                      spreads=Spreads.only(soh=1.0, soh_sd=0.001, model_covariance=False))
     assert np.std(off.landing_samples_mah) < 0.5 * np.std(u.landing_samples_mah)
 
 
