@@ -40,9 +40,9 @@ points of a Latin hypercube (McKay, Beckman and Conover 1979) — by default one
 :data:`SAMPLES_PER_WEATHER_DRAW` samples — and the chain runs once per weather draw with
 that draw's share of the samples on its pack axis; the pack inputs are drawn per sample.
 The power model and the circuit model cost one evaluation per distinct take-off mass and
-power error, so the samples of a weather draw share at most :data:`PAYLOAD_LEVELS` levels
-of the payload and of the power error, one drawn in each stratum of equal probability
-(stratified sampling). The probability's resolution is one over the number of independent
+power error, so the samples of a weather draw share a few levels of the payload and of
+the power error (:data:`PAYLOAD_LEVELS`, or more where the weather draws are few), one
+drawn in each stratum of equal probability (stratified sampling). The probability's resolution is one over the number of independent
 draws of the most coarsely drawn input (the weather draws, as a rule). The return-home
 reserve of every sample is checked at the points where the nominal run is tightest plus a
 regular thinning of the rest (``rtl_points``), not at every point of every leg.
@@ -98,8 +98,10 @@ __all__ = ["DEFAULT_FORECAST_SPREADS", "DEFAULT_MODEL_ERROR_SD", "Spreads",
 #: Standard deviations within which a drawn value must stay physical (a capacity, δ, a
 #: payload): a spread that reaches zero inside this many is refused as bad input.
 PHYSICAL_SIGMAS = 4.0
-#: Levels of the payload and of the power error per weather draw (stratified; the power
-#: and circuit models run once per distinct take-off mass and power error).
+#: Least levels of the payload and of the power error per weather draw (stratified; the
+#: power and circuit models run once per distinct take-off mass and power error); more
+#: where the weather draws are few, so that the levels over all weather draws are at least
+#: one per :data:`SAMPLES_PER_WEATHER_DRAW` samples.
 PAYLOAD_LEVELS = 8
 #: Samples per weather draw by default: 2000 samples draw the weather 400 times (the
 #: probability's resolution 0.25 %), one chain run per weather draw. [samples]
@@ -433,7 +435,9 @@ def draw(rng, env: Environment, t_base: float, s: Spreads, samples: int, g: int,
     else:
         theta = np.tile(mean3, (samples, 1))
     soh = np.minimum(s.soh + s.soh_sd * rng.standard_normal(samples), 1.0 / usable_fraction)
-    z_pay, z_power, level = _stratified(rng, group, PAYLOAD_LEVELS)
+    # at least one level per SAMPLES_PER_WEATHER_DRAW samples over all weather draws
+    levels = max(PAYLOAD_LEVELS, math.ceil(samples / (g * SAMPLES_PER_WEATHER_DRAW)))
+    z_pay, z_power, level = _stratified(rng, group, levels)
     return Draws(group=group, wind_mean=wind_mean, gust=gust, wind=wind,
                  direction_dev=direction_dev,
                  direction=(env.wind_from_deg + direction_dev) % 360.0, temp=temp,

@@ -84,7 +84,7 @@ AIRCRAFT_KEYS = {
     "energy_error_sd": S.between(0.0, L.ENERGY_ERROR_SD_MAX, meaning=(
         "spread of the model's whole-flight energy error, a fraction (0.05 = 5 %): the root "
         "mean square of (predicted − measured) / measured energy over the flights "
-        "`fit-aircraft` trained on; `check --uncertainty` draws a multiplicative power "
+        "`fit-aircraft` trained on; the uncertainty of `endurance check` draws a power "
         "error with it (absent: a documented default)")),
 }
 
