@@ -37,7 +37,7 @@ the forecast's one number, its probability 0 or 1.
 
 The weather changes every leg's kinematics, so the weather is drawn at ``weather_draws``
 points of a Latin hypercube (McKay, Beckman and Conover 1979) — by default one per
-:data:`SAMPLES_PER_WEATHER_DRAW` samples — and the chain runs once per weather draw with
+:data:`SAMPLES_PER_WEATHER_DRAW` samples, at most :data:`MAX_DEFAULT_WEATHER_DRAWS` — and the chain runs once per weather draw with
 that draw's share of the samples on its pack axis; the pack inputs are drawn per sample.
 The power model and the circuit model cost one evaluation per distinct take-off mass and
 power error, so the samples of a weather draw share a few levels of the payload and of
@@ -106,6 +106,10 @@ PAYLOAD_LEVELS = 8
 #: Samples per weather draw by default: 2000 samples draw the weather 400 times (the
 #: probability's resolution 0.25 %), one chain run per weather draw. [samples]
 SAMPLES_PER_WEATHER_DRAW = 5
+#: Most weather draws by default: a resolution of 0.25 %, a twentieth of the 5 % a GO at
+#: 95 % leaves to failures; more samples refine the pack inputs and the tails (each weather
+#: draw costs a run of the chain; ``weather_draws`` asks for more).
+MAX_DEFAULT_WEATHER_DRAWS = 400
 #: Constraints a landing sample must meet (all but the return-home reserve).
 LANDING_CONSTRAINTS = tuple(c for c in CHECK_CONSTRAINTS if c != "return_home")
 
@@ -611,14 +615,16 @@ def _summary(nominal: ChainResult, flown: dict, sub: np.ndarray) -> dict:
 
 def _weather_draws(s: Spreads, samples: int, weather_draws: int | None) -> int:
     """Weather draws: 1 when no weather input is spread, else ``weather_draws`` or one per
-    :data:`SAMPLES_PER_WEATHER_DRAW` samples, at most one per sample."""
+    :data:`SAMPLES_PER_WEATHER_DRAW` samples up to :data:`MAX_DEFAULT_WEATHER_DRAWS`, at
+    most one per sample."""
     if not (s.wind_sd_ms > 0 or s.wind_direction_sd_deg > 0 or s.gust_factor > 1.0
             or s.temperature_sd_c > 0):
         return 1
     if weather_draws is not None and not 2 <= int(weather_draws) <= samples:
         raise InputError(f"weather_draws must be between 2 and the samples ({samples}), got "
                          f"{weather_draws}")
-    return int(weather_draws or max(2, samples // SAMPLES_PER_WEATHER_DRAW))
+    return int(weather_draws or max(2, min(samples // SAMPLES_PER_WEATHER_DRAW,
+                                            MAX_DEFAULT_WEATHER_DRAWS)))
 
 
 def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment | None = None,
@@ -645,7 +651,8 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
         GO when P(land with the reserve) is at least this. [unitless]
     weather_draws : int, optional
         Weather points of the Latin hypercube (default one per
-        :data:`SAMPLES_PER_WEATHER_DRAW` samples; 1 when no weather input is spread).
+        :data:`SAMPLES_PER_WEATHER_DRAW` samples, at most :data:`MAX_DEFAULT_WEATHER_DRAWS`;
+        1 when no weather input is spread).
     rtl_points : int
         Tightest return-home points of the nominal run checked in every sample.
     payload_kg : float, optional

@@ -279,8 +279,8 @@ def test_the_circuit_model_runs_once_per_mass_and_gives_each_sample_its_own():
 # ------------------------------------------------------- a probability that means what it says
 
 def test_weather_draws_scale_with_the_samples_and_the_resolution_is_stated():
-    """The weather is drawn once per 5 samples (not 16 times whatever the samples), and
-    the probability's step is one over those draws."""
+    """The weather is drawn once per 5 samples up to 400 draws (not 16 times whatever the
+    samples), and the probability's step is one over those draws."""
     ac, pack, mission = solo()
     chain = MissionChain(ac, pack)
     for n in (400, 1000):
@@ -290,6 +290,9 @@ def test_weather_draws_scale_with_the_samples_and_the_resolution_is_stated():
         assert u.independent_draws == n // 5 and u.p_resolution == pytest.approx(5 / n)
         assert np.unique(u.landing_samples_mah).size >= n // 5
         assert u.to_dict()["p_resolution"] == pytest.approx(5 / n)
+    many = monte_carlo(chain, mission, spreads=Spreads.only(wind_sd_ms=2.0), samples=2500,
+                       seed=1)
+    assert many.weather_draws == 400 and many.p_resolution == pytest.approx(1 / 400)
     own = monte_carlo(chain, mission, spreads=Spreads.only(wind_sd_ms=2.0), samples=400,
                       weather_draws=50, seed=1)
     assert own.weather_draws == 50 and own.p_resolution == pytest.approx(1 / 50)

@@ -35,6 +35,7 @@ from planner.parameters import load_aircraft_and_battery
 from planner.chain.uncertainty import (
     DEFAULT_FORECAST_SPREADS,
     DEFAULT_MODEL_ERROR_SD,
+    MAX_DEFAULT_WEATHER_DRAWS,
     SAMPLES_PER_WEATHER_DRAW,
     Spreads,
     UncertaintyResult,
@@ -78,8 +79,9 @@ def register(sub) -> None:
     u.add_argument("--samples", default="2000", help="Monte Carlo samples (default 2000)")
     u.add_argument("--weather-samples", metavar="N",
                    help="weather draws, one chain run each (default one per "
-                        f"{SAMPLES_PER_WEATHER_DRAW} samples: 400 of 2000); the probability "
-                        "moves in steps of 1/N")
+                        f"{SAMPLES_PER_WEATHER_DRAW} samples, at most "
+                        f"{MAX_DEFAULT_WEATHER_DRAWS}: 400 of 2000); the probability moves "
+                        "in steps of 1/N")
     u.add_argument("--seed", default="0", help="random seed: the same seed gives the same "
                                                "answer (default 0)")
     u.add_argument("--confidence", default="0.95",
