@@ -319,11 +319,16 @@ def test_cli_states_the_resolution_and_takes_weather_samples(capsys):
     status = main(["check", str(SURVEY), "--aircraft", str(SOLO), "--uncertainty",
                    "--samples", "400", "--seed", "1"])
     out = capsys.readouterr().out
-    assert status in (0, 1) and "P resolution 1/80 = 1.2 %" in out
+    assert status in (0, 1) and "P resolution 1/80 = 1.25 %" in out
+    assert "Warning   P moves in steps of 1.25 %, more than a tenth of the 5 %" in out
     status = main(["check", str(SURVEY), "--aircraft", str(SOLO), "--uncertainty",
                    "--samples", "400", "--weather-samples", "100", "--seed", "1"])
     out = capsys.readouterr().out
     assert "100 weather draws" in out and "P resolution 1/100 = 1 %" in out
+    # 40 samples: 8 weather draws, a verdict resting on a handful of draws is flagged
+    main(["check", str(SURVEY), "--aircraft", str(SOLO), "--uncertainty", "--samples", "40"])
+    out = capsys.readouterr().out
+    assert "P resolution 1/8 = 12.5 %" in out and "Warning   P moves in steps of 12.5 %" in out
     for bad in ("1", "401", "many"):
         status = main(["check", str(SURVEY), "--aircraft", str(SOLO), "--uncertainty",
                        "--samples", "400", "--weather-samples", bad])

@@ -303,7 +303,7 @@ def render_uncertainty(u: UncertaintyResult) -> str:
 
 def _pct(fraction: float) -> str:
     """A probability step in per cent with its significant digits."""
-    return f"{100 * fraction:.2g}"
+    return f"{100 * fraction:.3g}"
 
 
 def _resolution_of(u: UncertaintyResult) -> str:
