@@ -690,6 +690,10 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
     flown = fly(chain, mission, env, d, sub, weather_spread=g > 1)
     sources, r2, driver = variance_split(_columns(chain, nominal, d, s, origin, cov),
                                          flown["landing"])
+    if all(src["spread"] == "not drawn" for src in sources):
+        raise InputError("nothing is drawn: the spreads given change no input (gusts of a "
+                         "calm forecast?), so every sample would be the forecast's run; give "
+                         "a spread")
     sources.append({"name": "aircraft parameters", "spread": "not drawn",
                     "origin": "absent: the aircraft file stores no parameter covariance "
                               "(their effect on the energy is in the power model error)",

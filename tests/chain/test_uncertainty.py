@@ -74,6 +74,11 @@ def test_nothing_drawn_is_refused_not_a_band_of_one_number(capsys):
                    "--wind-sd", "0@0", "--temperature-sd", "0", "--model-error-sd", "0"])
     err = capsys.readouterr().err
     assert status == 2 and "nothing is drawn" in err and "Traceback" not in err
+    # gusts of a calm forecast move nothing either
+    calm = replace(mission.environment, wind_speed_ms=0.0)
+    with pytest.raises(InputError, match="nothing is drawn.*calm"):
+        monte_carlo(MissionChain(ac, pack), mission, calm, samples=40,
+                    spreads=Spreads.only(gust_factor=1.5))
 
 
 def test_state_of_health_alone_gives_the_normal_distribution_of_the_landing_charge():
