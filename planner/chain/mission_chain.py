@@ -596,9 +596,10 @@ class MissionChain:
         pack_samples : dict of array_like, optional
             Per-pack values that replace the packs' own, one per pack (the pack axis as a
             Monte Carlo sample axis): ``delta``, ``epsilon``, ``beta`` of the integral
-            model and ``soh``, the state of health, which scales the charge the pack can
+            model, ``soh``, the state of health, which scales the charge the pack can
             give (nominal × usable fraction, and the circuit model's charge to the
-            cut-off).
+            cut-off), and ``power_scale``, which multiplies the battery power (the power
+            model's own error).
 
         Returns
         -------

@@ -140,7 +140,9 @@ def chain_inputs(aircraft: Aircraft, packs: list[BatteryPack], models: list[str]
     ``environment`` overrides the mission's weather, ``temperature_c`` [°C] its air
     temperature, ``payload_kg`` its payload (one value or one per pack) [kg];
     ``pack_samples`` replaces per pack the integral model's ``delta``, ``epsilon``,
-    ``beta`` and gives a state of health ``soh`` that scales the usable charge.
+    ``beta``, gives a state of health ``soh`` that scales the usable charge and a
+    ``power_scale`` that multiplies the battery power (a Monte Carlo draw of the power
+    model's own error).
 
     Raises
     ------
@@ -197,7 +199,8 @@ def pack_arrays(packs, temperature_c) -> dict[str, np.ndarray]:
     return {"mass": m * count, "cap": total_mah * AS_PER_MAH,
             "usable": total_mah * AS_PER_MAH * frac,
             "r": np.nan_to_num(r, nan=0.0) / count, "imax": c_rate * total_mah / 1000.0,
-            "cells": cells, "delta": delta, "eps": eps, "beta": beta, "scale": scale}
+            "cells": cells, "delta": delta, "eps": eps, "beta": beta, "scale": scale,
+            "log_power_scale": np.zeros(len(packs))}
 
 
 def _apply_samples(pa: dict, samples: dict, k: int) -> np.ndarray:
@@ -210,6 +213,11 @@ def _apply_samples(pa: dict, samples: dict, k: int) -> np.ndarray:
             pa["usable"] = pa["usable"] * v
         elif key in ("delta", "epsilon", "beta"):
             pa["eps" if key == "epsilon" else key] = v
+        elif key == "power_scale":
+            if not np.all(v > 0):
+                raise InputError(f"pack sample {int(np.argmax(~(v > 0)))}: power_scale "
+                                 "must be > 0")
+            pa["log_power_scale"] = np.log(v)
         else:
             raise ValueError(f"pack_samples: unknown key {key!r}")
     bad_sample = ~((pa["delta"] > 0) & (pa["beta"] > 0))
@@ -351,9 +359,9 @@ class CircuitRun:
 def circuit_model(inputs: ChainInputs, states: FlightStates, power: ChainPower) -> CircuitRun:
     """Step 4a: the circuit (and thermal) model of the packs whose model is ``"circuit"``.
 
-    The distinct (pack, take-off mass) pairs are run once (:func:`circuit_packs`) and
-    spread back: the samples of a Monte Carlo run share one pack file and differ in the
-    circuit model only by their mass.
+    The distinct (pack, take-off mass, power scale) triples are run once
+    (:func:`circuit_packs`) and spread back: the samples of a Monte Carlo run share one
+    pack file and differ in the circuit model only by their mass and power scale.
     """
     k = len(inputs.packs)
     figures = {name: np.full(k, np.nan) for name in CIRCUIT_FIGURES}
@@ -361,7 +369,8 @@ def circuit_model(inputs: ChainInputs, states: FlightStates, power: ChainPower) 
     bad = np.zeros(k, bool)
     if not which:
         return CircuitRun(figures, which, np.zeros(0), np.zeros((0, states.legs)), bad)
-    keys = [(id(inputs.packs[i]), float(inputs.mass[i])) for i in which]
+    keys = [(id(inputs.packs[i]), float(inputs.mass[i]),
+             float(inputs.pack["log_power_scale"][i])) for i in which]
     first: dict = {}
     inv = np.array([first.setdefault(key, len(first)) for key in keys])
     reps = np.zeros(len(first), int)
@@ -397,7 +406,7 @@ def circuit_packs(inputs: ChainInputs, states: FlightStates, power: ChainPower,
     thermal = [None if p.thermal is None else p.thermal_parameters().with_air(t_model)
                for p in packs]
     t, step_col, leg, window, total = _circuit_times(table)
-    log_p = power.table.log_power(inputs.mass[which])
+    log_p = pack_log_power(inputs, power, which)
     load = np.exp(np.concatenate([log_p[:, power.leg], log_p[:, [power.hold]]], axis=1))
     probes = np.clip(np.searchsorted(t, table.end_time_s, side="left") - 1, 0, len(t) - 1)
     cells = np.array([p.cells_series for p in packs], float)
@@ -550,12 +559,19 @@ class LegFigures:
         return self.stress_end - self.increment
 
 
+def pack_log_power(inputs: ChainInputs, power: ChainPower, rows) -> np.ndarray:
+    """:math:`\\ln P` of the packs ``rows`` at every state of the power table: the table at
+    their take-off masses times their ``power_scale`` (packs × states)."""
+    return (power.table.log_power(inputs.mass[rows])
+            + inputs.pack["log_power_scale"][rows, None])
+
+
 def leg_figures(inputs: ChainInputs, states: FlightStates, power: ChainPower,
                 rows: slice) -> LegFigures:
     """Step 4c: the integral model ([UAV23] eq. 14) and the loaded current along the legs
     of the packs ``rows`` (one compiled pass, :func:`leg_kernel`)."""
     pa = inputs.pack
-    lp = power.table.log_power(inputs.mass[rows])
+    lp = pack_log_power(inputs, power, rows)
     rate = integral.stress_rate_from_log_power(lp, pa["delta"][rows, None],
                                                pa["eps"][rows, None])
     lp_leg = np.ascontiguousarray(lp[:, power.leg])

@@ -351,12 +351,38 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     return result
 
 
+#: Fewest training flights whose per-flight energy errors give the fitted aircraft its
+#: ``energy_error_sd``: with fewer, the spread of one or two numbers is no spread.
+MIN_FLIGHTS_ENERGY_ERROR_SD = 3
+
+
+def energy_error_sd(fitted: Aircraft, s_trn: Samples, mass_kg) -> tuple[float | None, int]:
+    """The spread of the fitted model's whole-flight energy error on its training flights:
+    the root mean square of (predicted − measured) / measured energy of each flight's
+    airborne part (:func:`per_experiment_energy_error`), about zero because
+    ``check --uncertainty`` draws the error centred on the model; and the flights it
+    rests on. None with fewer than :data:`MIN_FLIGHTS_ENERGY_ERROR_SD` flights. [unitless]
+
+    An in-sample figure: the flights the parameters were fitted to, so it is a lower
+    bound of the error on other flights."""
+    m = sample_masses(s_trn, mass_kg)
+    errors = np.array(list(per_experiment_energy_error(fitted, s_trn, m).values())) / 100.0
+    errors = errors[np.isfinite(errors)]
+    if errors.size < MIN_FLIGHTS_ENERGY_ERROR_SD:
+        return None, int(errors.size)
+    return float(np.sqrt(np.mean(errors**2))), int(errors.size)
+
+
 def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg) -> dict:
     """Power RMSE and energy error of the start and the fitted aircraft on the training
-    and (with at least 2 samples) validation rows, and the per-flight energy error of the
-    validation flights. ``before`` and ``after`` are the samples each aircraft is flown on:
-    the same, unless the fit chose a state lead."""
-    out: dict[str, Any] = {}
+    and (with at least 2 samples) validation rows, the per-flight energy error of the
+    validation flights, and the fitted aircraft carrying its training flights'
+    :func:`energy_error_sd` (``aircraft``, ``energy_error_sd``, ``energy_error_flights``).
+    ``before`` and ``after`` are the samples each aircraft is flown on: the same, unless
+    the fit chose a state lead."""
+    sd, flights = energy_error_sd(fitted, _subset(after, trn), mass_kg)
+    out: dict[str, Any] = {"aircraft": replace(fitted, energy_error_sd=sd),
+                           "energy_error_sd": sd, "energy_error_flights": flights}
     for name, rows in (("train", trn), ("validation", val)):
         if name == "validation" and rows.sum() < 2:
             break

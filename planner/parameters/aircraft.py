@@ -84,6 +84,11 @@ AIRCRAFT_KEYS = {
     "source": S.text("where the numbers come from"),
     "fit_status": S.text("what `fit-aircraft` said of its fit: `ok`, or `misfit: <parameter> …` "
                          "(read, not used)"),
+    "energy_error_sd": S.between(0.0, L.ENERGY_ERROR_SD_MAX, meaning=(
+        "spread of the model's whole-flight energy error, a fraction (0.05 = 5 %): the root "
+        "mean square of (predicted − measured) / measured energy over the flights "
+        "`fit-aircraft` trained on; the uncertainty of `endurance check` draws a power "
+        "error with it (absent: a documented default)")),
 }
 
 FIXED_WING_KEYS = {
@@ -391,6 +396,7 @@ class Aircraft:
     fixed_wing: FixedWing | None = None
     multirotor: Multirotor | None = None
     source: str | None = None
+    energy_error_sd: float | None = None
     path: str | None = None
     navigation: Navigation | None = None
 
@@ -558,6 +564,8 @@ class Aircraft:
             out["navigation"] = self.navigation.to_mapping()
         if self.source:
             out["source"] = self.source
+        if self.energy_error_sd is not None:
+            out["energy_error_sd"] = float(self.energy_error_sd)
         return out
 
 

@@ -77,6 +77,10 @@ POWER_LEAD_MAX_S = 1.0
 #: so over the ±100 % of load the reference spans, |η1| of more than 1 would carry it out
 #: of that range. [unitless]
 EFFICIENCY_SLOPE_MAX = 1.0
+#: Spread of a power model's whole-flight energy error (a fraction): calibrated models
+#: miss by a few per cent, uncalibrated ones by tens; beyond 1 (100 %) a fraction was
+#: written as a per cent. [unitless]
+ENERGY_ERROR_SD_MAX = 1.0
 #: Least reference mechanical power of the efficiency curve: no aircraft flies on 1 W. [W]
 REFERENCE_POWER_MIN_W = 1.0
 #: Zero-lift drag coefficient: flying airframes lie at 0.01–0.1; a flat plate across the

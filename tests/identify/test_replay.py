@@ -318,3 +318,35 @@ def test_fit_aircraft_takes_a_mass_per_flight(solo, two_payloads):
     assert abs(per["validation"]["after"]["energy_error_pct"]) < 1.0
     with pytest.raises(InputError, match="no mass for experiment"):
         fit_aircraft(two_payloads, ac, mass_kg={"p0": base})
+def test_fit_aircraft_writes_the_rms_energy_error_of_its_training_flights(tmp_path, solo,
+                                                                          simulated):
+    """energy_error_sd is the RMS (about zero, not about the mean) of the per-flight energy
+    error on the training flights: the truth flies its own simulated flights within a few
+    tenths of a per cent; an η 10 % too high under-predicts every flight's shaft power by
+    1/1.1, so its RMS is near 9 % although the errors hardly differ between flights."""
+    from planner.identify.aircraft_fit import airborne_samples, energy_error_sd
+    ac, pack = solo
+    mass = ac.empty_mass_kg + pack.mass_kg
+    s = airborne_samples(simulated)
+    truth = with_params(ac, TRUTH)
+    sd, flights = energy_error_sd(truth, s, mass)
+    assert flights == 4 and sd < 0.01
+    high = with_params(truth, {"efficiency": 1.1 * TRUTH["efficiency"]})
+    sd_high, _ = energy_error_sd(high, s, mass)
+    assert 0.07 < sd_high < 0.095
+    three = airborne_samples(simulated[simulated.experiment != "sim0"])
+    assert energy_error_sd(truth, three, mass)[0] is not None
+    two = airborne_samples(simulated[simulated.experiment.isin(["sim0", "sim1"])])
+    assert energy_error_sd(truth, two, mass) == (None, 2)
+    r = fit_aircraft(simulated, ac, mass_kg=mass)
+    assert r["energy_error_flights"] == len(r["train_experiments"]) == 3
+    assert r["aircraft"].energy_error_sd == r["energy_error_sd"] < 0.01
+    # written into the aircraft file, read back, and drawn by check --uncertainty
+    csv = tmp_path / "sim.csv"
+    simulated.to_csv(csv, index=False)
+    out = tmp_path / "fitted.yaml"
+    assert main(["fit-aircraft", str(csv), "--aircraft", str(REPO / "aircraft/solo_survey.yaml"),
+                 "--out", str(out)]) == 0
+    from planner.parameters import load_aircraft
+    fitted = load_aircraft(out)
+    assert fitted.energy_error_sd == pytest.approx(r["energy_error_sd"], rel=1e-6)

@@ -128,6 +128,8 @@ def test_cli_refuses_out_of_range_wind_with_one_line(wind):
     (SOLO, "multirotor", "tip_speed_ms", 1e-300, "multirotor.tip_speed_ms must be >= 10"),
     (SOLO, "multirotor", "tip_speed_ms", 1e308, "multirotor.tip_speed_ms must be <= 340"),
     (SOLO, "multirotor", "max_thrust_n", 1e308, "multirotor.max_thrust_n must be <= 100000"),
+    (SOLO, None, "energy_error_sd", 8.2, "energy_error_sd must be <= 1"),   # per cent for a fraction
+    (SOLO, None, "energy_error_sd", -0.1, "energy_error_sd must be >= 0"),
 ])
 def test_aircraft_numbers_are_bounded(tmp_path, path, block, key, value, expected):
     assert expected.replace("\\", "") in load_error(load_aircraft, tmp_path,

@@ -168,6 +168,10 @@ def render(r, mass) -> str:
             lines.append(f"{split:<10} power RMSE {b['rmse_w']:7.1f} → {a['rmse_w']:7.1f} W, "
                          f"energy error {b['energy_error_pct']:+6.1f} → "
                          f"{a['energy_error_pct']:+6.1f} %")
+    if r.get("energy_error_sd") is not None:
+        lines.append(f"training flights: RMS energy error {100 * r['energy_error_sd']:.1f} % "
+                     f"over {r['energy_error_flights']} flight(s), written as energy_error_sd "
+                     "(the power error check --uncertainty draws)")
     if "per_experiment_energy_error_pct" in r:
         after = r["per_experiment_energy_error_pct"]["after"]
         vals = sorted(after.values())

@@ -32,7 +32,15 @@ from planner.chain.failsafe import (
 )
 from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import load_aircraft_and_battery
-from planner.chain.uncertainty import Spreads, UncertaintyResult, monte_carlo
+from planner.chain.uncertainty import (
+    DEFAULT_FORECAST_SPREADS,
+    DEFAULT_MODEL_ERROR_SD,
+    MAX_DEFAULT_WEATHER_DRAWS,
+    SAMPLES_PER_WEATHER_DRAW,
+    Spreads,
+    UncertaintyResult,
+    monte_carlo,
+)
 
 
 def register(sub) -> None:
@@ -69,22 +77,36 @@ def register(sub) -> None:
                    help="draw the uncertain inputs and give P(landing with the reserve); "
                         "GO when it is at least --confidence")
     u.add_argument("--samples", default="2000", help="Monte Carlo samples (default 2000)")
+    u.add_argument("--weather-samples", metavar="N",
+                   help="weather draws, one chain run each (default one per "
+                        f"{SAMPLES_PER_WEATHER_DRAW} samples, at most "
+                        f"{MAX_DEFAULT_WEATHER_DRAWS}: 400 of 2000); the probability moves "
+                        "in steps of 1/N")
     u.add_argument("--seed", default="0", help="random seed: the same seed gives the same "
                                                "answer (default 0)")
     u.add_argument("--confidence", default="0.95",
                    help="required P(landing with the reserve) (default 0.95)")
     u.add_argument("--wind-sd", metavar="SPEED@DEG",
                    help="spread of the forecast wind: speed [m/s] @ direction [deg], one "
-                        "standard deviation, e.g. 2@30")
+                        "standard deviation, e.g. 2@30; 0@0: not drawn (default "
+                        f"{DEFAULT_FORECAST_SPREADS['wind_sd_ms'][0]:g}@{DEFAULT_FORECAST_SPREADS['wind_direction_sd_deg'][0]:g}, a "
+                        "weather forecast's error, named in the output)")
     u.add_argument("--gust", metavar="F", help="gust factor: peak gust over mean wind (≥ 1), "
                                                "e.g. 1.4 for 10G14 kt")
     u.add_argument("--temperature-sd", metavar="C",
-                   help="spread of the air temperature [°C], one standard deviation")
+                   help="spread of the air temperature [°C], one standard deviation; 0: "
+                        f"not drawn (default {DEFAULT_FORECAST_SPREADS['temperature_sd_c'][0]:g} °C, a weather "
+                        "forecast's error, named in the output)")
     u.add_argument("--soh", metavar="F±SD",
                    help="pack state of health: share of its usable charge it still gives, "
                         "with a spread, e.g. 0.9±0.05 (or 0.9+-0.05)")
     u.add_argument("--payload-sd", metavar="KG", help="spread of the payload [kg], one "
                                                       "standard deviation")
+    u.add_argument("--model-error-sd", metavar="F",
+                   help="spread of the power model's own error, a fraction of the power "
+                        "(0.05 or 5%%); 0: not drawn (default: the aircraft file's "
+                        "energy_error_sd, which fit-aircraft writes, else "
+                        f"{DEFAULT_MODEL_ERROR_SD:g})")
     p.add_argument("--quiet", action="store_true", help="print only the verdict line")
     p.set_defaults(func=run)
 
@@ -120,7 +142,8 @@ def run(args) -> int:
     if args.uncertainty:
         with flags_for(soh="--soh", gust_factor="--gust", samples="--samples",
                        confidence="--confidence", wind_sd_ms="--wind-sd",
-                       temperature_sd_c="--temperature-sd", payload_sd_kg="--payload-sd"):
+                       temperature_sd_c="--temperature-sd", payload_sd_kg="--payload-sd",
+                       model_error_sd="--model-error-sd", weather_draws="--weather-samples"):
             unc = monte_carlo(chain, mission, env, spreads, **mc)
         run_result = unc.nominal
     else:
@@ -182,7 +205,7 @@ def check_mission_payload(mission, path, aircraft) -> None:
 def parse_spreads(args) -> Spreads:
     """The ``--wind-sd``, ``--gust``, ``--temperature-sd``, ``--soh`` and ``--payload-sd``
     flags → :class:`~planner.chain.uncertainty.Spreads`."""
-    wind_sd, dir_sd = (0.0, 0.0)
+    wind_sd, dir_sd = (None, None)    # None: the default forecast spread
     if args.wind_sd is not None:
         try:
             a, b = args.wind_sd.split("@")
@@ -198,7 +221,7 @@ def parse_spreads(args) -> Spreads:
                              f"{args.wind_sd!r}")
     gust = parse_float(args.gust, "--gust", 1.0, 5.0) if args.gust is not None else 1.0
     t_sd = (parse_float(args.temperature_sd, "--temperature-sd", 0.0, 30.0)
-            if args.temperature_sd is not None else 0.0)
+            if args.temperature_sd is not None else None)
     soh, soh_sd = 1.0, 0.0
     if args.soh is not None:
         text = args.soh.replace("+-", "±").replace("+/-", "±")
@@ -216,17 +239,23 @@ def parse_spreads(args) -> Spreads:
                              f"≥ 0, got {args.soh!r}")
     pay_sd = (parse_float(args.payload_sd, "--payload-sd", 0.0, 100.0)
               if args.payload_sd is not None else 0.0)
+    model_sd = (parse_fraction(args.model_error_sd, "--model-error-sd")
+                if args.model_error_sd is not None else None)
     return Spreads(wind_sd_ms=wind_sd, wind_direction_sd_deg=dir_sd, gust_factor=gust,
-                   temperature_sd_c=t_sd, soh=soh, soh_sd=soh_sd, payload_sd_kg=pay_sd)
+                   temperature_sd_c=t_sd, soh=soh, soh_sd=soh_sd, payload_sd_kg=pay_sd,
+                   model_error_sd=model_sd)
 
 
 def parse_mc(args) -> dict:
-    """``--samples``, ``--seed``, ``--confidence`` → keyword arguments of
-    :func:`~planner.chain.uncertainty.monte_carlo`."""
+    """``--samples``, ``--weather-samples``, ``--seed``, ``--confidence`` → keyword
+    arguments of :func:`~planner.chain.uncertainty.monte_carlo`."""
     conf = parse_fraction(args.confidence, "--confidence")
     if conf <= 0:
         raise InputError(f"--confidence: must be in (0, 1), got {args.confidence!r}")
-    return {"samples": parse_int(args.samples, "--samples", 20, 1_000_000),
+    samples = parse_int(args.samples, "--samples", 20, 1_000_000)
+    weather = (parse_int(args.weather_samples, "--weather-samples", 2, samples)
+               if args.weather_samples is not None else None)
+    return {"samples": samples, "weather_draws": weather,
             "seed": parse_int(args.seed, "--seed", 0, 2**63 - 1), "confidence": conf}
 
 
@@ -238,20 +267,24 @@ def uncertainty_verdict_line(u: UncertaintyResult) -> str:
 
 
 def render_uncertainty(u: UncertaintyResult) -> str:
-    """The Monte Carlo block: probabilities, percentiles, CVaR and the variance split."""
+    """The Monte Carlo block: probabilities and their resolution, percentiles, CVaR and the
+    variance split with where every spread comes from."""
     lm, rm = u.landing_mah, u.rtl_margin_mah
     lines = ["", f"Uncertainty  Monte Carlo through the mission chain: {u.samples} samples, "
                  f"{u.weather_draws} weather draw{'s' if u.weather_draws > 1 else ''}, seed "
                  f"{u.seed}",
              f"  P(landing with the reserve)        {100 * u.p_landing:5.1f} %",
              f"  P(every return home with it too)   {100 * u.p_all_reserves:5.1f} %",
+             f"  P resolution 1/{u.independent_draws} = {_pct(u.p_resolution)} % "
+             f"({_resolution_of(u)})",
              f"  charge left on landing  P5 {lm['p5']:.0f}  P50 {lm['p50']:.0f}  P95 "
              f"{lm['p95']:.0f} mAh (reserve {u.reserve_mah:.0f} mAh); CVaR5 "
              f"{u.cvar5_landing_mah:.0f} mAh (mean of the worst 5 %)",
              f"  return-home margin      P5 {rm['p5']:+.0f}  P50 {rm['p50']:+.0f}  P95 "
              f"{rm['p95']:+.0f} mAh (smallest along the mission)",
-             "  spread of the landing charge by input (share of its variance, additive "
-             "regression" + (f", R² = {u.r2:.2f}):" if math.isfinite(u.r2) else "):")]
+             "  spread of the landing charge by input (Shapley shares of its variance, "
+             "additive quadratic regression" + (f"; they sum to R² = {100 * u.r2:.1f} %):"
+                                                 if math.isfinite(u.r2) else "):")]
     width = max(len(src["name"]) for src in u.sources)
     for src in u.sources:
         share = "" if src["share"] is None else f"{100 * src['share']:5.1f} %"
@@ -259,9 +292,27 @@ def render_uncertainty(u: UncertaintyResult) -> str:
                      f"{_origin_flag(src['origin'])}")
     if u.driver:
         lines.append(f"  drives the spread most: {u.driver}")
+    if u.coarse:
+        lines.append(f"Warning   P moves in steps of {_pct(u.p_resolution)} %, more than a "
+                     f"tenth of the {100 * (1 - u.confidence):g} % a GO leaves to failures: "
+                     "raise --samples or --weather-samples")
     lines.append("")
     lines.append(uncertainty_verdict_line(u))
     return "\n".join(lines)
+
+
+def _pct(fraction: float) -> str:
+    """A probability step in per cent with its significant digits."""
+    return f"{100 * fraction:.3g}"
+
+
+def _resolution_of(u: UncertaintyResult) -> str:
+    """Which draws set the probability's resolution."""
+    if u.independent_draws == u.weather_draws and u.weather_draws > 1:
+        return f"the weather drawn {u.weather_draws} times; --weather-samples"
+    if u.independent_draws == u.samples:
+        return f"{u.samples} samples"
+    return f"{u.independent_draws} levels of the payload and power error; --samples"
 
 
 FIRMWARE_NAMES = {"ardupilot": "ArduPilot", "px4": "PX4"}
@@ -383,7 +434,8 @@ def render(r: MissionResult, name: str) -> str:
 #: The spread settings of ``monte_carlo`` and the flags that set them.
 _SPREAD_FLAGS = {"wind_sd_ms": "--wind-sd", "wind_direction_sd_deg": "--wind-sd",
                  "gust_factor": "--gust", "temperature_sd_c": "--temperature-sd",
-                 "soh": "--soh", "payload_sd_kg": "--payload-sd"}
+                 "soh": "--soh", "payload_sd_kg": "--payload-sd",
+                 "model_error_sd": "--model-error-sd"}
 
 
 def _origin_flag(origin: str) -> str:
