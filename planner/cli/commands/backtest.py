@@ -185,7 +185,8 @@ def run(args) -> int:
                    data=[str(d) for d in args.data],
                    calibration=(f"held out {len(options.held_out)} flights, calibrated on the "
                                 "others" if options.held_out else
-                                f"{folds}-fold by {args.by}"))
+                                f"{folds}-fold by {args.by}"),
+                   kinematics=_KINEMATICS[args.kinematics])
     text = render(summary)
     print(text)
     out = Path(args.out)
@@ -217,11 +218,21 @@ def _line(name: str, s: dict, unit: str = "%") -> str:
             f"worst {s['max_abs_pct']:5.1f} {unit}  ({s['n']} flights)")
 
 
+#: What each ``--kinematics`` choice flies, for the report.
+_KINEMATICS = {"fitted": "with the navigation fitted per fold on the training flights "
+                         "(spin-up, climb, acceleration and stop at each waypoint, two-rate "
+                         "landing)",
+               "file": "with the aircraft file's navigation: block (constant speed where it "
+                       "has none)",
+               "none": "at constant speed, leg by leg (no navigation model)"}
+
+
 def render(s: dict) -> str:
     """The report: the errors, who was left out and why, the worst flights, and the
     energy error against speed, payload, altitude and wind."""
     lines = [(f"Backtest of {s['flights']} flight(s): {s['scored']} scored, {s['left_out']} "
               f"left out; aircraft {s['aircraft']} calibrated per fold ({s['calibration']})"),
+             f"plans flown {s['kinematics']}" if s.get("kinematics") else "",
              "",
              "prediction error (predicted − measured, % of measured):",
              _line("energy", s["energy"]), _line("charge", s["charge"]),
