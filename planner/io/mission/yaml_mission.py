@@ -280,7 +280,125 @@ def _home(chk: _Checker, data: dict, required: bool) -> tuple[float, float, floa
     return lat, lon, alt
 
 
+def _vertical_leg(chk: _Checker, kind: str, p: dict, path: str, origin: str,
+                  pos: tuple[float, float], alt: float, site: float, before: int) -> Leg | None:
+    """A ``climb`` or ``descend`` leg: to ``altitude_m`` above home or by ``height_m``
+    (a descent with neither goes to 0), at ``rate_ms``."""
+    key = chk.one_of(p, ("altitude_m", "height_m"), path)
+    rate = chk.number(p, "rate_ms", path, positive=True)
+    if key is None and kind == "climb":
+        chk.add(path, "needs altitude_m (above home) or height_m (relative)")
+        return None
+    if key == "height_m":
+        h = chk.number(p, "height_m", path, positive=True)
+        target = None if h is None else alt + (h if kind == "climb" else -h)
+    else:
+        target = 0.0 if key is None else chk.number(p, "altitude_m", path)
+    if target is None or len(chk.problems) > before:
+        return None
+    written = target if key != "height_m" else p["height_m"]
+    if not _altitude(chk, _join(path, key or "altitude_m"), float(written), target, site):
+        return None
+    if (kind == "climb") != (target > alt):
+        chk.add(path, f"goes from {alt:g} m to {target:g} m (expected a "
+                f"{'higher' if kind == 'climb' else 'lower'} altitude; use "
+                f"{'descend' if kind == 'climb' else 'climb'})")
+        return None
+    return Leg(kind, start_en_m=pos, end_en_m=pos, start_alt_m=alt, end_alt_m=target,
+               climb_rate_ms=rate, origin=origin)
+
+
+def _cruise_leg(chk: _Checker, kind: str, p: dict, path: str, origin: str,
+                pos: tuple[float, float], alt: float, site: float, before: int) -> Leg | None:
+    """A ``cruise``: ``distance_m`` along ``course_deg`` (0 = north, clockwise), to an
+    optional ``altitude_m``, at an optional air- or ground speed."""
+    dist = chk.number(p, "distance_m", path, required=True, minimum=0.0,
+                      maximum=MAX_LEG_M, why_max="half the Earth's circumference")
+    course = chk.number(p, "course_deg", path, required=True)
+    speed, is_air = _speed(chk, p, path)
+    new_alt = chk.number(p, "altitude_m", path)
+    if dist is None or course is None or len(chk.problems) > before:
+        return None
+    if new_alt is not None and not _altitude(chk, _join(path, "altitude_m"), new_alt,
+                                             new_alt, site):
+        return None
+    c = math.radians(course)
+    end = (pos[0] + dist * math.sin(c), pos[1] + dist * math.cos(c))
+    end_alt = alt if new_alt is None else new_alt
+    return Leg("cruise", start_en_m=pos, end_en_m=end, start_alt_m=alt, end_alt_m=end_alt,
+               speed_ms=speed, speed_is_airspeed=is_air, origin=origin)
+
+
+def _hover_leg(chk: _Checker, kind: str, p: dict, path: str, origin: str,
+               pos: tuple[float, float], alt: float, site: float, before: int) -> Leg | None:
+    """A ``hover`` of ``duration_s`` where the aircraft is."""
+    dur = chk.number(p, "duration_s", path, required=True, minimum=0.0,
+                     maximum=MAX_HOLD_S, why_max="24 h")
+    if dur is None:
+        return None
+    return Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt, end_alt_m=alt,
+               duration_s=dur, origin=origin)
+
+
+def _loiter_leg(chk: _Checker, kind: str, p: dict, path: str, origin: str,
+                pos: tuple[float, float], alt: float, site: float, before: int) -> Leg | None:
+    """A ``loiter`` of ``duration_s``, or of ``turns`` (duration turns × 2π radius /
+    speed, so ``radius_m`` and a speed are needed)."""
+    key = chk.one_of(p, ("duration_s", "turns"), path)
+    radius = chk.number(p, "radius_m", path, positive=True)
+    speed, is_air = _speed(chk, p, path)
+    if key is None:
+        chk.add(path, "needs duration_s, or turns with radius_m and airspeed_ms")
+        return None
+    if key == "duration_s":
+        dur = chk.number(p, "duration_s", path, minimum=0.0, maximum=MAX_HOLD_S,
+                         why_max="24 h")
+    else:
+        turns = chk.number(p, "turns", path, positive=True, maximum=MAX_LOITER_TURNS,
+                           why_max="the most ArduPilot stores")
+        if "radius_m" not in p or not ("airspeed_ms" in p or "groundspeed_ms" in p):
+            chk.add(path, "turns needs radius_m and airspeed_ms (or groundspeed_ms): "
+                    "the duration is turns x 2 pi radius / speed")
+            return None
+        dur = (None if turns is None or radius is None or speed is None
+               else turns * 2.0 * math.pi * radius / speed)
+        if dur is not None and hold_problem(dur):
+            chk.add(path, f"{turns:g} turns of {radius:g} m at {speed:g} m/s: "
+                    f"{hold_problem(dur, 'loiter time')}")
+            return None
+    if dur is None or len(chk.problems) > before:
+        return None
+    return Leg("loiter", start_en_m=pos, end_en_m=pos, start_alt_m=alt, end_alt_m=alt,
+               speed_ms=speed, speed_is_airspeed=is_air, duration_s=dur,
+               loiter_radius_m=radius, origin=origin)
+
+
+#: Leg kind → the reader of its parameters (each returns the leg, or None after recording
+#: its problems; ``before``: the count of problems before the leg's, any new one drops it).
+_LEG_READERS = {"climb": _vertical_leg, "descend": _vertical_leg, "cruise": _cruise_leg,
+                "hover": _hover_leg, "loiter": _loiter_leg}
+
+
+def _leg_item(chk: _Checker, item: Any, path: str) -> tuple[str, Any] | None:
+    """``(kind, parameters)`` of one item of ``legs`` (a one-key mapping of a known
+    kind), or None after recording the problem."""
+    if not isinstance(item, dict) or len(item) != 1:
+        chk.add(path, "must be a one-key mapping {kind: {parameters}} with kind one of "
+                f"{', '.join(LEG_KINDS)}, got {_describe(item)}")
+        return None
+    (kind, params), = item.items()
+    if kind not in LEG_KINDS:
+        hint = difflib.get_close_matches(str(kind), LEG_KINDS, n=1)
+        tip = f"did you mean {hint[0]!r}? " if hint else ""
+        chk.add(path, f"has unknown leg kind {kind!r} ({tip}expected one of "
+                f"{', '.join(LEG_KINDS)})")
+        return None
+    return kind, params
+
+
 def _legs_form(chk: _Checker, raw: Any, site: float) -> list[Leg]:
+    """The legs of the legs form, dead-reckoned from home (each kind read by
+    :data:`_LEG_READERS`); every problem recorded."""
     if not isinstance(raw, list):
         chk.add("legs", f"must be a list of legs, got {_describe(raw)}")
         return []
@@ -294,101 +412,20 @@ def _legs_form(chk: _Checker, raw: Any, site: float) -> list[Leg]:
     pos = (0.0, 0.0)
     alt = 0.0
     for i, item in enumerate(raw):
-        path = f"legs[{i + 1}]"
-        if not isinstance(item, dict) or len(item) != 1:
-            chk.add(path, "must be a one-key mapping {kind: {parameters}} with kind one of "
-                    f"{', '.join(LEG_KINDS)}, got {_describe(item)}")
+        origin = f"legs[{i + 1}]"
+        kind_params = _leg_item(chk, item, origin)
+        if kind_params is None:
             continue
-        (kind, params), = item.items()
-        if kind not in LEG_KINDS:
-            hint = difflib.get_close_matches(str(kind), LEG_KINDS, n=1)
-            tip = f"did you mean {hint[0]!r}? " if hint else ""
-            chk.add(path, f"has unknown leg kind {kind!r} ({tip}expected one of "
-                    f"{', '.join(LEG_KINDS)})")
-            continue
-        path = f"{path}.{kind}"
+        kind, params = kind_params
+        path = f"{origin}.{kind}"
         before = len(chk.problems)
         p = chk.mapping(params, path, allowed=LEG_KEYS[kind])
         if p is None:
             continue
-        origin = f"legs[{i + 1}]"
-        if kind in ("climb", "descend"):
-            key = chk.one_of(p, ("altitude_m", "height_m"), path)
-            rate = chk.number(p, "rate_ms", path, positive=True)
-            if key is None and kind == "climb":
-                chk.add(path, "needs altitude_m (above home) or height_m (relative)")
-                continue
-            if key == "height_m":
-                h = chk.number(p, "height_m", path, positive=True)
-                target = None if h is None else alt + (h if kind == "climb" else -h)
-            else:
-                target = 0.0 if key is None else chk.number(p, "altitude_m", path)
-            if target is None or len(chk.problems) > before:
-                continue
-            written = target if key != "height_m" else p["height_m"]
-            if not _altitude(chk, _join(path, key or "altitude_m"), float(written), target, site):
-                continue
-            if (kind == "climb") != (target > alt):
-                chk.add(path, f"goes from {alt:g} m to {target:g} m (expected a "
-                        f"{'higher' if kind == 'climb' else 'lower'} altitude; use "
-                        f"{'descend' if kind == 'climb' else 'climb'})")
-                continue
-            legs.append(Leg(kind, start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                            end_alt_m=target, climb_rate_ms=rate, origin=origin))
-            alt = target
-        elif kind == "cruise":
-            dist = chk.number(p, "distance_m", path, required=True, minimum=0.0,
-                              maximum=MAX_LEG_M, why_max="half the Earth's circumference")
-            course = chk.number(p, "course_deg", path, required=True)
-            speed, is_air = _speed(chk, p, path)
-            new_alt = chk.number(p, "altitude_m", path)
-            if dist is None or course is None or len(chk.problems) > before:
-                continue
-            if new_alt is not None and not _altitude(chk, _join(path, "altitude_m"), new_alt,
-                                                     new_alt, site):
-                continue
-            c = math.radians(course)
-            end = (pos[0] + dist * math.sin(c), pos[1] + dist * math.cos(c))
-            end_alt = alt if new_alt is None else new_alt
-            legs.append(Leg("cruise", start_en_m=pos, end_en_m=end, start_alt_m=alt,
-                            end_alt_m=end_alt, speed_ms=speed, speed_is_airspeed=is_air,
-                            origin=origin))
-            pos, alt = end, end_alt
-        elif kind == "hover":
-            dur = chk.number(p, "duration_s", path, required=True, minimum=0.0,
-                             maximum=MAX_HOLD_S, why_max="24 h")
-            if dur is None:
-                continue
-            legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                            end_alt_m=alt, duration_s=dur, origin=origin))
-        else:  # loiter
-            key = chk.one_of(p, ("duration_s", "turns"), path)
-            radius = chk.number(p, "radius_m", path, positive=True)
-            speed, is_air = _speed(chk, p, path)
-            if key is None:
-                chk.add(path, "needs duration_s, or turns with radius_m and airspeed_ms")
-                continue
-            if key == "duration_s":
-                dur = chk.number(p, "duration_s", path, minimum=0.0, maximum=MAX_HOLD_S,
-                                 why_max="24 h")
-            else:
-                turns = chk.number(p, "turns", path, positive=True, maximum=MAX_LOITER_TURNS,
-                                   why_max="the most ArduPilot stores")
-                if "radius_m" not in p or not ("airspeed_ms" in p or "groundspeed_ms" in p):
-                    chk.add(path, "turns needs radius_m and airspeed_ms (or groundspeed_ms): "
-                            "the duration is turns x 2 pi radius / speed")
-                    continue
-                dur = (None if turns is None or radius is None or speed is None
-                       else turns * 2.0 * math.pi * radius / speed)
-                if dur is not None and hold_problem(dur):
-                    chk.add(path, f"{turns:g} turns of {radius:g} m at {speed:g} m/s: "
-                            f"{hold_problem(dur, 'loiter time')}")
-                    continue
-            if dur is None or len(chk.problems) > before:
-                continue
-            legs.append(Leg("loiter", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                            end_alt_m=alt, speed_ms=speed, speed_is_airspeed=is_air,
-                            duration_s=dur, loiter_radius_m=radius, origin=origin))
+        leg = _LEG_READERS[kind](chk, kind, p, path, origin, pos, alt, site, before)
+        if leg is not None:
+            legs.append(leg)
+            pos, alt = leg.end_en_m, leg.end_alt_m
     too_long = total_hold_problem(legs)
     if too_long:
         chk.add(too_long[0], too_long[1])
