@@ -82,7 +82,7 @@ from scipy.optimize import lsq_linear
 from planner.chain import flightstate
 from planner.chain.mission_chain import MissionChain
 from planner.errors import InputError
-from planner.identify.aircraft_fit import split_experiments, with_params
+from planner.identify.aircraft_fit import chosen_parameters, split_experiments, with_params
 from planner.identify.stats import covariance
 from planner.io import record
 from planner.parameters import Aircraft
@@ -455,13 +455,8 @@ def _fit_names(aircraft: Aircraft, parameters: list[str] | None,
     fixed wing, the aspect ratio a positive number)."""
     if aircraft.is_multirotor:
         raise InputError(f"{aircraft.name}: the energy-rate fit is for a fixed wing")
-    names = list(parameters or FIT_PARAMETERS)
-    unknown = set(names) - set(FIT_PARAMETERS)
-    if unknown:
-        extra = (" (system_power_w is measured in the motor-off glides)"
-                 if "system_power_w" in unknown else "")
-        raise InputError(f"cannot fit {sorted(unknown)} for a fixed wing; expected some of "
-                         f"{', '.join(FIT_PARAMETERS)}{extra}")
+    names = chosen_parameters(parameters, FIT_PARAMETERS, "a fixed wing",
+                              "in the motor-off glides")
     if aspect_ratio is not None and not (math.isfinite(aspect_ratio) and aspect_ratio > 0):
         raise InputError(f"aspect ratio must be a positive number, got {aspect_ratio!r}")
     return names

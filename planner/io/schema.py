@@ -304,6 +304,16 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
     return out
 
 
+def check_definition(data: Any, kind: str, spec: dict[str, Key],
+                     where: str) -> tuple[dict[str, Any], Problems]:
+    """The start of reading a definition file of ``kind`` (:data:`KIND_MARKERS`): a file
+    of another kind refused, the mapping checked against ``spec``; returns the values and
+    the :class:`Problems` the reader's own rules add to (it calls ``done()``)."""
+    refuse_other_kind(data, kind, where)
+    problems = Problems(where)
+    return check_mapping(data, spec, where, problems=problems), problems
+
+
 def check_value(value: Any, k: Key, name: str, problems: Problems | list[str]) -> Any:
     """Check one value against its key; return it, or the default when absent or unusable.
 

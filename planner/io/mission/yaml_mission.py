@@ -461,6 +461,7 @@ def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None,
     Returns
     -------
     Mission
+        The legs flown from home, the environment, the payload.
 
     Raises
     ------
