@@ -24,13 +24,15 @@ command that drives the power model with a log (``replay``, ``fit-aircraft``,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from planner.physics import atmosphere
-from planner.io.record import PLAUSIBLE
 from planner.physics.wind import airspeed_from_ground
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["PHASES", "FlightState", "air_density_from_log", "fill_gaps", "flight_phases",
            "from_record"]
@@ -163,6 +165,10 @@ def inplane_speed(horizontal, climb, axial):
 
 
 def _plausible(x: np.ndarray, column: str) -> np.ndarray:
+    """``x`` with the values outside the record column's physical range
+    (:data:`planner.io.record.PLAUSIBLE`) as NaN."""
+    from planner.io.record import PLAUSIBLE   # the record module imports pandas: start-up
+
     low, high = PLAUSIBLE[column]
     with np.errstate(invalid="ignore"):
         return np.where((x >= low) & (x <= high), x, np.nan)

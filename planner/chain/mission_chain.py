@@ -49,7 +49,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from planner.chain import steps
 from planner.chain.flightstate import fill_gaps
@@ -374,7 +373,7 @@ class ChainResult:
                              detail=True).mission_result(0)
         d, table, p = self.detail, self.table, self.packs[i]
         cap = self.capacity_mah[i]
-        legs = pd.DataFrame({
+        legs = {
             "kind": table.kind, "origin": table.origin, "start_time_s": table.start_time_s,
             "duration_s": table.duration_s, "distance_m": table.distance_m,
             "course_deg": table.course_deg, "airspeed_ms": table.airspeed_ms,
@@ -383,7 +382,7 @@ class ChainResult:
             "current_a": d["current_a"][i], "voltage_v": d["voltage_v"][i],
             "charge_mah": d["charge_mah"][i],
             "remaining_fraction": 1.0 - d["charge_end_mah"][i] / cap,
-            "rtl_margin_mah": d["rtl_margin_mah"][i]})
+            "rtl_margin_mah": d["rtl_margin_mah"][i]}
         circuit = None
         if self.battery_models[i] == "circuit":
             c = {k: v[i] for k, v in self.circuit.items()}
@@ -414,7 +413,7 @@ class ChainResult:
             remaining_fraction=float(self.remaining_fraction[i]),
             reserve_fraction=self.reserve_fraction, margin_mah=float(self.margin_mah[i]),
             margin_time_s=float(self.margin_time_s[i]),
-            hold_power_w=float(self.hold_power_w[i]), legs=legs,
+            hold_power_w=float(self.hold_power_w[i]), leg_columns=legs,
             point_of_no_return=self.point_of_no_return(i),
             rtl_min_margin_mah=float(self.rtl_min_margin_mah[i]),
             peak_current_a=(float(np.nanmax(cur)) if np.any(np.isfinite(cur))

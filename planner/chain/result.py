@@ -7,14 +7,18 @@ pilot reads: verdict, reasons, margins, the per-leg table and the series for the
 
 from __future__ import annotations
 
+import functools
 import math
+from collections import namedtuple
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from planner.physics.mission import Environment
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["MissionResult"]
 
@@ -51,8 +55,9 @@ class MissionResult:
         The margin as extra hover (multirotor) or loiter (fixed-wing) time. [s]
     hold_power_w : float
         Power of that hover or loiter. [W]
-    legs : pandas.DataFrame
-        One row per leg (see :meth:`to_dict` for the columns and units).
+    leg_columns : dict of ndarray
+        The per-leg table, one array per column (see :meth:`to_dict` for the columns and
+        units); :attr:`legs` is the same table as a DataFrame, :meth:`leg_rows` its rows.
     point_of_no_return : dict or None
         First point where a return home would not land with the reserve.
     rtl_min_margin_mah : float
@@ -93,7 +98,7 @@ class MissionResult:
     margin_mah: float
     margin_time_s: float
     hold_power_w: float
-    legs: pd.DataFrame
+    leg_columns: dict[str, np.ndarray]
     point_of_no_return: dict | None
     rtl_min_margin_mah: float
     peak_current_a: float
@@ -107,6 +112,19 @@ class MissionResult:
     binding: str | None = None
     cutoff_limited: bool = False
     unflyable_legs: list[int] = field(default_factory=list)
+
+    @functools.cached_property
+    def legs(self) -> pd.DataFrame:
+        """The per-leg table as a DataFrame (one row per leg; pandas is imported when a
+        caller asks for it, not by the check itself)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.leg_columns)
+
+    def leg_rows(self) -> list:
+        """The per-leg table's rows, as named tuples of its columns (without pandas)."""
+        row = namedtuple("LegRow", list(self.leg_columns))
+        return [row(*values) for values in zip(*self.leg_columns.values())]
 
     @property
     def go(self) -> bool:
@@ -150,7 +168,7 @@ class MissionResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (units in the key names)."""
-        legs = [{k: _py(v) for k, v in row.items()} for row in self.legs.to_dict("records")]
+        legs = [{k: _py(v) for k, v in row._asdict().items()} for row in self.leg_rows()]
         return {
             "verdict": self.verdict, "reasons": list(self.reasons),
             "warnings": list(self.warnings), "aircraft": self.aircraft,

@@ -23,20 +23,21 @@ from planner import __version__
 from planner.io import files
 from planner.errors import InputError, ModelError, PlannerError, WrongFileError
 
-#: Modules that each register one or more sub-commands, in help order.
-COMMAND_MODULES = (
-    "planner.cli.commands.check",
-    "planner.cli.commands.select",
-    "planner.cli.commands.logs",
-    "planner.cli.commands.replay",
-    "planner.cli.commands.battery",
-    "planner.cli.commands.hybrid",
-    "planner.cli.commands.aircraft",
-    "planner.cli.commands.diagnose",
-    "planner.cli.commands.fleet",
-    "planner.cli.commands.watch",
-    "planner.cli.commands.backtest",
-)
+#: Modules that each register one or more sub-commands, in help order, with the names of
+#: their sub-commands: a command imports its own module only (start-up time).
+COMMAND_MODULES = {
+    "planner.cli.commands.check": ("check",),
+    "planner.cli.commands.select": ("select", "sweep"),
+    "planner.cli.commands.logs": ("export",),
+    "planner.cli.commands.replay": ("replay",),
+    "planner.cli.commands.battery": ("fit-battery", "design", "pulse-resistance", "bench"),
+    "planner.cli.commands.hybrid": ("hybrid",),
+    "planner.cli.commands.aircraft": ("fit-aircraft",),
+    "planner.cli.commands.diagnose": ("diagnose",),
+    "planner.cli.commands.fleet": ("fleet",),
+    "planner.cli.commands.watch": ("watch",),
+    "planner.cli.commands.backtest": ("backtest",),
+}
 
 EXIT_OK, EXIT_NOGO, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 #: Exit status when standard output is closed under us: 128 + SIGPIPE, as the shell
@@ -51,7 +52,9 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser: with ``argv`` naming a sub-command first, that command's
+    module only (the others are not imported); else every command (help, a wrong name)."""
     parser = _Parser(
         prog="endurance",
         description="UAV mission endurance planner: pre-flight check, pack selection, "
@@ -59,7 +62,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name in COMMAND_MODULES:
+    modules = list(COMMAND_MODULES)
+    if argv and not argv[0].startswith("-"):
+        modules = [m for m, names in COMMAND_MODULES.items() if argv[0] in names] or modules
+    for name in modules:
         try:
             module = importlib.import_module(name)
         except ModuleNotFoundError as exc:
@@ -100,7 +106,7 @@ def _format_warning(message, category, filename, lineno, line=None):
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status."""
     warnings.formatwarning = _format_warning
-    parser = build_parser()
+    parser = build_parser(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)

@@ -604,16 +604,25 @@ _ROTOR_LOSSES_SCALES = {"no_load_power_w": 100.0, "copper_loss_power_w": 100.0,
                         "profile_power_ratio": 0.5, "drag_area_m2": 0.05}
 
 
+def chosen_parameters(parameters: list[str] | None, allowed, what: str,
+                      system_power_note: str) -> list[str]:
+    """The parameters a fit is asked for (default all of ``allowed``), checked: one not in
+    ``allowed`` is an :class:`InputError` naming ``what`` is fitted (``a fixed wing``) and,
+    for ``system_power_w``, where the system load is measured instead."""
+    chosen = list(parameters or allowed)
+    unknown = set(chosen) - set(allowed)
+    if unknown:
+        extra = (f" (system_power_w is measured {system_power_note})"
+                 if "system_power_w" in unknown else "")
+        raise InputError(f"cannot fit {sorted(unknown)} for {what}; expected some of "
+                         f"{', '.join(allowed)}{extra}")
+    return chosen
+
+
 def _rotor_losses_chosen(parameters: list[str] | None) -> list[str]:
     """The parameters asked for (default all of :data:`_ROTOR_LOSSES_PUBLIC`), checked."""
-    chosen = parameters or _ROTOR_LOSSES_PUBLIC
-    unknown = set(chosen) - set(_ROTOR_LOSSES_PUBLIC)
-    if unknown:
-        extra = (" (system_power_w is measured from the rotors-stopped ground samples)"
-                 if "system_power_w" in unknown else "")
-        raise InputError(f"cannot fit {sorted(unknown)} for a rotor_losses multirotor; "
-                         f"expected some of {', '.join(_ROTOR_LOSSES_PUBLIC)}{extra}")
-    return chosen
+    return chosen_parameters(parameters, _ROTOR_LOSSES_PUBLIC, "a rotor_losses multirotor",
+                             "from the rotors-stopped ground samples")
 
 
 def _held_stopped_power(states, train_ids: set, p_air: float, aircraft: Aircraft) -> dict:

@@ -396,14 +396,9 @@ def simulate_bench(pack: BenchPack, time_s, power_w, *, temperature_c: float = 2
         raise InputError("time_s is empty")
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise InputError("time_s must be finite and increasing")
-    p_arr = np.asarray(power_w, dtype=float)
-    if p_arr.ndim == 0:
-        p_arr = np.full(n, float(p_arr))
-    p_arr = p_arr.ravel()
-    if p_arr.size != n:
-        raise InputError(f"power_w has {p_arr.size} values, time_s has {n}")
-    if not np.all(np.isfinite(p_arr)) or np.any(p_arr < 0):
-        raise InputError("power_w must be finite and >= 0 (the bench discharges only)")
+    p_arr = circuit.series_input(power_w, n, "power_w")
+    if np.any(p_arr < 0):
+        raise InputError("power_w must be >= 0 (the bench discharges only)")
     if not 0.0 <= float(soc0) <= 1.0:
         raise InputError(f"soc0 must lie in [0, 1], got {soc0!r}")
     temp = float(temperature_c)

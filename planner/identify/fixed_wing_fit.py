@@ -82,7 +82,7 @@ from scipy.optimize import lsq_linear
 from planner.chain import flightstate
 from planner.chain.mission_chain import MissionChain
 from planner.errors import InputError
-from planner.identify.aircraft_fit import split_experiments, with_params
+from planner.identify.aircraft_fit import chosen_parameters, split_experiments, with_params
 from planner.identify.stats import covariance
 from planner.io import record
 from planner.parameters import Aircraft
@@ -449,6 +449,84 @@ def _plausibility(values: dict[str, float]) -> dict[str, dict]:
     return out
 
 
+def _fit_names(aircraft: Aircraft, parameters: list[str] | None,
+               aspect_ratio: float | None) -> list[str]:
+    """The parameters to fit, checked against :data:`FIT_PARAMETERS` (and the aircraft a
+    fixed wing, the aspect ratio a positive number)."""
+    if aircraft.is_multirotor:
+        raise InputError(f"{aircraft.name}: the energy-rate fit is for a fixed wing")
+    names = chosen_parameters(parameters, FIT_PARAMETERS, "a fixed wing",
+                              "in the motor-off glides")
+    if aspect_ratio is not None and not (math.isfinite(aspect_ratio) and aspect_ratio > 0):
+        raise InputError(f"aspect ratio must be a positive number, got {aspect_ratio!r}")
+    return names
+
+
+def _thinning(s: EnergyRateSamples, smoothing_s: float) -> int:
+    """One row in this many is independent: the smoothing window's correlation time
+    (2√π σ) over the median sample interval."""
+    return max(1, round(2 * math.sqrt(math.pi) * smoothing_s / float(np.median(s.dt))))
+
+
+def _glide_system_power(s_trn: EnergyRateSamples, aircraft: Aircraft,
+                        thin: int) -> tuple[float, float, str]:
+    """The system load measured in the motor-off glides of the training flights: (median
+    [W], its standard error [W] (1.2533 σ/√n_eff, the median's), source), else the file's
+    value held with a NaN error."""
+    glide_power = s_trn.raw_power_w[s_trn.glide]
+    if glide_power.size >= GLIDE_MIN_SAMPLES:
+        p_s = max(float(np.median(glide_power)), 0.0)
+        n_eff = max(glide_power.size / thin, 1.0)
+        p_s_se = 1.2533 * float(np.std(glide_power)) / math.sqrt(n_eff)
+        return p_s, p_s_se, f"median of {glide_power.size} motor-off glide samples"
+    return (float(aircraft.system_power_w), math.nan,
+            f"held at the file's value: only {glide_power.size} motor-off glide "
+            "sample(s) in the training flights")
+
+
+def _at_bounds(names: list[str], x, free, bounds: dict) -> tuple[list[str], list[dict]]:
+    """The parameters that ended on a bound, and for each a misfit record (parameter,
+    bound side, value, unconstrained value, likely cause from :data:`MISFIT_CAUSES`)."""
+    at_bound, misfit = [], []
+    for n, v, u in zip(names, x, free):
+        lo, hi = bounds[n]
+        span = hi - lo
+        side = "low" if v - lo <= 1e-6 * span else "high" if hi - v <= 1e-6 * span else None
+        if side is None:
+            continue
+        at_bound.append(n)
+        misfit.append({"parameter": n, "bound": side, "value": float(v),
+                       "unconstrained": float(u), "cause": MISFIT_CAUSES[(n, side)]})
+    return at_bound, misfit
+
+
+def _oswald(aspect_ratio: float | None, k: float, stderr: dict,
+            misfit: list[dict]) -> tuple[float | None, float | None]:
+    """Oswald factor e = 1/(π A K) (the induced-drag factor K = 1/(π e A)) and its standard
+    error, with the unconstrained value noted on a K misfit; (None, None) without A."""
+    if aspect_ratio is None:
+        return None, None
+    e = 1.0 / (math.pi * aspect_ratio * k)
+    e_se = e * stderr["k"] / k if "k" in stderr else math.nan
+    for m in misfit:
+        if m["parameter"] == "k":
+            u = m["unconstrained"]
+            m["oswald_unconstrained"] = (1.0 / (math.pi * aspect_ratio * u) if u > 0
+                                         else math.inf)
+    return e, e_se
+
+
+def _fit_status(misfit: list[dict]) -> str:
+    """``ok``, or ``misfit: …`` naming each parameter on a bound and its likely cause."""
+    if not misfit:
+        return "ok"
+    return "misfit: " + "; ".join(
+        f"{m['parameter']} ended on its {m['bound']} bound {m['value']:.4g} (the data "
+        f"alone give {m['unconstrained']:.4g}"
+        + (f", Oswald factor {m['oswald_unconstrained']:.2f}"
+           if "oswald_unconstrained" in m else "") + f"): {m['cause']}" for m in misfit)
+
+
 def fit_fixed_wing(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                    parameters: list[str] | None = None, train: list[str] | None = None,
                    validate: list[str] | None = None, site_altitude_m: float = 0.0,
@@ -493,17 +571,7 @@ def fit_fixed_wing(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         diagnostic), ``energy_rate_rmse_w``, ``sources`` and ``samples_table``
         (:func:`corrected_samples`).
     """
-    if aircraft.is_multirotor:
-        raise InputError(f"{aircraft.name}: the energy-rate fit is for a fixed wing")
-    names = list(parameters or FIT_PARAMETERS)
-    unknown = set(names) - set(FIT_PARAMETERS)
-    if unknown:
-        extra = (" (system_power_w is measured in the motor-off glides)"
-                 if "system_power_w" in unknown else "")
-        raise InputError(f"cannot fit {sorted(unknown)} for a fixed wing; expected some of "
-                         f"{', '.join(FIT_PARAMETERS)}{extra}")
-    if aspect_ratio is not None and not (math.isfinite(aspect_ratio) and aspect_ratio > 0):
-        raise InputError(f"aspect ratio must be a positive number, got {aspect_ratio!r}")
+    names = _fit_names(aircraft, parameters, aspect_ratio)
     mass = float(mass_kg)
     s = energy_rate_samples(data, aircraft, site_altitude_m=site_altitude_m,
                             smoothing_s=smoothing_s, trim_s=trim_s)
@@ -517,17 +585,7 @@ def fit_fixed_wing(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     if trn.sum() < 10:
         raise InputError("the training split has fewer than 10 airborne samples")
     s_trn = s.subset(trn)
-    glide_power = s_trn.raw_power_w[s_trn.glide]
-    if glide_power.size >= GLIDE_MIN_SAMPLES:
-        p_s = max(float(np.median(glide_power)), 0.0)
-        thin = max(1, round(2 * math.sqrt(math.pi) * smoothing_s / float(np.median(s.dt))))
-        n_eff = max(glide_power.size / thin, 1.0)
-        p_s_se = 1.2533 * float(np.std(glide_power)) / math.sqrt(n_eff)
-        p_s_source = f"median of {glide_power.size} motor-off glide samples"
-    else:
-        p_s, p_s_se = float(aircraft.system_power_w), math.nan
-        p_s_source = (f"held at the file's value: only {glide_power.size} motor-off glide "
-                      "sample(s) in the training flights")
+    p_s, p_s_se, p_s_source = _glide_system_power(s_trn, aircraft, _thinning(s, smoothing_s))
     start = {"cd0": aircraft.fixed_wing.cd0, "k": aircraft.fixed_wing.k,
              "efficiency": aircraft.efficiency}
     fixed = {n: v for n, v in start.items() if n not in names}
@@ -535,23 +593,12 @@ def fit_fixed_wing(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     cols, rhs = _regressors(s_trn, mass, aircraft.fixed_wing.wing_area_m2, p_s)
     x, free, resid, a = _solve(cols, rhs, names, fixed, bounds)
     values = dict(zip(names, map(float, x)))
-    dt = float(np.median(s.dt))
-    thin = max(1, round(2 * math.sqrt(math.pi) * smoothing_s / dt))
+    thin = _thinning(s, smoothing_s)
     cov = covariance(a[::thin], resid[::thin])
     if cov.singular:
         warnings.warn("covariance of the aircraft fit is indeterminate (singular design)")
     stderr = dict(zip(names, map(float, cov.stderr)))
-    span = {n: bounds[n][1] - bounds[n][0] for n in names}
-    at_bound, misfit = [], []
-    for n, v, u in zip(names, x, free):
-        lo, hi = bounds[n]
-        side = "low" if v - lo <= 1e-6 * span[n] else "high" if hi - v <= 1e-6 * span[n] \
-            else None
-        if side is None:
-            continue
-        at_bound.append(n)
-        misfit.append({"parameter": n, "bound": side, "value": float(v),
-                       "unconstrained": float(u), "cause": MISFIT_CAUSES[(n, side)]})
+    at_bound, misfit = _at_bounds(names, x, free, bounds)
     fitted = with_params(aircraft, {**values, "system_power_w": p_s})
     fw = fitted.fixed_wing
     shifted = _shifted(s_trn, mass, fw.wing_area_m2, p_s, aspect_ratio)
@@ -559,28 +606,13 @@ def fit_fixed_wing(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         if m["parameter"] == "k" and m["bound"] == "low" and shifted["cl_min"] > 0.1:
             m["cause"] += (f" (the same balance with the least drag free puts it at C_L "
                            f"{shifted['cl_min']:.2f}, C_D {shifted['cd_min']:.4f})")
-    e = e_se = None
-    if aspect_ratio is not None:
-        e = 1.0 / (math.pi * aspect_ratio * fw.k)
-        e_se = e * stderr["k"] / fw.k if "k" in stderr else math.nan
-        for m in misfit:
-            if m["parameter"] == "k":
-                u = m["unconstrained"]
-                m["oswald_unconstrained"] = (1.0 / (math.pi * aspect_ratio * u) if u > 0
-                                             else math.inf)
+    e, e_se = _oswald(aspect_ratio, fw.k, stderr, misfit)
     plaus_values = {"cd0": fw.cd0, "efficiency": fitted.efficiency}
     if e is not None:
         plaus_values["oswald_efficiency"] = e
     poor = [n for n in names if n not in at_bound and (
         not math.isfinite(stderr[n]) or stderr[n] > POOR_RELATIVE_STDERR * abs(values[n]))]
-    if misfit:
-        status = "misfit: " + "; ".join(
-            f"{m['parameter']} ended on its {m['bound']} bound {m['value']:.4g} (the data "
-            f"alone give {m['unconstrained']:.4g}"
-            + (f", Oswald factor {m['oswald_unconstrained']:.2f}"
-               if "oswald_unconstrained" in m else "") + f"): {m['cause']}" for m in misfit)
-    else:
-        status = "ok"
+    status = _fit_status(misfit)
     parameters_out = {**values, "system_power_w": p_s}
     stderr_out = {**stderr, "system_power_w": p_s_se}
     result: dict[str, Any] = {

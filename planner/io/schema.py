@@ -67,6 +67,8 @@ class Key:
     why : str
         The bound's reason in a few words, said in the message of a value beyond it
         (``mission.duration_s must be <= 86400 (24 h), got 1e+05``).
+    why_low, why_high : str or None
+        The reason of one bound where the two differ (None: ``why``).
     """
 
     kind: str
@@ -80,6 +82,8 @@ class Key:
     unit: str = ""
     meaning: str = ""
     why: str = ""
+    why_low: str | None = None
+    why_high: str | None = None
 
 
 def positive(required=False, default=None, high=None, **kw) -> Key:
@@ -300,6 +304,16 @@ def check_mapping(data: Any, spec: dict[str, Key], where: str, prefix: str = "",
     return out
 
 
+def check_definition(data: Any, kind: str, spec: dict[str, Key],
+                     where: str) -> tuple[dict[str, Any], Problems]:
+    """The start of reading a definition file of ``kind`` (:data:`KIND_MARKERS`): a file
+    of another kind refused, the mapping checked against ``spec``; returns the values and
+    the :class:`Problems` the reader's own rules add to (it calls ``done()``)."""
+    refuse_other_kind(data, kind, where)
+    problems = Problems(where)
+    return check_mapping(data, spec, where, problems=problems), problems
+
+
 def check_value(value: Any, k: Key, name: str, problems: Problems | list[str]) -> Any:
     """Check one value against its key; return it, or the default when absent or unusable.
 
@@ -324,17 +338,22 @@ def check_value(value: Any, k: Key, name: str, problems: Problems | list[str]) -
         if not math.isfinite(value_f):
             _add(problems, f"{name} must be finite, got {shown(value)}")
             return k.default
-        why = f" ({k.why})" if k.why else ""
         if k.low is not None and (value_f < k.low or (k.low_open and value_f <= k.low)):
+            why = _why(k.why if k.why_low is None else k.why_low)
             _add(problems, f"{name} must be {'>' if k.low_open else '>='} {k.low:g}{why}, "
                            f"got {shown(value)}")
         if k.high is not None and (value_f > k.high or (k.high_open and value_f >= k.high)):
+            why = _why(k.why if k.why_high is None else k.why_high)
             _add(problems, f"{name} must be {'<' if k.high_open else '<='} {k.high:g}{why}, "
                            f"got {shown(value)}")
     if k.choices is not None and value not in k.choices:
         _add(problems, f"{name} must be one of {', '.join(map(str, k.choices))}, "
                        f"got {value!r}")
     return value
+
+
+def _why(reason: str) -> str:
+    return f" ({reason})" if reason else ""
 
 
 def within(k: Key, value: float) -> bool:

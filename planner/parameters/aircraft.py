@@ -604,9 +604,7 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
     InputError
         Every problem of the mapping at once, in one line naming ``where`` and each key.
     """
-    S.refuse_other_kind(data, "aircraft", where)
-    problems = S.Problems(where)
-    d = S.check_mapping(data, AIRCRAFT_KEYS, where, problems=problems)
+    d, problems = S.check_definition(data, "aircraft", AIRCRAFT_KEYS, where)
     kind = d["type"]
     blocks: dict[str, Any] = {"fixed_wing": None, "multirotor": None}
     if kind in AIRCRAFT_TYPES:

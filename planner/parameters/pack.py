@@ -431,9 +431,7 @@ def battery_from_mapping(data: Any, where: str, base_dir: str | Path | None = No
     InputError
         Every problem of the mapping at once, in one line naming ``where`` and each key.
     """
-    S.refuse_other_kind(data, "battery pack", where)
-    problems = S.Problems(where)
-    d = S.check_mapping(data, BATTERY_KEYS, where, problems=problems)
+    d, problems = S.check_definition(data, "battery pack", BATTERY_KEYS, where)
     model = None if d["model"] is None else _model(d["model"], where, problems)
     problems.done()
     circuit = None if d["circuit"] is None else circuit_block(d["circuit"], where, base_dir)

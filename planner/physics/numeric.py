@@ -11,11 +11,17 @@ the inputs (:func:`as_float_or_array` where no Series is to be kept).
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from planner.errors import ModelError
 
-__all__ = ["as_float_or_array", "like_inputs", "require"]
+__all__ = ["as_float_or_array", "is_series", "like_inputs", "require"]
+
+
+def is_series(value) -> bool:
+    """Whether ``value`` is a pandas Series (or a subclass), without importing pandas: the
+    physics takes Series without needing pandas itself."""
+    return any(c.__name__ == "Series" and c.__module__.split(".")[0] == "pandas"
+               for c in type(value).__mro__)
 
 
 def as_float_or_array(result):
@@ -34,8 +40,8 @@ def like_inputs(result, *inputs):
     """
     result = np.asarray(result, dtype=float)
     for value in inputs:
-        if isinstance(value, pd.Series) and result.shape == (len(value),):
-            return pd.Series(result, index=value.index, name=value.name)
+        if is_series(value) and result.shape == (len(value),):
+            return type(value)(result, index=value.index, name=value.name)
     if all(np.ndim(value) == 0 for value in inputs):
         return float(result)
     return result

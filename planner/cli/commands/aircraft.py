@@ -8,18 +8,9 @@ from pathlib import Path
 import yaml
 
 from planner.io import files
-from planner.cli.commands.common import (
-    add_battery_instance,
-    battery_instance,
-    flight_payloads,
-    fmt,
-    mass_text,
-    output_path,
-    parse_float,
-    parse_mass,
-    plot_path,
-    write_json,
-)
+from planner.cli.commands.common import (add_options, add_battery_instance, battery_instance,
+                                         flight_payloads, fmt, mass_text, output_path,
+                                         parse_float, parse_mass, plot_path, write_json)
 from planner.io.flightdata import load_flight_data
 from planner.errors import InputError
 from planner.parameters import default_battery_path, load_aircraft, load_battery
@@ -38,26 +29,23 @@ def register(sub) -> None:
                                    "a fixed-wing parameter ends on its physical bound "
                                    "(a misfit, written as fit_status).")
     p.add_argument("data", nargs="+", metavar="DATA", help="logs or flight-record CSV files")
-    p.add_argument("--aircraft", required=True, help="aircraft YAML (start values)")
-    p.add_argument("--out", required=True, help="write the fitted aircraft YAML here")
-    p.add_argument("--battery", help="pack flown (default: the aircraft's)")
-    p.add_argument("--payload", help="payload mass [kg] of every flight (default: each "
-                                     "flight's own payload_kg in the data, else 0)")
-    p.add_argument("--mass", help="all-up mass [kg] (overrides aircraft + pack + payload)")
-    p.add_argument("--map", help="column map for CSV data that is not a flight record "
-                                 "(e.g. dji_m100)")
+    add_options(p, aircraft="aircraft YAML (start values)",
+                out={"required": True, "help": "write the fitted aircraft YAML here"},
+                battery="pack flown (default: the aircraft's)",
+                payload="payload mass [kg] of every flight (default: each flight's own "
+                        "payload_kg in the data, else 0)",
+                mass=True, map=True)
     add_battery_instance(p)
     p.add_argument("--parameters", help="comma-separated subset to fit")
     p.add_argument("--train", help="comma-separated experiments to fit on")
     p.add_argument("--validate", help="comma-separated experiments to hold out")
-    p.add_argument("--site-altitude", default="0", help="site altitude AMSL [m] for ISA "
-                                                        "density when not logged")
+    add_options(p, site_altitude="site altitude AMSL [m] for ISA density when not logged")
     p.add_argument("--airborne-height", help="airborne = more than this many metres above "
                                              "each flight's first sample (default: the "
                                              "flight phases other than ground and take-off)")
-    p.add_argument("--json", help="write the fit report as JSON")
-    p.add_argument("--plot", help="fixed wing: write a PNG of the fitted power curve and "
-                                  "polar over the energy-rate corrected samples")
+    add_options(p, json="write the fit report as JSON",
+                plot="fixed wing: write a PNG of the fitted power curve and polar over the "
+                     "energy-rate corrected samples")
     p.set_defaults(func=run)
 
 

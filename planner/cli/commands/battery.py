@@ -17,15 +17,8 @@ from planner.io import files
 from planner.identify import protocols as design, battery_fit as fit, pulse_resistance as vda
 from planner.physics.battery import integral
 from planner.physics.battery.cells import series_cells
-from planner.cli.commands.common import (
-    fmt,
-    name_width,
-    output_path,
-    parse_float,
-    parse_int,
-    plot_path,
-    write_json,
-)
+from planner.cli.commands.common import (add_options, fmt, name_width, output_path, outputs,
+                                         parse_float, parse_int, plot_path, write_json)
 from planner.errors import InputError
 from planner.parameters import IntegralModel, battery_from_mapping, load_battery, read_definition
 from planner.identify.schedule import write_schedule
@@ -40,17 +33,20 @@ def register(sub) -> None:
 
 # --------------------------------------------------------------------------- fit-battery
 
+#: What ``fit-battery`` does, for its help.
+FIT_DESCRIPTION = (
+    "Fit the integral capacity model t = δ P^ε C^β to measured discharges (flight-record "
+    "CSV: time_s, power_w or voltage_v+current_a, and current_a or consumed_mah; several "
+    "experiments told apart by 'experiment'). Default split ([UAV23]): the experiments with "
+    "the lowest and the highest mean power train, the rest validate.")
+
+
 def _register_fit(sub) -> None:
-    p = sub.add_parser(
-        "fit-battery", help="identify the integral model δ, ε, β from discharge data",
-        description="Fit the integral capacity model t = δ P^ε C^β to measured discharges "
-                    "(flight-record CSV: time_s, power_w or voltage_v+current_a, and "
-                    "current_a or consumed_mah; several experiments told apart by "
-                    "'experiment'). Default split ([UAV23]): the experiments with the "
-                    "lowest and the highest mean power train, the rest validate.")
+    p = sub.add_parser("fit-battery", description=FIT_DESCRIPTION,
+                       help="identify the integral model δ, ε, β from discharge data")
     p.add_argument("data", nargs="+", help="flight-record CSV file(s)")
-    p.add_argument("--out", required=True, help="battery-pack YAML to write")
-    p.add_argument("--battery", help="pack YAML whose other keys are kept (name, mass, ...)")
+    add_options(p, out={"required": True, "help": "battery-pack YAML to write"},
+                battery="pack YAML whose other keys are kept (name, mass, ...)")
     p.add_argument("--name", help="pack name (required without --battery)")
     p.add_argument("--cells", help="cells in series (without --battery; default: detected "
                                    "as max voltage / 4.25 V, rounded up)")
@@ -58,8 +54,8 @@ def _register_fit(sub) -> None:
     p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
     p.add_argument("--train", help="comma-separated experiment ids to fit on")
     p.add_argument("--validate", help="comma-separated experiment ids to score only")
-    p.add_argument("--plot", help="PNG of measured vs predicted C^β and residuals")
-    p.add_argument("--json", help="write the fit and the metrics as JSON to this file")
+    add_options(p, plot="PNG of measured vs predicted C^β and residuals",
+                json="write the fit and the metrics as JSON to this file")
     p.add_argument("--circuit", metavar="PULSE_CSV",
                    help="also identify the equivalent circuit (R0(SoC) from pulse edges, R1 "
                         "and C1 from the relaxations, with the LiPo OCV) from a "
@@ -192,9 +188,7 @@ def _fit_circuit_rates(mapping: dict, experiments, result: fit.IntegralFit,
 
 
 def run_fit(args) -> int:
-    out = output_path(args.out, "--out")
-    plot_out = plot_path(args.plot)
-    json_out = output_path(args.json, "--json")
+    out, plot_out, json_out = outputs(args, "out", "plot", "json")
     beta = parse_float(args.fix_beta, "--fix-beta", 0.5, 1.5) if args.fix_beta else None
     mass_kg = (parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0, "kg")
                if args.mass_kg is not None else None)
@@ -535,9 +529,8 @@ def _register_pulse(sub) -> None:
                    help=f"|current| that counts as on [A] (default {vda.ON_THRESHOLD_A})")
     p.add_argument("--by", choices=("level", "pulse"), default="level",
                    help="statistics over pulse currents (default) or every pulse")
-    p.add_argument("--battery", help="pack YAML to update with internal_resistance_ohm")
-    p.add_argument("--out", help="write the updated pack YAML here (needs --battery)")
-    p.add_argument("--json", help="write the result as JSON to this file")
+    add_options(p, battery="pack YAML to update with internal_resistance_ohm",
+                out="write the updated pack YAML here (needs --battery)", json=True)
     p.set_defaults(func=run_pulse)
 
 

@@ -9,6 +9,7 @@ from planner.io import files
 from planner.chain.mission_chain import MissionChain
 from planner.chain.result import MissionResult
 from planner.cli.commands.common import (
+    add_options,
     flags_for,
     fmt,
     output_path,
@@ -48,19 +49,14 @@ def register(sub) -> None:
                        description="Predict power and charge leg by leg and check the landing "
                                    "and return-home reserves. Exit 0 = GO, 1 = NO-GO, "
                                    "2 = bad input.")
-    p.add_argument("mission", help="mission file: .yaml, QGroundControl .plan or "
-                                   "Mission Planner .waypoints")
-    p.add_argument("--aircraft", required=True, help="aircraft YAML")
-    p.add_argument("--battery", help="battery-pack YAML (default: the aircraft's)")
-    p.add_argument("--wind", help="SPEED@FROM_DEG, e.g. 6@270: 6 m/s from the west "
-                                  "(overrides the mission's)")
-    p.add_argument("--temperature", help="outside air temperature [°C] (overrides the "
-                                         "mission's; default ISA)")
-    p.add_argument("--reserve", default="0.2", help="landing reserve as a fraction of "
-                                                    "nominal capacity (default 0.2 = 20%%)")
-    p.add_argument("--payload", help="payload mass [kg] (overrides the mission's)")
-    p.add_argument("--json", help="write the result as JSON to this file")
-    p.add_argument("--plot", help="write a PNG of power and remaining charge")
+    add_options(p, mission=True, aircraft=True, battery=True,
+                wind="SPEED@FROM_DEG, e.g. 6@270: 6 m/s from the west (overrides the "
+                     "mission's)",
+                temperature="outside air temperature [°C] (overrides the mission's; "
+                            "default ISA)",
+                reserve="landing reserve as a fraction of nominal capacity (default 0.2 = "
+                        "20%%)",
+                payload=True, json=True, plot="write a PNG of power and remaining charge")
     p.add_argument("--failsafe", metavar="FIRMWARE",
                    help="derive the battery failsafe parameters of this firmware from the "
                         "mission's worst return home: ardupilot or px4")
@@ -385,7 +381,7 @@ def render(r: MissionResult, name: str) -> str:
             f"{'left %':>6} {'RTL mAh':>8}")
     lines += [head, "-" * len(head)]
     unflyable = set(r.unflyable_legs)
-    for i, row in enumerate(r.legs.itertuples(index=False), 1):
+    for i, row in enumerate(r.leg_rows(), 1):
         if i in unflyable:  # the aircraft cannot fly it: its figures mean nothing
             lines.append(f"{i:>3} {row.kind:<8} {'–':>7} {fmt(row.distance_m, 0, 7)} "
                          f"{'cannot be flown (see NO-GO below)':>56}")

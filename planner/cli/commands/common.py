@@ -242,6 +242,15 @@ def plot_path(path: str | None, option: str = "--plot") -> str | None:
     return output_path(path, option)
 
 
+def outputs(args, *names: str) -> tuple[str | None, ...]:
+    """The output options ``names`` (``dest`` names: ``out``, ``plot``, ``json``, …) of
+    ``args``, each checked before the work (:func:`output_path`; a plot by
+    :func:`plot_path`), in the order named."""
+    return tuple(plot_path(getattr(args, n), "--plot") if n == "plot"
+                 else output_path(getattr(args, n), "--" + n.replace("_", "-"))
+                 for n in names)
+
+
 def fmt(value: float, digits: int = 1, width: int = 0) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-".rjust(width)
@@ -268,3 +277,39 @@ def battery_instance(args) -> int | None:
     """The parsed ``--battery-instance`` (None when not given)."""
     text = getattr(args, "battery_instance", None)
     return None if text is None else parse_int(text, "--battery-instance", 0, 255)
+
+
+#: The options several commands share, with their argparse settings (flag: ``--`` and the
+#: name with ``-`` for ``_``; ``mission`` is the first argument). A command gives each its
+#: own help where it means more there (:func:`add_options`).
+SHARED_OPTIONS: dict[str, dict[str, Any]] = {
+    "mission": {"help": "mission file: .yaml, QGroundControl .plan or Mission Planner "
+                        ".waypoints"},
+    "aircraft": {"required": True, "help": "aircraft YAML"},
+    "battery": {"help": "battery-pack YAML (default: the aircraft's)"},
+    "map": {"help": "column map for CSV data that is not a flight record (e.g. dji_m100)"},
+    "wind": {"help": "SPEED@FROM_DEG, e.g. 6@270 (overrides the mission's)"},
+    "temperature": {"help": "outside air temperature [°C]"},
+    "reserve": {"default": "0.2", "help": "landing reserve fraction (default 0.2)"},
+    "payload": {"help": "payload mass [kg] (overrides the mission's)"},
+    "mass": {"help": "all-up mass [kg] (overrides aircraft + pack + payload)"},
+    "site_altitude": {"default": "0", "help": "site altitude AMSL [m] (default 0)"},
+    "out": {"help": "file to write"},
+    "json": {"help": "write the result as JSON to this file"},
+    "plot": {"help": "write a PNG"},
+    "csv": {"help": "write the table as CSV"},
+}
+
+
+def add_options(parser, **options: bool | str | dict[str, Any]) -> None:
+    """Add shared options (:data:`SHARED_OPTIONS`) to ``parser``, in the order given:
+    ``name=True`` with the shared settings, ``name="…"`` with this help, ``name={…}``
+    with these settings over the shared ones (``{"default": "0", "help": …}``)."""
+    for name, given in options.items():
+        settings = dict(SHARED_OPTIONS[name])
+        if isinstance(given, str):
+            settings["help"] = given
+        elif isinstance(given, dict):
+            settings.update(given)
+        flag = name if name == "mission" else "--" + name.replace("_", "-")
+        parser.add_argument(flag, **settings)

@@ -10,15 +10,9 @@ from pathlib import Path
 import yaml
 
 from planner.io import files
-from planner.cli.commands.common import (
-    add_battery_instance,
-    battery_instance,
-    output_path,
-    parse_float,
-    parse_mass,
-    plot_path,
-    write_json,
-)
+from planner.cli.commands.common import (add_options, add_battery_instance, battery_instance,
+                                         output_path, parse_float, parse_mass, plot_path,
+                                         write_json)
 from planner.errors import InputError
 from planner.parameters import aircraft_from_mapping, battery_from_mapping
 
@@ -35,12 +29,12 @@ def register(sub) -> None:
                     "(docs/commands.md).")
     p.add_argument("data", nargs="+", metavar="DATA",
                    help="flight-record CSV files or logs (.bin, .px4log, .tlog, .ulg, mapped CSV)")
-    p.add_argument("--battery", help="battery-pack YAML flown (start values of the integral "
-                                     "model; default: the aircraft's pack, else the "
-                                     "literature model for the log's cell count)")
-    p.add_argument("--aircraft", help="aircraft YAML: enables the power-level effects")
-    p.add_argument("--map", help="column map for CSV data that is not a flight record "
-                                 "(e.g. dji_m100)")
+    add_options(p, battery="battery-pack YAML flown (start values of the integral model; "
+                           "default: the aircraft's pack, else the literature model for the "
+                           "log's cell count)",
+                aircraft={"required": False,
+                          "help": "aircraft YAML: enables the power-level effects"},
+                map=True)
     add_battery_instance(p)
     p.add_argument("--json", help="write the findings as JSON (docs/commands.md); - for standard "
                                   "output")
@@ -49,12 +43,11 @@ def register(sub) -> None:
     p.add_argument("--out", help="write the extended battery YAML (capacity-level findings; "
                                  "or the aircraft YAML when only power-level effects are "
                                  "found; both: the aircraft goes to <stem>_aircraft.yaml)")
-    p.add_argument("--payload", help="payload carried at take-off [kg] by every flight "
-                                     "(default: each flight's payload_kg in the data, else 0)")
-    p.add_argument("--mass", help="all-up mass at take-off [kg] (overrides aircraft + pack + "
-                                  "payload)")
-    p.add_argument("--site-altitude", default="0",
-                   help="site altitude AMSL [m] of the standard (ISA) density (default 0)")
+    add_options(p, payload="payload carried at take-off [kg] by every flight (default: each "
+                            "flight's payload_kg in the data, else 0)",
+                mass="all-up mass at take-off [kg] (overrides aircraft + pack + payload)",
+                site_altitude="site altitude AMSL [m] of the standard (ISA) density "
+                              "(default 0)")
     p.add_argument("--effects", help="comma-separated subset of the effects to test")
     p.set_defaults(func=run)
 

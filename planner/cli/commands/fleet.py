@@ -9,6 +9,21 @@ from planner.errors import InputError
 from planner.parameters import load_aircraft, load_battery
 
 
+#: How the fleet is run and judged: Dask, calibration, retirement (argparse settings).
+RUN_OPTIONS = {
+    "--no-calibration": dict(action="store_true", help="skip the fleet-wide aircraft "
+                             "calibration (and DIR/samples.parquet)"),
+    "--workers": dict(default=None, help="process workers of the local Dask cluster "
+                      "(default: one per core)"),
+    "--scheduler": dict(metavar="ADDRESS", help="an existing Dask scheduler "
+                        "(tcp://host:8786) instead of a local cluster"),
+    "--retire": dict(default="0.8", help="retirement threshold, state of health (default "
+                     "0.8 = 80 %%)"),
+    "--within": dict(default="50", help="flag the packs that reach --retire within this "
+                     "many flights (default 50)"),
+}
+
+
 def register(sub) -> None:
     p = sub.add_parser("fleet", help="many logs on Dask: per-flight table, pack health, "
                                      "fleet accuracy",
@@ -30,18 +45,8 @@ def register(sub) -> None:
     p.add_argument("--packs", metavar="PACKS.csv",
                    help="CSV log,pack[,cycle][,aircraft]: the pack flown in logs that carry no "
                         "battery serial, and the aircraft that flew them (log = file name)")
-    p.add_argument("--no-calibration", action="store_true",
-                   help="skip the fleet-wide aircraft calibration (and DIR/samples.parquet)")
-    p.add_argument("--workers", default=None,
-                   help="process workers of the local Dask cluster (default: one per core)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="an existing Dask scheduler (tcp://host:8786) instead of a local "
-                        "cluster")
-    p.add_argument("--retire", default="0.8",
-                   help="retirement threshold, state of health (default 0.8 = 80 %%)")
-    p.add_argument("--within", default="50",
-                   help="flag the packs that reach --retire within this many flights "
-                        "(default 50)")
+    for flag, settings in RUN_OPTIONS.items():
+        p.add_argument(flag, **settings)
     p.set_defaults(func=run, output_folders=("--out",))
 
 

@@ -6,14 +6,8 @@ import dataclasses
 
 import numpy as np
 
-from planner.cli.commands.common import (
-    check_speed,
-    output_path,
-    parse_float,
-    parse_int,
-    parse_wind,
-    write_json,
-)
+from planner.cli.commands.common import (add_options, check_speed, output_path, parse_float,
+                                         parse_int, parse_wind, write_json)
 from planner.errors import InputError
 from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import load_aircraft_and_battery
@@ -27,15 +21,12 @@ def register(sub) -> None:
                                    "report the battery's peak current, the figures of merit "
                                    "J1 (charge throughput) and J2 (ohmic loss), and the "
                                    "voltage-sag margin with and without.")
-    p.add_argument("mission")
-    p.add_argument("--aircraft", required=True)
-    p.add_argument("--battery")
+    add_options(p, mission=True, aircraft=True, battery=True)
     p.add_argument("--supercap-parallel", default="1",
                    help="strings of supercapacitor cells in parallel (default 1)")
-    p.add_argument("--temperature", help="pack temperature [°C] (default 25)")
-    p.add_argument("--wind", help="SPEED@FROM_DEG")
+    add_options(p, temperature="pack temperature [°C] (default 25)", wind="SPEED@FROM_DEG")
     p.add_argument("--step", default="0.5", help="time step [s] (default 0.5)")
-    p.add_argument("--json", help="write the comparison as JSON")
+    add_options(p, json="write the comparison as JSON")
     p.set_defaults(func=run)
 
 

@@ -5,18 +5,10 @@ from __future__ import annotations
 import math
 import sys
 
-from planner.cli.commands.common import (
-    add_battery_instance,
-    battery_instance,
-    flight_payloads,
-    fmt,
-    name_width,
-    output_path,
-    parse_float,
-    parse_fraction,
-    plot_path,
-    write_json,
-)
+from planner.cli.commands.common import (add_options, add_battery_instance, battery_instance,
+                                         flight_payloads, fmt, name_width, output_path,
+                                         parse_float, parse_fraction, plot_path,
+                                         write_json)
 from planner.io.flightdata import load_flight_data
 from planner.parameters import load_aircraft, load_battery
 
@@ -29,19 +21,19 @@ def register(sub) -> None:
     p.add_argument("logs", nargs="+", metavar="LOG",
                    help="log files (.bin, .px4log, .tlog, .ulg, a folder or zip of PX4 topic "
                         "CSV files) or flight-record CSV")
-    p.add_argument("--aircraft", help="aircraft YAML: enables the power-level comparison")
-    p.add_argument("--battery", help="battery-pack YAML (default: the literature model for "
-                                     "the log's cell count)")
-    p.add_argument("--map", help="column map YAML for CSV data that is not a flight record")
+    add_options(p, aircraft={"required": False,
+                             "help": "aircraft YAML: enables the power-level comparison"},
+                battery="battery-pack YAML (default: the literature model for the log's "
+                        "cell count)",
+                map="column map YAML for CSV data that is not a flight record")
     add_battery_instance(p)
-    p.add_argument("--payload", help="payload mass [kg] of every flight (default: each "
-                                     "flight's own payload_kg in the data, else 0)")
-    p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
-    p.add_argument("--site-altitude", default="0",
-                   help="site altitude AMSL [m] for ISA density when the log has no "
-                        "pressure and temperature (default 0)")
-    p.add_argument("--json", help="write the comparison as JSON")
-    p.add_argument("--plot", help="write a PNG: measured vs predicted power and charge")
+    add_options(p, payload="payload mass [kg] of every flight (default: each flight's own "
+                           "payload_kg in the data, else 0)",
+                reserve=True,
+                site_altitude="site altitude AMSL [m] for ISA density when the log has no "
+                              "pressure and temperature (default 0)",
+                json="write the comparison as JSON",
+                plot="write a PNG: measured vs predicted power and charge")
     p.add_argument("--csv", metavar="F",
                    help="write the flight record with the per-sample predicted power (W) "
                         "and charge (mAh) beside the measured ones")

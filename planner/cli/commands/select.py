@@ -11,6 +11,7 @@ import numpy as np
 
 from planner.io import files
 from planner.cli.commands.common import (
+    add_options,
     flags_for,
     fmt,
     name_width,
@@ -37,25 +38,22 @@ def register(sub) -> None:
                                    "mass and thrust, and rank the packs. Exit 0 = some pack "
                                    "is feasible, 1 = none is (sorties are proposed), "
                                    "2 = bad input.")
-    p.add_argument("mission", help="mission file: .yaml, QGroundControl .plan or "
-                                   "Mission Planner .waypoints/.txt")
-    p.add_argument("--aircraft", required=True, help="aircraft YAML")
+    add_options(p, mission="mission file: .yaml, QGroundControl .plan or Mission Planner "
+                           ".waypoints/.txt", aircraft=True)
     p.add_argument("--packs", required=True,
                    help="catalog YAML with a 'packs:' list, or a folder of pack YAMLs")
     p.add_argument("--objective", default="mass", choices=("mass", "margin", "price"),
                    help="rank by lightest pack (default), largest landing margin "
                         "(as extra hover/loiter time) or lowest price")
-    p.add_argument("--wind", help="SPEED@FROM_DEG, e.g. 6@270 (overrides the mission's)")
-    p.add_argument("--temperature", help="outside air temperature [°C]")
-    p.add_argument("--reserve", default="0.2", help="landing reserve as a fraction of "
-                                                    "nominal capacity (default 0.2)")
-    p.add_argument("--payload", help="payload mass [kg] (overrides the mission's)")
+    add_options(p, wind=True, temperature=True,
+                reserve="landing reserve as a fraction of nominal capacity (default 0.2)",
+                payload=True)
     p.add_argument("--min-thrust-to-weight", default="1.5",
                    help="multirotor: least max thrust / take-off weight (default 1.5; "
                         "needs multirotor.max_thrust_n in the aircraft file)")
     p.add_argument("--top", help="show only the best N packs in the table (JSON: all)")
-    p.add_argument("--json", help="write the ranked packs as JSON to this file")
-    p.add_argument("--plot", help="write a PNG of pack mass against landing margin")
+    add_options(p, json="write the ranked packs as JSON to this file",
+                plot="write a PNG of pack mass against landing margin")
     p.add_argument("--no-sorties", action="store_true",
                    help="when no pack is feasible, do not plan sorties")
     p.add_argument("--sorties-out", metavar="DIR",
@@ -71,9 +69,9 @@ def register(sub) -> None:
                                    "payload for a pack. Tables to the terminal or CSV, plots "
                                    "as PNG.")
     s.add_argument("kind", choices=("battery-mass", "payload"), help="which sweep")
-    s.add_argument("--aircraft", required=True, help="aircraft YAML")
-    s.add_argument("--battery", help="pack YAML (default: the aircraft's); battery-mass: "
-                                     "gives cells, chemistry, model and specific energy")
+    add_options(s, aircraft=True, battery="pack YAML (default: the aircraft's); "
+                                         "battery-mass: gives cells, chemistry, model and "
+                                         "specific energy")
     s.add_argument("--chemistry", choices=("lipo", "liion"),
                    help="battery-mass: chemistry defaults (LiPo 150 Wh/kg at 3.7 V, Li-ion "
                         "220 Wh/kg at 3.6 V; assumed typical pack values)")
@@ -83,14 +81,12 @@ def register(sub) -> None:
     s.add_argument("--range", dest="sweep_range",
                    help="LO:HI of battery mass (battery-mass) or payload (payload) [kg]")
     s.add_argument("--points", default=None, help="number of sweep points")
-    s.add_argument("--payload", help="battery-mass: payload [kg] (default 0)")
-    s.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
-    s.add_argument("--temperature", help="outside air temperature [°C]")
+    add_options(s, payload="battery-mass: payload [kg] (default 0)", reserve=True,
+                temperature=True)
     s.add_argument("--altitude", default=None, help="flight altitude above the site [m]")
-    s.add_argument("--site-altitude", default="0", help="site altitude AMSL [m]")
-    s.add_argument("--wind", help="battery-mass: SPEED@FROM_DEG during the hold")
-    s.add_argument("--csv", help="write the full sweep table as CSV")
-    s.add_argument("--plot", help="write a PNG of the sweep")
+    add_options(s, site_altitude="site altitude AMSL [m]",
+                wind="battery-mass: SPEED@FROM_DEG during the hold",
+                csv="write the full sweep table as CSV", plot="write a PNG of the sweep")
     s.set_defaults(func=run_sweep)
 
 

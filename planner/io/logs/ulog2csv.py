@@ -241,6 +241,161 @@ def _span(data) -> tuple[float, float] | None:
     return (float(t.min()), float(t.max())) if t.size else None
 
 
+class _Export:
+    """One log's topic export: its files by topic and instance, the topics read so far (each
+    read once), and the files the record's channels came from."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.src = _Source(path)
+        self.meta = Meta(str(path), "ulog2csv")
+        prefixes = _export_prefixes(self.src.names)
+        if not prefixes:
+            what = (f"{len(self.src.names)} CSV file(s), none of a known topic"
+                    if self.src.names else "no CSV files")
+            raise InputError(f"{path}: {what}; expected a PX4 topic export "
+                             "(<prefix>_<topic>_<instance>.csv files written by pyulog's "
+                             "ulog2csv, with battery_status)")
+        if len(prefixes) > 1:
+            raise InputError(f"{path}: files of {len(prefixes)} exports "
+                             f"({', '.join(prefixes[:4])}{' …' if len(prefixes) > 4 else ''}); "
+                             "expected one log's topics (one prefix) per folder or zip")
+        self.prefix = prefixes[0]
+        self.meta["prefix"] = self.prefix
+        self.meta["params"] = {}
+        self.by_topic: dict[str, dict[int, TopicFile]] = {}
+        for tf in _with_prefix(self.src.names, self.prefix):
+            self.by_topic.setdefault(tf.topic, {})[tf.instance] = tf
+        self.cache: dict[tuple[str, int], dict | None] = {}
+        self.used_files: dict[str, str] = {}
+        self.keep: int | None = None          # the battery_status instance kept
+
+    def data_of(self, topic: str, instance: int) -> dict | None:
+        """The columns of one topic file (``None``: unusable, warned)."""
+        key = (topic, instance)
+        if key not in self.cache:
+            self.cache[key] = _read_csv(self.src, self.by_topic[topic][instance], self.meta)
+        return self.cache[key]
+
+    def get(self, topic: str) -> Message | None:
+        """The topic as a message (the kept battery instance, else the first instance),
+        noting its file."""
+        insts = self.by_topic.get(topic)
+        if not insts:
+            return None
+        inst = self.keep if topic == "battery_status" else min(insts)
+        if inst is None:
+            return None
+        d = self.data_of(topic, inst)
+        if d is None:
+            return None
+        self.used_files[topic] = self.src.where(insts[inst].name)
+        return Message(topic, np.asarray(d["timestamp"], float) * 1e-6, d, instance=inst)
+
+    def choose_battery(self, battery_instance: int | None, require_battery: bool) -> None:
+        """Keep the chosen ``battery_status`` instance, else the one that carries the most
+        charge; note the pack's serial number and cycle count."""
+        path, meta, prefix = self.path, self.meta, self.prefix
+        batteries = self.by_topic.get("battery_status", {})
+        if battery_instance is not None and battery_instance not in batteries:
+            have = (f"the export has instance(s) {', '.join(map(str, sorted(batteries)))}"
+                    if batteries else "the export has no battery_status file")
+            raise InputError(f"{path}: no battery_status instance {battery_instance} "
+                             f"({prefix}_battery_status_{battery_instance}.csv); {have}")
+        if batteries:
+            charges = {i: battery_charge_as(d) for i in sorted(batteries)
+                       if (d := self.data_of("battery_status", i)) is not None}
+            if battery_instance is not None:
+                if charges.get(battery_instance) is None and \
+                        self.data_of("battery_status", battery_instance) is None:
+                    raise InputError(f"{self.src.where(batteries[battery_instance].name)}: "
+                                     "unusable (see the warning above); expected a "
+                                     "battery_status export with a numeric timestamp column")
+                self.keep = battery_instance
+            elif charges:
+                self.keep = max(charges, key=lambda i: (charges[i], -i))
+            if len(batteries) > 1 and self.keep is not None:
+                meta["battery_instances"] = sorted(batteries)
+                meta["battery_instance"] = self.keep
+                meta["battery_charge_mah"] = {i: (c / 3.6 if c >= 0 else None)
+                                              for i, c in charges.items()}
+                why = ("chosen" if battery_instance is not None
+                       else "the one that carries the current")
+                meta.warn(f"{path}: {len(batteries)} battery_status instances; kept instance "
+                          f"{self.keep} ({why}), ignored "
+                          f"{[i for i in sorted(batteries) if i != self.keep]}")
+        if self.keep is None and require_battery:
+            raise InputError(f"{path}: no usable battery_status file ({prefix}_battery_status_"
+                             "<N>.csv); expected a PX4 topic export with the battery topic "
+                             "(export can read the other channels without it)")
+        if self.keep is not None:
+            bat = self.data_of("battery_status", self.keep)
+            meta["battery_serial"] = serial_or_none(bat.get("serial_number"))
+            cycles = bat.get("cycle_count")
+            if meta["battery_serial"] is not None and cycles is not None and len(cycles):
+                meta["battery_cycle_count"] = int(np.nanmax(np.asarray(cycles, float)))
+
+    def vehicle_class(self) -> str | None:
+        """The vehicle class from ``vehicle_status`` (MAV_TYPE, else PX4's vehicle type)."""
+        status = self.by_topic.get("vehicle_status", {})
+        vclass = None
+        if status:
+            d = self.data_of("vehicle_status", min(status)) or {}
+
+            def last(name):
+                v = np.asarray(d.get(name, []))
+                return int(v[-1]) if v.dtype.kind in "biuf" and v.size and \
+                    np.isfinite(v[-1]) else None
+
+            mav_type, px4_type = last("system_type"), last("vehicle_type")
+            if mav_type is not None:
+                self.meta["vehicle"] = mav_type_name(mav_type)
+                vclass = MAV_TYPE_CLASS.get(mav_type)
+            elif px4_type is not None:
+                # PX4 msg/VehicleStatus.msg: VEHICLE_TYPE_ROTARY_WING = 1, _FIXED_WING = 2,
+                # _ROVER = 3; is_vtol for a VTOL in either
+                vclass = "vtol" if last("is_vtol") else VEHICLE_TYPE_CLASS.get(px4_type)
+        self.meta["vehicle_type"] = vclass
+        return vclass
+
+    def check_time_bases(self, channels) -> None:
+        """Every channel's topic overlaps the battery's time span (one clock)."""
+        base_span = _span(self.data_of("battery_status", self.keep)) \
+            if self.keep is not None else None
+        if base_span is None:
+            return
+        for ch in channels.values():
+            if ch.message == "battery_status":
+                continue
+            d = self.data_of(ch.message, min(self.by_topic[ch.message]))
+            span = _span(d)
+            if span is None or len(d["timestamp"]) < 2:
+                continue
+            if span[1] < base_span[0] or span[0] > base_span[1]:
+                raise InputError(
+                    f"{self.used_files[ch.message]}: timestamps {span[0]:.1f}–{span[1]:.1f} s "
+                    f"do not overlap the battery's {base_span[0]:.1f}–{base_span[1]:.1f} s "
+                    "(topics with different time bases); expected every topic in µs since "
+                    "boot on the log's one clock, as ulog2csv writes")
+
+    def gps_start_time(self) -> None:
+        """The log's start in Unix time, from the first GPS topic with UTC time."""
+        for topic in GPS_TIME_TOPICS:
+            gps = self.get(topic)
+            if gps is not None and "time_utc_usec" in gps.data:
+                start = start_time_unix(self.meta.values["time_base_start_s"], gps.t,
+                                        np.asarray(gps.data["time_utc_usec"], float) * 1e-6)
+                if start is not None:
+                    self.meta["start_time_unix"] = start
+                    break
+
+
+def _nav_state_names(raw: np.ndarray, f) -> np.ndarray:
+    """PX4 ``nav_state`` numbers → flight-mode names."""
+    return np.array([NAV_STATE_NAMES.get(int(v), f"NAV_STATE({int(v)})")
+                     if np.isfinite(float(v)) else None for v in raw], dtype=object)
+
+
 def read_ulog2csv(path: str | os.PathLike, *, require_battery: bool = True,
                   battery_instance: int | None = None) -> tuple[pd.DataFrame, dict]:
     """Read a PX4 topic export (a folder or ``.zip`` of ``ulog2csv`` files) into the
@@ -264,139 +419,16 @@ def read_ulog2csv(path: str | os.PathLike, *, require_battery: bool = True,
         each channel's topic), ``prefix``, and with several batteries
         ``battery_instances``, ``battery_instance`` and ``battery_charge_mah``.
     """
-    path = Path(path)
-    src = _Source(path)
-    meta = Meta(str(path), "ulog2csv")
-    prefixes = _export_prefixes(src.names)
-    if not prefixes:
-        what = f"{len(src.names)} CSV file(s), none of a known topic" if src.names else \
-            "no CSV files"
-        raise InputError(f"{path}: {what}; expected a PX4 topic export "
-                         "(<prefix>_<topic>_<instance>.csv files written by pyulog's "
-                         "ulog2csv, with battery_status)")
-    if len(prefixes) > 1:
-        raise InputError(f"{path}: files of {len(prefixes)} exports ({', '.join(prefixes[:4])}"
-                         f"{' …' if len(prefixes) > 4 else ''}); expected one log's topics "
-                         "(one prefix) per folder or zip")
-    prefix = prefixes[0]
-    found = _with_prefix(src.names, prefix)
-    meta["prefix"] = prefix
-    meta["params"] = {}
-    by_topic: dict[str, dict[int, TopicFile]] = {}
-    for tf in found:
-        by_topic.setdefault(tf.topic, {})[tf.instance] = tf
-
-    batteries = by_topic.get("battery_status", {})
-    if battery_instance is not None and battery_instance not in batteries:
-        have = (f"the export has instance(s) {', '.join(map(str, sorted(batteries)))}"
-                if batteries else "the export has no battery_status file")
-        raise InputError(f"{path}: no battery_status instance {battery_instance} "
-                         f"({prefix}_battery_status_{battery_instance}.csv); {have}")
-    cache: dict[tuple[str, int], dict | None] = {}
-
-    def data_of(topic: str, instance: int):
-        key = (topic, instance)
-        if key not in cache:
-            cache[key] = _read_csv(src, by_topic[topic][instance], meta)
-        return cache[key]
-
-    keep = None
-    if batteries:
-        charges = {i: battery_charge_as(d) for i in sorted(batteries)
-                   if (d := data_of("battery_status", i)) is not None}
-        if battery_instance is not None:
-            if charges.get(battery_instance) is None and \
-                    data_of("battery_status", battery_instance) is None:
-                raise InputError(f"{src.where(batteries[battery_instance].name)}: unusable "
-                                 "(see the warning above); expected a battery_status export "
-                                 "with a numeric timestamp column")
-            keep = battery_instance
-        elif charges:
-            keep = max(charges, key=lambda i: (charges[i], -i))
-        if len(batteries) > 1 and keep is not None:
-            meta["battery_instances"] = sorted(batteries)
-            meta["battery_instance"] = keep
-            meta["battery_charge_mah"] = {i: (c / 3.6 if c >= 0 else None)
-                                          for i, c in charges.items()}
-            why = "chosen" if battery_instance is not None else "the one that carries the current"
-            meta.warn(f"{path}: {len(batteries)} battery_status instances; kept instance "
-                      f"{keep} ({why}), ignored "
-                      f"{[i for i in sorted(batteries) if i != keep]}")
-    if keep is None and require_battery:
-        raise InputError(f"{path}: no usable battery_status file ({prefix}_battery_status_"
-                         "<N>.csv); expected a PX4 topic export with the battery topic "
-                         "(export can read the other channels without it)")
-    if keep is not None:
-        bat = data_of("battery_status", keep)
-        meta["battery_serial"] = serial_or_none(bat.get("serial_number"))
-        cycles = bat.get("cycle_count")
-        if meta["battery_serial"] is not None and cycles is not None and len(cycles):
-            meta["battery_cycle_count"] = int(np.nanmax(np.asarray(cycles, float)))
-    status = by_topic.get("vehicle_status", {})
-    vclass = None
-    if status:
-        d = data_of("vehicle_status", min(status)) or {}
-
-        def last(name):
-            v = np.asarray(d.get(name, []))
-            return int(v[-1]) if v.dtype.kind in "biuf" and v.size and np.isfinite(v[-1]) \
-                else None
-
-        mav_type, px4_type = last("system_type"), last("vehicle_type")
-        if mav_type is not None:
-            meta["vehicle"] = mav_type_name(mav_type)
-            vclass = MAV_TYPE_CLASS.get(mav_type)
-        elif px4_type is not None:
-            # PX4 msg/VehicleStatus.msg: VEHICLE_TYPE_ROTARY_WING = 1, _FIXED_WING = 2,
-            # _ROVER = 3; is_vtol for a VTOL in either
-            vclass = "vtol" if last("is_vtol") else VEHICLE_TYPE_CLASS.get(px4_type)
-    meta["vehicle_type"] = vclass
-
-    used_files: dict[str, str] = {}
-
-    def get(topic: str) -> Message | None:
-        insts = by_topic.get(topic)
-        if not insts:
-            return None
-        inst = keep if topic == "battery_status" else min(insts)
-        if inst is None:
-            return None
-        d = data_of(topic, inst)
-        if d is None:
-            return None
-        used_files[topic] = src.where(insts[inst].name)
-        return Message(topic, np.asarray(d["timestamp"], float) * 1e-6, d, instance=inst)
-
-    def mode_names(raw: np.ndarray, f) -> np.ndarray:
-        return np.array([NAV_STATE_NAMES.get(int(v), f"NAV_STATE({int(v)})")
-                         if np.isfinite(float(v)) else None for v in raw], dtype=object)
-
-    channels = resolve_channels(FIELD_MAP, get, vehicle_type=vclass, mode_names=mode_names)
+    export = _Export(Path(path))
+    export.choose_battery(battery_instance, require_battery)
+    vclass = export.vehicle_class()
+    channels = resolve_channels(FIELD_MAP, export.get, vehicle_type=vclass,
+                                mode_names=_nav_state_names)
     if "throttle" in channels:
         channels["throttle"].values = np.clip(channels["throttle"].values, 0.0, 1.0)
-    base_span = _span(data_of("battery_status", keep)) if keep is not None else None
-    if base_span is not None:
-        for ch in channels.values():
-            if ch.message == "battery_status":
-                continue
-            d = data_of(ch.message, min(by_topic[ch.message]))
-            span = _span(d)
-            if span is None or len(d["timestamp"]) < 2:
-                continue
-            if span[1] < base_span[0] or span[0] > base_span[1]:
-                raise InputError(
-                    f"{used_files[ch.message]}: timestamps {span[0]:.1f}–{span[1]:.1f} s do "
-                    f"not overlap the battery's {base_span[0]:.1f}–{base_span[1]:.1f} s "
-                    "(topics with different time bases); expected every topic in µs since "
-                    "boot on the log's one clock, as ulog2csv writes")
-    meta["files"] = dict(sorted(used_files.items()))
-    df = build_record(channels, meta, experiment=prefix, require_battery=require_battery)
-    for topic in GPS_TIME_TOPICS:
-        gps = get(topic)
-        if gps is not None and "time_utc_usec" in gps.data:
-            start = start_time_unix(meta.values["time_base_start_s"], gps.t,
-                                    np.asarray(gps.data["time_utc_usec"], float) * 1e-6)
-            if start is not None:
-                meta["start_time_unix"] = start
-                break
+    export.check_time_bases(channels)
+    meta = export.meta
+    meta["files"] = dict(sorted(export.used_files.items()))
+    df = build_record(channels, meta, experiment=export.prefix, require_battery=require_battery)
+    export.gps_start_time()
     return df, meta.values

@@ -361,6 +361,318 @@ def _check_speeds(steps, defaults: NavDefaults | None, where: str) -> None:
                              f"{v / 3.6:.3g} m/s); expected m/s")
 
 
+class _RouteFlight:
+    """The aircraft flying a route from home: where it is, the speeds in force, the legs so
+    far. Each step's action is one method (:data:`_STEP_ACTIONS`), chosen by name."""
+
+    def __init__(self, home_ll: tuple[float, float], *, where: str,
+                 speed_ms: float | None, speed_is_airspeed: bool | None,
+                 defaults: NavDefaults | None, vehicle: str | None, climb_first: bool,
+                 states: dict[int, SpeedState] | None):
+        self.home_ll = home_ll
+        self.where = where
+        self.defaults = defaults
+        self.vehicle = vehicle
+        self.climb_first = climb_first
+        self.states = states
+        self.legs: list[Leg] = []
+        self.pos = (0.0, 0.0)
+        self.here = (home_ll, "home")   # (latitude, longitude) of pos, and where it came from
+        self.alt = 0.0
+        self.speed_ms = speed_ms
+        self.speed_is_airspeed = speed_is_airspeed
+        self.climb_rate: float | None = None
+        self.descent_rate: float | None = None
+        self.on_ground = True
+        self.item: int | None = None
+        self.warned: set[str] = set()
+
+    def warn_once(self, key: str, message: str) -> None:
+        if key not in self.warned:
+            self.warned.add(key)
+            warnings.warn(message, stacklevel=4)
+
+    # ---------------------------------------------------------------- the moves
+
+    def vertical(self, target_alt: float, origin: str, radius: float | None = None) -> None:
+        """Climb or descend where the aircraft is (nothing below :data:`MIN_ALT_CHANGE_M`)."""
+        if abs(target_alt - self.alt) < MIN_ALT_CHANGE_M:
+            return
+        kind = "climb" if target_alt > self.alt else "descend"
+        rate = self.climb_rate if kind == "climb" else self.descent_rate
+        self.legs.append(Leg(kind, start_en_m=self.pos, end_en_m=self.pos,
+                             start_alt_m=self.alt, end_alt_m=target_alt, climb_rate_ms=rate,
+                             loiter_radius_m=radius, origin=origin, item=self.item))
+        self.alt = target_alt
+        self.on_ground = self.on_ground and self.alt <= MIN_ALT_CHANGE_M
+
+    def hover(self, duration_s: float, origin: str) -> None:
+        """Hold the position for ``duration_s``. [s]"""
+        self.legs.append(Leg("hover", start_en_m=self.pos, end_en_m=self.pos,
+                             start_alt_m=self.alt, end_alt_m=self.alt,
+                             duration_s=float(duration_s), origin=origin, item=self.item))
+
+    def check_frame(self, start: tuple[float, float], end: tuple[float, float], origin: str,
+                    start_origin: str) -> None:
+        """Refuse a leg the flat frame about home misstates by more than
+        :data:`MAX_FRAME_ERROR` (module notes)."""
+        home_ll = self.home_ll
+        err = frame_error(*start, *end, *home_ll)
+        if err <= MAX_FRAME_ERROR:
+            return
+        length = great_circle_distance(*start, *end)
+        far = max(great_circle_distance(*home_ll, *start), great_circle_distance(*home_ll, *end))
+        note = ""
+        if far > FAR_HOME_KM * 1e3:
+            note = (f"; the file's home ({home_ll[0]:.5f}, {home_ll[1]:.5f}) is on another "
+                    "continent from its route: the home the file gives is not where the "
+                    "mission is flown (ArduPilot replaces it with the vehicle's home at "
+                    "upload, AP_Mission::write_home_to_storage)")
+        raise InputError(
+            f"{self.where}: {origin}: the {length / 1e3:.0f} km leg from {start_origin} reaches "
+            f"{far / 1e3:.0f} km from home without passing through it, where the planner's "
+            f"flat frame about home misstates its length by {err:.2%} (expected legs within "
+            f"about {FRAME_ERROR_KM:g} km of home, or straight to or from home, error at most "
+            f"{MAX_FRAME_ERROR:.1%}; plan far-apart legs from a nearer home){note}")
+
+    def limits(self, speed: float | None) -> tuple[float | None, float | None, float | None]:
+        """Horizontal speed, climb and descent rates in force (None: unknown). [m/s]"""
+        d = self.defaults
+        v = speed or self.speed_ms or (d.cruise_speed_ms if d else None)
+        up = self.climb_rate or (d.climb_rate_ms if d else None)
+        down = self.descent_rate or (d.descent_rate_ms if d else None)
+        return v, up, down
+
+    def move(self, target: tuple[float, float], target_alt: float, origin: str,
+             target_ll: tuple[float, float], *, speed: float | None = None,
+             level: bool = False, radius: float | None = None) -> None:
+        """Fly to ``target`` at ``target_alt``: a cruise, climbing no faster than the
+        aircraft can (the rest of the climb over the point; ArduCopter ``AC_WPNav``
+        ``WPNAV_SPEED_UP``/``_DN``); ``level``: when the rates are unknown, cruise at the
+        current altitude and climb over the point."""
+        dist = math.hypot(target[0] - self.pos[0], target[1] - self.pos[1])
+        if dist < MIN_CRUISE_M:
+            self.vertical(target_alt, origin, radius)
+            return
+        if self.on_ground and self.climb_first and target_alt > self.alt + MIN_ALT_CHANGE_M:
+            if not self.legs:
+                self.warn_once("takeoff", f"{self.where}: {origin}: the mission does not start "
+                               "with a take-off: flown with a vertical climb at home to the "
+                               "item's altitude, as PX4 inserts a take-off (ArduCopter refuses "
+                               "to start it on the ground: 'Auto: Missing Takeoff Cmd')")
+            self.vertical(target_alt, origin)
+        # within a quarter of FRAME_ERROR_KM of home the frame error is below 1/16 of
+        # the limit (it grows as r²): skip the exact test for the usual short missions
+        if max(math.hypot(*self.pos), math.hypot(*target)) > 250.0 * FRAME_ERROR_KM:
+            self.check_frame(self.here[0], target_ll, origin, self.here[1])
+        mid = self.cruise_end_altitude(dist, target_alt, speed, level)
+        self.legs.append(Leg("cruise", start_en_m=self.pos, end_en_m=target,
+                             start_alt_m=self.alt, end_alt_m=mid,
+                             speed_ms=speed if speed is not None else self.speed_ms,
+                             speed_is_airspeed=(False if speed is not None
+                                                else self.speed_is_airspeed),
+                             origin=origin, item=self.item))
+        self.pos, self.alt, self.here = target, mid, (target_ll, origin)
+        self.on_ground = False
+        self.vertical(target_alt, origin, radius)
+
+    def cruise_end_altitude(self, dist: float, target_alt: float, speed: float | None,
+                            level: bool) -> float:
+        """Altitude at the end of a cruise of ``dist`` metres towards ``target_alt``: the
+        target, unless the climb or descent rate in force cannot reach it over the cruise
+        (the rest is flown over the point). [m]"""
+        dz = target_alt - self.alt
+        v, up, down = self.limits(speed)
+        rate = up if dz > 0 else down
+        if v and rate and abs(dz) > rate * dist / v + MIN_ALT_CHANGE_M:
+            return self.alt + math.copysign(rate * dist / v, dz)
+        if level and not (v and rate):
+            return self.alt
+        return target_alt
+
+    def arc(self, target: tuple[float, float], target_alt: float, origin: str,
+            target_ll: tuple[float, float], angle_deg: float) -> None:
+        """An arc of ``angle_deg`` to ``target``, flown as straight pieces of at most
+        :data:`ARC_STEP_DEG`, a multirotor's speed held to ``sqrt(ACCEL_C · radius)``
+        (ArduCopter ``SCurve.cpp``; module notes)."""
+        start = self.pos
+        dist = math.hypot(target[0] - start[0], target[1] - start[1])
+        center = arc_center(start, target, angle_deg) if angle_deg else None
+        if dist < MIN_CRUISE_M or center is None:
+            if dist >= MIN_CRUISE_M and angle_deg:
+                self.warn_once(f"arc{origin}", f"{self.where}: {origin}: an arc of "
+                               f"{angle_deg:g}° cannot join two distinct points (a whole "
+                               "number of turns): flown straight")
+            self.move(target, target_alt, origin, target_ll)
+            return
+        radius = math.hypot(start[0] - center[0], start[1] - center[1])
+        v, _, _ = self.limits(None)
+        speed = None
+        if self.vehicle == "multirotor" and v:
+            accel_c = 2.0 * (self.defaults.accel_ms2 if self.defaults else NavDefaults(
+                "multirotor", v, 1.0, 1.0).accel_ms2)
+            if math.sqrt(accel_c * radius) < v:
+                speed = math.sqrt(accel_c * radius)
+        n = max(1, math.ceil(abs(angle_deg) / ARC_STEP_DEG))
+        alt0 = self.alt
+        rel = (start[0] - center[0], start[1] - center[1])
+        for k in range(1, n + 1):
+            if k == n:
+                point, point_ll = target, target_ll
+            else:
+                phi = -math.radians(angle_deg) * k / n
+                c, s = math.cos(phi), math.sin(phi)
+                point = (center[0] + c * rel[0] - s * rel[1],
+                         center[1] + s * rel[0] + c * rel[1])
+                plat, plon = aeqd_to_latlon(point[0], point[1], *self.home_ll)
+                point_ll = (float(plat), float(plon))
+            self.move(point, alt0 + (target_alt - alt0) * k / n, origin, point_ll,
+                      speed=speed)
+
+    def turns_duration(self, step: RouteStep
+                       ) -> tuple[float, float | None, float | None, bool | None]:
+        """(duration [s], radius [m], speed [m/s], is_airspeed) of a loiter given in turns
+        (a multirotor at ArduCopter's circle speed, :func:`circle_speed`)."""
+        d, multirotor = self.defaults, self.vehicle == "multirotor"
+        if multirotor:
+            radius = step.radius_m or (d.circle_radius_m if d else None)
+        else:
+            radius = step.radius_m or (d.loiter_radius_m if d else None)
+        v, _, _ = self.limits(None)
+        if not radius or not v:
+            raise InputError(
+                f"{self.where}: {step.origin}: a loiter of {step.turns:g} turns needs a radius "
+                "and a speed (set a speed before it, or give the aircraft) to give its "
+                "duration")
+        is_air = self.speed_is_airspeed
+        if multirotor:
+            v, is_air = circle_speed(radius, v, d), False
+        duration = step.turns * 2.0 * math.pi * radius / v
+        problem = hold_problem(duration, "loiter time")
+        if problem:
+            raise InputError(
+                f"{self.where}: {step.origin}: {step.turns:g} turns of {radius:g} m "
+                f"at {v:g} m/s: {problem}")
+        return duration, (radius if step.radius_m or multirotor else None), v, is_air
+
+    # ---------------------------------------------------------------- the steps
+
+    def start(self, step: RouteStep, east: float, north: float, lat: float,
+              lon: float) -> tuple[tuple[float, float], tuple[float, float], float]:
+        """Begin a step: record the speeds in force for its item; return its target (east,
+        north [m]; latitude, longitude [deg]; altitude above home [m]), the current
+        position and altitude where the step leaves them unset."""
+        self.item = step.item
+        if self.states is not None and self.item is not None and self.item not in self.states:
+            self.states[self.item] = (self.speed_ms, self.speed_is_airspeed, self.climb_rate,
+                                      self.descent_rate)
+        if np.isnan(east):
+            target, target_ll = self.pos, self.here[0]
+        else:
+            target, target_ll = (float(east), float(north)), (float(lat), float(lon))
+        return target, target_ll, self.alt if step.alt_m is None else float(step.alt_m)
+
+    def takeoff(self, step, target, target_ll, target_alt) -> None:
+        if target_alt < self.alt:
+            warnings.warn(f"{self.where}: {step.origin}: take-off altitude {target_alt:g} m "
+                          f"is below the current {self.alt:g} m; ignored", stacklevel=3)
+        else:
+            self.vertical(target_alt, step.origin)
+            self.on_ground = False
+
+    def waypoint(self, step, target, target_ll, target_alt) -> None:
+        self.move(target, target_alt, step.origin, target_ll)
+        if step.hold_s:
+            self.hover(step.hold_s, step.origin)
+
+    def arc_step(self, step, target, target_ll, target_alt) -> None:
+        self.arc(target, target_alt, step.origin, target_ll, float(step.angle_deg or 0.0))
+
+    def hold(self, step, target, target_ll, target_alt) -> None:
+        if step.duration_s:
+            self.hover(step.duration_s, step.origin)
+
+    def loiter(self, step, target, target_ll, target_alt) -> None:
+        """Fly to the point, then loiter there: a multirotor without a radius holds its
+        position (ArduCopter ``ModeAuto::do_loiter_time``), else it circles."""
+        self.move(target, target_alt, step.origin, target_ll)
+        duration, radius, speed, is_air = (step.duration_s, step.radius_m, self.speed_ms,
+                                           self.speed_is_airspeed)
+        if step.turns is not None:
+            if not step.turns:
+                return
+            duration, radius, speed, is_air = self.turns_duration(step)
+        if not duration:
+            return
+        if self.vehicle == "multirotor" and radius is None:      # a position hold
+            self.hover(duration, step.origin)
+            return
+        self.legs.append(Leg("loiter", start_en_m=self.pos, end_en_m=self.pos,
+                             start_alt_m=self.alt, end_alt_m=self.alt, speed_ms=speed,
+                             speed_is_airspeed=is_air, duration_s=float(duration),
+                             loiter_radius_m=radius or None, origin=step.origin,
+                             item=self.item))
+
+    def loiter_to_alt(self, step, target, target_ll, target_alt) -> None:
+        self.move(target, target_alt, step.origin, target_ll, level=True,
+                  radius=step.radius_m)
+
+    def land(self, step, target, target_ll, target_alt) -> None:
+        """To the point (home for ``rtl``) at the current altitude, then down to 0."""
+        if step.action == "rtl":
+            target, target_ll = (0.0, 0.0), self.home_ll
+        self.move(target, self.alt, step.origin, target_ll)
+        self.vertical(0.0, step.origin)
+        self.on_ground = True
+
+    def speed(self, step, target, target_ll, target_alt) -> None:
+        self.speed_ms, self.speed_is_airspeed = step.speed_ms, (
+            None if step.speed_ms is None else step.speed_is_airspeed)
+
+    def climb_rate_step(self, step, target, target_ll, target_alt) -> None:
+        self.climb_rate = step.speed_ms
+
+    def descent_rate_step(self, step, target, target_ll, target_alt) -> None:
+        self.descent_rate = step.speed_ms
+
+    def ends_after(self, step: RouteStep, later: list[RouteStep]) -> bool:
+        """Whether the route ends at a landing ``step``: it does unless it is a PX4
+        land-and-continue with items after it; items left unflown are said in a warning."""
+        rest = [s.origin for s in later if s.action not in ("speed", "climb_rate",
+                                                            "descent_rate")]
+        if step.action == "land" and step.fly_on and rest:
+            return False
+        if rest:
+            warnings.warn(f"{self.where}: {len(rest)} item(s) after {step.origin} "
+                          f"({'RTL' if step.action == 'rtl' else 'LAND'}) are not flown, "
+                          f"from {rest[0]}", stacklevel=3)
+        return True
+
+    def finish(self) -> list[Leg]:
+        """The legs, refused when there is none or when their holds add up to more than
+        :data:`MAX_HOLD_S`."""
+        if not self.legs:
+            raise InputError(f"{self.where}: the mission has no flight legs "
+                             "(expected a take-off or at least one waypoint)")
+        too_long = total_hold_problem(self.legs)
+        if too_long:
+            raise InputError(f"{self.where}: {too_long[0]}: {too_long[1]}")
+        return self.legs
+
+
+#: Route action → the :class:`_RouteFlight` method that flies it.
+_STEP_ACTIONS = {
+    "takeoff": _RouteFlight.takeoff, "waypoint": _RouteFlight.waypoint,
+    "arc": _RouteFlight.arc_step, "hold": _RouteFlight.hold, "loiter": _RouteFlight.loiter,
+    "loiter_to_alt": _RouteFlight.loiter_to_alt, "rtl": _RouteFlight.land,
+    "land": _RouteFlight.land, "speed": _RouteFlight.speed,
+    "climb_rate": _RouteFlight.climb_rate_step,
+    "descent_rate": _RouteFlight.descent_rate_step,
+}
+#: Actions that end on the ground.
+_LANDINGS = ("rtl", "land")
+
+
 def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: float, *,
                   where: str, speed_ms: float | None = None,
                   speed_is_airspeed: bool | None = None,
@@ -411,241 +723,18 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
     east, north = np.atleast_1d(east), np.atleast_1d(north)
     _check_swapped(steps, lat, lon, east, north, home_lat_deg, home_lon_deg, where)
     _check_speeds(steps, defaults, where)
-    home_ll = (float(home_lat_deg), float(home_lon_deg))
-
-    legs: list[Leg] = []
-    pos = (0.0, 0.0)
-    here = (home_ll, "home")      # (latitude, longitude) of pos, and where it came from
-    alt = 0.0
-    climb_rate = descent_rate = None
-    on_ground = True
-    item: int | None = None
-    warned: set[str] = set()
-
-    def warn_once(key: str, message: str) -> None:
-        if key not in warned:
-            warned.add(key)
-            warnings.warn(message, stacklevel=3)
-
-    def vertical(target_alt: float, origin: str, radius: float | None = None) -> None:
-        nonlocal alt, on_ground
-        if abs(target_alt - alt) < MIN_ALT_CHANGE_M:
-            return
-        kind = "climb" if target_alt > alt else "descend"
-        rate = climb_rate if kind == "climb" else descent_rate
-        legs.append(Leg(kind, start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                        end_alt_m=target_alt, climb_rate_ms=rate,
-                        loiter_radius_m=radius, origin=origin, item=item))
-        alt = target_alt
-        on_ground = on_ground and alt <= MIN_ALT_CHANGE_M
-
-    def check_frame(start: tuple[float, float], end: tuple[float, float], origin: str,
-                    start_origin: str) -> None:
-        err = frame_error(*start, *end, *home_ll)
-        if err <= MAX_FRAME_ERROR:
-            return
-        length = great_circle_distance(*start, *end)
-        far = max(great_circle_distance(*home_ll, *start), great_circle_distance(*home_ll, *end))
-        note = ""
-        if far > FAR_HOME_KM * 1e3:
-            note = (f"; the file's home ({home_ll[0]:.5f}, {home_ll[1]:.5f}) is on another "
-                    "continent from its route: the home the file gives is not where the "
-                    "mission is flown (ArduPilot replaces it with the vehicle's home at "
-                    "upload, AP_Mission::write_home_to_storage)")
-        raise InputError(
-            f"{where}: {origin}: the {length / 1e3:.0f} km leg from {start_origin} reaches "
-            f"{far / 1e3:.0f} km from home without passing through it, where the planner's "
-            f"flat frame about home misstates its length by {err:.2%} (expected legs within "
-            f"about {FRAME_ERROR_KM:g} km of home, or straight to or from home, error at most "
-            f"{MAX_FRAME_ERROR:.1%}; plan far-apart legs from a nearer home){note}")
-
-    def limits(speed: float | None) -> tuple[float | None, float | None, float | None]:
-        """Horizontal speed, climb and descent rates in force (None: unknown)."""
-        v = speed or speed_ms or (defaults.cruise_speed_ms if defaults else None)
-        up = climb_rate or (defaults.climb_rate_ms if defaults else None)
-        down = descent_rate or (defaults.descent_rate_ms if defaults else None)
-        return v, up, down
-
-    def move(target: tuple[float, float], target_alt: float, origin: str,
-             target_ll: tuple[float, float], *, speed: float | None = None,
-             level: bool = False, radius: float | None = None) -> None:
-        """Fly to ``target`` at ``target_alt``: a cruise, climbing no faster than the
-        aircraft can (the rest of the climb over the point); ``level``: when the rates
-        are unknown, cruise at the current altitude and climb over the point."""
-        nonlocal pos, alt, here, on_ground
-        dist = math.hypot(target[0] - pos[0], target[1] - pos[1])
-        if dist < MIN_CRUISE_M:
-            vertical(target_alt, origin, radius)
-            return
-        if on_ground and climb_first and target_alt > alt + MIN_ALT_CHANGE_M:
-            if not legs:
-                warn_once("takeoff", f"{where}: {origin}: the mission does not start with a "
-                          "take-off: flown with a vertical climb at home to the item's "
-                          "altitude, as PX4 inserts a take-off (ArduCopter refuses to start "
-                          "it on the ground: 'Auto: Missing Takeoff Cmd')")
-            vertical(target_alt, origin)
-        # within a quarter of FRAME_ERROR_KM of home the frame error is below 1/16 of
-        # the limit (it grows as r²): skip the exact test for the usual short missions
-        if max(math.hypot(*pos), math.hypot(*target)) > 250.0 * FRAME_ERROR_KM:
-            check_frame(here[0], target_ll, origin, here[1])
-        dz = target_alt - alt
-        mid = target_alt
-        v, up, down = limits(speed)
-        rate = up if dz > 0 else down
-        if v and rate and abs(dz) > rate * dist / v + MIN_ALT_CHANGE_M:
-            mid = alt + math.copysign(rate * dist / v, dz)
-        elif level and not (v and rate):
-            mid = alt
-        legs.append(Leg("cruise", start_en_m=pos, end_en_m=target, start_alt_m=alt,
-                        end_alt_m=mid, speed_ms=speed if speed is not None else speed_ms,
-                        speed_is_airspeed=(False if speed is not None
-                                           else speed_is_airspeed),
-                        origin=origin, item=item))
-        pos, alt, here = target, mid, (target_ll, origin)
-        on_ground = False
-        vertical(target_alt, origin, radius)
-
-    def arc(target: tuple[float, float], target_alt: float, origin: str,
-            target_ll: tuple[float, float], angle_deg: float) -> None:
-        start = pos
-        dist = math.hypot(target[0] - start[0], target[1] - start[1])
-        center = arc_center(start, target, angle_deg) if angle_deg else None
-        if dist < MIN_CRUISE_M or center is None:
-            if dist >= MIN_CRUISE_M and angle_deg:
-                warn_once(f"arc{origin}", f"{where}: {origin}: an arc of {angle_deg:g}° "
-                          "cannot join two distinct points (a whole number of turns): "
-                          "flown straight")
-            move(target, target_alt, origin, target_ll)
-            return
-        radius = math.hypot(start[0] - center[0], start[1] - center[1])
-        v, _, _ = limits(None)
-        speed = None
-        if vehicle == "multirotor" and v:
-            accel_c = 2.0 * (defaults.accel_ms2 if defaults else NavDefaults(
-                "multirotor", v, 1.0, 1.0).accel_ms2)
-            if math.sqrt(accel_c * radius) < v:
-                speed = math.sqrt(accel_c * radius)
-        n = max(1, math.ceil(abs(angle_deg) / ARC_STEP_DEG))
-        alt0 = alt
-        rel = (start[0] - center[0], start[1] - center[1])
-        for k in range(1, n + 1):
-            if k == n:
-                point, point_ll = target, target_ll
-            else:
-                phi = -math.radians(angle_deg) * k / n
-                c, s = math.cos(phi), math.sin(phi)
-                point = (center[0] + c * rel[0] - s * rel[1],
-                         center[1] + s * rel[0] + c * rel[1])
-                plat, plon = aeqd_to_latlon(point[0], point[1], *home_ll)
-                point_ll = (float(plat), float(plon))
-            move(point, alt0 + (target_alt - alt0) * k / n, origin, point_ll, speed=speed)
-
-    def turns_duration(step: RouteStep) -> tuple[float, float | None, float | None, bool]:
-        """(duration, radius, speed, is_airspeed) of a loiter given in turns."""
-        if vehicle == "multirotor":
-            radius = step.radius_m or (defaults.circle_radius_m if defaults else None)
-        else:
-            radius = step.radius_m or (defaults.loiter_radius_m if defaults else None)
-        v, _, _ = limits(None)
-        if not radius or not v:
-            raise InputError(
-                f"{where}: {step.origin}: a loiter of {step.turns:g} turns needs a radius and "
-                "a speed (set a speed before it, or give the aircraft) to give its duration")
-        is_air = speed_is_airspeed
-        if vehicle == "multirotor":
-            v, is_air = circle_speed(radius, v, defaults), False
-        duration = step.turns * 2.0 * math.pi * radius / v
-        problem = hold_problem(duration, "loiter time")
-        if problem:
-            raise InputError(
-                f"{where}: {step.origin}: {step.turns:g} turns of {radius:g} m "
-                f"at {v:g} m/s: {problem}")
-        return duration, (radius if step.radius_m or vehicle == "multirotor" else None), v, \
-            is_air
-
+    flight = _RouteFlight((float(home_lat_deg), float(home_lon_deg)), where=where,
+                          speed_ms=speed_ms, speed_is_airspeed=speed_is_airspeed,
+                          defaults=defaults, vehicle=vehicle, climb_first=climb_first,
+                          states=states)
     for i, step in enumerate(steps):
-        act = step.action
-        item = step.item
-        if states is not None and item is not None and item not in states:
-            states[item] = (speed_ms, speed_is_airspeed, climb_rate, descent_rate)
-        if np.isnan(east[i]):
-            target, target_ll = pos, here[0]
-        else:
-            target, target_ll = (float(east[i]), float(north[i])), (float(lat[i]), float(lon[i]))
-        target_alt = alt if step.alt_m is None else float(step.alt_m)
-        if act == "takeoff":
-            if target_alt < alt:
-                warnings.warn(f"{where}: {step.origin}: take-off altitude {target_alt:g} m is "
-                              f"below the current {alt:g} m; ignored", stacklevel=2)
-            else:
-                vertical(target_alt, step.origin)
-                on_ground = False
-        elif act == "waypoint":
-            move(target, target_alt, step.origin, target_ll)
-            if step.hold_s:
-                legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                                end_alt_m=alt, duration_s=float(step.hold_s),
-                                origin=step.origin, item=item))
-        elif act == "arc":
-            arc(target, target_alt, step.origin, target_ll, float(step.angle_deg or 0.0))
-        elif act == "hold":
-            if step.duration_s:
-                legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                                end_alt_m=alt, duration_s=float(step.duration_s),
-                                origin=step.origin, item=item))
-        elif act == "loiter":
-            move(target, target_alt, step.origin, target_ll)
-            duration, radius, speed, is_air = (step.duration_s, step.radius_m, speed_ms,
-                                               speed_is_airspeed)
-            if step.turns is not None:
-                if not step.turns:
-                    continue
-                duration, radius, speed, is_air = turns_duration(step)
-            if not duration:
-                continue
-            if vehicle == "multirotor" and radius is None:      # a position hold
-                legs.append(Leg("hover", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                                end_alt_m=alt, duration_s=float(duration),
-                                origin=step.origin, item=item))
-                continue
-            legs.append(Leg("loiter", start_en_m=pos, end_en_m=pos, start_alt_m=alt,
-                            end_alt_m=alt, speed_ms=speed, speed_is_airspeed=is_air,
-                            duration_s=float(duration), loiter_radius_m=radius or None,
-                            origin=step.origin, item=item))
-        elif act == "loiter_to_alt":
-            move(target, target_alt, step.origin, target_ll, level=True,
-                 radius=step.radius_m)
-        elif act in ("rtl", "land"):
-            if act == "rtl":
-                target, target_ll = (0.0, 0.0), home_ll
-            move(target, alt, step.origin, target_ll)
-            vertical(0.0, step.origin)
-            on_ground = True
-            rest = [s.origin for s in steps[i + 1:] if s.action not in ("speed", "climb_rate",
-                                                                        "descent_rate")]
-            if act == "land" and step.fly_on and rest:
-                continue
-            if rest:
-                warnings.warn(f"{where}: {len(rest)} item(s) after {step.origin} "
-                              f"({'RTL' if act == 'rtl' else 'LAND'}) are not flown, "
-                              f"from {rest[0]}", stacklevel=2)
+        action = _STEP_ACTIONS.get(step.action)
+        if action is None:  # pragma: no cover - steps are built by this package
+            raise ValueError(f"unknown route action {step.action!r}")
+        action(flight, step, *flight.start(step, east[i], north[i], lat[i], lon[i]))
+        if step.action in _LANDINGS and flight.ends_after(step, steps[i + 1:]):
             break
-        elif act == "speed":
-            speed_ms, speed_is_airspeed = step.speed_ms, (
-                None if step.speed_ms is None else step.speed_is_airspeed)
-        elif act == "climb_rate":
-            climb_rate = step.speed_ms
-        elif act == "descent_rate":
-            descent_rate = step.speed_ms
-        else:  # pragma: no cover - steps are built by this package
-            raise ValueError(f"unknown route action {act!r}")
-    if not legs:
-        raise InputError(f"{where}: the mission has no flight legs "
-                         "(expected a take-off or at least one waypoint)")
-    too_long = total_hold_problem(legs)
-    if too_long:
-        raise InputError(f"{where}: {too_long[0]}: {too_long[1]}")
-    return legs
+    return flight.finish()
 
 
 # --------------------------------------------------------------------------
@@ -832,10 +921,313 @@ def _label(item: MavItem) -> str:
     return f"{item.origin} (item {item.seq})"
 
 
+@dataclass
+class _ItemRules:
+    """What turning one file's items into steps needs: the file, home's altitude, whose
+    rules apply, and the warnings said so far (each once) and the items ignored."""
+
+    where: str
+    home_alt_amsl_m: float
+    vehicle_type: str | None
+    firmware: str | None
+    ignored: dict[int, list[str]] = field(default_factory=dict)
+    warned: set[str] = field(default_factory=set)
+
+    @property
+    def fixed_wing(self) -> bool:
+        return self.vehicle_type == "fixed_wing"
+
+    @property
+    def ardupilot(self) -> bool:
+        return self.firmware in (None, "ardupilot")
+
+    @property
+    def px4(self) -> bool:
+        return self.firmware == "px4"
+
+    def warn_once(self, key: str, message: str) -> None:
+        if key not in self.warned:
+            self.warned.add(key)
+            warnings.warn(message, stacklevel=4)
+
+    def ignore(self, item: MavItem) -> None:
+        """An item that does not change the flight: named in one warning per command."""
+        self.ignored.setdefault(item.command, []).append(item.origin)
+
+    def refuse(self, item: MavItem, problem: str) -> InputError:
+        """The error of an item: ``"{file}: line 15 (item 13): MAV_CMD_… problem"``."""
+        return InputError(f"{self.where}: {_label(item)}: {cmd_name(item.command)} {problem}")
+
+
+def _item_latlon(item: MavItem, rules: _ItemRules) -> tuple[float | None, float | None]:
+    """The latitude and longitude of a navigation item [deg]; ``None`` for "the current
+    position" (both 0 or both unset: ArduCopter ``ModeAuto::loc_from_cmd``)."""
+    p, where, origin = item.params, rules.where, item.origin
+    if any(math.isinf(v) for v in p[4:7]):
+        raise rules.refuse(item, f"latitude, longitude, altitude {p[4]:g}, {p[5]:g}, "
+                                 f"{p[6]:g} (expected finite numbers)")
+    if _finite(p[4]) != _finite(p[5]):
+        raise rules.refuse(item, f"latitude, longitude {p[4]:g}, {p[5]:g} (expected both "
+                                 "numbers, or both unset for the current position)")
+    if not (_finite(p[4]) and _finite(p[5])) or (p[4] == 0 and p[5] == 0):
+        return None, None
+    lat, lon = float(p[4]), float(p[5])
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise InputError(f"{where}: {origin}: latitude/longitude {lat:g}, {lon:g} "
+                         "out of range (expected -90..90, -180..180 degrees)")
+    return lat, lon
+
+
+def _frame_altitude(item: MavItem, rules: _ItemRules) -> float:
+    """param7 as an altitude above home by the item's frame (MAVLink ``MAV_FRAME``:
+    global = above mean sea level, relative = above home, terrain = above the ground,
+    QGroundControl's AMSL altitude where the ``.plan`` gives it, else the ground taken as
+    flat at home's altitude, with a warning). [m]"""
+    p, where, origin = item.params, rules.where, item.origin
+    if item.frame in _FRAMES_RELATIVE:
+        return float(p[6])
+    if item.frame in _FRAMES_AMSL:
+        return float(p[6]) - rules.home_alt_amsl_m
+    if item.frame not in _FRAMES_TERRAIN:
+        raise InputError(f"{where}: {origin}: frame {item.frame} not supported for "
+                         f"{cmd_name(item.command)} (expected 0 global, 3 relative or 10 "
+                         "terrain)")
+    if _finite(item.amsl_alt_above_terrain_m):
+        return float(item.amsl_alt_above_terrain_m) - rules.home_alt_amsl_m
+    alt = float(p[6])
+    if item.altitude_mode == 3:
+        rules.warn_once(f"calc{origin}", f"{where}: {origin}: 'calc above terrain' altitude "
+                        f"(AltitudeMode 3) {alt:g} m without the terrain height "
+                        "QGroundControl adds to it (param7 null): read as that height above "
+                        "the ground, the terrain assumed flat at home's altitude")
+    else:
+        rules.warn_once("terrain", f"{where}: {origin}: terrain-relative altitude treated as "
+                        "relative to home (the terrain assumed flat at home's altitude)")
+    return alt
+
+
+def _item_altitude(item: MavItem, rules: _ItemRules, lat: float | None) -> float | None:
+    """The altitude above home a navigation item flies to [m] (``None``: the current one,
+    for a landing or for "here" at relative altitude 0); refused outside the atmosphere
+    model or below home (PX4 ``MissionFeasibilityChecker::checkHomePositionAltitude``)."""
+    p, cmd = item.params, item.command
+    if cmd in LAND_CMDS:
+        return None
+    if not _finite(p[6]):
+        raise InputError(f"{rules.where}: {item.origin}: {cmd_name(cmd)} altitude is "
+                         f"{p[6]!r} (expected a number)")
+    alt = _frame_altitude(item, rules)
+    ref = ("above mean sea level" if item.frame in _FRAMES_AMSL
+           else "above home" if item.frame in _FRAMES_RELATIVE else "above terrain")
+    problem = altitude_problem(alt, rules.home_alt_amsl_m)
+    if problem:
+        raise rules.refuse(item, f"altitude {p[6]:g} m (frame {item.frame}, {ref}) {problem}")
+    if alt < -MIN_ALT_CHANGE_M and item.frame not in _FRAMES_TERRAIN:
+        raise rules.refuse(
+            item, f"altitude {p[6]:g} m (frame {item.frame}, {ref}) is {-alt:g} m below home "
+                  f"({rules.home_alt_amsl_m:g} m above mean sea level): the route lies below "
+                  "the take-off point (expected altitudes above home, as PX4 requires: "
+                  "'Waypoint below home', MissionFeasibilityChecker::"
+                  "checkHomePositionAltitude; over lower ground, give the altitude in the "
+                  "terrain frame 10)")
+    if lat is None and item.frame in _FRAMES_RELATIVE and p[6] == 0:
+        return None  # "here, at the current altitude"
+    return alt
+
+
+def _item_place(item: MavItem, rules: _ItemRules
+                ) -> tuple[float | None, float | None, float | None]:
+    """Latitude, longitude [deg] and altitude above home [m] of a navigation item
+    (``None``: where the aircraft is)."""
+    lat, lon = _item_latlon(item, rules)
+    return lat, lon, _item_altitude(item, rules, lat)
+
+
+# One function per MAV_CMD family: the item (the k-th as flown) → its route step, or None.
+
+
+def _nav_waypoint(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_WAYPOINT``, ``NAV_SPLINE_WAYPOINT``: to the point, then param1 s of hover,
+    which ArduPlane ignores (``Plane::verify_nav_wp``; ArduCopter
+    ``ModeAuto::verify_nav_wp`` waits ``loiter_time_max``)."""
+    lat, lon, alt = _item_place(item, rules)
+    p = item.params
+    hold = None
+    if not math.isnan(p[0]):   # NaN (null): no hold
+        problem = hold_problem(p[0], "param1 (hold time)")
+        if problem:
+            raise rules.refuse(item, problem)
+        hold = float(p[0]) if p[0] > 0 else None
+    if hold and rules.fixed_wing and rules.ardupilot:
+        rules.warn_once("hold", f"{rules.where}: {item.origin}: a waypoint's hold time "
+                        "(param1) is ignored by ArduPlane (a fixed-wing aircraft does not "
+                        "stop)")
+        hold = None
+    return RouteStep("waypoint", lat, lon, alt, hold_s=hold, origin=item.origin, item=k)
+
+
+def _nav_arc_waypoint(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_ARC_WAYPOINT``: param1 degrees of arc (param2 in ArduPilot's first
+    ``ArcWPMissionTest.txt``); ArduPlane has no case for it in ``start_command``, so
+    ``AP_Mission`` skips it."""
+    lat, lon, alt = _item_place(item, rules)
+    p, where, origin = item.params, rules.where, item.origin
+    if rules.fixed_wing:
+        rules.warn_once("arc", f"{where}: {origin}: {cmd_name(item.command)} skipped: "
+                        "ArduPlane has no case for it in start_command, so AP_Mission skips "
+                        "it (PX4 refuses it at upload); the aircraft flies on to the next item")
+        return None
+    angle = p[0] if _finite(p[0]) else 0.0
+    if angle == 0 and _finite(p[1]) and p[1] != 0:
+        angle = p[1]
+        rules.warn_once("arc2", f"{where}: {origin}: arc angle read from param2, as "
+                        "ArduPilot's first arc waypoints wrote it (MAVLink puts it in param1)")
+    if abs(angle) > MAX_ARC_DEG:
+        raise rules.refuse(item, f"angle {angle:g}° is out of range (expected "
+                                 f"-{MAX_ARC_DEG:g} to {MAX_ARC_DEG:g} degrees)")
+    return RouteStep("arc", lat, lon, alt, angle_deg=float(angle), origin=origin, item=k)
+
+
+def _nav_loiter_to_alt(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_LOITER_TO_ALT``: to the point, then the climb over it (ArduCopter
+    ``ModeAuto::loiter_to_alt_run``), a fixed wing circling at radius |param2|
+    (ArduPlane ``verify_loiter_to_alt``)."""
+    lat, lon, alt = _item_place(item, rules)
+    p = item.params
+    radius = abs(float(p[1])) if rules.fixed_wing and _finite(p[1]) and p[1] != 0 else None
+    return RouteStep("loiter_to_alt", lat, lon, alt, radius_m=radius, origin=item.origin,
+                     item=k)
+
+
+def _nav_loiter_unlim(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_LOITER_UNLIM``: refused, the firmware never completes it
+    (``verify_loiter_unlimited`` returns false)."""
+    raise InputError(f"{rules.where}: {item.origin}: {cmd_name(item.command)} loiters "
+                     "without end, so the mission has no duration (expected LOITER_TIME or "
+                     "LOITER_TURNS; the firmware never completes it: verify_loiter_unlimited "
+                     "returns false)")
+
+
+def _nav_loiter(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_LOITER_TURNS`` (param1 turns, at most the byte ``AP_Mission`` stores) and
+    ``NAV_LOITER_TIME`` (param1 s): radius |param3|; a timed loiter of a multirotor is a
+    position hold (ArduCopter ``ModeAuto::do_loiter_time``) and ArduPlane's circles at its
+    own radius (``verify_loiter_time``), PX4 fixed wing's at param3."""
+    lat, lon, alt = _item_place(item, rules)
+    p, cmd, turns = item.params, item.command, item.command == 18
+    if not _finite(p[0]) or p[0] < 0:
+        what = "turns" if turns else "seconds"
+        raise InputError(f"{rules.where}: {item.origin}: {cmd_name(cmd)} param1 ({what}) "
+                         f"must be >= 0, got {p[0]!r}")
+    if not turns and hold_problem(p[0]):
+        raise rules.refuse(item, hold_problem(p[0], "param1 (loiter time)"))
+    if turns and p[0] > MAX_LOITER_TURNS:
+        raise rules.refuse(item, f"param1 (turns) {p[0]:g} is out of range (expected 0 to "
+                                 f"{MAX_LOITER_TURNS}, the most ArduPilot stores)")
+    radius = abs(float(p[2])) if _finite(p[2]) and p[2] != 0 else None
+    if not turns and not (rules.fixed_wing and rules.px4):
+        radius = None    # a multirotor hovers; ArduPlane circles at WP_LOITER_RAD
+    return RouteStep("loiter", lat, lon, alt, radius_m=radius, origin=item.origin,
+                     turns=float(p[0]) if turns else None,
+                     duration_s=None if turns else float(p[0]), item=k)
+
+
+def _nav_takeoff(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_TAKEOFF``, ``NAV_VTOL_TAKEOFF``: a vertical climb where the aircraft is
+    (ArduCopter ``ModeAuto::takeoff_start``)."""
+    _, _, alt = _item_place(item, rules)
+    return RouteStep("takeoff", alt_m=alt, origin=item.origin, item=k)
+
+
+def _nav_return_to_launch(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_RETURN_TO_LAUNCH``: home at the current altitude, then down (``RTL_ALT`` is
+    a parameter, not an item)."""
+    return RouteStep("rtl", origin=item.origin, item=k)
+
+
+def _nav_land(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_LAND``, ``NAV_VTOL_LAND``: to the point, then down; PX4 flies on after it
+    (land-and-continue), ArduCopter disarms (``ModeAuto::verify_land``)."""
+    lat, lon, _ = _item_place(item, rules)
+    return RouteStep("land", lat, lon, origin=item.origin, item=k, fly_on=rules.px4)
+
+
+def _nav_delay(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``NAV_DELAY``: a hover of param1 s (-1: a time of day, not modelled); ArduPlane
+    does not delay in fixed-wing flight (``Plane::do_nav_delay``)."""
+    p, cmd = item.params, item.command
+    if math.isnan(p[0]) or p[0] == -1:   # -1: wait for a time of day, not modelled
+        rules.ignore(item)
+        return None
+    problem = hold_problem(p[0], "param1 (delay)")
+    if problem:
+        raise rules.refuse(item, f"{problem[:-1]}, or -1 for a time of day)")
+    if rules.fixed_wing and rules.ardupilot:
+        rules.warn_once("delay", f"{rules.where}: {item.origin}: {cmd_name(cmd)} skipped: "
+                        "ArduPlane does not delay while flying as a fixed wing (do_nav_delay)")
+        return None
+    return RouteStep("hold", duration_s=float(p[0]), origin=item.origin, item=k)
+
+
+def _do_change_speed(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``DO_CHANGE_SPEED`` (param1 type, param2 speed, -2 the default): types 0 and 1 are a
+    multirotor's ground speed (ArduCopter ``set_speed_NE``, PX4 ``set_cruising_speed``);
+    ArduPlane takes 0 as the airspeed, 1 as ``MIN_GROUNDSPEED`` and ignores 2 and 3
+    (``Plane::do_change_speed``); types 2 and 3 are the climb and descent rates."""
+    p, cmd, origin = item.params, item.command, item.origin
+    kind = int(p[0]) if _finite(p[0]) else 0
+    if not _finite(p[1]) or (p[1] <= 0 and p[1] != -2):  # -1 (or 0): no change
+        return None
+    if p[1] > MAX_SPEED_MS:
+        raise InputError(f"{rules.where}: {_label(item)}: {cmd_name(cmd)} speed {p[1]:g} m/s; "
+                         f"expected at most {MAX_SPEED_MS:g} m/s (or -1 for no change)")
+    speed = None if p[1] == -2 else float(p[1])      # -2: back to the default
+    fixed_wing, px4 = rules.fixed_wing, rules.px4
+    if fixed_wing and rules.ardupilot and kind != 0:
+        rules.warn_once(f"speed{kind}", f"{rules.where}: {origin}: {cmd_name(cmd)} type {kind} "
+                        + ("sets ArduPlane's minimum ground speed (MIN_GROUNDSPEED), not a "
+                           "target speed: no effect on the flight planned here"
+                           if kind == 1 else "is ignored by ArduPlane")
+                        + " (Plane::do_change_speed)")
+        return None
+    if kind in (0, 1) or (fixed_wing and px4):
+        airspeed = (kind == 0 and rules.vehicle_type != "multirotor") or (fixed_wing and px4)
+        return RouteStep("speed", speed_ms=speed, speed_is_airspeed=airspeed, origin=origin,
+                         item=k)
+    if kind in (2, 3):
+        return RouteStep("climb_rate" if kind == 2 else "descent_rate", speed_ms=speed,
+                         origin=origin, item=k)
+    rules.ignore(item)
+    return None
+
+
+def _do_jump(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """``DO_JUMP``, ``JUMP_TAG``, ``DO_JUMP_TAG``: followed by :func:`expand_jumps`."""
+    return None
+
+
+def _not_modelled(item: MavItem, k: int, rules: _ItemRules) -> RouteStep | None:
+    """Any other command: it does not change the flight planned here (a camera, a
+    servo, a region of interest); named in a warning."""
+    rules.ignore(item)
+    return None
+
+
+#: MAV_CMD number → the function that turns such an item into a route step.
+ITEM_STEPS = {
+    16: _nav_waypoint, 82: _nav_waypoint, 36: _nav_arc_waypoint,
+    17: _nav_loiter_unlim, 18: _nav_loiter, 19: _nav_loiter, 31: _nav_loiter_to_alt,
+    22: _nav_takeoff, 84: _nav_takeoff, 20: _nav_return_to_launch,
+    21: _nav_land, 85: _nav_land, 93: _nav_delay, 178: _do_change_speed,
+    177: _do_jump, 600: _do_jump, 601: _do_jump,
+}
+
+
 def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: str,
                        vehicle_type: str | None = None, firmware: str | None = None,
                        expanded: bool = False) -> list[RouteStep]:
-    """Turn MAVLink mission items (without home) into route steps.
+    """Turn MAVLink mission items (without home) into route steps, each by the function
+    of its command (:data:`ITEM_STEPS`).
 
     Parameters
     ----------
@@ -872,189 +1264,11 @@ def mav_items_to_steps(items: list[MavItem], home_alt_amsl_m: float, *, where: s
     """
     if not expanded:
         items = expand_jumps(items, where=where)
-    fixed_wing = vehicle_type == "fixed_wing"
-    ardupilot = firmware in (None, "ardupilot")
-    px4 = firmware == "px4"
-    ignored: dict[int, list[str]] = {}
-    warned: set[str] = set()
-
-    def warn_once(key: str, message: str) -> None:
-        if key not in warned:
-            warned.add(key)
-            warnings.warn(message, stacklevel=3)
-
-    steps: list[RouteStep] = []
-    for k, item in enumerate(items):
-        cmd, p = item.command, item.params
-        origin = item.origin
-        lat = lon = alt = None
-        if cmd in POSITIONED_CMDS:
-            if cmd == 17:
-                raise InputError(f"{where}: {origin}: {cmd_name(cmd)} loiters without end, "
-                                 "so the mission has no duration (expected LOITER_TIME or "
-                                 "LOITER_TURNS; the firmware never completes it: "
-                                 "verify_loiter_unlimited returns false)")
-            if any(math.isinf(v) for v in p[4:7]):
-                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} latitude, "
-                                 f"longitude, altitude {p[4]:g}, {p[5]:g}, {p[6]:g} (expected "
-                                 "finite numbers)")
-            if _finite(p[4]) != _finite(p[5]):
-                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} latitude, "
-                                 f"longitude {p[4]:g}, {p[5]:g} (expected both numbers, or "
-                                 "both unset for the current position)")
-            if _finite(p[4]) and _finite(p[5]) and not (p[4] == 0 and p[5] == 0):
-                lat, lon = float(p[4]), float(p[5])
-                if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-                    raise InputError(f"{where}: {origin}: latitude/longitude {lat:g}, {lon:g} "
-                                     "out of range (expected -90..90, -180..180 degrees)")
-            if not _finite(p[6]):
-                if cmd not in LAND_CMDS:
-                    raise InputError(f"{where}: {origin}: {cmd_name(cmd)} altitude is "
-                                     f"{p[6]!r} (expected a number)")
-            elif cmd not in LAND_CMDS:
-                if item.frame in _FRAMES_RELATIVE:
-                    alt = float(p[6])
-                elif item.frame in _FRAMES_AMSL:
-                    alt = float(p[6]) - home_alt_amsl_m
-                elif item.frame in _FRAMES_TERRAIN:
-                    if _finite(item.amsl_alt_above_terrain_m):
-                        alt = float(item.amsl_alt_above_terrain_m) - home_alt_amsl_m
-                    else:
-                        alt = float(p[6])
-                        if item.altitude_mode == 3:
-                            warn_once(f"calc{origin}", f"{where}: {origin}: 'calc above "
-                                      f"terrain' altitude (AltitudeMode 3) {alt:g} m without "
-                                      "the terrain height QGroundControl adds to it (param7 "
-                                      "null): read as that height above the ground, the "
-                                      "terrain assumed flat at home's altitude")
-                        else:
-                            warn_once("terrain", f"{where}: {origin}: terrain-relative "
-                                      "altitude treated as relative to home (the terrain "
-                                      "assumed flat at home's altitude)")
-                else:
-                    raise InputError(f"{where}: {origin}: frame {item.frame} not supported for "
-                                     f"{cmd_name(cmd)} (expected 0 global, 3 relative or 10 "
-                                     "terrain)")
-                problem = altitude_problem(alt, home_alt_amsl_m)
-                ref = ("above mean sea level" if item.frame in _FRAMES_AMSL
-                       else "above home" if item.frame in _FRAMES_RELATIVE
-                       else "above terrain")
-                if problem:
-                    raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} altitude "
-                                     f"{p[6]:g} m (frame {item.frame}, {ref}) {problem}")
-                terrain = item.frame in _FRAMES_TERRAIN
-                if alt < -MIN_ALT_CHANGE_M and not terrain:
-                    raise InputError(
-                        f"{where}: {_label(item)}: {cmd_name(cmd)} altitude {p[6]:g} m (frame "
-                        f"{item.frame}, {ref}) is {-alt:g} m below home ({home_alt_amsl_m:g} m "
-                        "above mean sea level): the route lies below the take-off point "
-                        "(expected altitudes above home, as PX4 requires: 'Waypoint below "
-                        "home', MissionFeasibilityChecker::checkHomePositionAltitude; over "
-                        "lower ground, give the altitude in the terrain frame 10)")
-                if lat is None and item.frame in _FRAMES_RELATIVE and p[6] == 0:
-                    alt = None  # "here, at the current altitude"
-        if cmd in _WAYPOINT_CMDS:
-            hold = None
-            if not math.isnan(p[0]):   # NaN (null): no hold
-                problem = hold_problem(p[0], "param1 (hold time)")
-                if problem:
-                    raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} {problem}")
-                hold = float(p[0]) if p[0] > 0 else None
-            if hold and fixed_wing and ardupilot:
-                warn_once("hold", f"{where}: {origin}: a waypoint's hold time (param1) is "
-                          "ignored by ArduPlane (a fixed-wing aircraft does not stop)")
-                hold = None
-            steps.append(RouteStep("waypoint", lat, lon, alt, hold_s=hold, origin=origin,
-                                   item=k))
-        elif cmd == 36:
-            if fixed_wing:
-                warn_once("arc", f"{where}: {origin}: {cmd_name(cmd)} skipped: ArduPlane "
-                          "has no case for it in start_command, so AP_Mission skips it (PX4 "
-                          "refuses it at upload); the aircraft flies on to the next item")
-                continue
-            angle = p[0] if _finite(p[0]) else 0.0
-            if angle == 0 and _finite(p[1]) and p[1] != 0:
-                angle = p[1]
-                warn_once("arc2", f"{where}: {origin}: arc angle read from param2, as "
-                          "ArduPilot's first arc waypoints wrote it (MAVLink puts it in "
-                          "param1)")
-            if abs(angle) > MAX_ARC_DEG:
-                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} angle {angle:g}° "
-                                 f"is out of range (expected -{MAX_ARC_DEG:g} to "
-                                 f"{MAX_ARC_DEG:g} degrees)")
-            steps.append(RouteStep("arc", lat, lon, alt, angle_deg=float(angle),
-                                   origin=origin, item=k))
-        elif cmd == 31:
-            radius = abs(float(p[1])) if fixed_wing and _finite(p[1]) and p[1] != 0 else None
-            steps.append(RouteStep("loiter_to_alt", lat, lon, alt, radius_m=radius,
-                                   origin=origin, item=k))
-        elif cmd in (18, 19):
-            if not _finite(p[0]) or p[0] < 0:
-                what = "turns" if cmd == 18 else "seconds"
-                raise InputError(f"{where}: {origin}: {cmd_name(cmd)} param1 ({what}) must be "
-                                 f">= 0, got {p[0]!r}")
-            if cmd == 19 and hold_problem(p[0]):
-                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} "
-                                 f"{hold_problem(p[0], 'param1 (loiter time)')}")
-            if cmd == 18 and p[0] > MAX_LOITER_TURNS:
-                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} param1 (turns) "
-                                 f"{p[0]:g} is out of range (expected 0 to {MAX_LOITER_TURNS}, "
-                                 "the most ArduPilot stores)")
-            radius = abs(float(p[2])) if _finite(p[2]) and p[2] != 0 else None
-            if cmd == 19 and not (fixed_wing and px4):
-                radius = None    # a multirotor hovers; ArduPlane circles at WP_LOITER_RAD
-            steps.append(RouteStep("loiter", lat, lon, alt, radius_m=radius, origin=origin,
-                                   turns=float(p[0]) if cmd == 18 else None,
-                                   duration_s=float(p[0]) if cmd == 19 else None, item=k))
-        elif cmd in TAKEOFF_CMDS:
-            steps.append(RouteStep("takeoff", alt_m=alt, origin=origin, item=k))
-        elif cmd == 20:
-            steps.append(RouteStep("rtl", origin=origin, item=k))
-        elif cmd in LAND_CMDS:
-            steps.append(RouteStep("land", lat, lon, origin=origin, item=k, fly_on=px4))
-        elif cmd == 93:
-            if math.isnan(p[0]) or p[0] == -1:   # -1: wait for a time of day, not modelled
-                ignored.setdefault(cmd, []).append(origin)
-                continue
-            problem = hold_problem(p[0], "param1 (delay)")
-            if problem:
-                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} {problem[:-1]}, "
-                                 "or -1 for a time of day)")
-            if fixed_wing and ardupilot:
-                warn_once("delay", f"{where}: {origin}: {cmd_name(cmd)} skipped: ArduPlane "
-                          "does not delay while flying as a fixed wing (do_nav_delay)")
-                continue
-            steps.append(RouteStep("hold", duration_s=float(p[0]), origin=origin, item=k))
-        elif cmd == 178:
-            kind = int(p[0]) if _finite(p[0]) else 0
-            if not _finite(p[1]) or (p[1] <= 0 and p[1] != -2):  # -1 (or 0): no change
-                continue
-            if p[1] > MAX_SPEED_MS:
-                raise InputError(f"{where}: {_label(item)}: {cmd_name(cmd)} speed {p[1]:g} m/s; "
-                                 f"expected at most {MAX_SPEED_MS:g} m/s (or -1 for no change)")
-            speed = None if p[1] == -2 else float(p[1])      # -2: back to the default
-            if fixed_wing and ardupilot and kind != 0:
-                warn_once(f"speed{kind}", f"{where}: {origin}: {cmd_name(cmd)} type {kind} "
-                          + ("sets ArduPlane's minimum ground speed (MIN_GROUNDSPEED), not a "
-                             "target speed: no effect on the flight planned here"
-                             if kind == 1 else "is ignored by ArduPlane")
-                          + " (Plane::do_change_speed)")
-                continue
-            if kind in (0, 1) or (fixed_wing and px4):
-                airspeed = ((kind == 0 and vehicle_type != "multirotor")
-                            or (fixed_wing and px4))
-                steps.append(RouteStep("speed", speed_ms=speed, speed_is_airspeed=airspeed,
-                                       origin=origin, item=k))
-            elif kind in (2, 3):
-                steps.append(RouteStep("climb_rate" if kind == 2 else "descent_rate",
-                                       speed_ms=speed, origin=origin, item=k))
-            else:
-                ignored.setdefault(cmd, []).append(origin)
-        elif cmd in _JUMP_CMDS:
-            continue
-        else:
-            ignored.setdefault(cmd, []).append(origin)
-    for cmd, origins in ignored.items():
+    rules = _ItemRules(where, home_alt_amsl_m, vehicle_type, firmware)
+    steps = [step for k, item in enumerate(items)
+             if (step := ITEM_STEPS.get(item.command, _not_modelled)(item, k, rules))
+             is not None]
+    for cmd, origins in rules.ignored.items():
         n = len(origins)
         warnings.warn(f"{where}: {cmd_name(cmd)} ignored ({n} item{'s' * (n > 1)}, first at "
                       f"{origins[0]})", stacklevel=2)

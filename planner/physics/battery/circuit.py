@@ -107,11 +107,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
-import pandas as pd
 
 from planner.physics.battery import elements as el
 from planner.physics.battery.ocv import lipo_ocv
@@ -131,6 +130,9 @@ from planner.physics.limits import (
     HYSTERESIS_MAX_V,
 )
 from planner.physics.units import AS_PER_AH
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: Default Arrhenius activation energy of R0 (see module notes). [J/mol]
 DEFAULT_R0_ACTIVATION_J_MOL = 25_000.0
@@ -441,6 +443,8 @@ class CircuitResult:
 
     def to_frame(self) -> pd.DataFrame:
         """The time series as a DataFrame with unit-suffixed columns."""
+        import pandas as pd                   # imported where used: start-up time
+
         return pd.DataFrame({
             "time_s": self.time_s, "current_a": self.current_a, "power_w": self.power_w,
             "voltage_v": self.voltage_v, "ocv_v": self.ocv_v, "soc": self.soc,

@@ -39,8 +39,8 @@ import functools
 
 import numba
 import numpy as np
-import pandas as pd
 
+from planner.physics.numeric import is_series
 from planner.physics.units import ZERO_CELSIUS_K
 
 __all__ = ["R_GAS", "arrhenius_factor", "capacity_factor", "cell_resistance", "compiled",
@@ -64,7 +64,7 @@ def quiet(formula):
     float for scalar inputs."""
     @functools.wraps(formula)
     def element(*args):
-        args = [a if isinstance(a, (np.ndarray, np.generic, pd.Series))
+        args = [a if isinstance(a, (np.ndarray, np.generic)) or is_series(a)
                 else np.asarray(a, dtype=float) for a in args]
         with np.errstate(all="ignore"):
             out = formula(*args)

@@ -17,7 +17,6 @@ called the *discharge stress* here; it is additive, while the charge
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 
 from planner.errors import ModelError
 from planner.physics.battery.elements import compiled, quiet
@@ -192,6 +191,8 @@ def charge(time_s, power_w, delta, epsilon, beta=LITERATURE_BETA):
     rate = np.asarray(stress_rate(power_w, delta, epsilon), dtype=float)
     if t.size == 0:
         return np.zeros(0)
+    from scipy.integrate import cumulative_trapezoid   # imported where used: start-up time
+
     stress = cumulative_trapezoid(rate, t, initial=0.0)
     return charge_from_stress(stress, beta)
 

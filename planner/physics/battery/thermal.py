@@ -39,10 +39,9 @@ from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
-import pandas as pd
-from scipy.signal import lfilter
 
 from planner.errors import InputError, ModelError
+from planner.physics.numeric import is_series
 from planner.physics.battery.elements import joule_heat
 
 #: Temperature range of the battery models (cell temperature). [°C]
@@ -233,6 +232,8 @@ def lumped_temperature(time_s, heat_w, t_air_c, r_th, c_th, t0_c=None):
         if np.allclose(dt, dt[0], rtol=1e-9, atol=0.0):
             a = math.exp(-dt[0] / tau)
             # w[j] = a w[j-1] + (1 - a) target[j], w[-1] = t0, out[j + 1] = w[j]
+            from scipy.signal import lfilter     # imported where used: start-up time
+
             out[1:], _ = lfilter([1.0 - a], [1.0, -a], target, zi=[a * t0])
         else:
             a = np.exp(-dt / tau)
@@ -240,6 +241,6 @@ def lumped_temperature(time_s, heat_w, t_air_c, r_th, c_th, t0_c=None):
             for k in range(n - 1):
                 temp = lumped_step(temp, air[k], q[k], r_th, a[k])
                 out[k + 1] = temp
-    if isinstance(heat_w, pd.Series):
-        return pd.Series(out, index=heat_w.index)
+    if is_series(heat_w):
+        return type(heat_w)(out, index=heat_w.index)
     return out

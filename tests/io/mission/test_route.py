@@ -198,3 +198,23 @@ def test_yaml_waypoint_climbs_are_bounded_as_a_waypoint_files_are(tmp_path):
     cruise = legs[1]
     assert (cruise.end_alt_m - cruise.start_alt_m) == pytest.approx(2.5 * cruise.distance_m / 8)
     assert legs[2].end_alt_m == 110
+
+
+def test_swapped_latitude_and_longitude_named(tmp_path):
+    """A waypoint typed (lon, lat) lands thousands of km from home: the error names the item
+    and the swap, not a frame error or a 4000 km leg."""
+    lat, lon = ll(300, 0)
+    bad = (16, 3, 0, 0, 0, 0, f"{lon:.9f}", f"{lat:.9f}", 40)
+    with pytest.raises(InputError, match=r"line 5: .*latitude and longitude swapped\?"):
+        load_mission(wpl(tmp_path, [TAKEOFF, wp(100, 0, 40), bad, RTL]))
+
+
+def test_speed_in_km_h_named(tmp_path):
+    """A DO_CHANGE_SPEED of 54 against a 25 m/s aircraft is 15 m/s typed in km/h."""
+    from planner.physics.mission import NavDefaults
+    nav = NavDefaults("fixed_wing", 18.0, 3.0, 2.0, loiter_radius_m=80.0, max_speed_ms=25.0)
+    rows = [TAKEOFF, (178, 3, 0, 54, -1, 0, 0, 0, 0), wp(300, 0, 40), RTL]
+    with pytest.raises(InputError, match=r"line 4: speed 54 m/s .* km/h\?"):
+        load_mission(wpl(tmp_path, rows), defaults=nav)
+    rows[1] = (178, 3, 0, 20, -1, 0, 0, 0, 0)
+    assert load_mission(wpl(tmp_path, rows), defaults=nav).legs

@@ -157,14 +157,14 @@ def test_waypoints_form_return_without_landing(tmp_path):
 BAD = [
     ("unknown top key",
      "legs: [{hover: {duration_s: 5}}]\npayload_kgs: 1\n",
-     r"m\.yaml: payload_kgs is not a known key \(did you mean 'payload_kg'\?\)"),
+     r"m\.yaml: unknown key 'payload_kgs' \(did you mean 'payload_kg'\?\)"),
     ("unknown leg key",
      "legs:\n  - cruise: {distnce_m: 5, course_deg: 0}\n",
-     (r"m\.yaml: legs\[1\]\.cruise\.distnce_m is not a known key "
-      r"\(did you mean 'distance_m'\?\)")),
+     (r"m\.yaml: unknown key 'legs\[1\]\.cruise\.distnce_m' "
+      r"\(did you mean 'legs\[1\]\.cruise\.distance_m'\?\)")),
     ("unknown environment key",
      "environment: {wind_sped_ms: 3}\nlegs: [{hover: {duration_s: 5}}]\n",
-     r"environment\.wind_sped_ms is not a known key \(did you mean 'wind_speed_ms'\?\)"),
+     r"unknown key 'environment\.wind_sped_ms' \(did you mean 'environment\.wind_speed_ms'\?\)"),
     ("wrong type",
      "legs:\n  - hover: {duration_s: 5}\n  - cruise: {distance_m: far, course_deg: 0}\n",
      r"m\.yaml: legs\[2\]\.cruise\.distance_m must be a number, got 'far'"),
@@ -179,7 +179,7 @@ BAD = [
      "legs: [{hover: {duration_s: -1}}]\n", r"legs\[1\]\.hover\.duration_s must be >= 0"),
     ("zero speed",
      "legs: [{cruise: {distance_m: 5, course_deg: 0, airspeed_ms: 0}}]\n",
-     r"legs\[1\]\.cruise\.airspeed_ms must be > 0, got 0"),
+     r"legs\[1\]\.cruise\.airspeed_ms must be >= 0\.1 \(slower, the leg never ends\), got 0"),
     ("zero radius",
      "legs: [{loiter: {duration_s: 5, radius_m: 0}}]\n",
      r"legs\[1\]\.loiter\.radius_m must be > 0, got 0"),
@@ -194,7 +194,7 @@ BAD = [
      r"legs\[1\] must be a one-key mapping"),
     ("both speeds",
      "legs: [{cruise: {distance_m: 5, course_deg: 0, airspeed_ms: 5, groundspeed_ms: 5}}]\n",
-     r"legs\[1\]\.cruise give only one of airspeed_ms or groundspeed_ms"),
+     r"give only one of 'legs\[1\]\.cruise\.airspeed_ms' or 'legs\[1\]\.cruise\.groundspeed_ms'"),
     ("turns without a speed",
      "legs: [{loiter: {turns: 2, radius_m: 50}}]\n",
      r"legs\[1\]\.loiter turns needs radius_m and airspeed_ms"),
@@ -202,12 +202,13 @@ BAD = [
      "legs:\n  - climb: {altitude_m: 50}\n  - climb: {altitude_m: 20}\n",
      r"legs\[2\]\.climb goes from 50 m to 20 m"),
     ("missing course",
-     "legs: [{cruise: {distance_m: 5}}]\n", r"legs\[1\]\.cruise\.course_deg is required"),
+     "legs: [{cruise: {distance_m: 5}}]\n",
+     r"missing required key 'legs\[1\]\.cruise\.course_deg' \(a number\)"),
     ("waypoint-only key in legs form",
      "takeoff_alt_m: 20\nlegs: [{hover: {duration_s: 5}}]\n",
-     r"takeoff_alt_m is only used with waypoints:"),
+     r"unknown key 'takeoff_alt_m' \(only used with waypoints:"),
     ("waypoints without home",
-     "waypoints: [{lat: 48, lon: 10, alt_m: 20}]\n", r"m\.yaml: home is required"),
+     "waypoints: [{lat: 48, lon: 10, alt_m: 20}]\n", r"m\.yaml: missing required key 'home'"),
     ("waypoint latitude out of range",
      "home: {lat: 48, lon: 10, alt_m: 0}\nwaypoints: [{lat: 98, lon: 10, alt_m: 20}]\n",
      r"waypoints\[1\]\.lat must be <= 90, got 98"),
@@ -240,8 +241,8 @@ def test_every_problem_is_reported_at_once(tmp_path):
         load_mission(path)
     message = str(info.value)
     for key in ("payload_kg must be >= 0", "legs[1].cruise.distance_m",
-                "legs[2].hover.duration is not a known key (did you mean 'duration_s'?)",
-                "legs[2].hover.duration_s is required"):
+                "unknown key 'legs[2].hover.duration' (did you mean 'legs[2].hover.duration_s'?)",
+                "missing required key 'legs[2].hover.duration_s' (a number)"):
         assert key in message
 
 

@@ -1,0 +1,44 @@
+"""The command line's entry (planner.cli.main): each command imports its own module only."""
+
+import argparse
+import importlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from planner.cli.main import COMMAND_MODULES, build_parser
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_command_table_names_what_each_module_registers():
+    for module, names in COMMAND_MODULES.items():
+        sub = argparse.ArgumentParser().add_subparsers()
+        importlib.import_module(module).register(sub)
+        assert tuple(sub.choices) == names, module
+
+
+def test_a_command_builds_its_own_parser_and_help_builds_all():
+    def commands(parser):
+        return set(next(a for a in parser._actions
+                        if isinstance(a, argparse._SubParsersAction)).choices)
+    assert commands(build_parser(["sweep", "--help"])) == {"select", "sweep"}
+    every = {n for names in COMMAND_MODULES.values() for n in names}
+    assert commands(build_parser(["--help"])) == every
+    assert commands(build_parser(["chekc"])) == every      # a wrong name lists them all
+
+
+def test_check_imports_no_table_signal_statistics_or_plot_library():
+    """``endurance check`` of the shipped survey imports neither pandas nor scipy.signal,
+    scipy.stats, scipy.integrate, Dask or matplotlib (start-up time)."""
+    code = ("import sys, json\nfrom planner.cli.main import main\n"
+            "code = main(['check', 'missions/survey_route.yaml', '--aircraft', "
+            "'aircraft/solo_survey.yaml', '--quiet'])\n"
+            "heavy = ('pandas', 'scipy.signal', 'scipy.stats', 'scipy.integrate', 'dask', "
+            "'matplotlib')\n"
+            "print(json.dumps([code, sorted(m for m in heavy if m in sys.modules)]))\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                         text=True, check=True).stdout
+    code, loaded = json.loads(out.strip().splitlines()[-1])
+    assert code == 0 and loaded == []
