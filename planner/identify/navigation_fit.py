@@ -21,7 +21,9 @@ The record (:mod:`planner.io.record`): ``experiment``, ``time_s``, ``groundspeed
   its rate above and below the slow height is the median descent speed there; the slow
   height is the altitude of the last sample descending faster than halfway between the
   two rates (a flight that never descends fast, say from 25 m, gives only the slow
-  rate);
+  rate; when no flight descends fast, the slow rate holds over every height the flights
+  came down from, the highest of them the slow height: the slow descent is not
+  extrapolated into a fast one the data never showed);
 * **vertical acceleration**: from the climb rate's rise, 10 % → 90 % of the climb rate,
   ``0.8 V / Δt``;
 * **horizontal acceleration and jerk**: every start from rest at altitude (ground speed
@@ -95,6 +97,7 @@ def _flight(t, gs, vz, alt, p):
     nan = np.nan
     out = {"spinup_s": nan, "climb_rate_ms": nan, "descent_rate_ms": nan,
            "landing_descent_rate_ms": nan, "landing_slow_height_m": nan,
+           "slow_descent_top_m": nan,
            "vertical_accel_ms2": nan, "moves": 0, "rests": 0}
     air = alt > LIFTOFF_HEIGHT_M
     if air.sum() < 10:
@@ -145,6 +148,7 @@ def _flight(t, gs, vz, alt, p):
                 out["landing_descent_rate_ms"] = float(np.median(w[lo]))
         elif np.isfinite(slow_guess):
             out["landing_descent_rate_ms"] = float(np.median(w[h > LIFTOFF_HEIGHT_M]))
+            out["slow_descent_top_m"] = top
     # starts from rest: V, times from the move's start to 10, 50 and 90 % of V
     starts = np.zeros((0, 4))
     rests = np.zeros(0)
@@ -217,6 +221,14 @@ def navigation_measures(record: pd.DataFrame) -> tuple[dict[str, float], dict[st
         x = x[np.isfinite(x) & (x >= 0)]
         values[key] = float(np.median(x)) if x.size else np.nan
         counts[key] = int(x.size)
+    tops = flights["slow_descent_top_m"].to_numpy(float)
+    tops = tops[np.isfinite(tops)]
+    if not np.isfinite(values["descent_rate_ms"]) and tops.size and \
+            np.isfinite(values["landing_descent_rate_ms"]):
+        # no flight descends fast: the slow rate over every height the flights came down from
+        values["descent_rate_ms"] = values["landing_descent_rate_ms"]
+        values["landing_slow_height_m"] = float(tops.max())
+        counts["descent_rate_ms"] = counts["landing_slow_height_m"] = int(tops.size)
     if np.isfinite(values["takeoff_spinup_s"]) and np.isfinite(values["vertical_accel_ms2"]):
         # rising LIFTOFF_HEIGHT_M from rest at the vertical acceleration, then the rate
         vc, az, h = values["climb_rate_ms"], values["vertical_accel_ms2"], LIFTOFF_HEIGHT_M

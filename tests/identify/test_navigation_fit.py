@@ -76,6 +76,20 @@ def test_recovers_known_parameters(record):
     assert "6 flights" in nav.source and "18 starts" in nav.source
 
 
+def test_flights_that_never_descend_fast_give_a_slow_descent_from_their_height():
+    """Flights at 18 m whose whole descent is slow (from their altitude down): the
+    fit keeps the slow rate over every height they came down from, and does not invent a
+    fast rate the data never showed."""
+    low = dict(TRUE, slow_h=18.0)
+    rng = np.random.default_rng(5)
+    rec = pd.concat([flight(f"f{k}", v, rng.uniform(120, 300, 3), alt=18.0, p=low)
+                     for k, v in enumerate([4.0, 6.0, 8.0, 10.0])], ignore_index=True)
+    nav = fit_navigation(rec, "low flights")
+    assert nav.landing_descent_rate_ms == pytest.approx(1.0, rel=0.02)
+    assert nav.descent_rate_ms == nav.landing_descent_rate_ms
+    assert nav.landing_slow_height_m == pytest.approx(18.0, abs=1.0)
+
+
 def test_counts_name_flights_and_events(record):
     values, counts, flights = navigation_measures(record)
     assert len(flights) == 6
