@@ -217,6 +217,8 @@ class UncertaintyResult:
         nominal run (NaN where not sampled). [mAh]
     nominal : ChainResult
         The forecast's own run (full return-home points, per-leg detail).
+    energy_samples_wh, charge_samples_mah : ndarray
+        Per sample: the mission's battery energy [Wh] and the charge drawn [mAh].
     """
 
     samples: int
@@ -238,6 +240,8 @@ class UncertaintyResult:
     rtl_samples_mah: np.ndarray = field(repr=False)
     rtl_charge_p95_mah: np.ndarray = field(repr=False)
     nominal: ChainResult = field(repr=False)
+    energy_samples_wh: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    charge_samples_mah: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
 
     @property
     def go(self) -> bool:
@@ -457,10 +461,12 @@ def fly(chain: MissionChain, mission: Mission, env: Environment, d: Draws, sub: 
     """Step 3: the chain once per weather draw with that draw's samples on its pack axis:
     per sample ``landing`` (charge left, [mAh]), ``rtl_min`` (smallest return-home margin
     [mAh]), ``ok_land`` (every limit but the return home met), ``ok_all`` (every limit)
-    and ``rtl_charge`` (charge of the return at the points ``sub``, [mAh])."""
+    ``rtl_charge`` (charge of the return at the points ``sub``, [mAh]), ``energy``
+    (battery energy of the mission [Wh]) and ``charge`` (charge drawn [mAh])."""
     n = d.group.size
     out = {"landing": np.empty(n), "rtl_min": np.empty(n), "ok_land": np.empty(n, bool),
-           "ok_all": np.empty(n, bool), "rtl_charge": np.empty((n, sub.size))}
+           "ok_all": np.empty(n, bool), "rtl_charge": np.empty((n, sub.size)),
+           "energy": np.empty(n), "charge": np.empty(n)}
     land_cols = [CHECK_CONSTRAINTS.index(c) for c in LANDING_CONSTRAINTS]
     for j in range(d.weather_draws):
         rows = np.flatnonzero(d.group == j)
@@ -478,6 +484,8 @@ def fly(chain: MissionChain, mission: Mission, env: Environment, d: Draws, sub: 
                                       "beta": d.theta[rows, 2], "soh": d.soh[rows],
                                       "power_scale": d.power_scale[rows]})
         out["landing"][rows] = r.usable_mah - r.charge_used_mah
+        out["energy"][rows] = r.energy_wh
+        out["charge"][rows] = r.charge_used_mah
         out["rtl_min"][rows] = r.rtl_min_margin_mah
         out["ok_land"][rows] = ~r.violated[:, land_cols].any(axis=1)
         out["ok_all"][rows] = r.go
@@ -610,7 +618,8 @@ def _summary(nominal: ChainResult, flown: dict, sub: np.ndarray) -> dict:
             "rtl_margin_mah": _percentiles(flown["rtl_min"]),
             "cvar5_landing_mah": cvar(landing), "reserve_mah": reserve,
             "landing_samples_mah": landing, "rtl_samples_mah": flown["rtl_min"],
-            "rtl_charge_p95_mah": p95}
+            "rtl_charge_p95_mah": p95, "energy_samples_wh": flown["energy"],
+            "charge_samples_mah": flown["charge"]}
 
 
 def _weather_draws(s: Spreads, samples: int, weather_draws: int | None) -> int:

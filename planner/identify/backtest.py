@@ -46,6 +46,7 @@ import numpy as np
 import pandas as pd
 
 from planner.chain.mission_chain import MissionChain
+from planner.chain.uncertainty import Spreads, monte_carlo
 from planner.errors import InputError, PlannerError
 from planner.identify.aircraft_fit import fit_aircraft
 from planner.identify.navigation_fit import fit_navigation
@@ -99,7 +100,9 @@ ROW_COLUMNS = (
     "measured_charge_mah", "predicted_charge_mah", "charge_error_pct",
     "measured_time_s", "predicted_time_s", "time_error_pct",
     "measured_landing_mah", "predicted_landing_mah",
-    "measured_min_voltage_v", "predicted_min_voltage_v", "verdict", "landed_with_reserve")
+    "measured_min_voltage_v", "predicted_min_voltage_v", "verdict", "landed_with_reserve",
+    "energy_p5_wh", "energy_p95_wh", "energy_inside_band", "charge_p5_mah", "charge_p95_mah",
+    "charge_inside_band")
 
 
 @dataclass(frozen=True)
@@ -125,6 +128,12 @@ class BacktestOptions:
         (:func:`~planner.identify.navigation_fit.fit_navigation`), the aircraft file's own
         ``navigation:`` block where the training flights do not show it; ``"file"`` the
         aircraft file's block as it is; ``"none"`` every leg at constant speed.
+    uncertainty_samples : with more than 0, each flight's prediction is also run through
+        ``check --uncertainty``'s Monte Carlo (:func:`~planner.chain.uncertainty.monte_carlo`)
+        with this many samples and its default spreads — the forecast's error and the
+        calibrated model's own per-flight energy error on the fold's training flights
+        (``energy_error_sd``) — and the row says whether the measured energy and charge
+        fell inside its P5–P95 band. [count]
     """
 
     folds: int = 5
@@ -136,6 +145,7 @@ class BacktestOptions:
     weather: dict[str, dict[str, float]] | None = field(default=None, repr=False)
     parameters: tuple[str, ...] | None = None
     kinematics: str = "fitted"
+    uncertainty_samples: int = 0
 
 
 # ------------------------------------------------------------------------- folds
@@ -465,8 +475,31 @@ def predict_flight(aircraft: Aircraft, pack: BatteryPack, exp: pd.DataFrame,
         unit = {"energy": "wh", "charge": "mah", "time": "s"}[name]
         m, p = row[f"measured_{name}_{unit}"], row[f"predicted_{name}_{unit}"]
         row[f"{name}_error_pct"] = 100.0 * (p - m) / m if m and np.isfinite(m) else float("nan")
+    if options.uncertainty_samples:
+        row.update(_band(aircraft, pack, mission, environment, payload_kg, options, row))
     row["status"] = "scored"
     return row
+
+
+def _band(aircraft, pack, mission, environment, payload_kg, options, row) -> dict[str, Any]:
+    """The P5–P95 band of the energy and the charge of ``check --uncertainty``'s Monte
+    Carlo (default spreads) and whether the measured values fell inside it."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            u = monte_carlo(MissionChain(aircraft, pack, reserve=options.reserve), mission,
+                            environment, Spreads(), samples=int(options.uncertainty_samples),
+                            payload_kg=payload_kg)
+    except PlannerError:
+        return {}
+    out: dict[str, Any] = {}
+    for name, samples, unit in (("energy", u.energy_samples_wh, "wh"),
+                                ("charge", u.charge_samples_mah, "mah")):
+        lo, hi = np.percentile(samples, [5, 95])
+        m = row[f"measured_{name}_{unit}"]
+        out[f"{name}_p5_{unit}"], out[f"{name}_p95_{unit}"] = float(lo), float(hi)
+        out[f"{name}_inside_band"] = bool(lo <= m <= hi) if np.isfinite(m) else None
+    return out
 
 
 def _fold_rows(aircraft, pack, data, train, test, options, masses, payloads, sources,
@@ -608,4 +641,13 @@ def summarise(table: pd.DataFrame, worst: int = 5) -> dict[str, Any]:
                                      "median_abs_pct": float(v.abs().median())}
                             for k, v in g}
         out["energy_error_against"] = against
+        band = {}
+        for name in ("energy", "charge"):
+            col = f"{name}_inside_band"
+            if col in ok and ok[col].notna().any():
+                inside = ok[col].dropna().astype(bool)
+                band[name] = {"inside": int(inside.sum()), "n": int(inside.size),
+                              "coverage_pct": 100.0 * float(inside.mean())}
+        if band:
+            out["band"] = band
     return out

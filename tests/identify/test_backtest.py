@@ -226,6 +226,26 @@ def test_the_navigation_fitted_per_fold_closes_the_constant_speed_gap(m100_sampl
     assert fitted.time_error_pct.abs().median() < 5.0
 
 
+def test_the_band_of_check_uncertainty_is_scored_against_each_flight(m100_sample):
+    """With uncertainty samples each scored flight carries the P5–P95 band of the energy
+    and charge of check's Monte Carlo around its own prediction (the model's energy error
+    of the fold's training flights widens it beyond the forecast's), the flag says whether
+    the measured value lies in it, and the summary's coverage counts those flags."""
+    ac, pack = load_aircraft_and_battery(M100)
+    table = run_backtest(m100_sample, ac, pack, BacktestOptions(
+        folds=3, site_altitude_m=300, uncertainty_samples=60))
+    ok = table[table.status == "scored"]
+    assert len(ok) == 5
+    assert (ok.energy_p5_wh < ok.predicted_energy_wh).all()
+    assert (ok.predicted_energy_wh < ok.energy_p95_wh).all()
+    assert ((ok.energy_p95_wh - ok.energy_p5_wh) / ok.predicted_energy_wh > 0.03).all()
+    inside = (ok.energy_p5_wh <= ok.measured_energy_wh) & \
+        (ok.measured_energy_wh <= ok.energy_p95_wh)
+    assert (ok.energy_inside_band.astype(bool) == inside).all()
+    band = summarise(table)["band"]["energy"]
+    assert (band["inside"], band["n"]) == (int(inside.sum()), 5)
+
+
 def test_a_mission_file_named_after_the_flight_is_its_plan(m100_sample, tmp_path):
     """A flight with a mission file in the folder flies it (said in the row); the others
     are rebuilt from their tracks."""

@@ -68,6 +68,11 @@ def register(sub) -> None:
     p.add_argument("--site-altitude", default="0", help="site altitude AMSL [m] for ISA "
                                                         "density (default 0)")
     p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
+    p.add_argument("--uncertainty", nargs="?", const="400", default=None, metavar="N",
+                   help="also run check --uncertainty's Monte Carlo for each flight (N samples, "
+                        "default 400; its default spreads: the forecast's error and the "
+                        "model's own energy error on the training flights) and count the "
+                        "flights whose measured energy and charge fell inside P5-P95")
     p.add_argument("--kinematics", choices=("fitted", "file", "none"), default="fitted",
                    help="how the plan is flown: 'fitted' (default) with the vehicle's "
                         "navigation (take-off, acceleration and stops at waypoints, two-rate "
@@ -162,7 +167,10 @@ def run(args) -> int:
     options = BacktestOptions(folds=folds, by=args.by, held_out=tuple(_ids(args.held_out) or ())
                               or None, site_altitude_m=site, reserve=reserve,
                               missions_dir=missions, weather=weather,
-                              kinematics=args.kinematics)
+                              kinematics=args.kinematics,
+                              uncertainty_samples=(parse_int(args.uncertainty, "--uncertainty",
+                                                             20, 100_000)
+                                                   if args.uncertainty else 0))
     client = cluster = None
     if workers > 1:
         import warnings
@@ -237,6 +245,9 @@ def render(s: dict) -> str:
              "prediction error (predicted − measured, % of measured):",
              _line("energy", s["energy"]), _line("charge", s["charge"]),
              _line("flight time", s["time"])]
+    for name, b in s.get("band", {}).items():
+        lines.append(f"{name} inside the P5-P95 band of check --uncertainty: {b['inside']} of "
+                     f"{b['n']} flights ({b['coverage_pct']:.0f} %)")
     if s["scored"]:
         lines.append(f"verdicts: {', '.join(f'{k} {v}' for k, v in s['verdicts'].items())}; "
                      f"{s['landed_with_reserve']} of {s['scored']} flights landed with the "
