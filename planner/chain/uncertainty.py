@@ -345,7 +345,8 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
         chain_j = MissionChain(ac, [pack] * rows.size, battery_model=chain.battery_model,
                                reserve=chain.reserve,
                                temperature_c=float(temp[j]) if weather_spread
-                               else chain.temperature_c)
+                               else chain.temperature_c,
+                               min_thrust_to_weight=chain.min_thrust_to_weight)
         r = chain_j.run(mission, env_j, payload_kg=pay[rows], detail=False, rtl_subset=sub,
                         pack_samples={"delta": theta[rows, 0], "epsilon": theta[rows, 1],
                                       "beta": theta[rows, 2], "soh": soh_eff[rows]})
