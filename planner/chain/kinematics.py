@@ -22,7 +22,7 @@ import numpy as np
 
 from planner.physics import atmosphere
 from planner.errors import InputError
-from planner.physics.mission import LEG_KINDS, MAX_FLIGHT_S, Environment, Mission
+from planner.physics.mission import LEG_KINDS, MAX_FLIGHT_S, Environment, Leg, Mission
 from planner.physics.power.fixed_wing import bank_load_factor
 from planner.parameters import Aircraft
 from planner.physics.units import S_PER_H
@@ -30,6 +30,49 @@ from planner.physics.wind import capped_groundspeed, course_deg, wind_triangle, 
 
 #: Points per leg at which the return-home reserve is checked.
 RTL_POINTS_PER_LEG = 5
+
+#: A mission ends on the ground when its last leg ends at most this high above home; at
+#: home when at most this far from it. [m]
+LANDED_ALTITUDE_M = 0.5
+HOME_RADIUS_M = 1.0
+
+#: Origin of the legs the chain adds to a mission that never comes home.
+ADDED_RETURN_ORIGIN = "return home (added)"
+
+
+def closed_mission(mission: Mission) -> tuple[Mission, str | None]:
+    """The mission as the aircraft must fly it to be judged: one that ends in the air
+    (its last leg above :data:`LANDED_ALTITUDE_M`) has not landed, and the flight is not
+    over until it is home and down. The return is added as the chain's return home flies
+    it from any point (:func:`return_home_points`): straight home at the aircraft's cruise
+    speed at the last altitude, then the descent over home. A mission that lands, at
+    home or elsewhere, is left as it is.
+
+    Returns the mission (a new one when legs were added) and the note that says so
+    (None when nothing was added).
+    """
+    if not mission.legs:
+        return mission, None
+    last = mission.legs[-1]
+    alt = float(last.end_alt_m)
+    if not np.isfinite(alt) or alt <= LANDED_ALTITUDE_M:
+        return mission, None
+    end = (float(last.end_en_m[0]), float(last.end_en_m[1]))
+    dist = float(np.hypot(*end))
+    added = []
+    if dist > HOME_RADIUS_M:
+        added.append(Leg("cruise", end, (0.0, 0.0), alt, alt, origin=ADDED_RETURN_ORIGIN))
+    added.append(Leg("descend", (0.0, 0.0), (0.0, 0.0), alt, 0.0,
+                     origin=ADDED_RETURN_ORIGIN))
+    n = len(mission.legs)
+    legs = f"leg {n + 1}" if len(added) == 1 else f"legs {n + 1}–{n + len(added)}"
+    note = (f"the mission ends {dist:.0f} m from home at {alt:.0f} m without landing "
+            f"({last.origin or f'leg {n}'}): the return home at cruise speed and the "
+            f"landing are added ({legs}) and judged with the rest")
+    closed = Mission(name=mission.name, legs=list(mission.legs) + added,
+                     environment=mission.environment, payload_kg=mission.payload_kg,
+                     home=mission.home, source=mission.source, file=mission.file)
+    return closed, note
 
 
 @dataclass

@@ -123,6 +123,9 @@ class ChainInputs:
         Landing reserve over nominal capacity. [unitless]
     min_thrust_to_weight : float
         Least maximum thrust over take-off weight of a multirotor. [unitless]
+    notes : list of str
+        What the chain changed in the mission to judge it (the return home it added,
+        :func:`planner.chain.kinematics.closed_mission`).
     """
 
     aircraft: Aircraft
@@ -138,6 +141,7 @@ class ChainInputs:
     mass: np.ndarray
     reserve: float
     min_thrust_to_weight: float = DEFAULT_MIN_THRUST_TO_WEIGHT
+    notes: list = None
 
     @property
     def flown_environment(self) -> Environment:
@@ -179,6 +183,7 @@ def chain_inputs(aircraft: Aircraft, packs: list[BatteryPack], models: list[str]
            for p in packs if not (p.model.delta > 0 and p.model.beta > 0)]
     if bad:
         raise InputError("; ".join(bad) + " — delta must be > 0")
+    mission, note = kinematics.closed_mission(mission)
     pa = pack_arrays(packs, temp)
     t_pack = DEFAULT_PACK_TEMPERATURE_C if temp is None else float(temp)
     if t_pack < chemistry.REFERENCE_TEMPERATURE_C:
@@ -193,7 +198,8 @@ def chain_inputs(aircraft: Aircraft, packs: list[BatteryPack], models: list[str]
         environment=env, temperature_c=temp, payload_kg=payload,
         keep=(len(packs) <= DETAIL_MAX_PACKS) if detail is None else bool(detail),
         pack=pa, soh=soh, mass=aircraft.empty_mass_kg + pa["mass"] + payload,
-        reserve=float(reserve), min_thrust_to_weight=float(min_thrust_to_weight))
+        reserve=float(reserve), min_thrust_to_weight=float(min_thrust_to_weight),
+        notes=[] if note is None else [note])
 
 
 def pack_arrays(packs, temperature_c) -> dict[str, np.ndarray]:
@@ -289,6 +295,7 @@ def flight_states(inputs: ChainInputs, rtl_subset=None) -> FlightStates:
     """
     ac, env, temp = inputs.aircraft, inputs.environment, inputs.temperature_c
     table = kinematics.leg_table(inputs.mission, ac, env, temperature_c=temp)
+    table.notes[:0] = inputs.notes or []
     rtl = kinematics.return_home_points(table, ac, env, temp)
     npts_all = len(rtl["leg"])
     sub = None

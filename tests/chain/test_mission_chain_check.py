@@ -239,3 +239,55 @@ def test_best_speeds_fixed_wing_match_the_polar():
     assert r.best_speeds["max_endurance_airspeed_ms"] == pytest.approx((b / (3 * a)) ** 0.25,
                                                                      rel=0.005)
     assert r.best_speeds["max_range_airspeed_ms"] == pytest.approx((b / a) ** 0.25, rel=0.005)
+
+
+def _without_last_items(tmp_path, drop):
+    """missions/survey_route.waypoints with its last ``drop`` lines (the RTL) removed."""
+    lines = (REPO / "missions/survey_route.waypoints").read_text().splitlines()
+    path = tmp_path / "no_rtl.waypoints"
+    path.write_text("\n".join(lines[:-drop]) + "\n")
+    return path
+
+
+def test_a_mission_that_never_comes_home_is_flown_home_and_down(tmp_path):
+    """The survey with its RTL line removed ends 341 m out at 50 m: it was 'GO: lands with'
+    the charge of a flight that never came back, and the smallest return-home margin left
+    out the return from the true end. The chain adds the return and the landing, says so,
+    and the landing margin is the return-home margin from the last point."""
+    from planner.chain.kinematics import ADDED_RETURN_ORIGIN
+    from planner.io.mission import NavDefaults, load_mission
+
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    full = load_mission(REPO / "missions/survey_route.waypoints",
+                        defaults=NavDefaults.of(aircraft))
+    cut = load_mission(_without_last_items(tmp_path, 1), defaults=NavDefaults.of(aircraft))
+    assert len(cut.legs) == len(full.legs) - 2 and cut.legs[-1].end_alt_m > 0
+    c = MissionChain(aircraft, pack)
+    flown = c.run(cut, detail=True)
+    r = flown.mission_result(0)
+    assert list(r.legs.origin[-2:]) == [ADDED_RETURN_ORIGIN] * 2
+    assert list(r.legs.kind[-2:]) == ["cruise", "descend"]
+    assert r.legs.altitude_m.iloc[-1] == 0.0
+    assert any("without landing" in w and "return home" in w for w in r.warnings)
+    # the return from the end is part of the smallest return-home margin, and the mission
+    # drew the charge of flying it
+    end_margin = flown.detail["rtl_point_margin_mah"][0]
+    last_point = np.flatnonzero(flown.rtl_points["leg"] == len(cut.legs) - 1)[-1]
+    assert r.rtl_min_margin_mah <= end_margin[last_point] + 1e-9
+    assert r.charge_used_mah > float(np.sum(r.legs.charge_mah.iloc[:-2])) + 1.0
+
+
+def test_a_one_waypoint_mission_is_flown_home_too(tmp_path):
+    path = tmp_path / "one.waypoints"
+    path.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t48.0468\t10.4452\t598\t1\n"
+                    "1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t40\t1\n"
+                    "2\t0\t3\t16\t0\t0\t0\t0\t48.0518\t10.4452\t40\t1\n")
+    from planner.io.mission import NavDefaults, load_mission
+
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    mission = load_mission(path, defaults=NavDefaults.of(aircraft))
+    r = MissionChain(aircraft, pack).check(mission)
+    back = r.legs.iloc[-2]
+    assert back.kind == "cruise" and back.distance_m == pytest.approx(556.0, abs=1.0)
+    assert r.legs.kind.iloc[-1] == "descend" and r.legs.altitude_m.iloc[-1] == 0.0
+    assert any("556 m from home at 40 m without landing" in w for w in r.warnings)
