@@ -40,6 +40,70 @@ HOME_RADIUS_M = 1.0
 ADDED_RETURN_ORIGIN = "return home (added)"
 
 
+#: Altitude below home a leg may reach (rounding of a file's altitudes) before the route
+#: counts as below the take-off point; change of altitude below which a cruise is level.
+#: [m]
+BELOW_HOME_TOLERANCE_M = 0.5
+MIN_ALT_CHANGE_M = 0.01
+
+
+def flyable_legs(mission: Mission, aircraft: Aircraft) -> tuple[Mission, str | None]:
+    """The mission's legs checked and bounded as the aircraft flies them.
+
+    * A leg that reaches below home (more than :data:`BELOW_HOME_TOLERANCE_M`) is refused:
+      the route lies below the take-off point, which PX4 refuses ("Waypoint below home",
+      ``MissionFeasibilityChecker::checkHomePositionAltitude``); a waypoint file says
+      the ground is lower by giving those altitudes in the terrain frame (10), which its
+      reader reads above the terrain, never below home.
+    * A cruise leg whose change of altitude over its horizontal time (at its speed, else
+      the aircraft's cruise speed) is faster than the aircraft's climb or descent rate is
+      flown as a cruise changing altitude at that rate, the rest of the change over its
+      end point (as the waypoint readers fly it, after ArduCopter's
+      ``ModeAuto::loiter_to_alt_run``).
+
+    Returns the mission (a new one when legs were split) and the note that says so.
+
+    Raises
+    ------
+    InputError
+        A leg below home: one line naming the file and the leg.
+    """
+    where = mission.source or mission.name
+    for leg in mission.legs:
+        low = min(float(leg.start_alt_m), float(leg.end_alt_m))
+        if low < -BELOW_HOME_TOLERANCE_M:
+            raise InputError(f"{where}: {leg.origin or 'a leg'}: altitude {low:g} m is "
+                             f"{-low:g} m below home: the route lies below the take-off "
+                             "point (expected altitudes at or above home, as PX4 requires: "
+                             "'Waypoint below home'; over lower ground, give a waypoint "
+                             "file's altitudes in the terrain frame 10)")
+    out: list[Leg] = []
+    split = []
+    for leg in mission.legs:
+        dz = float(leg.end_alt_m) - float(leg.start_alt_m)
+        v = leg.speed_ms or aircraft.cruise_speed_ms
+        rate = aircraft.climb_rate_ms if dz > 0 else aircraft.descent_rate_ms
+        d = leg.distance_m
+        if (leg.kind != "cruise" or d <= 0 or not v or not rate
+                or abs(dz) <= rate * d / v + MIN_ALT_CHANGE_M):
+            out.append(leg)
+            continue
+        mid = float(leg.start_alt_m) + np.copysign(rate * d / v, dz)
+        out.append(leg.with_(end_alt_m=float(mid)))
+        out.append(Leg("climb" if dz > 0 else "descend", leg.end_en_m, leg.end_en_m,
+                       float(mid), float(leg.end_alt_m), origin=leg.origin, item=leg.item))
+        split.append(f"{leg.origin or f'leg {len(out) - 1}'} ({abs(dz) * v / d:.1f} m/s)")
+    if not split:
+        return mission, None
+    note = (f"{len(split)} cruise leg(s) change altitude faster than the aircraft's climb "
+            f"{aircraft.climb_rate_ms:g} m/s or descent {aircraft.descent_rate_ms:g} m/s: "
+            + ", ".join(split[:3]) + (" …" if len(split) > 3 else "")
+            + "; flown at that rate, the rest of the change over the leg's end point")
+    return Mission(name=mission.name, legs=out, environment=mission.environment,
+                   payload_kg=mission.payload_kg, home=mission.home, source=mission.source,
+                   file=mission.file), note
+
+
 def closed_mission(mission: Mission) -> tuple[Mission, str | None]:
     """The mission as the aircraft must fly it to be judged: one that ends in the air
     (its last leg above :data:`LANDED_ALTITUDE_M`) has not landed, and the flight is not

@@ -656,6 +656,11 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
     n = len(mission.legs)
     if n == 0:
         raise InputError(f"{mission.source or mission.name}: the mission has no legs")
+    # the legs as the chain flies them (bounded climbs, the return of a mission that
+    # never comes home), so that route positions index the legs the chain judges
+    mission, _ = prof.flyable_legs(mission, aircraft)
+    mission, _ = prof.closed_mission(mission)
+    n = len(mission.legs)
     search = _SortieSearch(mission, MissionChain(aircraft, pack, reserve=reserve,
                                                  temperature_c=temperature_c), env)
     sorties: list[Sortie] = []

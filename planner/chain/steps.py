@@ -183,6 +183,7 @@ def chain_inputs(aircraft: Aircraft, packs: list[BatteryPack], models: list[str]
            for p in packs if not (p.model.delta > 0 and p.model.beta > 0)]
     if bad:
         raise InputError("; ".join(bad) + " — delta must be > 0")
+    mission, bounded = kinematics.flyable_legs(mission, aircraft)
     mission, note = kinematics.closed_mission(mission)
     pa = pack_arrays(packs, temp)
     t_pack = DEFAULT_PACK_TEMPERATURE_C if temp is None else float(temp)
@@ -199,7 +200,7 @@ def chain_inputs(aircraft: Aircraft, packs: list[BatteryPack], models: list[str]
         keep=(len(packs) <= DETAIL_MAX_PACKS) if detail is None else bool(detail),
         pack=pa, soh=soh, mass=aircraft.empty_mass_kg + pa["mass"] + payload,
         reserve=float(reserve), min_thrust_to_weight=float(min_thrust_to_weight),
-        notes=[] if note is None else [note])
+        notes=[n for n in (bounded, note) if n is not None])
 
 
 def pack_arrays(packs, temperature_c) -> dict[str, np.ndarray]:

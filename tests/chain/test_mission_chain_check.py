@@ -291,3 +291,43 @@ def test_a_one_waypoint_mission_is_flown_home_too(tmp_path):
     assert back.kind == "cruise" and back.distance_m == pytest.approx(556.0, abs=1.0)
     assert r.legs.kind.iloc[-1] == "descend" and r.legs.altitude_m.iloc[-1] == 0.0
     assert any("556 m from home at 40 m without landing" in w for w in r.warnings)
+
+
+STEEP = """name: steep
+legs:
+  - climb: {altitude_m: 20}
+  - cruise: {distance_m: 10, course_deg: 0, altitude_m: 120}
+  - cruise: {distance_m: 10, course_deg: 180, altitude_m: 20}
+  - descend: {altitude_m: 0}
+"""
+
+
+def test_a_cruise_climbs_no_faster_than_the_aircraft_can(tmp_path):
+    """A YAML cruise of 10 m that climbs 100 m was flown at 80 m/s up (1551 W, 122 A,
+    NO-GO): the chain flies it at the aircraft's climb rate and the rest over the end
+    point, as the waypoint readers do (ap_copter_loiter_to_alt.txt), and says so."""
+    from planner.io.mission import load_mission
+
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    path = tmp_path / "steep.yaml"
+    path.write_text(STEEP)
+    r = MissionChain(aircraft, pack).check(load_mission(path, vehicle_type=aircraft.type))
+    vz = r.legs.climb_rate_ms.to_numpy()
+    assert np.all(vz <= aircraft.climb_rate_ms + 1e-9)
+    assert np.all(vz >= -aircraft.descent_rate_ms - 1e-9)
+    assert list(r.legs.kind) == ["climb", "cruise", "climb", "cruise", "descend", "descend"]
+    assert r.legs.altitude_m.iloc[2] == 120.0 and r.legs.altitude_m.iloc[4] == 20.0
+    assert r.peak_current_a < 20.0
+    assert any("faster than the aircraft's climb" in w for w in r.warnings)
+
+
+def test_a_route_below_home_is_refused_naming_the_file_and_the_leg(tmp_path, capsys):
+    from planner.cli.main import main
+
+    path = tmp_path / "below.yaml"
+    path.write_text(STEEP.replace("altitude_m: 120", "altitude_m: -50"))
+    code = main(["check", str(path), "--aircraft", str(REPO / "aircraft/solo_survey.yaml")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert str(path) in err[0] and "legs[2]" in err[0]
+    assert "50 m below home" in err[0] and "below the take-off point" in err[0]
