@@ -39,7 +39,9 @@ def test_seed_hover_and_vertical_powers_through_the_chain():
             Leg("descend", start_alt_m=90, end_alt_m=60, climb_rate_ms=3, origin="d3")]
     r = chain().check(Mission("seed", legs, SEA_LEVEL_20C))
     assert r.takeoff_mass_kg == pytest.approx(0.6)
-    assert r.legs["power_w"].tolist() == pytest.approx([75.2, 102.4, 129.5, 48.0], rel=0.015)
+    # the mission ends at 60 m: the chain adds the descent after the four legs
+    assert r.legs["power_w"].tolist()[:4] == pytest.approx([75.2, 102.4, 129.5, 48.0],
+                                                           rel=0.015)
 
 
 def test_climb_power_difference_is_m_g_climb_over_eta():
@@ -72,10 +74,12 @@ def test_headwind_lengthens_and_tailwind_shortens_the_same_leg(aircraft):
     still = c.check(Mission("m", leg, Environment(0, 0)))
     head = c.check(Mission("m", leg, Environment(5, 90)))               # wind from the east
     tail = c.check(Mission("m", leg, Environment(5, 270)))
-    assert head.duration_s > still.duration_s > tail.duration_s
+    # the leg ends 2 km out at 50 m: the chain adds the return, so the leg's own time
+    t = [r.legs.duration_s[0] for r in (head, still, tail)]
+    assert t[0] > t[1] > t[2]
     assert head.legs.groundspeed_ms[0] == pytest.approx(12 - 5)
     assert tail.legs.groundspeed_ms[0] == pytest.approx(12 + 5)
-    assert head.duration_s == pytest.approx(2000 / 7)
+    assert t[0] == pytest.approx(2000 / 7)
 
 
 def test_multirotor_holding_ground_speed_pays_in_airspeed_not_time():
