@@ -34,7 +34,7 @@ import numpy as np
 
 from planner.physics import atmosphere, motion
 from planner.errors import InputError
-from planner.physics.mission import LEG_KINDS, MAX_FLIGHT_S, Environment, Mission
+from planner.physics.mission import LEG_KINDS, MAX_FLIGHT_S, Environment, Leg, Mission
 from planner.physics.power.fixed_wing import bank_load_factor
 from planner.parameters import Aircraft
 from planner.physics.units import S_PER_H
@@ -58,6 +58,112 @@ GROUND_HEIGHT_M = 0.5
 #: >= 1), so the spin-up is counted at hover power: about 0.1 Wh too much on an M100
 #: flight of 40 Wh (0.16 × 5.4 s × 500 W).
 SPINUP_LOAD_FACTOR = 1.0
+#: A mission ends on the ground when its last leg ends at most this high above home; at
+#: home when at most this far from it. [m]
+LANDED_ALTITUDE_M = 0.5
+HOME_RADIUS_M = 1.0
+
+#: Origin of the legs the chain adds to a mission that never comes home.
+ADDED_RETURN_ORIGIN = "return home (added)"
+
+
+#: Altitude below home a leg may reach (rounding of a file's altitudes) before the route
+#: counts as below the take-off point; change of altitude below which a cruise is level.
+#: [m]
+BELOW_HOME_TOLERANCE_M = 0.5
+MIN_ALT_CHANGE_M = 0.01
+
+
+def flyable_legs(mission: Mission, aircraft: Aircraft) -> tuple[Mission, str | None]:
+    """The mission's legs checked and bounded as the aircraft flies them.
+
+    * A leg that reaches below home (more than :data:`BELOW_HOME_TOLERANCE_M`) is refused:
+      the route lies below the take-off point, which PX4 refuses ("Waypoint below home",
+      ``MissionFeasibilityChecker::checkHomePositionAltitude``); a waypoint file says
+      the ground is lower by giving those altitudes in the terrain frame (10), which its
+      reader reads above the terrain, never below home.
+    * A cruise leg whose change of altitude over its horizontal time (at its speed, else
+      the aircraft's cruise speed) is faster than the aircraft's climb or descent rate is
+      flown as a cruise changing altitude at that rate, the rest of the change over its
+      end point (as the waypoint readers fly it, after ArduCopter's
+      ``ModeAuto::loiter_to_alt_run``).
+
+    Returns the mission (a new one when legs were split) and the note that says so.
+
+    Raises
+    ------
+    InputError
+        A leg below home: one line naming the file and the leg.
+    """
+    where = mission.source or mission.name
+    for leg in mission.legs:
+        low = min(float(leg.start_alt_m), float(leg.end_alt_m))
+        if low < -BELOW_HOME_TOLERANCE_M:
+            raise InputError(f"{where}: {leg.origin or 'a leg'}: altitude {low:g} m is "
+                             f"{-low:g} m below home: the route lies below the take-off "
+                             "point (expected altitudes at or above home, as PX4 requires: "
+                             "'Waypoint below home'; over lower ground, give a waypoint "
+                             "file's altitudes in the terrain frame 10)")
+    out: list[Leg] = []
+    split = []
+    for leg in mission.legs:
+        dz = float(leg.end_alt_m) - float(leg.start_alt_m)
+        v = leg.speed_ms or aircraft.cruise_speed_ms
+        rate = aircraft.climb_rate_ms if dz > 0 else aircraft.descent_rate_ms
+        d = leg.distance_m
+        if (leg.kind != "cruise" or d <= 0 or not v or not rate
+                or abs(dz) <= rate * d / v + MIN_ALT_CHANGE_M):
+            out.append(leg)
+            continue
+        mid = float(leg.start_alt_m) + np.copysign(rate * d / v, dz)
+        out.append(leg.with_(end_alt_m=float(mid)))
+        out.append(Leg("climb" if dz > 0 else "descend", leg.end_en_m, leg.end_en_m,
+                       float(mid), float(leg.end_alt_m), origin=leg.origin, item=leg.item))
+        split.append(f"{leg.origin or f'leg {len(out) - 1}'} ({abs(dz) * v / d:.1f} m/s)")
+    if not split:
+        return mission, None
+    note = (f"{len(split)} cruise leg(s) change altitude faster than the aircraft's climb "
+            f"{aircraft.climb_rate_ms:g} m/s or descent {aircraft.descent_rate_ms:g} m/s: "
+            + ", ".join(split[:3]) + (" …" if len(split) > 3 else "")
+            + "; flown at that rate, the rest of the change over the leg's end point")
+    return Mission(name=mission.name, legs=out, environment=mission.environment,
+                   payload_kg=mission.payload_kg, home=mission.home, source=mission.source,
+                   file=mission.file), note
+
+
+def closed_mission(mission: Mission) -> tuple[Mission, str | None]:
+    """The mission as the aircraft must fly it to be judged: one that ends in the air
+    (its last leg above :data:`LANDED_ALTITUDE_M`) has not landed, and the flight is not
+    over until it is home and down. The return is added as the chain's return home flies
+    it from any point (:func:`return_home_points`): straight home at the aircraft's cruise
+    speed at the last altitude, then the descent over home. A mission that lands, at
+    home or elsewhere, is left as it is.
+
+    Returns the mission (a new one when legs were added) and the note that says so
+    (None when nothing was added).
+    """
+    if not mission.legs:
+        return mission, None
+    last = mission.legs[-1]
+    alt = float(last.end_alt_m)
+    if not np.isfinite(alt) or alt <= LANDED_ALTITUDE_M:
+        return mission, None
+    end = (float(last.end_en_m[0]), float(last.end_en_m[1]))
+    dist = float(np.hypot(*end))
+    added = []
+    if dist > HOME_RADIUS_M:
+        added.append(Leg("cruise", end, (0.0, 0.0), alt, alt, origin=ADDED_RETURN_ORIGIN))
+    added.append(Leg("descend", (0.0, 0.0), (0.0, 0.0), alt, 0.0,
+                     origin=ADDED_RETURN_ORIGIN))
+    n = len(mission.legs)
+    legs = f"leg {n + 1}" if len(added) == 1 else f"legs {n + 1}–{n + len(added)}"
+    note = (f"the mission ends {dist:.0f} m from home at {alt:.0f} m without landing "
+            f"({last.origin or f'leg {n}'}): the return home at cruise speed and the "
+            f"landing are added ({legs}) and judged with the rest")
+    closed = Mission(name=mission.name, legs=list(mission.legs) + added,
+                     environment=mission.environment, payload_kg=mission.payload_kg,
+                     home=mission.home, source=mission.source, file=mission.file)
+    return closed, note
 
 
 @dataclass

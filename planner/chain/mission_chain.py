@@ -53,7 +53,7 @@ import numpy as np
 from planner.chain import steps
 from planner.chain.flightstate import fill_gaps
 from planner.chain.result import MissionResult
-from planner.chain.steps import CHECK_CONSTRAINTS
+from planner.chain.steps import CHECK_CONSTRAINTS, DEFAULT_MIN_THRUST_TO_WEIGHT
 from planner.errors import InputError
 from planner.parameters import Aircraft, BatteryPack, IntegralModel, load_aircraft_and_battery
 from planner.physics.atmosphere import RHO0
@@ -140,6 +140,12 @@ class ChainResult:
         ``pack_temperature_c``, ``cutoff_leg``, ``collapse_time_s``, ``collapse_leg``,
         ``hot_time_s``, ``hot_temperature_c``.
     violated : ndarray of bool, shape (packs, len(CHECK_CONSTRAINTS))
+    thrust_to_weight : ndarray
+        Maximum static thrust over take-off weight (NaN: not known). [unitless]
+    min_thrust_to_weight : float
+        The least thrust-to-weight the verdict asks of a multirotor. [unitless]
+    limit_notes : list of str
+        The aircraft's limits that could not be checked, and why.
     detail : dict of ndarray or None
         Per-leg arrays (packs × legs) when the run kept them: ``power_w``,
         ``current_a``, ``voltage_v``, ``charge_mah``, ``charge_end_mah``,
@@ -186,12 +192,17 @@ class ChainResult:
     rtl_points: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
     power_method: str = "exact"
     detail: dict[str, np.ndarray] | None = field(repr=False, default=None)
+    thrust_to_weight: np.ndarray | None = None
+    min_thrust_to_weight: float = DEFAULT_MIN_THRUST_TO_WEIGHT
+    limit_notes: list[str] = field(default_factory=list)
 
     @classmethod
     def of_run(cls, inputs, states, power, circuit, budget, flown, violated) -> ChainResult:
         """The result of the steps of :meth:`MissionChain.run` (:mod:`planner.chain.steps`)."""
         pa, rtl, cap = inputs.pack, states.rtl, budget.cap
         used = flown.used_as
+        limits = steps.aircraft_limits(inputs.aircraft, inputs.packs, inputs.mass,
+                                       inputs.min_thrust_to_weight)
         return cls(
             packs=list(inputs.packs), battery_models=list(inputs.models),
             aircraft=inputs.aircraft, mission=inputs.mission,
@@ -212,7 +223,9 @@ class ChainResult:
             rtl_points={key: rtl[key] for key in ("leg", "time_s", "east_m", "north_m",
                                                   "altitude_m", "distance_m", "t_back",
                                                   "t_down")},
-            power_method=power.table.method, detail=flown.detail)
+            power_method=power.table.method, detail=flown.detail,
+            thrust_to_weight=limits.thrust_to_weight,
+            min_thrust_to_weight=inputs.min_thrust_to_weight, limit_notes=limits.notes)
 
     def __len__(self) -> int:
         return len(self.packs)
@@ -273,6 +286,13 @@ class ChainResult:
                     f"and {len(rest)} more legs the aircraft cannot fly: legs "
                     f"{_ranges(rest)}"]
             out.extend(problems)
+        elif code == "cells":
+            out.append(f"{p.cells_series}S pack, the aircraft allows "
+                       + ", ".join(f"{c}S" for c in self.aircraft.cells_series_allowed))
+        elif code == "thrust":
+            out.append(f"thrust-to-weight {self.thrust_to_weight[i]:.2f} at the take-off "
+                       f"mass {self.takeoff_mass_kg[i]:.2f} kg is below the minimum "
+                       f"{self.min_thrust_to_weight:g}")
         elif code == "power":
             j = int(self.undeliverable_leg[i])
             out.append(f"{_leg_name(table, j)}: the pack cannot deliver "
@@ -313,7 +333,13 @@ class ChainResult:
                        f"{self.usable_mah[i]:.0f} mAh the pack can give: it runs out "
                        "before landing")
         elif code == "landing_reserve":
-            if self.cutoff_limited(i):
+            if self.cutoff_limited(i) and self.battery_models[i] == "integral":
+                out.append(f"with the pack at {c['pack_temperature_c']:.0f} °C it gives "
+                           f"{self.usable_mah[i]:.0f} mAh of the "
+                           f"{p.usable_as / AS_PER_MAH:.0f} mAh usable at 25 °C (the "
+                           f"{p.chemistry} cold laws): the mission ends "
+                           f"{-self.margin_mah[i]:.0f} mAh short of the reserve")
+            elif self.cutoff_limited(i):
                 out.append(f"the loaded cell voltage reaches the "
                            f"{p.cell_voltage_empty_v:g} V cut-off after "
                            f"{self.usable_mah[i]:.0f} mAh with the pack at "
@@ -339,7 +365,7 @@ class ChainResult:
 
     def warnings(self, i: int) -> list[str]:
         """What the pilot should know about pack ``i`` that does not ground the flight."""
-        p, out = self.packs[i], list(self.table.notes)
+        p, out = self.packs[i], list(self.table.notes) + list(self.limit_notes)
         if self.battery_models[i] == "integral" and self.detail is not None \
                 and "voltage_v" in self.detail:
             v_end = self.detail["voltage_v"][i]
@@ -352,6 +378,12 @@ class ChainResult:
                            f"{_leg_name(self.table, j)} "
                            f"(t = {self.table.end_time_s[j]:.0f} s): "
                            "expect a low-voltage failsafe")
+        if self.battery_models[i] == "integral" and self.cutoff_limited(i):
+            t = float(self.circuit["pack_temperature_c"][i])
+            out.append(f"cold: with the pack at {t:.0f} °C it gives "
+                       f"{self.usable_mah[i]:.0f} of its {p.usable_as / AS_PER_MAH:.0f} mAh "
+                       f"usable at 25 °C (the {p.chemistry} capacity and resistance laws; "
+                       "the pack file has no circuit: or thermal: block)")
         if p.model.literature:
             out.append(f"battery model: literature δ₀({p.cells_series}), ε₀({p.cells_series}) "
                        f"scaled to the pack's {p.capacity_mah:.0f} mAh, β = {p.model.beta} "
@@ -368,7 +400,8 @@ class ChainResult:
             chain = MissionChain(self.aircraft, [self.packs[i]],
                                  battery_model=self.battery_models[i],
                                  reserve=self.reserve_fraction,
-                                 temperature_c=self.environment.temperature_c)
+                                 temperature_c=self.environment.temperature_c,
+                                 min_thrust_to_weight=self.min_thrust_to_weight)
             return chain.run(self.mission, self.environment, payload_kg=self.payload_kg,
                              detail=True).mission_result(0)
         d, table, p = self.detail, self.table, self.packs[i]
@@ -504,6 +537,9 @@ class MissionChain:
     temperature_c : float, optional
         Outside air (and starting pack) temperature; None = the mission's, else ISA.
         [°C]
+    min_thrust_to_weight : float, default 1.5
+        Multirotors with ``multirotor.max_thrust_n``: least maximum thrust over take-off
+        weight (:func:`planner.chain.steps.aircraft_limits`). [unitless]
 
     Examples
     --------
@@ -514,7 +550,8 @@ class MissionChain:
 
     def __init__(self, aircraft: Aircraft, packs: BatteryPack | Sequence[BatteryPack], *,
                  battery_model: str = "infer", reserve: float = 0.2,
-                 temperature_c: float | None = None):
+                 temperature_c: float | None = None,
+                 min_thrust_to_weight: float = DEFAULT_MIN_THRUST_TO_WEIGHT):
         if battery_model not in BATTERY_MODELS:
             raise InputError(f"battery_model must be one of {', '.join(BATTERY_MODELS)}, "
                              f"got {battery_model!r}")
@@ -526,6 +563,7 @@ class MissionChain:
         self.battery_model = battery_model
         self.reserve = float(reserve)
         self.temperature_c = temperature_c
+        self.min_thrust_to_weight = float(min_thrust_to_weight)
         self.models = [self._model_of(p) for p in self.packs]
 
     @classmethod
@@ -607,11 +645,12 @@ class MissionChain:
         inputs = steps.chain_inputs(
             self.aircraft, self.packs, self.models, mission, environment,
             temperature_c=self.temperature_c, reserve=self.reserve, payload_kg=payload_kg,
-            detail=detail, pack_samples=pack_samples)
+            detail=detail, pack_samples=pack_samples,
+            min_thrust_to_weight=self.min_thrust_to_weight)
         states = steps.flight_states(inputs, rtl_subset)
         power = steps.power_step(inputs, states, power_method)
         circuit = steps.circuit_model(inputs, states, power)
-        budget = steps.charge_budget(inputs, circuit)
+        budget = steps.charge_budget(inputs, circuit, power)
         flown = steps.PackFigures(inputs, states)
         for rows in steps.pack_blocks(len(self.packs), power, states, block_elements):
             legs = steps.leg_figures(inputs, states, power, rows)

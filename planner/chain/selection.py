@@ -5,10 +5,11 @@ Pack selection asks it of a whole catalog at once, and each pack changes the ans
 through its own mass: take-off mass = aircraft empty mass + pack mass × ``count`` +
 payload, so a bigger pack also needs more power. The physics is the mission chain's
 (:class:`planner.chain.mission_chain.MissionChain` with the catalog as its pack axis), the same code
-``check`` runs for one pack: :func:`evaluate_packs` adds only the two constraints that
-``check`` does not have — the aircraft's allowed cell counts (``cells_series_allowed``)
-and, for multirotors with a known ``multirotor.max_thrust_n``, a minimum
-thrust-to-weight ratio.
+``check`` runs for one pack, with the same constraints
+(:data:`planner.chain.steps.CHECK_CONSTRAINTS`, among them the aircraft's allowed cell
+counts and, for multirotors with a known ``multirotor.max_thrust_n``, a minimum
+thrust-to-weight ratio: :func:`planner.chain.steps.aircraft_limits`): a pack ``select``
+rejects is NO-GO in ``check`` for the same reason.
 
 :func:`select_pack` ranks the packs (objective ``mass``, ``margin`` or ``price``) and
 names the binding constraint of every rejected pack.
@@ -22,9 +23,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from planner.physics.atmosphere import G
 from planner.chain.mission_chain import ChainResult, MissionChain
-from planner.chain.steps import CHECK_CONSTRAINTS
+from planner.chain.steps import CHECK_CONSTRAINTS, DEFAULT_MIN_THRUST_TO_WEIGHT
 from planner.errors import InputError
 from planner.physics.mission import Environment, Mission
 from planner.parameters import Aircraft, BatteryPack
@@ -36,22 +36,16 @@ __all__ = ["CONSTRAINTS", "DEFAULT_MIN_THRUST_TO_WEIGHT", "OBJECTIVES", "PackEva
 #: time), cheapest pack.
 OBJECTIVES = ("mass", "margin", "price")
 
-#: Minimum thrust-to-weight ratio of a multirotor (controllability margin for gusts
-#: and manoeuvres) when the aircraft gives ``multirotor.max_thrust_n``. [unitless]
-DEFAULT_MIN_THRUST_TO_WEIGHT = 1.5
-
 #: Constraint codes, in the order in which the first violated one is reported as the
-#: *binding* constraint of a rejected pack: the check's, with the selection's own two
-#: (``cells``, ``thrust``) after the mission itself.
-CONSTRAINTS = ("mission", "cells", "thrust") + CHECK_CONSTRAINTS[1:]
+#: *binding* constraint of a rejected pack: the check's own.
+CONSTRAINTS = CHECK_CONSTRAINTS
 
 
 # --------------------------------------------------------------------------- evaluation
 
 @dataclass
 class PackEvaluation:
-    """Every pack of a catalog on one mission: the chain's result plus the selection's
-    own constraints (arrays: one element per pack; see
+    """Every pack of a catalog on one mission: the chain's result and verdicts (arrays: one element per pack; see
     :class:`planner.chain.mission_chain.ChainResult` for the figures and their units).
 
     Attributes
@@ -112,7 +106,7 @@ class PackEvaluation:
 
     @property
     def check_go(self) -> np.ndarray:
-        """The verdict ``check`` gives each pack (its own constraints only). [bool]"""
+        """The verdict ``check`` gives each pack: the same constraints. [bool]"""
         return self.result.go
 
     def constraints(self, i: int) -> list[str]:
@@ -127,18 +121,8 @@ class PackEvaluation:
     def reasons(self, i: int) -> list[str]:
         """Why pack ``i`` is rejected, one message per violated constraint (``check``'s
         own words for the check's constraints)."""
-        p = self.packs[i]
-        out: list[str] = []
-        for code in self.constraints(i):
-            if code == "cells":
-                out.append(f"{p.cells_series}S pack, the aircraft allows "
-                           + ", ".join(f"{c}S" for c in self.cells_allowed))
-            elif code == "thrust":
-                out.append(f"thrust-to-weight {self.thrust_to_weight[i]:.2f} is below the "
-                           f"minimum {self.min_thrust_to_weight:g}")
-            else:
-                out.extend(self.result.reason(i, code))
-        return out
+        return [text for code in self.constraints(i)
+                for text in self.result.reason(i, code)]
 
     def pack_dict(self, i: int) -> dict[str, Any]:
         """JSON-ready summary of pack ``i`` (units in the key names)."""
@@ -201,8 +185,8 @@ def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack
                    min_thrust_to_weight: float = DEFAULT_MIN_THRUST_TO_WEIGHT,
                    battery_model: str = "infer", method: str = "auto",
                    block_elements: int = 2_000_000) -> PackEvaluation:
-    """Fly ``mission`` with every pack of a catalog through the mission chain, then apply
-    the selection's own constraints.
+    """Fly ``mission`` with every pack of a catalog through the mission chain, with the
+    constraints ``check`` applies.
 
     Parameters
     ----------
@@ -236,27 +220,12 @@ def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack
     if not packs:
         raise InputError("the pack catalog is empty")
     chain = MissionChain(aircraft, packs, battery_model=battery_model, reserve=reserve,
-                         temperature_c=temperature_c)
+                         temperature_c=temperature_c,
+                         min_thrust_to_weight=min_thrust_to_weight)
     r = chain.run(mission, environment, payload_kg=payload_kg, power_method=method,
                   block_elements=block_elements)
     k = len(packs)
-    violated = np.zeros((k, len(CONSTRAINTS)), dtype=bool)
-    for j, code in enumerate(CHECK_CONSTRAINTS):
-        violated[:, CONSTRAINTS.index(code)] = r.violated[:, j]
-    notes: list[str] = list(r.table.notes)
-    allowed = aircraft.cells_series_allowed
-    if allowed:
-        cells = np.array([p.cells_series for p in packs])
-        violated[:, CONSTRAINTS.index("cells")] = ~np.isin(cells, allowed)
-    tw = np.full(k, np.nan)
-    if aircraft.is_multirotor:
-        thrust = aircraft.multirotor.max_thrust_n
-        if thrust is not None:
-            tw = thrust / (r.takeoff_mass_kg * G)
-            violated[:, CONSTRAINTS.index("thrust")] = tw < min_thrust_to_weight
-        else:
-            notes.append("thrust-to-weight not checked: the aircraft file gives no "
-                         "multirotor.max_thrust_n")
+    notes: list[str] = list(r.table.notes) + list(r.limit_notes)
     no_rating = int(np.sum(~np.isfinite(r.max_current_a)))
     if no_rating:
         notes.append(f"C rating not checked for {no_rating} pack(s) without "
@@ -274,7 +243,8 @@ def evaluate_packs(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack
                      f"the literature start values δ₀(N), ε₀(N), β = {LITERATURE_BETA} "
                      "for N = " + ", ".join(f"{c}S" for c in literature))
     return PackEvaluation(result=r, min_thrust_to_weight=float(min_thrust_to_weight),
-                          thrust_to_weight=tw, violated=violated, notes=notes)
+                          thrust_to_weight=r.thrust_to_weight, violated=r.violated,
+                          notes=notes)
 
 
 # --------------------------------------------------------------------------- ranking

@@ -385,10 +385,63 @@ MIN_ALTITUDE_M = 0.01
 #: Bisection steps when a sortie ends inside a leg (leg fraction to 2⁻²⁰, under a
 #: metre on a 1 km leg).
 BISECTION_STEPS = 20
-#: Charge a sortie keeps above its landing and return-home reserves: the split is found
-#: by bisection to the limit, and the sortie's mission file (positions rounded to the
-#: file's precision, e.g. 1e-8° in a .waypoints file) must still pass the check. [mAh]
+#: Least charge a sortie keeps above its landing and return-home reserves whatever the
+#: margin policy (:func:`sortie_margin`): the split is found by bisection to the limit,
+#: and the sortie's mission file (positions rounded to the file's precision, e.g. 1e-8°
+#: in a .waypoints file) must still pass the check. [mAh]
 SPLIT_MARGIN_MAH = 1.0
+#: One-sided confidence of the sortie margin policy (:func:`sortie_margin`). [unitless]
+SORTIE_CONFIDENCE = 0.95
+#: Sortie margin policy of a pack without a fitted model covariance: this share of the
+#: sortie's charge drawn. A policy value, not a measured spread: the literature integral
+#: model's final error on the real logs (+2.8 … +11.2 %, docs/results.md, "Battery level
+#: on real logs") lies on the safe side, and 5 % is half its largest size. [unitless]
+SORTIE_MARGIN_FRACTION = 0.05
+
+
+def sortie_margin(result: MissionResult, pack: BatteryPack) -> tuple[float, str]:
+    r"""The charge a sortie must keep above its reserves, and the policy's name. [mAh]
+
+    With the pack model's covariance :math:`\Sigma` of (δ, ε, β) (``fit-battery``): the
+    one-sided :data:`SORTIE_CONFIDENCE` quantile of the charge drawn, :math:`z\,\sigma_C`,
+    :math:`\sigma_C` by the delta method through the integral model ([UAV23] eq. 14):
+    :math:`C = S^{1/\beta}`, :math:`S = \sum_j t_j/(\delta P_j^{\varepsilon})`, so
+
+    .. math:: \frac{\partial \ln C}{\partial \delta} = -\frac{1}{\beta\delta},\quad
+              \frac{\partial \ln C}{\partial \varepsilon} =
+              -\frac{1}{\beta}\frac{\sum_j t_j P_j^{-\varepsilon}\ln P_j}
+                                     {\sum_j t_j P_j^{-\varepsilon}},\quad
+              \frac{\partial \ln C}{\partial \beta} = -\frac{\ln S}{\beta^2},
+
+    :math:`\sigma_C = C\sqrt{g^T \Sigma g}`. Without a covariance:
+    :data:`SORTIE_MARGIN_FRACTION` of the charge drawn. Never less than
+    :data:`SPLIT_MARGIN_MAH`.
+    """
+    from scipy.special import ndtri
+
+    used = float(result.charge_used_mah)
+    m = pack.model
+    z = float(ndtri(SORTIE_CONFIDENCE))
+    if m.covariance is None:
+        need = SORTIE_MARGIN_FRACTION * used
+        policy = (f"{100 * SORTIE_MARGIN_FRACTION:g} % of the charge drawn (the pack file "
+                  "has no model covariance: a policy value, not a measured spread)")
+    else:
+        legs = result.legs
+        t = np.asarray(legs.duration_s, float)
+        p = np.asarray(legs.power_w, float)
+        ok = (t > 0) & np.isfinite(p) & (p > 0)
+        t, p = t[ok], p[ok]
+        w = t * p ** (-m.epsilon)
+        stress = float(np.sum(w)) / m.delta
+        g = np.array([-1.0 / (m.beta * m.delta),
+                      -float(np.sum(w * np.log(p)) / np.sum(w)) / m.beta,
+                      -math.log(stress) / m.beta ** 2])
+        sd = used * math.sqrt(max(float(g @ np.asarray(m.covariance, float) @ g), 0.0))
+        need = z * sd
+        policy = (f"{z:.3f} σ of the charge drawn ({100 * SORTIE_CONFIDENCE:g} % one-sided), "
+                  "σ from the pack model's covariance")
+    return max(need, SPLIT_MARGIN_MAH), policy
 
 
 @dataclass(frozen=True)
@@ -479,7 +532,9 @@ class SortiePlan:
                 "flights": [{"sortie": s.number, "legs": len(s.mission.legs),
                              "duration_s": round(s.result.duration_s, 3),
                              "charge_used_mah": round(s.result.charge_used_mah, 3),
-                             "margin_mah": round(s.result.margin_mah, 3)}
+                             "margin_mah": round(s.result.margin_mah, 3),
+                             "margin_required_mah": round(
+                                 sortie_margin(s.result, self.pack)[0], 3)}
                             for s in self.sorties],
                 "notes": list(self.notes)}
 
@@ -601,6 +656,11 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
     n = len(mission.legs)
     if n == 0:
         raise InputError(f"{mission.source or mission.name}: the mission has no legs")
+    # the legs as the chain flies them (bounded climbs, the return of a mission that
+    # never comes home), so that route positions index the legs the chain judges
+    mission, _ = prof.flyable_legs(mission, aircraft)
+    mission, _ = prof.closed_mission(mission)
+    n = len(mission.legs)
     search = _SortieSearch(mission, MissionChain(aircraft, pack, reserve=reserve,
                                                  temperature_c=temperature_c), env)
     sorties: list[Sortie] = []
@@ -613,7 +673,9 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
         sorties.append(Sortie(k, a, b, sortie_mission(mission, a, b, k), result))
         a = b
     lb = sortie_lower_bound(search.whole.charge_used_mah, search.limit_mah, pack.model.beta)
-    notes = []
+    notes = ["margin policy: every sortie keeps above its landing and return-home "
+             "reserves " + sortie_margin(sorties[0].result, pack)[1]
+             + f", at least {SPLIT_MARGIN_MAH:g} mAh"]
     if len(sorties) > lb:
         notes.append(f"{len(sorties)} sorties; the charge bound allows {lb}: transit to "
                      "and from the split points costs the difference")
@@ -661,12 +723,11 @@ class _SortieSearch:
         """The pre-flight check of sortie ``k`` from position ``a`` to ``b``."""
         return self.chain.check(sortie_mission(self.mission, a, b, k), self.env)
 
-    @staticmethod
-    def flies(r: MissionResult) -> bool:
-        """GO with SPLIT_MARGIN_MAH to spare: the sortie's mission file, its positions
-        rounded to the file's precision, still passes the check."""
-        return (r.go and r.margin_mah >= SPLIT_MARGIN_MAH
-                and r.rtl_min_margin_mah >= SPLIT_MARGIN_MAH)
+    def flies(self, r: MissionResult) -> bool:
+        """GO with the margin of the policy (:func:`sortie_margin`) to spare on the
+        landing and every return home."""
+        need, _ = sortie_margin(r, self.chain.pack)
+        return r.go and r.margin_mah >= need and r.rtl_min_margin_mah >= need
 
     def longest(self, a: float, k: int) -> tuple[float, MissionResult]:
         """The furthest end of sortie ``k`` from position ``a`` and its check: the last

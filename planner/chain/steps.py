@@ -36,7 +36,8 @@ from planner.chain import kinematics
 from planner.chain.powertable import PowerTable
 from planner.errors import InputError
 from planner.parameters import Aircraft, BatteryPack
-from planner.physics.battery import integral
+from planner.physics.atmosphere import G
+from planner.physics.battery import chemistry, integral
 from planner.physics.battery.circuit import simulate_packs
 from planner.physics.battery.elements import (
     loaded_current,
@@ -49,16 +50,24 @@ from planner.physics.battery.thermal import T_RANGE_C
 from planner.physics.mission import Environment, Mission
 from planner.physics.units import AS_PER_MAH, J_PER_WH
 
-__all__ = ["CHECK_CONSTRAINTS", "CIRCUIT_FIGURES", "ChainInputs", "ChainPower",
+__all__ = ["CHECK_CONSTRAINTS", "CIRCUIT_FIGURES", "DEFAULT_MIN_THRUST_TO_WEIGHT",
+           "AircraftLimits", "ChainInputs", "ChainPower",
            "ChargeBudget", "CircuitRun", "FlightStates", "LegFigures", "PackFigures",
-           "ReturnHome", "chain_inputs", "charge_budget", "circuit_model", "circuit_packs",
+           "ReturnHome", "aircraft_limits", "chain_inputs", "charge_budget", "circuit_model", "circuit_packs",
            "constraints", "flight_states", "leg_at", "leg_end_voltage", "leg_figures",
            "leg_kernel", "margin_time", "pack_arrays", "pack_blocks", "power_step",
            "return_home"]
 
-#: The pre-flight check's constraints, in the order their reasons are given.
-CHECK_CONSTRAINTS = ("mission", "power", "c_rating", "takeoff_mass", "temperature",
-                     "voltage", "runs_out", "landing_reserve", "return_home")
+#: The constraints of every verdict (``check``, ``select``, the sortie planner), in the
+#: order their reasons are given; the first violated one is a rejected pack's *binding*
+#: constraint. ``cells`` and ``thrust`` are the aircraft's own limits
+#: (:func:`aircraft_limits`).
+CHECK_CONSTRAINTS = ("mission", "cells", "thrust", "power", "c_rating", "takeoff_mass",
+                     "temperature", "voltage", "runs_out", "landing_reserve", "return_home")
+
+#: Minimum thrust-to-weight ratio of a multirotor (controllability margin for gusts and
+#: manoeuvres) when the aircraft gives ``multirotor.max_thrust_n``. [unitless]
+DEFAULT_MIN_THRUST_TO_WEIGHT = 1.5
 
 #: The circuit model's time step through the mission, and after it (the run on to the
 #: cut-off at the hold power that finds the usable charge), and how long that runs. [s]
@@ -75,6 +84,9 @@ CIRCUIT_FIGURES = ("min_voltage_v", "voltage_margin_v", "worst_leg", "cutoff_tim
                    "charge_to_cutoff_mah", "charge_used_mah", "max_temperature_c",
                    "pack_temperature_c", "cutoff_leg", "collapse_time_s", "collapse_leg",
                    "hot_time_s", "hot_temperature_c", "collapse_power_w")
+
+#: States of charge over which :func:`cold_factor` averages the loaded current.
+COLD_SOC_POINTS = 101
 
 #: Packs that keep their per-leg detail by default (a catalog keeps none).
 DETAIL_MAX_PACKS = 16
@@ -109,6 +121,11 @@ class ChainInputs:
         Take-off mass per pack. [kg]
     reserve : float
         Landing reserve over nominal capacity. [unitless]
+    min_thrust_to_weight : float
+        Least maximum thrust over take-off weight of a multirotor. [unitless]
+    notes : list of str
+        What the chain changed in the mission to judge it (the return home it added,
+        :func:`planner.chain.kinematics.closed_mission`).
     """
 
     aircraft: Aircraft
@@ -123,6 +140,8 @@ class ChainInputs:
     soh: np.ndarray
     mass: np.ndarray
     reserve: float
+    min_thrust_to_weight: float = DEFAULT_MIN_THRUST_TO_WEIGHT
+    notes: list = None
 
     @property
     def flown_environment(self) -> Environment:
@@ -134,7 +153,8 @@ def chain_inputs(aircraft: Aircraft, packs: list[BatteryPack], models: list[str]
                  mission: Mission, environment: Environment | None, *,
                  temperature_c: float | None = None, reserve: float = 0.2,
                  payload_kg=None, detail: bool | None = None,
-                 pack_samples: dict | None = None) -> ChainInputs:
+                 pack_samples: dict | None = None,
+                 min_thrust_to_weight: float = DEFAULT_MIN_THRUST_TO_WEIGHT) -> ChainInputs:
     """Step 1: the inputs of a run, checked (:class:`ChainInputs`).
 
     ``environment`` overrides the mission's weather, ``temperature_c`` [°C] its air
@@ -165,14 +185,24 @@ def chain_inputs(aircraft: Aircraft, packs: list[BatteryPack], models: list[str]
            for p in packs if not (p.model.delta > 0 and p.model.beta > 0)]
     if bad:
         raise InputError("; ".join(bad) + " — delta must be > 0")
+    mission, bounded = kinematics.flyable_legs(mission, aircraft)
+    mission, note = kinematics.closed_mission(mission)
     pa = pack_arrays(packs, temp)
+    t_pack = DEFAULT_PACK_TEMPERATURE_C if temp is None else float(temp)
+    if t_pack < chemistry.REFERENCE_TEMPERATURE_C:
+        # the integral model's packs sag through R0(T) of their chemistry in the cold
+        # (the circuit model carries its own law): cold_factor
+        for i, (p, m) in enumerate(zip(packs, models)):
+            if m == "integral":
+                pa["r"][i] *= float(chemistry.resistance_factor(p.chemistry, t_pack))
     soh = _apply_samples(pa, pack_samples or {}, len(packs))
     return ChainInputs(
         aircraft=aircraft, packs=list(packs), models=list(models), mission=mission,
         environment=env, temperature_c=temp, payload_kg=payload,
         keep=(len(packs) <= DETAIL_MAX_PACKS) if detail is None else bool(detail),
         pack=pa, soh=soh, mass=aircraft.empty_mass_kg + pa["mass"] + payload,
-        reserve=float(reserve))
+        reserve=float(reserve), min_thrust_to_weight=float(min_thrust_to_weight),
+        notes=[n for n in (bounded, note) if n is not None])
 
 
 def pack_arrays(packs, temperature_c) -> dict[str, np.ndarray]:
@@ -274,6 +304,7 @@ def flight_states(inputs: ChainInputs, rtl_subset=None) -> FlightStates:
     """
     ac, env, temp = inputs.aircraft, inputs.environment, inputs.temperature_c
     table = kinematics.leg_table(inputs.mission, ac, env, temperature_c=temp)
+    table.notes[:0] = inputs.notes or []
     rtl = kinematics.return_home_points(table, ac, env, temp)
     npts_all = len(rtl["leg"])
     sub = None
@@ -366,7 +397,12 @@ def circuit_model(inputs: ChainInputs, states: FlightStates, power: ChainPower) 
     k = len(inputs.packs)
     figures = {name: np.full(k, np.nan) for name in CIRCUIT_FIGURES}
     which = [i for i, m in enumerate(inputs.models) if m == "circuit"]
-    bad = np.zeros(k, bool)
+    t_pack = pack_temperature_c(inputs)
+    figures["pack_temperature_c"][:] = t_pack
+    # the cold laws of the integral model's packs (cold_factor) are those of the circuit
+    # model: outside its range neither can vouch for the pack
+    bad = np.full(k, not T_RANGE_C[0] <= t_pack <= T_RANGE_C[1])
+    bad[which] = False
     if not which:
         return CircuitRun(figures, which, np.zeros(0), np.zeros((0, states.legs)), bad)
     keys = [(id(inputs.packs[i]), float(inputs.mass[i]),
@@ -485,10 +521,75 @@ class ChargeBudget:
     scale: np.ndarray
 
 
-def charge_budget(inputs: ChainInputs, circuit: CircuitRun) -> ChargeBudget:
-    """Step 4b: the usable charge and the limit of every pack (:class:`ChargeBudget`)."""
+def pack_temperature_c(inputs: ChainInputs) -> float:
+    """The packs' starting temperature: the air's, :data:`DEFAULT_PACK_TEMPERATURE_C`
+    where none is given. [°C]"""
+    temp = inputs.temperature_c
+    return DEFAULT_PACK_TEMPERATURE_C if temp is None else float(temp)
+
+
+def cold_factor(inputs: ChainInputs, power: ChainPower) -> np.ndarray:
+    r"""Share of its usable charge a pack on the integral model keeps in the cold
+    (1 for the packs on the circuit model, which carries its own cold laws). [unitless]
+
+    A pack file without a ``circuit:`` or ``thermal:`` block states its usable charge at
+    the reference temperature of its chemistry's cold laws (25 °C,
+    :mod:`planner.physics.battery.chemistry`). Below it the pack gives less through both
+    laws of the equivalent-circuit model, with the pack taken to stay at the air
+    temperature (no self-heating without a ``thermal:`` block):
+
+    * the capacity law :math:`Q(T)/Q_{ref} = 1 - k\,\max(0, T_{ref} - T)`
+      (:func:`~planner.physics.battery.chemistry.capacity_factor`), unless the pack's
+      integral model carries a fitted temperature coefficient (then that measured law
+      applies, through the charge drawn);
+    * the resistance law :math:`R_0(T) = R_0 \exp[E_a/R\,(1/T - 1/T_{ref})]`
+      (:func:`~planner.physics.battery.chemistry.resistance_factor`): at the hold power
+      :math:`P` the pack delivers :math:`I = P/V` at a lower terminal voltage
+      (:func:`~planner.physics.battery.elements.loaded_current`, [HESS] eq. 2), so each
+      unit of charge carries less energy. The charge that carries the energy of the
+      usable charge at the reference is the mean of :math:`I_{ref}/I_T` over the usable
+      states of charge (on the chemistry's OCV curve; 0 where the pack cannot deliver
+      :math:`P`).
+
+    Neither factor is above 1 below the reference, so the cold never adds charge; above
+    it the factor is 1 (no warm bonus either).
+    """
+    k = len(inputs.packs)
+    out = np.ones(k)
+    t = pack_temperature_c(inputs)
+    if t >= chemistry.REFERENCE_TEMPERATURE_C:
+        return out
+    which = [i for i, m in enumerate(inputs.models) if m == "integral"]
+    if not which:
+        return out
+    hold_w = np.exp(power.table.log_power(inputs.mass)[:, power.hold])
+    for i in which:
+        p = inputs.packs[i]
+        c = chemistry.chemistry(p.chemistry)
+        q = 1.0 if p.model.temperature_coefficient_per_c else float(c.capacity_factor(t))
+        r_ref = p.resistance_ohm
+        if r_ref > 0:
+            soc = np.linspace(1.0 - min(p.usable_fraction, 1.0), 1.0, COLD_SOC_POINTS)
+            v_oc = p.cells_series * np.asarray(c.ocv(soc), float)
+            i_ref = loaded_current(hold_w[i], v_oc, r_ref)
+            i_cold = loaded_current(hold_w[i], v_oc, r_ref * float(c.resistance_factor(t)))
+            with np.errstate(invalid="ignore"):
+                ratio = np.where(np.isfinite(i_cold) & np.isfinite(i_ref),
+                                 i_ref / i_cold, 0.0)
+            q *= float(np.mean(ratio))
+        out[i] = min(q, 1.0)
+    return out
+
+
+def charge_budget(inputs: ChainInputs, circuit: CircuitRun,
+                  power: ChainPower | None = None) -> ChargeBudget:
+    """Step 4b: the usable charge and the limit of every pack (:class:`ChargeBudget`);
+    with ``power``, the packs on the integral model keep in the cold only
+    :func:`cold_factor` of their usable charge."""
     pa = inputs.pack
     usable = pa["usable"].copy()
+    if power is not None:
+        usable *= cold_factor(inputs, power)
     if circuit.which:
         which = np.asarray(circuit.which)
         cut = circuit.usable_as * inputs.soh[which]
@@ -843,6 +944,58 @@ class PackFigures:
 
 # --------------------------------------------------------------------------- 6. constraints
 
+@dataclass
+class AircraftLimits:
+    """The aircraft's own limits on a pack (:func:`aircraft_limits`), one element per pack.
+
+    Attributes
+    ----------
+    cells_bad, thrust_bad : ndarray of bool
+        The pack's cell count is not one the aircraft allows; the thrust-to-weight ratio is
+        below the minimum.
+    thrust_to_weight : ndarray
+        Maximum static thrust over take-off weight (NaN: not known). [unitless]
+    notes : list of str
+        Limits that could not be checked, and why.
+    """
+
+    cells_bad: np.ndarray
+    thrust_bad: np.ndarray
+    thrust_to_weight: np.ndarray
+    notes: list
+
+
+def aircraft_limits(aircraft: Aircraft, packs: list[BatteryPack], mass_kg,
+                    min_thrust_to_weight: float = DEFAULT_MIN_THRUST_TO_WEIGHT
+                    ) -> AircraftLimits:
+    """The aircraft's limits on each pack: the cell counts it allows
+    (``cells_series_allowed``) and, for a multirotor with a known
+    ``multirotor.max_thrust_n``, the least thrust-to-weight ratio
+    :math:`T_{max}/(m g)` at the take-off mass ``mass_kg`` [kg] (one per pack).
+
+    ``check``, ``select`` and the sortie planner all judge these through
+    :func:`constraints`, so they cannot disagree about a pack.
+    """
+    k = len(packs)
+    mass = np.broadcast_to(np.asarray(mass_kg, float), (k,))
+    allowed = aircraft.cells_series_allowed
+    cells = np.array([p.cells_series for p in packs])
+    cells_bad = ~np.isin(cells, allowed) if allowed else np.zeros(k, bool)
+    tw = np.full(k, np.nan)
+    thrust_bad = np.zeros(k, bool)
+    notes: list[str] = []
+    if aircraft.is_multirotor:
+        thrust = aircraft.multirotor.max_thrust_n
+        if thrust is not None:
+            tw = thrust / (mass * G)
+            thrust_bad = tw < min_thrust_to_weight
+        else:
+            notes.append("thrust-to-weight not checked: the aircraft file gives no "
+                         "multirotor.max_thrust_n")
+    return AircraftLimits(cells_bad=cells_bad, thrust_bad=thrust_bad, thrust_to_weight=tw,
+                          notes=notes)
+
+
 def constraints(inputs: ChainInputs, states: FlightStates, circuit: CircuitRun,
                 budget: ChargeBudget, flown: PackFigures) -> np.ndarray:
     """Step 6: which of :data:`CHECK_CONSTRAINTS` each pack breaks (packs × constraints,
@@ -856,6 +1009,10 @@ def constraints(inputs: ChainInputs, states: FlightStates, circuit: CircuitRun,
 
     table, c = states.table, circuit.figures
     mark("mission", np.full(k, bool(table.problems)))
+    limits = aircraft_limits(inputs.aircraft, inputs.packs, inputs.mass,
+                             inputs.min_thrust_to_weight)
+    mark("cells", limits.cells_bad)
+    mark("thrust", limits.thrust_bad)
     mark("power", flown.undeliverable_leg >= 0)
     imax = inputs.pack["imax"]
     with np.errstate(invalid="ignore"):

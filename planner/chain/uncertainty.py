@@ -477,7 +477,8 @@ def fly(chain: MissionChain, mission: Mission, env: Environment, d: Draws, sub: 
                         temperature_c=temp if weather_spread else env.temperature_c)
         chain_j = MissionChain(chain.aircraft, [chain.pack] * rows.size,
                                battery_model=chain.battery_model, reserve=chain.reserve,
-                               temperature_c=temp if weather_spread else chain.temperature_c)
+                               temperature_c=temp if weather_spread else chain.temperature_c,
+                               min_thrust_to_weight=chain.min_thrust_to_weight)
         r = chain_j.run(mission, env_j, payload_kg=d.payload[rows], detail=False,
                         rtl_subset=sub,
                         pack_samples={"delta": d.theta[rows, 0], "epsilon": d.theta[rows, 1],

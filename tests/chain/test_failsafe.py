@@ -275,7 +275,8 @@ def test_cli_refuses_an_unknown_chemistry_naming_file_key_and_choices(tmp_path, 
 
 def _out_and_back(pack, distance_m):
     aircraft = load_aircraft(SOLO)
-    env = Environment(wind_speed_ms=0.0, wind_from_deg=0.0, temperature_c=20.0)
+    # at the cold laws' reference temperature: the pack gives its stated usable charge
+    env = Environment(wind_speed_ms=0.0, wind_from_deg=0.0, temperature_c=25.0)
     far = (distance_m, 0.0)
     legs = [Leg("climb", start_alt_m=0, end_alt_m=40, origin="climb"),
             Leg("cruise", (0, 0), far, 40, 40, origin="out"),

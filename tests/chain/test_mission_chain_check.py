@@ -39,7 +39,9 @@ def test_seed_hover_and_vertical_powers_through_the_chain():
             Leg("descend", start_alt_m=90, end_alt_m=60, climb_rate_ms=3, origin="d3")]
     r = chain().check(Mission("seed", legs, SEA_LEVEL_20C))
     assert r.takeoff_mass_kg == pytest.approx(0.6)
-    assert r.legs["power_w"].tolist() == pytest.approx([75.2, 102.4, 129.5, 48.0], rel=0.015)
+    # the mission ends at 60 m: the chain adds the descent after the four legs
+    assert r.legs["power_w"].tolist()[:4] == pytest.approx([75.2, 102.4, 129.5, 48.0],
+                                                           rel=0.015)
 
 
 def test_climb_power_difference_is_m_g_climb_over_eta():
@@ -72,10 +74,12 @@ def test_headwind_lengthens_and_tailwind_shortens_the_same_leg(aircraft):
     still = c.check(Mission("m", leg, Environment(0, 0)))
     head = c.check(Mission("m", leg, Environment(5, 90)))               # wind from the east
     tail = c.check(Mission("m", leg, Environment(5, 270)))
-    assert head.duration_s > still.duration_s > tail.duration_s
+    # the leg ends 2 km out at 50 m: the chain adds the return, so the leg's own time
+    t = [r.legs.duration_s[0] for r in (head, still, tail)]
+    assert t[0] > t[1] > t[2]
     assert head.legs.groundspeed_ms[0] == pytest.approx(12 - 5)
     assert tail.legs.groundspeed_ms[0] == pytest.approx(12 + 5)
-    assert head.duration_s == pytest.approx(2000 / 7)
+    assert t[0] == pytest.approx(2000 / 7)
 
 
 def test_multirotor_holding_ground_speed_pays_in_airspeed_not_time():
@@ -239,3 +243,95 @@ def test_best_speeds_fixed_wing_match_the_polar():
     assert r.best_speeds["max_endurance_airspeed_ms"] == pytest.approx((b / (3 * a)) ** 0.25,
                                                                      rel=0.005)
     assert r.best_speeds["max_range_airspeed_ms"] == pytest.approx((b / a) ** 0.25, rel=0.005)
+
+
+def _without_last_items(tmp_path, drop):
+    """missions/survey_route.waypoints with its last ``drop`` lines (the RTL) removed."""
+    lines = (REPO / "missions/survey_route.waypoints").read_text().splitlines()
+    path = tmp_path / "no_rtl.waypoints"
+    path.write_text("\n".join(lines[:-drop]) + "\n")
+    return path
+
+
+def test_a_mission_that_never_comes_home_is_flown_home_and_down(tmp_path):
+    """The survey with its RTL line removed ends 341 m out at 50 m: it was 'GO: lands with'
+    the charge of a flight that never came back, and the smallest return-home margin left
+    out the return from the true end. The chain adds the return and the landing, says so,
+    and the landing margin is the return-home margin from the last point."""
+    from planner.chain.kinematics import ADDED_RETURN_ORIGIN
+    from planner.io.mission import NavDefaults, load_mission
+
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    full = load_mission(REPO / "missions/survey_route.waypoints",
+                        defaults=NavDefaults.of(aircraft))
+    cut = load_mission(_without_last_items(tmp_path, 1), defaults=NavDefaults.of(aircraft))
+    assert len(cut.legs) == len(full.legs) - 2 and cut.legs[-1].end_alt_m > 0
+    c = MissionChain(aircraft, pack)
+    flown = c.run(cut, detail=True)
+    r = flown.mission_result(0)
+    assert list(r.legs.origin[-2:]) == [ADDED_RETURN_ORIGIN] * 2
+    assert list(r.legs.kind[-2:]) == ["cruise", "descend"]
+    assert r.legs.altitude_m.iloc[-1] == 0.0
+    assert any("without landing" in w and "return home" in w for w in r.warnings)
+    # the return from the end is part of the smallest return-home margin, and the mission
+    # drew the charge of flying it
+    end_margin = flown.detail["rtl_point_margin_mah"][0]
+    last_point = np.flatnonzero(flown.rtl_points["leg"] == len(cut.legs) - 1)[-1]
+    assert r.rtl_min_margin_mah <= end_margin[last_point] + 1e-9
+    assert r.charge_used_mah > float(np.sum(r.legs.charge_mah.iloc[:-2])) + 1.0
+
+
+def test_a_one_waypoint_mission_is_flown_home_too(tmp_path):
+    path = tmp_path / "one.waypoints"
+    path.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t48.0468\t10.4452\t598\t1\n"
+                    "1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t40\t1\n"
+                    "2\t0\t3\t16\t0\t0\t0\t0\t48.0518\t10.4452\t40\t1\n")
+    from planner.io.mission import NavDefaults, load_mission
+
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    mission = load_mission(path, defaults=NavDefaults.of(aircraft))
+    r = MissionChain(aircraft, pack).check(mission)
+    back = r.legs.iloc[-2]
+    assert back.kind == "cruise" and back.distance_m == pytest.approx(556.0, abs=1.0)
+    assert r.legs.kind.iloc[-1] == "descend" and r.legs.altitude_m.iloc[-1] == 0.0
+    assert any("556 m from home at 40 m without landing" in w for w in r.warnings)
+
+
+STEEP = """name: steep
+legs:
+  - climb: {altitude_m: 20}
+  - cruise: {distance_m: 10, course_deg: 0, altitude_m: 120}
+  - cruise: {distance_m: 10, course_deg: 180, altitude_m: 20}
+  - descend: {altitude_m: 0}
+"""
+
+
+def test_a_cruise_climbs_no_faster_than_the_aircraft_can(tmp_path):
+    """A YAML cruise of 10 m that climbs 100 m was flown at 80 m/s up (1551 W, 122 A,
+    NO-GO): the chain flies it at the aircraft's climb rate and the rest over the end
+    point, as the waypoint readers do (ap_copter_loiter_to_alt.txt), and says so."""
+    from planner.io.mission import load_mission
+
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/solo_survey.yaml")
+    path = tmp_path / "steep.yaml"
+    path.write_text(STEEP)
+    r = MissionChain(aircraft, pack).check(load_mission(path, vehicle_type=aircraft.type))
+    vz = r.legs.climb_rate_ms.to_numpy()
+    assert np.all(vz <= aircraft.climb_rate_ms + 1e-9)
+    assert np.all(vz >= -aircraft.descent_rate_ms - 1e-9)
+    assert list(r.legs.kind) == ["climb", "cruise", "climb", "cruise", "descend", "descend"]
+    assert r.legs.altitude_m.iloc[2] == 120.0 and r.legs.altitude_m.iloc[4] == 20.0
+    assert r.peak_current_a < 20.0
+    assert any("faster than the aircraft's climb" in w for w in r.warnings)
+
+
+def test_a_route_below_home_is_refused_naming_the_file_and_the_leg(tmp_path, capsys):
+    from planner.cli.main import main
+
+    path = tmp_path / "below.yaml"
+    path.write_text(STEEP.replace("altitude_m: 120", "altitude_m: -50"))
+    code = main(["check", str(path), "--aircraft", str(REPO / "aircraft/solo_survey.yaml")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert str(path) in err[0] and "legs[2]" in err[0]
+    assert "50 m below home" in err[0] and "below the take-off point" in err[0]

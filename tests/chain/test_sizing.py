@@ -56,7 +56,7 @@ def test_hover_endurance_optimum_is_twice_the_rest_of_the_mass():
     m_b = np.linspace(0.05, 8.0, 160)
     sweep = sizing.endurance_sweep(ac, m_b, specific_energy_wh_per_kg=160.0, cells_series=4,
                                    model=model, payload_kg=payload, reserve=0.2,
-                                   environment=Environment(temperature_c=15.0))
+                                   environment=Environment(temperature_c=25.0))
     opt = sweep.optimum
     assert opt["battery_mass_kg"] == pytest.approx(2 * m0, rel=0.02)
     assert opt["mass_fraction"] == pytest.approx(2 / 3, rel=0.02)
@@ -172,7 +172,8 @@ def test_too_long_survey_is_split_into_the_fewest_sorties_that_each_pass_check()
 
 
 def test_split_times_and_positions_are_on_the_route():
-    ac = load_aircraft(REPO / "aircraft/solo_survey.yaml")
+    # the 6S pack on the Solo's airframe opened to any cell count
+    ac = replace(load_aircraft(REPO / "aircraft/solo_survey.yaml"), cells_series_allowed=None)
     mission = long_survey()
     pack = small_catalog()[0]
     plan = sizing.plan_sorties(mission, ac, pack)
@@ -287,3 +288,65 @@ def test_sorties_with_a_navigation_model_split_on_the_mission_legs():
     for s in plan.sorties:
         assert chain.check(s.mission).go
     assert plan.sorties[-1].end == len(mission.legs)
+SMALL_PACK = ("name: small 4S 1000 mAh\ncells_series: 4\ncapacity_mah: 1000\nmass_kg: 0.12\n"
+              "max_discharge_c: 75\ninternal_resistance_ohm: 0.03\ncell_voltage_empty_v: 3.5\n")
+
+
+def _small_pack(folder):
+    path = folder / "small.yaml"
+    path.write_text(SMALL_PACK)
+    return path
+
+
+def test_sorties_written_fly_as_planned_and_keep_the_policy_margin(tmp_path):
+    """survey_route.waypoints flies at its DO_CHANGE_SPEED 6 m/s, the Solo cruises at
+    8 m/s: the sortie select called GO at +1 mAh was NO-GO in check (short by 4 mAh).
+    Each written sortie is checked at select's own margin, and that margin is the policy's
+    (5 % of the charge drawn for a pack without a model covariance), not +1 mAh."""
+    from planner.cli.main import main
+
+    pack_file = _small_pack(tmp_path)
+    out, js = tmp_path / "sorties", tmp_path / "select.json"
+    solo = str(REPO / "aircraft/solo_survey.yaml")
+    main(["select", str(REPO / "missions/survey_route.waypoints"), "--aircraft", solo,
+          "--packs", str(pack_file), "--sorties-out", str(out), "--json", str(js)])
+    files = sorted(out.glob("*.waypoints"))
+    assert len(files) >= 2
+    import json
+    flights = json.loads(js.read_text())["sorties"]["flights"]
+    for f, planned in zip(files, flights):
+        assert planned["margin_mah"] >= sizing.SORTIE_MARGIN_FRACTION * planned[
+            "charge_used_mah"] - 1e-6
+        assert planned["margin_required_mah"] == pytest.approx(
+            sizing.SORTIE_MARGIN_FRACTION * planned["charge_used_mah"], abs=1e-3)
+        cj = tmp_path / f"{f.stem}.json"
+        assert main(["check", str(f), "--aircraft", solo, "--battery", str(pack_file),
+                     "--json", str(cj)]) == 0
+        checked = json.loads(cj.read_text())
+        assert checked["margin_mah"] == pytest.approx(planned["margin_mah"], abs=0.5)
+
+
+def test_the_sortie_margin_of_a_fitted_pack_is_its_model_spread(tmp_path):
+    """With a model covariance the policy is 1.645 σ of the charge drawn; σ from the delta
+    method must match σ from finite differences of the charge through the chain."""
+    ac = load_aircraft(REPO / "aircraft/solo_survey.yaml")
+    base = load_battery(_small_pack(tmp_path))
+    m = base.model
+    cov = np.diag([(0.02 * m.delta) ** 2, 0.01 ** 2, 0.002 ** 2])
+    cov[0, 2] = cov[2, 0] = 0.3 * math.sqrt(cov[0, 0] * cov[2, 2])
+    pack = base.with_model(replace(m, covariance=tuple(map(tuple, cov)), literature=False))
+    mission = sizing.sortie_mission(long_survey(lanes=2), 0.0, 3.0)
+    r = MissionChain(ac, pack, temperature_c=25.0).check(mission)
+    need, policy = sizing.sortie_margin(r, pack)
+    assert "σ" in policy and "covariance" in policy
+    grad = []
+    for k, name in enumerate(("delta", "epsilon", "beta")):
+        h = 1e-5 * max(abs(getattr(m, name)), 1.0)
+        up = MissionChain(ac, pack.with_model(replace(m, **{name: getattr(m, name) + h})),
+                          temperature_c=25.0).check(mission).charge_used_mah
+        dn = MissionChain(ac, pack.with_model(replace(m, **{name: getattr(m, name) - h})),
+                          temperature_c=25.0).check(mission).charge_used_mah
+        grad.append((up - dn) / (2 * h))
+    grad = np.array(grad)
+    sd = math.sqrt(grad @ cov @ grad)
+    assert need == pytest.approx(1.6448536 * sd, rel=2e-3)

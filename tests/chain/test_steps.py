@@ -98,7 +98,8 @@ def test_leg_figures_follow_the_integral_model_and_the_loaded_current():
     charge."""
     ac, pack, mission = solo()
     pack = replace(pack, internal_resistance_ohm=0.03)
-    inputs, states, power = first_steps(ac, [pack], mission)
+    # at 25 °C: the resistance is the pack file's (cold_factor)
+    inputs, states, power = first_steps(ac, [pack], mission, temperature_c=25.0)
     legs = steps.leg_figures(inputs, states, power, slice(0, 1))
     m, dur = pack.model, states.table.duration_s
     p = legs.power_w[0]
@@ -187,7 +188,7 @@ def test_return_home_finds_the_point_of_no_return_of_a_one_way_trip():
 def test_constraints_mark_what_each_pack_breaks():
     ac, pack, mission = solo()
     packs = [pack, replace(pack, max_discharge_c=0.5), replace(pack, usable_fraction=0.2)]
-    inputs, states, power = first_steps(ac, packs, mission)
+    inputs, states, power = first_steps(ac, packs, mission, temperature_c=25.0)
     circuit = steps.circuit_model(inputs, states, power)
     budget = steps.charge_budget(inputs, circuit)
     flown = steps.PackFigures(inputs, states)
@@ -200,5 +201,46 @@ def test_constraints_mark_what_each_pack_breaks():
     assert not v[0].any()
     assert code["c_rating"].tolist() == [False, True, False]
     assert code["runs_out"][2] and not code["landing_reserve"][2]
-    run = MissionChain(ac, packs).run(mission)
+    run = MissionChain(ac, packs, temperature_c=25.0).run(mission)
     np.testing.assert_array_equal(run.violated, v)
+
+
+@pytest.mark.parametrize("aircraft_name, mission_path",
+                         [("solo_survey.yaml", "missions/survey_quad.yaml"),
+                          ("x8_mapper.yaml", "missions/mapping_plane.yaml")])
+def test_the_cold_never_adds_margin_to_any_catalog_pack(aircraft_name, mission_path):
+    """Packs without circuit: or thermal: blocks gained margin in the cold (denser air,
+    less power, no cold law: +2836 mAh at 25 °C, +2914 at 0 °C, +2975 at −20 °C). With
+    their chemistry's capacity and resistance laws the margin falls with the temperature."""
+    from planner.chain import selection as sel
+    from planner.parameters import load_aircraft, load_catalog
+
+    ac = load_aircraft(REPO / "aircraft" / aircraft_name)
+    mission = load_mission(REPO / mission_path, vehicle_type=ac.type)
+    packs = load_catalog(REPO / "aircraft/packs/catalog.yaml")
+    margin = {t: sel.evaluate_packs(mission, ac, packs, temperature_c=t).margin_mah
+              for t in (25.0, 0.0, -20.0)}
+    for i, p in enumerate(packs):
+        assert margin[-20.0][i] <= margin[0.0][i] <= margin[25.0][i], p.name
+    assert any(p.circuit is None and p.thermal is None for p in packs)
+
+
+def test_the_cold_factor_of_an_integral_pack_follows_its_chemistry():
+    """At 25 °C and above the pack gives its stated usable charge; below, at most its
+    chemistry's capacity factor (the loaded cut-off through R0(T) takes more)."""
+    from planner.physics.battery.chemistry import capacity_factor
+
+    aircraft, pack, mission = solo()
+    for t, expect_one in ((25.0, True), (35.0, True), (0.0, False), (-20.0, False)):
+        inputs, states, power = first_steps(aircraft, [pack], mission, temperature_c=t)
+        f = steps.cold_factor(inputs, power)[0]
+        if expect_one:
+            assert f == 1.0
+        else:
+            assert 0.0 <= f <= float(capacity_factor(pack.chemistry, t)) < 1.0
+    warm = MissionChain(aircraft, pack, temperature_c=25.0).check(mission)
+    cold = MissionChain(aircraft, pack, temperature_c=-10.0).check(mission)
+    assert cold.usable_mah < warm.usable_mah
+    assert any(w.startswith("cold: with the pack at -10 °C") for w in cold.warnings)
+    bad = MissionChain(aircraft, pack, temperature_c=-30.0).check(mission)
+    assert not bad.go and any("outside the battery model's range" in r for r in bad.reasons)

@@ -25,6 +25,7 @@ from planner.cli.commands.common import (
     plot_path,
     write_json,
 )
+from planner.chain.sizing import sortie_margin
 from planner.errors import InputError
 from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
@@ -266,9 +267,10 @@ def render_plan(plan) -> str:
                      f"{s.north_m:.0f} m N, {s.altitude_m:.0f} m up)")
     for s in plan.sorties:
         r = s.result
+        need, _ = sortie_margin(r, p)
         lines.append(f"Flight {s.number:<3}{len(s.mission.legs)} legs, "
                      f"{r.duration_s / 60:.1f} min, {r.charge_used_mah:.0f} mAh, margin "
-                     f"{r.margin_mah:+.0f} mAh: {r.verdict}")
+                     f"{r.margin_mah:+.0f} mAh (policy ≥ {need:.0f} mAh): {r.verdict}")
     for note in plan.notes:
         lines.append(f"Note      {note}")
     return "\n".join(lines)
