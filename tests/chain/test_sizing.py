@@ -272,7 +272,7 @@ def test_sorties_with_a_navigation_model_split_on_the_mission_legs():
     search sums them per mission leg, and each sortie still passes the check."""
     from planner.parameters import Navigation
     ac = replace(load_aircraft(REPO / "aircraft/solo_survey.yaml"),
-                 navigation=Navigation.defaults("arducopter-4.1"))
+                 navigation=Navigation.defaults("arducopter-4.1"), cells_series_allowed=None)
     mission = long_survey()
     pack = small_catalog()[0]
     plan = sizing.plan_sorties(mission, ac, pack)
