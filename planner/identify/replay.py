@@ -363,7 +363,7 @@ def replay(data: pd.DataFrame, metas: list[dict] | None = None, *,
             mass = aircraft.empty_mass_kg + payload_kg + (
                 pack.total_mass_kg if pack is not None else 0.0)
             if pack is None:
-                notes.append("no --battery: take-off mass excludes the pack")
+                notes.append("no battery-pack file: take-off mass excludes the pack")
             if not {"climb_rate_ms", "groundspeed_ms"} & set(exp.columns):
                 notes.append("no flight state (speed, climb) in the data: power level skipped")
             else:

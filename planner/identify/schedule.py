@@ -20,13 +20,14 @@ __all__ = ["read_schedule", "write_schedule"]
 
 
 def write_schedule(schedule: pd.DataFrame, path: str | os.PathLike,
-                   comment: str | None = None) -> Path:
+                   comment: str | None = None, option: str = "power schedule") -> Path:
     """Write a power schedule as a CSV for a programmable load (constant-power mode).
 
     Format: ``#`` comment lines (what it is, units, ``comment``), then the header
     ``time_s,power_w`` and one row per step: from ``time_s`` [s] on, draw
     ``power_w`` [W] until the next row; the last row (power 0) switches the load
-    off at the end. Read it back with :func:`read_schedule`.
+    off at the end. Read it back with :func:`read_schedule`. ``option``: what the output
+    is called in an error message (the command line gives its option).
     """
     path = Path(path)
     starts = schedule["start_s"].to_numpy(float)
@@ -39,7 +40,7 @@ def write_schedule(schedule: pd.DataFrame, path: str | os.PathLike,
     lines.append("time_s,power_w")
     lines += [f"{t:g},{p:g}" for t, p in zip(starts, schedule["power_w"].to_numpy(float))]
     lines.append(f"{end:g},0")
-    files.write_text(path, "\n".join(lines) + "\n", "--out")
+    files.write_text(path, "\n".join(lines) + "\n", option)
     return path
 
 

@@ -47,7 +47,9 @@ def _register_fit(sub) -> None:
                     "(flight-record CSV: time_s, power_w or voltage_v+current_a, and "
                     "current_a or consumed_mah; several experiments told apart by "
                     "'experiment'). Default split (seed paper): the experiments with the "
-                    "lowest and the highest mean power train, the rest validate.")
+                    "lowest and the highest mean power train, the rest validate. Exit 1 when "
+                    "a parameter ends on its bound or outside its physical range (a misfit, "
+                    "written as fit_status).")
     p.add_argument("data", nargs="+", help="flight-record CSV file(s)")
     p.add_argument("--out", required=True, help="battery-pack YAML to write")
     p.add_argument("--battery", help="pack YAML whose other keys are kept (name, mass, ...)")
@@ -232,6 +234,7 @@ def run_fit(args) -> int:
                    "mass_kg": parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0),
                    "model": model.to_mapping()}
     mapping["source"] = source
+    mapping["fit_status"] = result.fit_status
     if args.circuit and args.circuit_rates:
         raise InputError("give --circuit (a pulse test) or --circuit-rates (discharges at "
                          "several currents), not both")
@@ -249,6 +252,7 @@ def run_fit(args) -> int:
                      "--out")
 
     print(render_fit(result))
+    print(f"fit_status: {result.fit_status}")
     if dropped:
         print(f"note: model keys {', '.join(dropped)} of {args.battery} were dropped: they "
               "belong to the old δ, ε, β")
@@ -263,7 +267,8 @@ def run_fit(args) -> int:
         write_json(data, json_out)
     if plot_out:
         save_fit_plot(experiments, result, plot_out)
-    return 0
+    # a parameter on its bound or outside its physical range: written as such, exit 1
+    return 0 if result.fit_status == "ok" else 1
 
 
 def fit_covariance(result: fit.IntegralFit):
@@ -430,7 +435,7 @@ def run_two_step(args) -> int:
     if out:
         write_schedule(test.schedule(), out,
                               comment=f"two-step test P1={p1:g} W, P2={p2:g} W, k={k:g}, "
-                                      f"C0={cap:g} mAh; model {what}")
+                                      f"C0={cap:g} mAh; model {what}", option="--out")
         print(f"wrote {out}")
     return 0
 
@@ -467,7 +472,7 @@ def run_aprbs(args) -> int:
     mean_p = float((schedule["duration_s"] * schedule["power_w"]).sum() / total)
     write_schedule(schedule, out, comment=(
         f"APRBS levels_w={','.join(f'{v:g}' for v in levels)} hold_s={lo:g}..{hi:g} "
-        f"min_duration_s={min_duration:g} seed={seed}"))
+        f"min_duration_s={min_duration:g} seed={seed}"), option="--out")
     print(f"APRBS schedule: {len(schedule)} steps, {total:.0f} s ({_duration(total)}), "
           f"mean power {mean_p:.1f} W, seed {seed}")
     for level in sorted(set(levels)):

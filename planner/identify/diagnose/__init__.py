@@ -24,6 +24,14 @@ On each level the baseline's own parameters are calibrated first (δ, ε, β;
 training splits and scored on held-out splits, and only effects whose held-out
 gain is statistically and practically significant are reported, ranked by that
 gain. The splits and statistics are documented in :mod:`planner.identify.diagnose.search`.
+
+Direct evidence comes first wherever the record has it
+(:mod:`planner.identify.diagnose.evidence`): a power channel logged independently of the
+current measures a current sensor's offset sample by sample (level ``sensors``), and the
+pack temperature against the voltage's sag measures a cold pack's resistance (level
+``resistance``). Every effect asked for then gets a detection limit
+(:mod:`planner.identify.diagnose.limits`): the smallest size these data could reveal, or
+why it is not identifiable with them and what would make it so.
 """
 
 from __future__ import annotations
@@ -42,6 +50,8 @@ from planner.io import record as rec
 from planner.identify import stats
 from planner.physics.battery import integral
 from planner.identify.diagnose import cutoff as CO
+from planner.identify.diagnose import evidence as EV
+from planner.identify.diagnose import limits as LIM
 from planner.identify.diagnose import search as S
 from planner.identify.diagnose.effects import EFFECTS, make_effects
 from planner.errors import FitError, InputError, ModelError
@@ -94,6 +104,10 @@ class DiagnoseResult:
         Effects these data cannot tell apart whatever the fit says (``effects``, the
         candidates; ``level``; ``why``), e.g. a current-sensor offset and a constant load
         when the power is the logged voltage times the logged current.
+    detection : list of dict
+        Per effect asked for and level (or direct evidence) where it can be looked for:
+        the smallest size these data could reveal, or why it is not identifiable with
+        them and what would make it so (:func:`planner.identify.diagnose.limits.entry`).
     """
 
     levels: dict[str, LevelReport]
@@ -105,6 +119,7 @@ class DiagnoseResult:
     sources: list[str] = field(default_factory=list)
     withheld: list[dict[str, Any]] = field(default_factory=list)
     not_identifiable: list[dict[str, Any]] = field(default_factory=list)
+    detection: list[dict[str, Any]] = field(default_factory=list)
 
     # ------------------------------------------------------------------ JSON
     def baseline(self, name: str) -> dict[str, Any]:
@@ -173,8 +188,9 @@ class DiagnoseResult:
                              "tested effects explains it")
         for w in self.withheld:
             if w["kind"] == "confounded":
-                parts.append(f"{_title(w['level'])} level: a misfit that {w['effect']} would "
-                             f"absorb, not named: {w['why']} (candidates: "
+                seen = f"{w['evidence']}; " if w.get("evidence") else ""
+                parts.append(f"{_title(w['level'])} level: {seen}a misfit that {w['effect']} "
+                             f"would absorb, not named: {w['why']} (candidates: "
                              f"{', '.join(w['candidates'])})")
             else:
                 parts.append(f"{_title(w['level'])} level: a misfit of the model's form "
@@ -204,8 +220,9 @@ class DiagnoseResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON ``endurance diagnose`` writes: ``baseline``, ``findings``,
-        ``unexplained``, ``withheld`` and ``not_identifiable``, plus ``baselines``,
-        ``extended``, ``candidates``, ``skipped``, ``selection``, ``notes`` and ``data``."""
+        ``unexplained``, ``withheld``, ``not_identifiable`` and ``detection_limits``, plus
+        ``baselines``, ``extended``, ``candidates``, ``skipped``, ``selection``, ``notes``
+        and ``data``."""
         primary = self.primary_level
         candidates = []
         for name, lv in self.levels.items():
@@ -224,6 +241,7 @@ class DiagnoseResult:
             "unexplained": self.unexplained(),
             "withheld": [{k: v for k, v in w.items()} for w in self.withheld],
             "not_identifiable": [dict(x) for x in self.not_identifiable],
+            "detection_limits": [dict(x) for x in self.detection],
             "baselines": [self.baseline(n) for n in self.levels],
             "extended": self.extended(),
             "candidates": candidates,
@@ -278,10 +296,17 @@ class DiagnoseResult:
                          "energy at the end of the held-out segments):")
             for i, f in enumerate(self.findings, 1):
                 h = f["heldout"]
-                lines.append(f"  {i}. {f['headline']}; held-out error {_num(h['rmse_before'])} → "
-                             f"{_num(h['rmse_after'])} {f['unit']} ({h['gain_pct']:.0f} % "
-                             f"better)")
+                if h is None:
+                    how = "direct evidence"
+                elif "rmse_before" not in h:
+                    how = f"direct evidence, {h['gain_pct']:.0f} % better held out"
+                else:
+                    how = (f"held-out error {_num(h['rmse_before'])} → {_num(h['rmse_after'])} "
+                           f"{f['unit']} ({h['gain_pct']:.0f} % better)")
+                lines.append(f"  {i}. {f['headline']}; {how}")
                 lines.append(f"     {f['cause']}")
+                for alt in f.get("alternatives", ()):
+                    lines.append(f"     or: {alt}")
         elif self.levels:
             lines.append("No significant effect: the calibrated model explains the data as well "
                          "as any tested extension.")
@@ -298,6 +323,10 @@ class DiagnoseResult:
         for x in self.not_identifiable:
             lines.append(f"Not identifiable on these data: {' or '.join(x['effects'])}: "
                          f"{x['why']}")
+        if self.detection:
+            lines.append("Detection limits (the smallest effect these data could reveal):")
+            for d in self.detection:
+                lines.append(f"  {d['effect']} ({d['level']}): {d['text']}")
         un = self.unexplained()
         if un:
             lines.append(f"Unexplained: {un}")
@@ -480,7 +509,7 @@ def _literature_pack(df: pd.DataFrame, metas: list[dict], notes: list[str]) -> B
     pack, _ = literature_pack(cells, cap, df["voltage_v"] if "voltage_v" in df else None)
     if pack is None:
         raise InputError("no battery given and no pack voltage to find the cell count from: "
-                         "give --battery B.yaml")
+                         "give the battery-pack file flown")
     n = pack.cells_series
     if cap:
         notes.append(f"no battery file: literature start values δ₀({n}), ε₀({n}) and "
@@ -606,7 +635,7 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                     drop[e.name] = {"effect": e.name, "level": level.name,
                                     "kind": "confounded", "why": conf[0],
                                     "candidates": conf[1], "where": e.driver_label,
-                                    "parameters": params}
+                                    "parameters": params, "evidence": e.cause(params, level)}
             if not drop:
                 break
             res.withheld += [w for w in drop.values() if w is not None]
@@ -670,6 +699,8 @@ def _findings(name: str, lv_result: S.LevelResult, level, values, stderr) -> lis
             "unit": level.unit,
             "headline": e.headline(params, level),
             "driver": e.driver_label,
+            "alternatives": (e.alternatives(params, level)
+                             if hasattr(e, "alternatives") else []),
         })
     return out
 
@@ -708,13 +739,20 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     if pack is None:
         pack = _literature_pack(df, metas, run.notes)
     wanted = make_effects(opts.get("effects"))
+    names = {e.name for e in wanted}
+    power_ev = EV.power_channel(df)
+    run.power_from_current = not power_ev["independent"]
     exps = _capacity_experiments(df, run.notes)
+    run.experiments = exps
     cap_effects = [e for e in wanted if e.level == "capacity"]
     cut = _cutoff_step(exps, pack, cap_effects, run)
     _capacity_step(df, exps, pack, [e for e in cap_effects if e.name not in cut.tested],
                    run)
     _power_step(df, pack, aircraft, opts, [e for e in wanted if e.level == "power"], run)
-    findings = _ranked_findings(run.levels)
+    resist_ev = EV.resistance_temperature(exps) if "temperature" in names else None
+    direct = _direct_findings(power_ev if "current_offset" in names else None, resist_ev,
+                              exps, run)
+    findings = direct + _ranked_findings(run.levels)
     withheld = [w for lv in run.levels.values() for w in lv.result.withheld]
     blind = [_offset_or_load(df, run.levels, findings)]
     if cut.effects and "cutoff" not in run.levels and "capacity" in run.levels:
@@ -725,8 +763,78 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
                     "drawn per unit of energy, which the capacity level tests instead, "
                     "barely changes when the capacity shrinks: no finding there measures a "
                     "capacity loss")})
+    detection = _detection(run, wanted, power_ev if "current_offset" in names else None,
+                           resist_ev, findings)
     return DiagnoseResult(run.levels, findings, run.skipped, run.notes, pack, aircraft,
-                          sources, withheld, [b for b in blind if b])
+                          sources, withheld, [b for b in blind if b], detection)
+
+
+def _direct_findings(power_ev: dict | None, resist_ev: dict | None, exps: list[dict],
+                     run: "_Run") -> list[dict]:
+    """The findings of the direct evidence (:mod:`planner.identify.diagnose.evidence`):
+    a current sensor against an independent power channel, the pack's resistance against
+    its temperature; noted where the evidence is there but implausible."""
+    out = []
+    if power_ev is not None and power_ev.get("significant"):
+        out.append(EV.power_channel_finding(power_ev))
+    if resist_ev is not None and resist_ev.get("testable"):
+        if resist_ev["significant"]:
+            out.append(EV.resistance_finding(resist_ev, exps))
+        elif resist_ev["implausible"] and resist_ev["paired_p_value"] < S.ALPHA_HELDOUT:
+            run.notes.append("resistance: the pack's resistance follows its temperature, but "
+                             f"not as a cold pack: {resist_ev['implausible']}")
+    return out
+
+
+def _detection(run: "_Run", wanted, power_ev: dict | None, resist_ev: dict | None,
+               findings: list[dict]) -> list[dict]:
+    """The detection entries (:mod:`planner.identify.diagnose.limits`) of every effect
+    asked for: per level that ran, per level that could not run (not identifiable, with
+    why), and per direct evidence."""
+    found = {(f["level"], f["effect"]) for f in findings}
+    out, covered = [], set()
+    for name, lv in run.levels.items():
+        effects = run.level_effects.get(name, [])
+        out += LIM.level_limits(lv, effects, {e for lvl, e in found if lvl == name})
+        covered |= {(name, e.name) for e in effects}
+    asked = {e.name for e in wanted}
+    for s in run.skipped:
+        key = (s["level"], s["effect"])
+        if key in covered or s["effect"] not in asked or \
+                s["reason"].startswith("tested at the cut-off level instead"):
+            continue
+        covered.add(key)
+        out.append(LIM.not_identifiable(s["effect"], s["level"], s["reason"]))
+    if power_ev is not None:
+        top = EV.MAX_SENSOR_OFFSET_SHARE * power_ev.get("median_current_a", math.inf)
+        if power_ev["independent"] and power_ev["limit_a"] > top:
+            out.append(LIM.not_identifiable("current_offset", "sensors", LIM.beyond_physics(
+                "current_offset", "sensors", power_ev["limit_a"], top)))
+        elif power_ev["independent"]:
+            out.append(LIM.entry("current_offset", "sensors",
+                                 found=("sensors", "current_offset") in found,
+                                 identifiable=True, limit=power_ev["limit_a"],
+                                 n=len({e["name"] for e in run.experiments}) or 1,
+                                 stderr=power_ev["current_offset_a_stderr"]))
+        else:
+            out.append(LIM.not_identifiable("current_offset", "sensors", power_ev["why"]))
+    if resist_ev is not None:
+        if resist_ev.get("testable"):
+            ok = resist_ev["implausible"] is None or ("resistance", "temperature") in found
+            why = "" if ok else resist_ev["implausible"]
+            top = EV.ACTIVATION_RANGE_J_PER_MOL[1]
+            if ok and resist_ev["limit_j_per_mol"] > top:
+                ok, why = False, LIM.beyond_physics("temperature", "resistance",
+                                                    resist_ev["limit_j_per_mol"], top)
+            out.append(LIM.entry("temperature", "resistance",
+                                 found=("resistance", "temperature") in found,
+                                 identifiable=ok, limit=resist_ev["limit_j_per_mol"],
+                                 n=len(resist_ev["experiments"]), why=why,
+                                 stderr=resist_ev["activation_energy_j_per_mol_stderr"]))
+        else:
+            out.append(LIM.not_identifiable("temperature", "resistance", resist_ev["why"]))
+    order = {e.name: i for i, e in enumerate(wanted)}
+    return sorted(out, key=lambda d: order.get(d["effect"], 99))
 
 
 @dataclass
@@ -737,16 +845,25 @@ class _Run:
     levels: dict[str, LevelReport] = field(default_factory=dict)
     skipped: list[dict[str, str]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: The effects asked for at each level that ran.
+    level_effects: dict[str, list] = field(default_factory=dict)
+    #: The capacity experiments (dicts of :func:`_capacity_experiments`).
+    experiments: list[dict] = field(default_factory=list)
+    #: The record's power is the logged voltage × the logged current.
+    power_from_current: bool = True
 
     def skip(self, effects, level: str, reason: str) -> None:
         """Note ``effects`` (Effect objects or names) as not tested at ``level``."""
         self.skipped += [{"effect": getattr(e, "name", e), "level": level, "reason": reason}
                          for e in effects]
 
-    def add(self, name: str, level, res: S.LevelResult, as_given, base=None) -> None:
+    def add(self, name: str, level, res: S.LevelResult, as_given, base=None,
+            effects=()) -> None:
         """The report of a level that ran: baseline and final parameters, the file's
         error as given (``as_given()``, after them), the findings; the effects the
-        search skipped. ``base``: the baseline parameters, where already computed."""
+        search skipped. ``base``: the baseline parameters, where already computed;
+        ``effects``: those asked for at this level."""
+        self.level_effects[name] = list(effects)
         bv, bs = base if base is not None else level.physical(res.base_fit, [])
         fv, fs = level.physical(res.final_fit, [e for e, _ in res.selected])
         rg, fg = as_given()
@@ -779,7 +896,7 @@ def _cutoff_step(exps: list[dict], pack: BatteryPack, cap_effects, run: _Run) ->
         run.notes.append(f"cut-off level: {cut_what}")
         res = _run_level(cut_level, cut_effects, run.notes)
         if res is not None:
-            run.add("cutoff", cut_level, res, cut_level.as_given)
+            run.add("cutoff", cut_level, res, cut_level.as_given, effects=cut_effects)
             # direct evidence first: the capacity effects are tested on the energy to the
             # cut-off, not again on the charge per unit energy
             run.skip([e for e in cap_effects if e.name in cut_names], "capacity",
@@ -805,6 +922,7 @@ def _capacity_step(df: pd.DataFrame, exps: list[dict], pack: BatteryPack, effect
     else:
         try:
             level = S.CapacityLevel(exps, pack)
+            level.power_from_current = run.power_from_current
         except (FitError, ModelError, ValueError) as exc:
             run.notes.append(f"capacity level not run: {exc}")
         if level is not None and level.n_rows < S.MIN_ROWS:
@@ -813,7 +931,8 @@ def _capacity_step(df: pd.DataFrame, exps: list[dict], pack: BatteryPack, effect
             level = None
     res = _run_level(level, effects, run.notes) if level is not None else None
     if res is not None:
-        run.add("capacity", level, res, lambda: _as_given_capacity(level, pack))
+        run.add("capacity", level, res, lambda: _as_given_capacity(level, pack),
+                effects=effects)
     if level is None:
         run.skip(effects, "capacity", "capacity level not run")
 
@@ -832,13 +951,14 @@ def _power_step(df: pd.DataFrame, pack: BatteryPack, aircraft: Aircraft | None, 
         return
     base = level.physical(res.base_fit, [])
     _withhold_on_impossible_baseline(res, base[0], run.notes)
-    run.add("power", level, res, lambda: _as_given_power(level, aircraft), base)
+    run.add("power", level, res, lambda: _as_given_power(level, aircraft), base,
+            effects=effects)
 
 
 def _power_level(df, pack, aircraft, opts, effects, notes):
     """The power level of the data, or None and why it cannot run."""
     if aircraft is None:
-        why = "no aircraft given (--aircraft): power level not run"
+        why = "no aircraft definition given: the power level cannot run"
         if effects:
             notes.append(why)
         return None, why
