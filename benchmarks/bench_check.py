@@ -21,7 +21,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from planner.chain.result import MissionChain
+from planner.chain.mission_chain import MissionChain
 from planner.io.mission import load_mission
 from testkit.missions import write_waypoints
 from planner.parameters import load_aircraft_and_battery

@@ -55,13 +55,15 @@ def with_circuit(packs: list[BatteryPack], seed: int = 2) -> list[BatteryPack]:
     """The same packs, each with an RC branch and a lumped thermal model of its own."""
     from dataclasses import replace
 
+    from planner.parameters.blocks import CircuitBlock
+    from planner.physics.battery.thermal import ThermalParameters
+
     rng = np.random.default_rng(seed)
     out = []
     for p in packs:
-        circuit = {"r1_ohm": float(rng.uniform(0.001, 0.004)),
-                   "c1_f": float(rng.uniform(5000, 20000))}
-        thermal = {"r_th_k_per_w": float(rng.uniform(1.0, 4.0)),
-                   "c_th_j_per_k": float(p.mass_kg * 1000.0)}
+        circuit = CircuitBlock(r1_ohm=float(rng.uniform(0.001, 0.004)),
+                               c1_f=float(rng.uniform(5000, 20000)))
+        thermal = ThermalParameters(float(rng.uniform(1.0, 4.0)), float(p.mass_kg * 1000.0))
         out.append(replace(p, circuit=circuit, thermal=thermal))
     return out
 

@@ -24,6 +24,16 @@ class InputError(PlannerError, ValueError):
         super().__init__(" ".join(str(message).split("\n")))
 
 
+class WrongFileError(InputError):
+    """A file of another kind than the one expected (a battery pack given as the aircraft):
+    ``kind`` is what it is (``"battery pack"``, ``"aircraft"``, ``"pack catalog"``,
+    ``"mission"``), for the command line to say where to give it."""
+
+    def __init__(self, message: str, kind: str):
+        super().__init__(message)
+        self.kind = kind
+
+
 class ModelError(PlannerError, ValueError):
     """A model evaluated outside its validity range (states the range)."""
 

@@ -18,7 +18,7 @@ action each firmware and vehicle type flies, and the source file each follows):
   :math:`C(S_p + S_r) - C(S_p)`, and the loaded current of each segment through the pack's
   resistance at the state of charge of a landing with exactly the reserve,
   :math:`Q = \sum_k I_k t_k` with :math:`P_k = (V_{oc} - I_k R) I_k` ([HESS] eq. 2,
-  :func:`planner.physics.battery.circuit.loaded_current`);
+  :func:`planner.physics.battery.elements.loaded_current`);
 * **land here** — the descent from the point's altitude where it is (a multirotor straight
   down, a fixed-wing aircraft in a descending circle), at that loaded current;
 * **landing sequence** (fixed-wing) — to the start of the mission's landing sequence (its
@@ -62,7 +62,7 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.physics.battery.chemistry import chemistry
-from planner.physics.battery.circuit import loaded_current
+from planner.physics.battery.elements import loaded_current
 from planner.physics.units import AS_PER_MAH
 from planner.physics.wind import wind_triangle, wind_vector
 
@@ -625,7 +625,7 @@ def _ardupilot_parameters(inp: _Inputs, version) -> FailsafePlan:
     low_text = f"{base} + {low['text']} = {low_need:.0f} mAh, rounded up to 50 mAh"
     if low_mah <= crit_mah:
         low_mah = crit_mah + 50
-        low_text += (f"; raised to BATT_CRT_MAH + 50 mAh: the firmware tests the critical "
+        low_text += ("; raised to BATT_CRT_MAH + 50 mAh: the firmware tests the critical "
                      "level first and refuses to arm with critical above low "
                      "(AP_BattMonitor_Backend::arming_checks), so the return must come "
                      "one step before the critical action")

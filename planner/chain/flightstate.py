@@ -1,10 +1,11 @@
 r"""Flight state from a flight record: what the power model needs, in one module.
 
 The mission chain's *from measured flight state* entry point
-(:meth:`planner.chain.mission_chain.MissionChain.power_from_state`) takes a :class:`FlightState`; every
+(:meth:`planner.chain.mission_chain.MissionChain.power_from_state`) takes a
+:class:`FlightState`; every
 command that drives the power model with a log (``replay``, ``fit-aircraft``,
 ``diagnose``, ``fleet``) builds it here, from one experiment of the flight record
-(DESIGN §4):
+(``docs/record.md``):
 
 * **airspeed** — the measured true airspeed where the log has it; else the ground
   velocity corrected with the autopilot's wind estimate (the wind triangle of
@@ -31,7 +32,8 @@ from planner.physics import atmosphere
 from planner.io.record import PLAUSIBLE
 from planner.physics.wind import airspeed_from_ground
 
-__all__ = ["PHASES", "FlightState", "flight_phases", "from_record"]
+__all__ = ["PHASES", "FlightState", "air_density_from_log", "fill_gaps", "flight_phases",
+           "from_record"]
 
 #: Flight phases, in the order reports list them.
 PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent")
@@ -166,8 +168,60 @@ def _plausible(x: np.ndarray, column: str) -> np.ndarray:
         return np.where((x >= low) & (x <= high), x, np.nan)
 
 
-def _filled(x: np.ndarray) -> np.ndarray:
-    return pd.Series(x).interpolate(limit_direction="both").to_numpy()
+def fill_gaps(values) -> np.ndarray | None:
+    """A logged series with its missing samples filled from the nearest valid ones
+    (linear between them, held at the ends), as a float ndarray in the unit of
+    ``values``; ``None`` when no sample is valid."""
+    if values is None:
+        return None
+    x = np.asarray(values, dtype=float).ravel()
+    ok = np.isfinite(x)
+    if not ok.any():
+        return None
+    if not ok.all():
+        idx = np.arange(x.size)
+        x = np.interp(idx, idx[ok], x[ok])
+    return x
+
+
+def air_density_from_log(pressure_pa, temperature_c, site_altitude_m: float = 0.0, *,
+                         coverage: float = CHANNEL_COVERAGE) -> tuple[np.ndarray, str]:
+    """Air density along a log, and where it came from (the module notes' rule).
+
+    From the measured static pressure and outside air temperature where both channels
+    hold more than ``coverage`` of their samples; from the pressure alone with the ISA
+    temperature at the pressure altitude; else the ISA density at the site
+    (:func:`planner.physics.atmosphere.density`). Gaps are filled (:func:`fill_gaps`).
+
+    Parameters
+    ----------
+    pressure_pa, temperature_c : array_like
+        Logged static pressure [Pa] and outside air temperature [°C], NaN where missing.
+    site_altitude_m : float
+        Site altitude for the ISA density. [m]
+    coverage : float
+        Share of valid samples a channel needs to be used. [unitless]
+
+    Returns
+    -------
+    density : ndarray
+        [kg m⁻³]
+    source : str
+        How it was found, for reports.
+    """
+    p, temp = np.asarray(pressure_pa, float), np.asarray(temperature_c, float)
+    have_p = np.isfinite(p).mean() > coverage
+    if have_p and np.isfinite(temp).mean() > coverage:
+        return (np.asarray(atmosphere.density(temperature_c=fill_gaps(temp),
+                                              pressure_pa=fill_gaps(p)), float),
+                "measured pressure and temperature")
+    if have_p:
+        p = fill_gaps(p)
+        return (np.asarray(atmosphere.density(atmosphere.pressure_altitude(p),
+                                              pressure_pa=p), float),
+                "measured pressure, ISA temperature at the pressure altitude")
+    return (np.full(p.size, float(atmosphere.density(site_altitude_m))),
+            f"ISA at {site_altitude_m:.0f} m")
 
 
 def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
@@ -176,7 +230,7 @@ def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
     Parameters
     ----------
     exp : DataFrame
-        One experiment, flight-record columns (DESIGN §4).
+        One experiment, flight-record columns (``docs/record.md``).
     site_altitude_m : float
         Site altitude for the ISA density when the log has no pressure. [m]
 
@@ -209,26 +263,17 @@ def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
     p, temp = col("pressure_pa"), col("ambient_temperature_c")
     # a logged value outside its physical range (damage, a sensor fault) is missing, as
     # when a record file is read (planner.io.record.PLAUSIBLE)
-    p, temp = _plausible(p, "pressure_pa"), _plausible(temp, "ambient_temperature_c")
-    have_p = np.isfinite(p).mean() > CHANNEL_COVERAGE
-    if have_p and np.isfinite(temp).mean() > CHANNEL_COVERAGE:
-        rho = atmosphere.density(temperature_c=_filled(temp), pressure_pa=_filled(p))
-        dsource = "measured pressure and temperature"
-    elif have_p:
-        p = _filled(p)
-        rho = atmosphere.density(atmosphere.pressure_altitude(p), pressure_pa=p)
-        dsource = "measured pressure, ISA temperature at the pressure altitude"
-    else:
-        rho = np.full(n, float(atmosphere.density(site_altitude_m)))
-        dsource = f"ISA at {site_altitude_m:.0f} m"
+    rho, dsource = air_density_from_log(_plausible(p, "pressure_pa"),
+                                        _plausible(temp, "ambient_temperature_c"),
+                                        site_altitude_m)
     t = exp["time_s"].to_numpy(float)
     power = col("power_w")
     phase = flight_phases(power, exp.get("climb_rate_ms"), exp.get("groundspeed_ms"), t,
                           exp.get("altitude_m"))
     force = col("specific_force_ms2")
-    force = _filled(force) if np.isfinite(force).mean() > CHANNEL_COVERAGE else None
+    force = fill_gaps(force) if np.isfinite(force).mean() > CHANNEL_COVERAGE else None
     axial = col("axial_speed_ms")
-    axial = _filled(axial) if np.isfinite(axial).mean() > CHANNEL_COVERAGE else None
+    axial = fill_gaps(axial) if np.isfinite(axial).mean() > CHANNEL_COVERAGE else None
     return FlightState(time_s=t, airspeed_ms=v, climb_rate_ms=climb,
                        air_density=np.asarray(rho, float), phase=phase,
                        measured_power_w=power, airspeed_source=source,

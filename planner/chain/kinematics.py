@@ -1,6 +1,6 @@
 """Mission + aircraft + environment → per-leg kinematics and power profile.
 
-Layer 3 of the planner (DESIGN §2). Everything here is vectorised over legs
+Part of the mission chain (``docs/architecture.md``). Everything here is vectorised over legs
 (and, for pack selection, over take-off masses): the legs of a mission become
 columns of a :class:`LegTable`, and no step loops over legs or samples.
 
@@ -23,14 +23,13 @@ import numpy as np
 from planner.physics import atmosphere
 from planner.errors import InputError
 from planner.physics.mission import LEG_KINDS, MAX_FLIGHT_S, Environment, Mission
+from planner.physics.power.fixed_wing import bank_load_factor
 from planner.parameters import Aircraft
-from planner.physics.wind import capped_groundspeed, wind_triangle, wind_vector
+from planner.physics.units import S_PER_H
+from planner.physics.wind import capped_groundspeed, course_deg, wind_triangle, wind_vector
 
 #: Points per leg at which the return-home reserve is checked.
 RTL_POINTS_PER_LEG = 5
-#: ISA temperature lapse rate and gravity, re-exported for the layers above.
-LAPSE_RATE = atmosphere.LAPSE_RATE
-G = atmosphere.G
 
 
 @dataclass
@@ -112,9 +111,51 @@ def _column(legs, name, default=np.nan):
                      for leg in legs], dtype=float)
 
 
+class _LegPlan:
+    """The legs of a mission as planned, as columns (SI units), and what the steps of
+    :func:`leg_table` work out from them: the airspeed, ground speed, duration, climb
+    rate and load factor of every leg, the problems and the notes.
+
+    A leg without a speed flies the aircraft's cruise speed (a multirotor's a ground
+    speed, a fixed-wing aircraft's an airspeed, unless the leg says which).
+    """
+
+    def __init__(self, legs, aircraft: Aircraft):
+        n = len(legs)
+        self.kind = np.array([leg.kind for leg in legs], dtype=object)
+        unknown = set(self.kind) - set(LEG_KINDS)
+        if unknown:
+            raise ValueError(f"unknown leg kinds {sorted(unknown)}")
+        self.start = np.array([leg.start_en_m for leg in legs], float).reshape(n, 2)
+        self.end = np.array([leg.end_en_m for leg in legs], float).reshape(n, 2)
+        self.alt0, self.alt1 = _column(legs, "start_alt_m", 0.0), _column(legs, "end_alt_m", 0.0)
+        self.given_speed = _column(legs, "speed_ms")
+        self.speed = np.where(np.isnan(self.given_speed), aircraft.cruise_speed_ms,
+                              self.given_speed)
+        is_air = np.array([np.nan if leg.speed_is_airspeed is None
+                           else float(leg.speed_is_airspeed) for leg in legs])
+        self.is_air = np.where(np.isnan(is_air), 0.0 if aircraft.is_multirotor else 1.0,
+                               is_air).astype(bool)
+        self.rate, self.hold = _column(legs, "climb_rate_ms"), _column(legs, "duration_s", 0.0)
+        self.radius = _column(legs, "loiter_radius_m")
+        delta = self.end - self.start
+        self.distance = np.hypot(delta[:, 0], delta[:, 1])
+        self.course = course_deg(delta[:, 0], delta[:, 1])
+        self.airspeed = np.full(n, np.nan)
+        self.ground, self.duration, self.climb = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.load = np.ones(n)
+        self.problems: list[tuple[int, str]] = []
+        self.notes: list[str] = []
+
+
 def leg_table(mission: Mission, aircraft: Aircraft, environment: Environment | None = None,
               *, temperature_c: float | None = None) -> LegTable:
     """Kinematics of every leg: times, speeds, climb rates, density.
+
+    The steps: the legs as columns; cruise legs through the wind triangle
+    (:func:`_cruise`); climbs and descents (:func:`_vertical`); holds; then a
+    multirotor's hover and circles (:func:`_multirotor_holds`) or a fixed-wing
+    aircraft's circles (:func:`_fixed_wing_circles`); the air density at each leg.
 
     Parameters
     ----------
@@ -128,133 +169,131 @@ def leg_table(mission: Mission, aircraft: Aircraft, environment: Environment | N
     Returns
     -------
     LegTable
+
+    Raises
+    ------
+    InputError
+        The legs take longer than :data:`~planner.physics.mission.MAX_FLIGHT_S`.
     """
     env = environment or mission.environment
-    legs = mission.legs
-    n = len(legs)
-    kind = np.array([leg.kind for leg in legs], dtype=object)
-    unknown = set(kind) - set(LEG_KINDS)
-    if unknown:
-        raise ValueError(f"unknown leg kinds {sorted(unknown)}")
-    start = np.array([leg.start_en_m for leg in legs], dtype=float).reshape(n, 2)
-    end = np.array([leg.end_en_m for leg in legs], dtype=float).reshape(n, 2)
-    alt0 = _column(legs, "start_alt_m", 0.0)
-    alt1 = _column(legs, "end_alt_m", 0.0)
-    speed = _column(legs, "speed_ms")
-    is_air = np.array([np.nan if leg.speed_is_airspeed is None else float(leg.speed_is_airspeed)
-                       for leg in legs])
-    rate = _column(legs, "climb_rate_ms")
-    hold = _column(legs, "duration_s", 0.0)
-    radius = _column(legs, "loiter_radius_m")
+    plan = _LegPlan(mission.legs, aircraft)
+    if not aircraft.is_multirotor:  # fixed-wing holds position by circling
+        plan.kind = np.where(plan.kind == "hover", "loiter", plan.kind)
+    _cruise(plan, aircraft, env)
+    _vertical(plan, aircraft)
+    holding = (plan.kind == "hover") | (plan.kind == "loiter")
+    plan.duration = np.where(holding, plan.hold, plan.duration)
+    if aircraft.is_multirotor:
+        _multirotor_holds(plan, aircraft, env)
+    else:
+        _fixed_wing_circles(plan, aircraft, env)
+    total = float(np.nansum(plan.duration))
+    if total > MAX_FLIGHT_S:
+        raise InputError(f"{mission.source or mission.name}: the legs take {total / S_PER_H:.1f} h "
+                         f"at their planned speeds, longer than the planner simulates (at most "
+                         f"{MAX_FLIGHT_S / S_PER_H:.0f} h of flight)")
+    n = len(plan.kind)
+    amsl = env.site_altitude_m + 0.5 * (plan.alt0 + plan.alt1)
+    rho = np.broadcast_to(np.asarray(air_density_at(amsl, env, temperature_c), float), (n,))
+    return LegTable(kind=np.asarray(plan.kind), origin=[leg.origin for leg in mission.legs],
+                    duration_s=np.nan_to_num(plan.duration, nan=0.0),
+                    distance_m=plan.distance, course_deg=plan.course,
+                    airspeed_ms=np.nan_to_num(plan.airspeed, nan=0.0),
+                    groundspeed_ms=np.nan_to_num(plan.ground, nan=0.0),
+                    climb_rate_ms=plan.climb, load_factor=plan.load, air_density=rho.copy(),
+                    start_en_m=plan.start, end_en_m=plan.end, start_alt_m=plan.alt0,
+                    end_alt_m=plan.alt1, problems=plan.problems, notes=plan.notes)
 
-    mr = aircraft.is_multirotor
-    fw = aircraft.fixed_wing
+
+def _cruise(plan: _LegPlan, aircraft: Aircraft, env: Environment) -> None:
+    """Cruise legs: the wind triangle along the track (a ground speed held up to the
+    maximum airspeed, or an airspeed), the time over the distance, the climb rate of a
+    leg that changes altitude; a leg the wind does not let the aircraft fly is a
+    problem."""
+    cruise = plan.kind == "cruise"
     w_e, w_n = wind_vector(env.wind_speed_ms, env.wind_from_deg)
-    wind = float(env.wind_speed_ms)
     vmax = aircraft.max_airspeed_ms
-    speed = np.where(np.isnan(speed), aircraft.cruise_speed_ms, speed)
-    is_air = np.where(np.isnan(is_air), 0.0 if mr else 1.0, is_air).astype(bool)
-
-    delta = end - start
-    dist = np.hypot(delta[:, 0], delta[:, 1])
-    course = np.degrees(np.arctan2(delta[:, 0], delta[:, 1])) % 360.0
-    dalt = alt1 - alt0
-
-    cruise = kind == "cruise"
-    vertical = (kind == "climb") | (kind == "descend")
-    hover = kind == "hover"
-    loiter = kind == "loiter"
-    if not mr:  # fixed-wing holds position by circling
-        kind = np.where(hover, "loiter", kind)
-        loiter, hover = loiter | hover, np.zeros(n, bool)
-
-    airspeed = np.full(n, np.nan)
-    ground = np.zeros(n)
-    duration = np.zeros(n)
-    climb = np.zeros(n)
-    load = np.ones(n)
-    problems: list[tuple[int, str]] = []
-    notes: list[str] = []
-
-    # -- cruise: wind triangle along the track
-    va_air, gs_air = wind_triangle(course, w_e, w_n, airspeed=speed)
-    va_gnd, gs_gnd, capped = capped_groundspeed(course, w_e, w_n, speed, vmax)
-    over = ~is_air & capped                     # cannot hold the ground speed
-    va = np.where(is_air, va_air, va_gnd)
-    gs = np.where(is_air, gs_air, gs_gnd)
-    short = dist < 1e-6
+    va_air, gs_air = wind_triangle(plan.course, w_e, w_n, airspeed=plan.speed)
+    va_gnd, gs_gnd, capped = capped_groundspeed(plan.course, w_e, w_n, plan.speed, vmax)
+    over = ~plan.is_air & capped                     # cannot hold the ground speed
+    va = np.where(plan.is_air, va_air, va_gnd)
+    gs = np.where(plan.is_air, gs_air, gs_gnd)
+    short = plan.distance < 1e-6
     gs = np.where(cruise & short, np.where(np.isnan(gs), 0.0, gs), gs)
     bad = cruise & ~short & ~(gs > 0)
     for i in np.flatnonzero(bad):
-        problems.append((int(i), f"wind {wind:.1f} m/s from {env.wind_from_deg:.0f}° is "
-                                 f"stronger than the aircraft can fly on course "
-                                 f"{course[i]:.0f}° (max airspeed {vmax:.1f} m/s)"))
+        plan.problems.append((int(i), f"wind {float(env.wind_speed_ms):.1f} m/s from "
+                                      f"{env.wind_from_deg:.0f}° is stronger than the "
+                                      f"aircraft can fly on course {plan.course[i]:.0f}° "
+                                      f"(max airspeed {vmax:.1f} m/s)"))
     slowed = np.flatnonzero(cruise & over & ~bad)
     if slowed.size:
-        notes.append(f"{slowed.size} leg(s) flown at the maximum airspeed {vmax:.1f} m/s: "
-                     "the headwind lowers the ground speed below the commanded one")
+        plan.notes.append(f"{slowed.size} leg(s) flown at the maximum airspeed {vmax:.1f} "
+                          "m/s: the headwind lowers the ground speed below the commanded one")
     gs_ok = np.where(bad, np.nan, gs)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t_cruise = np.where(short, 0.0, dist / gs_ok)
-    airspeed = np.where(cruise, va, airspeed)
-    ground = np.where(cruise, gs_ok, ground)
-    duration = np.where(cruise, t_cruise, duration)
+        t_cruise = np.where(short, 0.0, plan.distance / gs_ok)
+    plan.airspeed = np.where(cruise, va, plan.airspeed)
+    plan.ground = np.where(cruise, gs_ok, plan.ground)
+    plan.duration = np.where(cruise, t_cruise, plan.duration)
     with np.errstate(divide="ignore", invalid="ignore"):
-        climb = np.where(cruise & (duration > 0), dalt / duration, climb)
+        plan.climb = np.where(cruise & (plan.duration > 0),
+                              (plan.alt1 - plan.alt0) / plan.duration, plan.climb)
 
-    # -- vertical legs
+
+def _vertical(plan: _LegPlan, aircraft: Aircraft) -> None:
+    """Climb and descent legs: at the leg's rate, else the aircraft's."""
+    vertical = (plan.kind == "climb") | (plan.kind == "descend")
+    dalt = plan.alt1 - plan.alt0
     default_rate = np.where(dalt >= 0, aircraft.climb_rate_ms, aircraft.descent_rate_ms)
-    vrate = np.where(np.isnan(rate), default_rate, np.abs(rate))
-    t_vert = np.abs(dalt) / vrate
-    duration = np.where(vertical, t_vert, duration)
-    climb = np.where(vertical, np.sign(dalt) * vrate, climb)
+    vrate = np.where(np.isnan(plan.rate), default_rate, np.abs(plan.rate))
+    plan.duration = np.where(vertical, np.abs(dalt) / vrate, plan.duration)
+    plan.climb = np.where(vertical, np.sign(dalt) * vrate, plan.climb)
 
-    # -- holds
-    duration = np.where(hover | loiter, hold, duration)
 
-    if mr:
-        still = vertical | hover | (loiter & (np.isnan(radius)))
-        airspeed = np.where(still, wind, airspeed)
-        ground = np.where(still, 0.0, ground)
-        # a multirotor circling at ground speed V in wind W: mean-square airspeed V² + W²
-        circling = loiter & ~np.isnan(radius)
-        airspeed = np.where(circling, np.sqrt(speed**2 + wind**2), airspeed)
-        ground = np.where(circling, speed, ground)
-        if wind > vmax and np.any(still | circling):
-            i = int(np.flatnonzero(still | circling)[0])
-            problems.append((i, f"wind {wind:.1f} m/s is above the aircraft's maximum "
-                                f"airspeed {vmax:.1f} m/s: it cannot hold position"))
-    else:
-        circle = vertical | loiter
-        r = np.where(np.isnan(radius), fw.loiter_radius_m, radius)
-        v_loiter = fw.loiter_airspeed_ms or fw.cruise_airspeed_ms
-        v_circ = np.where(loiter & ~np.isnan(_column(legs, "speed_ms")), speed, v_loiter)
-        airspeed = np.where(circle, v_circ, airspeed)
-        ground = np.where(circle, v_circ, ground)
-        load = np.where(circle, np.sqrt(1.0 + (airspeed**2 / (G * r)) ** 2), load)
-        if fw.stall_speed_ms is not None:
-            stall = fw.stall_speed_ms * np.sqrt(load)  # stall speed rises in a turn
-            for i in np.flatnonzero(airspeed < stall):
-                problems.append((int(i), f"airspeed {airspeed[i]:.1f} m/s is below the "
-                                         f"stall speed {stall[i]:.1f} m/s"))
-        wind_max = np.flatnonzero(circle & (wind >= airspeed))
-        if wind_max.size:
-            problems.append((int(wind_max[0]), f"wind {wind:.1f} m/s is not below the "
-                                               "loiter airspeed: the aircraft drifts away"))
+def _multirotor_holds(plan: _LegPlan, aircraft: Aircraft, env: Environment) -> None:
+    """A multirotor holds position in the wind (its airspeed is the wind speed) on
+    climbs, descents, hovers and loiters without a radius, and circles at its ground
+    speed in a loiter with one; a wind above its maximum airspeed is a problem."""
+    wind = float(env.wind_speed_ms)
+    vertical = (plan.kind == "climb") | (plan.kind == "descend")
+    loiter = plan.kind == "loiter"
+    still = vertical | (plan.kind == "hover") | (loiter & (np.isnan(plan.radius)))
+    plan.airspeed = np.where(still, wind, plan.airspeed)
+    plan.ground = np.where(still, 0.0, plan.ground)
+    # a multirotor circling at ground speed V in wind W: mean-square airspeed V² + W²
+    circling = loiter & ~np.isnan(plan.radius)
+    plan.airspeed = np.where(circling, np.sqrt(plan.speed**2 + wind**2), plan.airspeed)
+    plan.ground = np.where(circling, plan.speed, plan.ground)
+    vmax = aircraft.max_airspeed_ms
+    if wind > vmax and np.any(still | circling):
+        i = int(np.flatnonzero(still | circling)[0])
+        plan.problems.append((i, f"wind {wind:.1f} m/s is above the aircraft's maximum "
+                                 f"airspeed {vmax:.1f} m/s: it cannot hold position"))
 
-    total = float(np.nansum(duration))
-    if total > MAX_FLIGHT_S:
-        raise InputError(f"{mission.source or mission.name}: the legs take {total / 3600:.1f} h "
-                         f"at their planned speeds, longer than the planner simulates (at most "
-                         f"{MAX_FLIGHT_S / 3600:.0f} h of flight)")
-    amsl = env.site_altitude_m + 0.5 * (alt0 + alt1)
-    rho = np.broadcast_to(np.asarray(air_density_at(amsl, env, temperature_c), float), (n,))
-    return LegTable(kind=np.asarray(kind), origin=[leg.origin for leg in legs],
-                    duration_s=np.nan_to_num(duration, nan=0.0), distance_m=dist,
-                    course_deg=course, airspeed_ms=np.nan_to_num(airspeed, nan=0.0),
-                    groundspeed_ms=np.nan_to_num(ground, nan=0.0), climb_rate_ms=climb,
-                    load_factor=load, air_density=rho.copy(), start_en_m=start, end_en_m=end,
-                    start_alt_m=alt0, end_alt_m=alt1, problems=problems, notes=notes)
+
+def _fixed_wing_circles(plan: _LegPlan, aircraft: Aircraft, env: Environment) -> None:
+    """A fixed-wing aircraft flies climbs, descents and loiters as circles of the loiter
+    radius at its loiter airspeed, with the load factor of the banked turn; below the
+    stall speed in the turn, or in a wind not below that airspeed, is a problem."""
+    fw, wind = aircraft.fixed_wing, float(env.wind_speed_ms)
+    loiter = plan.kind == "loiter"
+    circle = (plan.kind == "climb") | (plan.kind == "descend") | loiter
+    r = np.where(np.isnan(plan.radius), fw.loiter_radius_m, plan.radius)
+    v_loiter = fw.loiter_airspeed_ms or fw.cruise_airspeed_ms
+    v_circ = np.where(loiter & ~np.isnan(plan.given_speed), plan.speed, v_loiter)
+    plan.airspeed = np.where(circle, v_circ, plan.airspeed)
+    plan.ground = np.where(circle, v_circ, plan.ground)
+    plan.load = np.where(circle, bank_load_factor(plan.airspeed, r), plan.load)
+    if fw.stall_speed_ms is not None:
+        stall = fw.stall_speed_ms * np.sqrt(plan.load)  # stall speed rises in a turn
+        for i in np.flatnonzero(plan.airspeed < stall):
+            plan.problems.append((int(i), f"airspeed {plan.airspeed[i]:.1f} m/s is below the "
+                                          f"stall speed {stall[i]:.1f} m/s"))
+    wind_max = np.flatnonzero(circle & (wind >= plan.airspeed))
+    if wind_max.size:
+        plan.problems.append((int(wind_max[0]), f"wind {wind:.1f} m/s is not below the "
+                                                "loiter airspeed: the aircraft drifts away"))
 
 
 def leg_power(table: LegTable, aircraft: Aircraft, mass_kg):
@@ -289,7 +328,7 @@ def loiter_state(aircraft: Aircraft) -> tuple[float, float]:
     """Airspeed [m/s] and load factor of a fixed-wing aircraft's default loiter circle."""
     fw = aircraft.fixed_wing
     v = fw.loiter_airspeed_ms or fw.cruise_airspeed_ms
-    return v, float(np.sqrt(1.0 + (v**2 / (G * fw.loiter_radius_m)) ** 2))
+    return v, float(bank_load_factor(v, fw.loiter_radius_m))
 
 
 def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, temp):
@@ -316,7 +355,7 @@ def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, te
     frac = np.tile(f, n)
 
     dist = np.hypot(pos[:, 0], pos[:, 1])
-    course = np.degrees(np.arctan2(-pos[:, 0], -pos[:, 1])) % 360.0
+    course = course_deg(-pos[:, 0], -pos[:, 1])
     w_e, w_n = wind_vector(env.wind_speed_ms, env.wind_from_deg)
     if ac.is_multirotor:
         va, gs, _ = capped_groundspeed(course, w_e, w_n, np.full(dist.shape, ac.cruise_speed_ms),

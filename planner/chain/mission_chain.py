@@ -1,11 +1,13 @@
 r"""The mission chain: one orchestrator for every command that flies a mission.
 
-:class:`MissionChain` composes the models as pvlib's ``ModelChain`` does: flight states
-of the mission's legs (:func:`planner.chain.kinematics.leg_table`) → one power call for every
-state and take-off mass (:class:`planner.chain.powertable.PowerTable`) → one battery model call
-(the integral capacity model of [UAV23] eq. 14, and, for packs that use it, the
-equivalent circuit and lumped thermal model of [HESS] eq. 1–5, 10–11 through
-:func:`planner.physics.battery.circuit.simulate_packs`) → the reserves → the verdict.
+:class:`MissionChain` composes the models as pvlib's ``ModelChain`` does:
+:meth:`MissionChain.run` is a short sequence of named steps (:mod:`planner.chain.steps`):
+the inputs → the flight states of the mission's legs, of the return home and of the hold
+(:mod:`planner.chain.kinematics`) → one power call for every state and take-off mass
+(:class:`planner.chain.powertable.PowerTable`) → the battery models (the equivalent
+circuit and lumped thermal model of [HESS] eq. 1–5, 10–11 for the packs that use it, the
+integral capacity model of [UAV23] eq. 14 along the legs) → the return-home reserve → the
+constraints of the verdict.
 
 It is vectorised over a **pack axis**: ``MissionChain(aircraft, packs)`` flies the mission
 with every pack at once, each with its own take-off mass. ``check`` is the one-pack case
@@ -29,70 +31,45 @@ The reserves
 ------------
 * **landing reserve** — the charge left on landing must be at least ``reserve`` × nominal
   capacity (default 20 %);
-* **return-to-home reserve** — at :data:`RTL_POINTS_PER_LEG` points of every leg the
-  aircraft must be able to fly straight home at its cruise speed, at its altitude, descend
-  and land with that same reserve. The first point where it cannot is the *point of no
-  return*.
+* **return-to-home reserve** — at
+  :data:`~planner.chain.kinematics.RTL_POINTS_PER_LEG` points of every leg the aircraft
+  must be able to fly straight home at its cruise speed, at its altitude, descend and land
+  with that same reserve. The first point where it cannot is the *point of no return*.
 
 Charge is drawn from the usable charge (nominal × ``usable_fraction``); with the circuit
 model the usable charge is also capped by the charge drawn when the loaded cell voltage
 reaches ``cell_voltage_empty_v`` (the mission's profile, continued at the hold power).
-With the integral model the charge of a profile is not additive but its *stress*
-:math:`S = \int dt/(\delta P^\varepsilon)` is, so the return-home charge from a point is
-:math:`(S_{point} + S_{return})^{1/\beta}`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
+
 from typing import Any
 
-import numba
 import numpy as np
 import pandas as pd
 
-from planner.chain import kinematics as prof
-from planner.physics.battery import integral
-from planner.physics.battery.circuit import loaded_current, simulate_packs
-from planner.physics.battery.ocv import lipo_ocv
-from planner.physics.battery.thermal import T_RANGE_C
+from planner.chain import steps
+from planner.chain.flightstate import fill_gaps
+from planner.chain.result import MissionResult
+from planner.chain.steps import CHECK_CONSTRAINTS
 from planner.errors import InputError
-from planner.physics.mission import Environment, Mission
 from planner.parameters import Aircraft, BatteryPack, IntegralModel, load_aircraft_and_battery
-from planner.chain.powertable import PowerTable
+from planner.physics.atmosphere import RHO0
+from planner.physics.battery import integral
+from planner.physics.battery.thermal import T_RANGE_C
+from planner.physics.mission import Environment, Mission
 from planner.physics.units import AS_PER_MAH
 
-__all__ = ["BATTERY_MODELS", "CHECK_CONSTRAINTS", "BatteryTrace", "ChainResult",
-           "MissionChain", "RTL_POINTS_PER_LEG"]
+__all__ = ["BATTERY_MODELS", "BatteryTrace", "ChainResult", "MissionChain"]
 
 #: Battery models the chain can run: by name, or inferred from the pack file.
 BATTERY_MODELS = ("infer", "integral", "circuit")
 
-#: Points per leg at which the return-home reserve is checked.
-RTL_POINTS_PER_LEG = prof.RTL_POINTS_PER_LEG
-
-#: The pre-flight check's constraints, in the order their reasons are given.
-CHECK_CONSTRAINTS = ("mission", "power", "c_rating", "takeoff_mass", "temperature",
-                     "voltage", "runs_out", "landing_reserve", "return_home")
-
-#: The circuit model's time step through the mission, and after it (the run on to the
-#: cut-off at the hold power that finds the usable charge), and how long that runs. [s]
-CIRCUIT_STEP_S = 1.0
-CIRCUIT_EXTEND_STEP_S = 5.0
-CIRCUIT_EXTEND_S = 7200.0
-
-#: Air (and starting pack) temperature of the circuit model when none is given. [°C]
-DEFAULT_PACK_TEMPERATURE_C = 25.0
-
 #: Legs the aircraft cannot fly that a reason names one by one; the rest are counted.
 MAX_LISTED_PROBLEMS = 3
-
-#: Figures of the circuit model per pack (see :class:`ChainResult`).
-CIRCUIT_FIGURES = ("min_voltage_v", "voltage_margin_v", "worst_leg", "cutoff_time_s",
-                   "charge_to_cutoff_mah", "charge_used_mah", "max_temperature_c",
-                   "pack_temperature_c", "cutoff_leg", "collapse_time_s", "collapse_leg",
-                   "hot_time_s", "hot_temperature_c", "collapse_power_w")
 
 
 def _leg_name(table, i: int) -> str:
@@ -111,13 +88,6 @@ def _ranges(numbers) -> str:
             out.append(f"{start}" if start == n else f"{start}–{n}")
             start = None
     return ", ".join(out)
-
-
-def _leg_at(table, time_s) -> np.ndarray:
-    """Index of the leg flown at each time (the last leg after the end; NaN → 0)."""
-    with np.errstate(invalid="ignore"):
-        return np.clip(np.searchsorted(table.end_time_s, np.nan_to_num(time_s, nan=0.0)),
-                       0, len(table) - 1)
 
 
 # --------------------------------------------------------------------------- results
@@ -217,6 +187,33 @@ class ChainResult:
     rtl_points: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
     power_method: str = "exact"
     detail: dict[str, np.ndarray] | None = field(repr=False, default=None)
+
+    @classmethod
+    def of_run(cls, inputs, states, power, circuit, budget, flown, violated) -> ChainResult:
+        """The result of the steps of :meth:`MissionChain.run` (:mod:`planner.chain.steps`)."""
+        pa, rtl, cap = inputs.pack, states.rtl, budget.cap
+        used = flown.used_as
+        return cls(
+            packs=list(inputs.packs), battery_models=list(inputs.models),
+            aircraft=inputs.aircraft, mission=inputs.mission,
+            environment=inputs.flown_environment, table=states.table,
+            reserve_fraction=inputs.reserve, payload_kg=inputs.payload_kg,
+            takeoff_mass_kg=inputs.mass, pack_mass_kg=pa["mass"],
+            capacity_mah=cap / AS_PER_MAH, usable_mah=budget.usable / AS_PER_MAH,
+            reserve_mah=inputs.reserve * cap / AS_PER_MAH, charge_used_mah=used / AS_PER_MAH,
+            margin_mah=(budget.limit - used) / AS_PER_MAH, remaining_fraction=1.0 - used / cap,
+            margin_time_s=steps.margin_time(inputs, budget, flown.stress_final,
+                                            flown.hold_power_w),
+            hold_power_w=flown.hold_power_w, energy_wh=flown.energy_wh,
+            rtl_min_margin_mah=flown.rtl_min_margin_as / AS_PER_MAH,
+            pnr_index=flown.pnr_index, peak_current_a=flown.peak_current_a,
+            peak_leg=flown.peak_leg, undeliverable_leg=flown.undeliverable_leg,
+            max_current_a=pa["imax"], circuit=circuit.figures, violated=violated,
+            undeliverable_power_w=flown.p_undeliverable_w, deliverable_max_w=flown.p_max_w,
+            rtl_points={key: rtl[key] for key in ("leg", "time_s", "east_m", "north_m",
+                                                  "altitude_m", "distance_m", "t_back",
+                                                  "t_down")},
+            power_method=power.table.method, detail=flown.detail)
 
     def __len__(self) -> int:
         return len(self.packs)
@@ -353,7 +350,8 @@ class ChainResult:
                 j = int(low[0])
                 out.append(f"loaded voltage {v_end[j]:.2f} V falls below {v_min:.2f} V "
                            f"({p.cell_voltage_empty_v:g} V/cell) by the end of "
-                           f"{_leg_name(self.table, j)} (t = {self.table.end_time_s[j]:.0f} s): "
+                           f"{_leg_name(self.table, j)} "
+                           f"(t = {self.table.end_time_s[j]:.0f} s): "
                            "expect a low-voltage failsafe")
         if p.model.literature:
             out.append(f"battery model: literature δ₀({p.cells_series}), ε₀({p.cells_series}) "
@@ -367,8 +365,6 @@ class ChainResult:
         Needs the per-leg detail: a result computed without it is run again for this
         one pack by the same chain.
         """
-        from planner.chain.result import MissionResult
-
         if self.detail is None or "power_w" not in self.detail:
             chain = MissionChain(self.aircraft, [self.packs[i]],
                                  battery_model=self.battery_models[i],
@@ -444,7 +440,7 @@ class ChainResult:
 
         ac = self.aircraft
         mass = float(self.takeoff_mass_kg[i])
-        rho0 = float(self.table.air_density[-1]) if len(self.table) else 1.225
+        rho0 = float(self.table.air_density[-1]) if len(self.table) else RHO0
 
         def power(v):
             return ac.battery_power(v, 0.0, rho0, mass)
@@ -559,7 +555,8 @@ class MissionChain:
     # ------------------------------------------------------------------ missions
     def check(self, mission: Mission, environment: Environment | None = None, *,
               payload_kg: float | None = None):
-        """The pre-flight check of a one-pack chain (:class:`planner.chain.result.MissionResult`)."""
+        """The pre-flight check of a one-pack chain
+        (:class:`planner.chain.result.MissionResult`)."""
         if len(self.packs) != 1:
             raise InputError("check flies one pack; use run() for a catalog")
         return self.run(mission, environment, payload_kg=payload_kg,
@@ -583,7 +580,8 @@ class MissionChain:
             Keep the per-leg arrays (packs × legs) for tables and plots; default when
             there are at most 16 packs.
         power_method : {"auto", "exact", "table"}
-            How the power is evaluated over many masses, see :class:`PowerTable`.
+            How the power is evaluated over many masses, see
+            :class:`~planner.chain.powertable.PowerTable`.
         block_elements : int
             Packs are processed in blocks of about this many (pack × point) elements,
             which bounds the memory.
@@ -606,358 +604,22 @@ class MissionChain:
         -------
         ChainResult
         """
-        env = environment or mission.environment
-        temp = self.temperature_c if self.temperature_c is not None else env.temperature_c
-        flown_env = replace(env, temperature_c=temp)
-        payload = (mission.payload_kg if payload_kg is None else float(payload_kg)
-                   if np.ndim(payload_kg) == 0 else np.asarray(payload_kg, float))
-        if not self.packs:
-            raise InputError("the chain needs at least one pack to fly a mission")
-        if not mission.legs:
-            raise InputError(f"{mission.source or mission.name}: the mission has no legs")
-        packs, ac = self.packs, self.aircraft
-        bad = [f"{p.path or p.name}: integral model delta = {p.model.delta:.4g}"
-               + (f" (literature δ₀({p.cells_series}) is only valid for few-cell packs; give "
-                  "a fitted 'model:')" if p.model.literature else "")
-               for p in packs if not (p.model.delta > 0 and p.model.beta > 0)]
-        if bad:
-            raise InputError("; ".join(bad) + " — delta must be > 0")
-        k = len(packs)
-        keep = (k <= 16) if detail is None else bool(detail)
-        table = prof.leg_table(mission, ac, env, temperature_c=temp)
-        n = len(table)
-        pa = _pack_arrays(packs, temp)
-        soh = np.ones(k)
-        for key, values in (pack_samples or {}).items():
-            v = np.broadcast_to(np.asarray(values, float), (k,)).copy()
-            if key == "soh":
-                soh = v
-                pa["usable"] = pa["usable"] * v
-            elif key in ("delta", "epsilon", "beta"):
-                pa["eps" if key == "epsilon" else key] = v
-            else:
-                raise ValueError(f"pack_samples: unknown key {key!r}")
-        bad_sample = ~((pa["delta"] > 0) & (pa["beta"] > 0))
-        if pack_samples and bad_sample.any():
-            raise InputError(f"pack sample {int(np.argmax(bad_sample))}: delta and beta must "
-                             "be > 0")
-        mass = ac.empty_mass_kg + pa["mass"] + payload
-        cap, usable, scale = pa["cap"], pa["usable"].copy(), pa["scale"]
-        limit = usable - self.reserve * cap
-
-        # flight states: legs, return-home (back, down), hold; one power table for all
-        rtl = prof.return_home_points(table, ac, env, temp)
-        npts_all = len(rtl["leg"])
-        sub = None
-        if rtl_subset is not None:
-            sub = np.asarray(rtl_subset, int)
-            if (sub.ndim != 1 or not sub.size or sub[-1] != npts_all - 1
-                    or np.any(np.diff(sub) <= 0) or sub[0] < 0):
-                raise ValueError("rtl_subset must be increasing point indices ending with the "
-                                 f"mission's end ({npts_all - 1})")
-            if keep:
-                raise ValueError("rtl_subset runs keep no per-leg detail (detail=False)")
-
-            def cut(v):
-                return v[sub] if np.ndim(v) and np.shape(v)[0] == npts_all else v
-
-            rtl = {key: (tuple(cut(x) for x in v) if isinstance(v, tuple) else cut(v))
-                   for key, v in rtl.items()}
-        npts = len(rtl["leg"])
-        rho0 = float(table.air_density[-1])
-        hold = prof.hold_state(ac, rho0, env.wind_speed_ms)
-        groups = [(table.airspeed_ms, table.climb_rate_ms, table.air_density,
-                   table.load_factor), rtl["back"], rtl["down"], hold]
-        sizes = [n, npts, npts, 1]
-        cols = [np.concatenate([np.broadcast_to(np.asarray(g[c], float), (s,))
-                                for g, s in zip(groups, sizes)]) for c in range(4)]
-        ptable = PowerTable(ac, *cols, masses=mass, method=power_method)
-        inv = ptable.inverse
-        i_leg, i_back = inv[:n], inv[n:n + npts]
-        i_down, i_hold = inv[n + npts:n + 2 * npts], inv[-1]
-        dur = table.duration_s
-        t_back, t_down = rtl["t_back"], rtl["t_down"]
-        f_points = np.linspace(0.0, 1.0, RTL_POINTS_PER_LEG)
-
-        # the equivalent-circuit (and thermal) model of the packs that use it: its cut-off
-        # may lower the usable charge, which the reserves below are judged against
-        circuit = {name: np.full(k, np.nan) for name in CIRCUIT_FIGURES}
-        temp_bad = np.zeros(k, bool)
-        which = [i for i, m in enumerate(self.models) if m == "circuit"]
-        run = None
-        if which:
-            run = self._circuit(table, which, ptable, i_leg, i_hold, mass, temp)
-            for name, values in run["figures"].items():
-                circuit[name][which] = values
-            cut_usable = run["usable_as"] * soh[which]
-            lower = cut_usable < usable[which]
-            idx = np.asarray(which)[lower]
-            usable[idx] = cut_usable[lower]
-            limit[idx] = usable[idx] - self.reserve * cap[idx]
-            temp_bad[which] = run["temperature_bad"]
-
-        out = {name: np.empty(k) for name in ("used", "energy", "peak", "rtl_min", "s_final",
-                                              "p_hold", "p_undeliverable", "p_max")}
-        pnr_index = np.full(k, -1, dtype=int)
-        peak_leg = np.zeros(k, dtype=int)
-        undeliverable = np.full(k, -1, dtype=int)
-        det = {name: np.empty((k, n)) for name in (
-            "power_w", "current_a", "voltage_v", "charge_mah", "charge_end_mah",
-            "rtl_margin_mah", "stress_end")} if keep else None
-        if keep:
-            for name in ("rtl_point_margin_mah", "rtl_point_charge_mah", "rtl_back_power_w",
-                         "rtl_down_power_w"):
-                det[name] = np.empty((k, npts))
-        if sub is not None:
-            det = {name: np.empty((k, npts)) for name in ("rtl_point_margin_mah",
-                                                          "rtl_point_charge_mah")}
-        block = max(1, int(block_elements // max(npts, len(ptable.states), 1)))
-        for b0 in range(0, k, block):
-            sl = slice(b0, min(k, b0 + block))
-            delta, eps, beta = (pa[x][sl, None] for x in ("delta", "eps", "beta"))
-            sc, cp, rr, cells = (pa[x][sl, None] for x in ("scale", "cap", "r", "cells"))
-            lp_u = ptable.log_power(mass[sl])
-            r_u = integral.stress_rate_from_log_power(lp_u, delta, eps)
-            out["p_hold"][sl] = np.exp(lp_u[:, i_hold])
-            if not keep:
-                # one compiled pass over the legs of every pack (same figures as below)
-                s_end, inc = np.empty((sl.stop - sl.start, n)), np.empty((sl.stop - sl.start, n))
-                (out["used"][sl], out["energy"][sl], out["peak"][sl], peak_leg[sl],
-                 undeliverable[sl], out["p_undeliverable"][sl], out["p_max"][sl]) = \
-                    _legs_kernel(np.ascontiguousarray(lp_u[:, i_leg]), r_u[:, i_leg].copy(),
-                                 np.asarray(dur, float), pa["beta"][sl], pa["scale"][sl],
-                                 pa["cap"][sl], pa["r"][sl], pa["cells"][sl], s_end, inc)
-                out["s_final"][sl] = s_end[:, -1]
-                s_start = s_end - inc
-            else:
-                power = np.exp(lp_u[:, i_leg])
-                inc = dur * r_u[:, i_leg]
-                s_end = np.cumsum(inc, axis=1)
-                s_start = s_end - inc
-                c_end = sc * integral.charge_from_stress(s_end, beta)
-                c_start = np.concatenate([np.zeros((c_end.shape[0], 1)), c_end[:, :-1]],
-                                         axis=1)
-                out["used"][sl] = c_end[:, -1]
-                out["s_final"][sl] = s_end[:, -1]
-                out["energy"][sl] = power @ dur / 3600.0
-
-                # loaded current and voltage (open-circuit curve + pack resistance)
-                soc_mid = 1.0 - 0.5 * (c_start + c_end) / cp
-                current = loaded_current(power, cells * lipo_ocv(soc_mid), rr)
-                finite = np.isfinite(current)
-                cur = np.where(finite, current, -np.inf)
-                peak_leg[sl] = np.argmax(cur, axis=1)
-                peak = cur.max(axis=1)
-                out["peak"][sl] = np.where(np.isfinite(peak), peak, np.nan)
-                bad_i = ~finite & np.isfinite(power)
-                first = np.where(bad_i.any(axis=1), np.argmax(bad_i, axis=1), -1)
-                undeliverable[sl] = first
-                rows_b = np.arange(power.shape[0])
-                j = np.maximum(first, 0)
-                out["p_undeliverable"][sl] = power[rows_b, j]
-                v_oc = cells[:, 0] * lipo_ocv(soc_mid[rows_b, j])
-                with np.errstate(divide="ignore"):
-                    out["p_max"][sl] = v_oc**2 / (4.0 * rr[:, 0])
-
-            # return-home reserve, on stresses: S_point + S_return <= (limit/scale)^beta
-            total = r_u[:, i_back] * t_back
-            total += r_u[:, i_down] * t_down
-            if sub is None:
-                s_point = (s_start[:, :, None] + inc[:, :, None] * f_points).reshape(
-                    total.shape)
-            else:
-                s_point = s_start[:, rtl["leg"]] + inc[:, rtl["leg"]] * rtl["frac"]
-            s_point[:, -1] = s_end[:, -1]
-            total += s_point
-            total[:, -1] = s_end[:, -1]   # the mission's own end: the landing reserve
-            total[np.isnan(total)] = np.inf
-            lim = limit[sl]
-            s_lim = np.where(lim >= 0, integral.stress_from_charge(
-                np.maximum(lim, 0.0) / pa["scale"][sl], pa["beta"][sl]), -np.inf)
-            bad = total[:, :-1] > s_lim[:, None]
-            pnr_index[sl] = np.where(bad.any(axis=1), np.argmax(bad, axis=1), -1)
-            t_max = total.max(axis=1)
-            rows = np.flatnonzero(~np.isfinite(t_max))
-            if rows.size:  # largest finite total where some return is impossible
-                t_max[rows] = np.where(np.isfinite(total[rows]), total[rows],
-                                       -np.inf).max(axis=1)
-            with np.errstate(invalid="ignore"):
-                rtl_min = lim - pa["scale"][sl] * integral.charge_from_stress(
-                    t_max, pa["beta"][sl])
-            out["rtl_min"][sl] = np.where(np.isfinite(t_max), rtl_min, -np.inf)
-            if sub is not None:
-                with np.errstate(invalid="ignore"):
-                    c_total = sc * integral.charge_from_stress(total, beta)
-                    det["rtl_point_margin_mah"][sl] = np.where(
-                        np.isfinite(total), lim[:, None] - c_total, -np.inf) / AS_PER_MAH
-                    det["rtl_point_charge_mah"][sl] = np.where(
-                        np.isfinite(total), c_total - sc * integral.charge_from_stress(
-                            s_point, beta), np.inf) / AS_PER_MAH
-            if keep:
-                soc_end = 1.0 - c_end / cp
-                cur_end = loaded_current(power, cells * lipo_ocv(soc_end), rr)
-                v_end = cells * lipo_ocv(soc_end) - cur_end * rr
-                det["power_w"][sl] = power
-                det["current_a"][sl] = current
-                det["voltage_v"][sl] = np.where(np.isnan(cur_end), np.nan, v_end)
-                det["charge_mah"][sl] = (c_end - c_start) / AS_PER_MAH
-                det["charge_end_mah"][sl] = c_end / AS_PER_MAH
-                det["stress_end"][sl] = s_end
-                with np.errstate(invalid="ignore"):
-                    point = lim[:, None] - sc * integral.charge_from_stress(total, beta)
-                point = np.where(np.isfinite(total), point, -np.inf)
-                det["rtl_point_margin_mah"][sl] = point / AS_PER_MAH
-                # the return's own charge: from the stress at the point to its end
-                with np.errstate(invalid="ignore"):
-                    back_charge = sc * (integral.charge_from_stress(total, beta)
-                                        - integral.charge_from_stress(s_point, beta))
-                det["rtl_point_charge_mah"][sl] = np.where(
-                    np.isfinite(total), back_charge, np.inf) / AS_PER_MAH
-                det["rtl_back_power_w"][sl] = np.exp(lp_u[:, i_back])
-                det["rtl_down_power_w"][sl] = np.exp(lp_u[:, i_down])
-                det["rtl_margin_mah"][sl] = point.reshape(-1, n, RTL_POINTS_PER_LEG).min(
-                    axis=2) / AS_PER_MAH
-                _series_into(det, sl, table, power, s_start, s_end, sc, beta, cp)
-
-        used = out["used"]
-        margin = limit - used
-        if keep and run is not None:
-            det["voltage_v"][which] = run["leg_voltage_v"]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            margin_time = integral.time_to_charge(out["s_final"], out["p_hold"],
-                                                  np.maximum(limit, 0.0) / scale,
-                                                  pa["delta"], pa["eps"], pa["beta"])
-        margin_time = np.where(limit <= 0, -np.inf, margin_time)
-
-        violated = np.zeros((k, len(CHECK_CONSTRAINTS)), dtype=bool)
-
-        def mark(code, mask):
-            violated[:, CHECK_CONSTRAINTS.index(code)] = mask
-
-        mark("mission", np.full(k, bool(table.problems)))
-        mark("power", undeliverable >= 0)
-        imax = pa["imax"]
-        with np.errstate(invalid="ignore"):
-            mark("c_rating", np.isfinite(imax) & np.isfinite(out["peak"])
-                 & (out["peak"] > imax))
-        mtow = ac.max_takeoff_mass_kg
-        mark("takeoff_mass", np.full(k, False) if mtow is None else mass > mtow)
-        mark("temperature", temp_bad)
-        total_s = float(np.sum(dur))
-        with np.errstate(invalid="ignore"):
-            cut_in = np.isfinite(circuit["cutoff_time_s"]) & (circuit["cutoff_time_s"]
-                                                              <= total_s)
-        collapse = np.isfinite(circuit["collapse_time_s"])
-        mark("voltage", cut_in | collapse)
-        usable_now = usable
-        runs_out = (used > usable_now) & (usable_now >= pa["usable"])
-        mark("runs_out", runs_out)
-        mark("landing_reserve", ~runs_out & (margin < 0))
-        mark("return_home", pnr_index >= 0)
-
-        return ChainResult(
-            packs=list(packs), battery_models=list(self.models), aircraft=ac,
-            mission=mission, environment=flown_env, table=table,
-            reserve_fraction=self.reserve, payload_kg=payload, takeoff_mass_kg=mass,
-            pack_mass_kg=pa["mass"], capacity_mah=cap / AS_PER_MAH,
-            usable_mah=usable / AS_PER_MAH, reserve_mah=self.reserve * cap / AS_PER_MAH,
-            charge_used_mah=used / AS_PER_MAH, margin_mah=margin / AS_PER_MAH,
-            remaining_fraction=1.0 - used / cap, margin_time_s=margin_time,
-            hold_power_w=out["p_hold"], energy_wh=out["energy"],
-            rtl_min_margin_mah=out["rtl_min"] / AS_PER_MAH, pnr_index=pnr_index,
-            peak_current_a=out["peak"], peak_leg=peak_leg, undeliverable_leg=undeliverable,
-            max_current_a=imax, circuit=circuit, violated=violated,
-            undeliverable_power_w=out["p_undeliverable"], deliverable_max_w=out["p_max"],
-            rtl_points={key: rtl[key] for key in ("leg", "time_s", "east_m", "north_m",
-                                                  "altitude_m", "distance_m", "t_back",
-                                                  "t_down")},
-            power_method=ptable.method, detail=det)
-
-    def _circuit(self, table, which, ptable, i_leg, i_hold, mass, temp) -> dict:
-        """:meth:`_circuit_unique` of the distinct (pack, take-off mass) pairs of ``which``,
-        spread back over ``which``: the samples of a Monte Carlo run share one pack file
-        and differ in the circuit model only by their mass."""
-        keys = [(id(self.packs[i]), float(mass[i])) for i in which]
-        first: dict = {}
-        inv = np.array([first.setdefault(key, len(first)) for key in keys])
-        if len(first) == len(which):
-            return self._circuit_unique(table, which, ptable, i_leg, i_hold, mass, temp)
-        reps = np.zeros(len(first), int)
-        reps[inv[::-1]] = np.arange(len(which))[::-1]    # first row of each pair
-        run = self._circuit_unique(table, [which[j] for j in reps], ptable, i_leg, i_hold,
-                                   mass, temp)
-        return {"figures": {k: v[inv] for k, v in run["figures"].items()},
-                "usable_as": run["usable_as"][inv], "leg_voltage_v": run["leg_voltage_v"][inv],
-                "temperature_bad": run["temperature_bad"][inv]}
-
-    def _circuit_unique(self, table, which, ptable, i_leg, i_hold, mass, temp) -> dict:
-        """The circuit (and thermal) model of the packs ``which`` along the mission.
-
-        The mission's power profile is run at :data:`CIRCUIT_STEP_S` through the coupled
-        circuit and thermal model from a full pack at the air temperature
-        (:data:`DEFAULT_PACK_TEMPERATURE_C` where none is given), then continued at the
-        hold power until the loaded cell voltage reaches ``cell_voltage_empty_v``: the
-        charge drawn by then is the charge the pack can really give at this load and
-        temperature. Only what happens during the mission grounds the flight (the run
-        after it only finds the usable charge). Air outside the model's temperature range
-        is run at the range's edge and grounds the flight (the model cannot vouch for it).
-        """
-        packs = [self.packs[i] for i in which]
-        t_pack = DEFAULT_PACK_TEMPERATURE_C if temp is None else float(temp)
-        t_model = min(max(t_pack, T_RANGE_C[0]), T_RANGE_C[1])
-        params = [p.circuit_parameters() for p in packs]
-        thermal = [None if p.thermal is None else p.thermal_parameters().with_air(t_model)
-                   for p in packs]
-        total = float(table.end_time_s[-1]) if len(table) else 0.0
-        t_m = np.union1d(np.arange(0.0, total, CIRCUIT_STEP_S), table.start_time_s)
-        t_x = total + np.arange(0.0, CIRCUIT_EXTEND_S, CIRCUIT_EXTEND_STEP_S)
-        t = np.concatenate((t_m, t_x))
-        n = len(table)
-        leg = np.clip(np.searchsorted(table.end_time_s, t, side="right"), 0, n - 1)
-        step_col = np.where(t < total, leg, n)
-        log_p = ptable.log_power(mass[which])
-        load = np.exp(np.concatenate([log_p[:, i_leg], log_p[:, [i_hold]]], axis=1))
-        probes = np.clip(np.searchsorted(t, table.end_time_s, side="left") - 1, 0, len(t) - 1)
-        window = int(np.sum(t < total))
-        cells = np.array([p.cells_series for p in packs], float)
-        v_empty = np.array([p.cell_voltage_empty_v for p in packs])
-        m = len(which)
-        fig = {name: np.full(m, np.nan) for name in CIRCUIT_FIGURES}
-        usable = np.empty(m)
-        leg_v = np.empty((m, n))
-        hot = np.zeros(m, bool)
-        # packs differ in the cut-off event only through cell_voltage_empty_v: group them
-        for v_cut in np.unique(v_empty):
-            rows = np.flatnonzero(v_empty == v_cut)
-            r = simulate_packs([params[j] for j in rows], t, load[rows], step_col=step_col,
-                               temperature_c=t_model, thermal=[thermal[j] for j in rows],
-                               v_cutoff_cell=float(v_cut), window=window, probes=probes,
-                               stop_when_all_cut=True)
-            fig["min_voltage_v"][rows] = r.window_min_voltage_v
-            fig["voltage_margin_v"][rows] = r.window_min_voltage_v - cells[rows] * v_cut
-            fig["worst_leg"][rows] = leg[r.window_min_step]
-            fig["cutoff_time_s"][rows] = r.cutoff_time_s
-            fig["max_temperature_c"][rows] = r.window_max_temperature_c
-            fig["charge_used_mah"][rows] = r.window_end_charge_as / AS_PER_MAH
-            fig["cutoff_leg"][rows] = _leg_at(table, r.cutoff_time_s)
-            with np.errstate(invalid="ignore"):
-                inside = r.undeliverable_time_s <= total
-            fig["collapse_time_s"][rows] = np.where(inside, r.undeliverable_time_s, np.nan)
-            fig["collapse_leg"][rows] = _leg_at(table, r.undeliverable_time_s)
-            fig["collapse_power_w"][rows] = load[rows, _leg_at(table, r.undeliverable_time_s)]
-            fig["hot_time_s"][rows] = np.where(r.out_of_range_in_window,
-                                               r.out_of_range_time_s, np.nan)
-            fig["hot_temperature_c"][rows] = np.where(r.out_of_range_in_window,
-                                                      r.out_of_range_temperature_c, np.nan)
-            hot[rows] = r.out_of_range_in_window
-            leg_v[rows] = r.probe_voltage_v
-            # no cut-off within the run: the charge drawn by its end
-            usable[rows] = np.where(np.isfinite(r.cutoff_charge_as), r.cutoff_charge_as,
-                                    r.end_charge_as)
-        fig["pack_temperature_c"][:] = t_pack
-        fig["charge_to_cutoff_mah"] = usable / AS_PER_MAH
-        return {"figures": fig, "usable_as": usable, "leg_voltage_v": leg_v,
-                "temperature_bad": hot | (t_pack != t_model)}
+        inputs = steps.chain_inputs(
+            self.aircraft, self.packs, self.models, mission, environment,
+            temperature_c=self.temperature_c, reserve=self.reserve, payload_kg=payload_kg,
+            detail=detail, pack_samples=pack_samples)
+        states = steps.flight_states(inputs, rtl_subset)
+        power = steps.power_step(inputs, states, power_method)
+        circuit = steps.circuit_model(inputs, states, power)
+        budget = steps.charge_budget(inputs, circuit)
+        flown = steps.PackFigures(inputs, states)
+        for rows in steps.pack_blocks(len(self.packs), power, states, block_elements):
+            legs = steps.leg_figures(inputs, states, power, rows)
+            home = steps.return_home(inputs, states, power, budget, legs, rows)
+            flown.store(rows, inputs, states, power, legs, home)
+        flown.circuit_voltages(circuit)
+        violated = steps.constraints(inputs, states, circuit, budget, flown)
+        return ChainResult.of_run(inputs, states, power, circuit, budget, flown, violated)
 
     # ------------------------------------------------------------------ measured data
     def battery_from_power(self, time_s, power_w, *, temperature_c=None,
@@ -983,7 +645,7 @@ class MissionChain:
         model = self.packs[pack_index].model
         t = np.asarray(time_s, float)
         p = np.nan_to_num(np.asarray(power_w, float))
-        temp = (filled_temperature(temperature_c)
+        temp = (fill_gaps(temperature_c)
                 if temperature_c is not None and model.temperature_coefficient_per_c
                 else None)
         base = integral.charge(t, p, model.delta, model.epsilon, model.beta)
@@ -1054,141 +716,3 @@ class MissionChain:
         power = np.asarray(ac.battery_power(v, climb_rate_ms, air_density, mass_kg, **extra),
                            float)
         return np.where(on_ground, ac.system_power_w, power)
-
-
-# --------------------------------------------------------------------------- helpers
-
-def filled_temperature(temperature_c) -> np.ndarray | None:
-    """Temperatures with missing samples filled from the nearest valid ones; ``None``
-    when there are none. [°C]"""
-    if temperature_c is None:
-        return None
-    temp = np.asarray(temperature_c, dtype=float).ravel()
-    ok = np.isfinite(temp)
-    if not ok.any():
-        return None
-    if not ok.all():
-        idx = np.arange(temp.size)
-        temp = np.interp(idx, idx[ok], temp[ok])
-    return temp
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _ocv_cell(soc):
-    """:func:`planner.physics.battery.ocv.lipo_ocv` for one value (compiled). [V]"""
-    s = min(max(soc, 0.0), 1.0)
-    return -1.031 * np.exp(-35.0 * s) + 3.685 + s * (0.2156 + s * (-0.1178 + 0.3201 * s))
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _current(p, v, r):
-    """:func:`planner.physics.battery.circuit.loaded_current` for one value (compiled). [A]"""
-    if not r > 0:
-        return p / v
-    disc = v * v - 4.0 * r * p
-    if disc >= 0:
-        return (v - np.sqrt(disc)) / (2.0 * r)
-    return np.nan
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _legs_kernel(lp_leg, rate_leg, dur, beta, scale, cap, r, cells, s_end, inc):
-    r"""The per-leg figures of :meth:`MissionChain.run` for every pack in one pass.
-
-    The same equations as the array code of ``run`` (which keeps the per-leg detail):
-    stress increments and their sum, the charge :math:`C = S^{1/\beta}` ([UAV23] eq. 14)
-    × the extensions' scale, the energy, and the loaded current at the mid-leg state of
-    charge through the pack resistance (its peak, and the first leg whose power the pack
-    cannot deliver). Fills ``s_end`` and ``inc`` (packs × legs) and returns per pack:
-    charge used [A s], energy [Wh], peak current [A] (NaN: none), its leg, the first
-    undeliverable leg (−1: none), that leg's power [W] and the most the pack delivers
-    there [W].
-    """
-    k, n = lp_leg.shape
-    used = np.empty(k)
-    energy = np.empty(k)
-    peak = np.empty(k)
-    peak_leg = np.zeros(k, np.int64)
-    first = np.full(k, -1, np.int64)
-    p_bad = np.empty(k)
-    p_max = np.empty(k)
-    for i in range(k):
-        s = 0.0
-        c_prev = 0.0
-        e = 0.0
-        best = -np.inf
-        best_j = 0
-        soc_first = 0.0
-        for j in range(n):
-            d = dur[j] * rate_leg[i, j]
-            inc[i, j] = d
-            s += d
-            s_end[i, j] = s
-            if s > 0:
-                c = scale[i] * np.exp(np.log(s) / beta[i])
-            elif np.isnan(s):
-                c = np.nan
-            else:
-                c = 0.0
-            p = np.exp(lp_leg[i, j])
-            e += p * dur[j]
-            soc = 1.0 - 0.5 * (c_prev + c) / cap[i]
-            if j == 0:
-                soc_first = soc
-            cur = _current(p, cells[i] * _ocv_cell(soc), r[i])
-            if np.isfinite(cur):
-                if cur > best:
-                    best = cur
-                    best_j = j
-            elif np.isfinite(p) and first[i] < 0:
-                first[i] = j
-                p_bad[i] = p
-                v_oc = cells[i] * _ocv_cell(soc)
-                p_max[i] = v_oc * v_oc / (4.0 * r[i])
-            c_prev = c
-        used[i] = c_prev
-        energy[i] = e / 3600.0
-        peak[i] = best if np.isfinite(best) else np.nan
-        peak_leg[i] = best_j
-        if first[i] < 0:
-            p_bad[i] = np.exp(lp_leg[i, 0])
-            v_oc = cells[i] * _ocv_cell(soc_first)
-            p_max[i] = v_oc * v_oc / (4.0 * r[i])
-    return used, energy, peak, peak_leg, first, p_bad, p_max
-
-
-def _pack_arrays(packs, temperature_c):
-    """Per-pack parameters as arrays (one Python pass over the packs).
-
-    The totals are those of :class:`~planner.parameters.BatteryPack` (``count`` packs
-    in parallel: mass and capacity × count, resistance ÷ count).
-    """
-    nan = float("nan")
-    rows = [(p.mass_kg, p.count, p.capacity_mah, p.usable_fraction,
-             nan if p.internal_resistance_ohm is None else p.internal_resistance_ohm,
-             nan if p.max_discharge_c is None else p.max_discharge_c, p.cells_series,
-             p.model.delta, p.model.epsilon, p.model.beta,
-             p.model.charge_scale(temperature_c)
-             if (p.model.fade_per_cycle or p.model.temperature_coefficient_per_c) else 1.0)
-            for p in packs]
-    (m, count, cap_mah, frac, r, c_rate, cells, delta, eps, beta,
-     scale) = np.array(rows, dtype=float).T
-    total_mah = cap_mah * count
-    return {"mass": m * count, "cap": total_mah * AS_PER_MAH,
-            "usable": total_mah * AS_PER_MAH * frac,
-            "r": np.nan_to_num(r, nan=0.0) / count, "imax": c_rate * total_mah / 1000.0,
-            "cells": cells, "delta": delta, "eps": eps, "beta": beta, "scale": scale}
-
-
-def _series_into(det, sl, table, power, s_start, s_end, scale, beta, cap, points=12):
-    """Power and remaining charge sampled inside every leg (for plots)."""
-    f = np.linspace(0.0, 1.0, points)
-    t = (table.start_time_s[:, None] + f * table.duration_s[:, None]).ravel()
-    s = (s_start[:, :, None] + f * (s_end - s_start)[:, :, None]).reshape(s_start.shape[0], -1)
-    rows = range(sl.start, sl.stop)
-    for j, i in enumerate(rows):
-        det.setdefault("series_time_s", {})[i] = t
-        det.setdefault("series_power_w", {})[i] = np.repeat(power[j], points)
-        det.setdefault("series_remaining_fraction", {})[i] = (
-            1.0 - scale[j] * integral.charge_from_stress(s[j], beta[j]) / cap[j])
-        det.setdefault("series_leg", {})[i] = np.repeat(np.arange(len(table)), points)

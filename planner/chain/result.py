@@ -1,8 +1,8 @@
 """The pre-flight check's answer for one pack: :class:`MissionResult`.
 
 The check itself is the one-pack case of the mission chain
-(:meth:`planner.chain.mission_chain.MissionChain.check`); this module holds the result a pilot reads:
-verdict, reasons, margins, the per-leg table and the series for the plot.
+(:meth:`planner.chain.mission_chain.MissionChain.check`); this module holds the result a
+pilot reads: verdict, reasons, margins, the per-leg table and the series for the plot.
 """
 
 from __future__ import annotations
@@ -14,10 +14,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from planner.chain.mission_chain import MissionChain
 from planner.physics.mission import Environment
 
-__all__ = ["MissionChain", "MissionResult"]
+__all__ = ["MissionResult"]
 
 
 @dataclass
@@ -65,7 +64,7 @@ class MissionResult:
     environment : Environment
         The weather flown, with the air temperature actually used. [m/s, deg, °C]
     binding : str or None
-        The first violated check constraint (:data:`planner.chain.mission_chain.CHECK_CONSTRAINTS`);
+        The first violated check constraint (:data:`planner.chain.steps.CHECK_CONSTRAINTS`);
         None for GO.
     cutoff_limited : bool
         The circuit model's voltage cut-off, not the nominal charge, sets the usable

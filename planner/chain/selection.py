@@ -23,7 +23,8 @@ import numpy as np
 import pandas as pd
 
 from planner.physics.atmosphere import G
-from planner.chain.mission_chain import CHECK_CONSTRAINTS, ChainResult, MissionChain
+from planner.chain.mission_chain import ChainResult, MissionChain
+from planner.chain.steps import CHECK_CONSTRAINTS
 from planner.errors import InputError
 from planner.physics.mission import Environment, Mission
 from planner.parameters import Aircraft, BatteryPack
@@ -50,8 +51,8 @@ CONSTRAINTS = ("mission", "cells", "thrust") + CHECK_CONSTRAINTS[1:]
 @dataclass
 class PackEvaluation:
     """Every pack of a catalog on one mission: the chain's result plus the selection's
-    own constraints (arrays: one element per pack; see :class:`planner.chain.mission_chain.ChainResult`
-    for the figures and their units).
+    own constraints (arrays: one element per pack; see
+    :class:`planner.chain.mission_chain.ChainResult` for the figures and their units).
 
     Attributes
     ----------

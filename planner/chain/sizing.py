@@ -13,7 +13,7 @@ Three questions a UAV operator asks before buying packs or planning a long job:
   against payload, for a given pack.
 * **How many sorties?** :func:`plan_sorties` — when no single pack flies the mission,
   split the leg list into sorties that each fly home → start point → legs → home
-  and pass :meth:`planner.chain.result.MissionChain.run` with the reserves.
+  and pass :meth:`planner.chain.mission_chain.MissionChain.run` with the reserves.
 
 All three use the same models as ``check``: the aircraft's battery power
 (:meth:`planner.parameters.Aircraft.battery_power`, :func:`planner.chain.kinematics.hold_power`)
@@ -32,8 +32,10 @@ from scipy.optimize import minimize_scalar
 
 from planner.chain import kinematics as prof
 from planner.physics.battery import integral
-from planner.chain.result import MissionChain, MissionResult
+from planner.chain.mission_chain import MissionChain
+from planner.chain.result import MissionResult
 from planner.errors import InputError
+from planner.physics.atmosphere import G
 from planner.physics.mission import Environment, Leg, Mission
 from planner.parameters import Aircraft, BatteryPack, IntegralModel
 from planner.physics.units import AS_PER_MAH
@@ -48,7 +50,6 @@ __all__ = ["CHEMISTRIES", "EnduranceSweep", "RangeSweep", "Sortie", "SortiePlan"
 CHEMISTRIES = {"lipo": {"specific_energy_wh_per_kg": 150.0, "cell_voltage_v": 3.7},
                "liion": {"specific_energy_wh_per_kg": 220.0, "cell_voltage_v": 3.6}}
 
-G = prof.G
 
 
 # --------------------------------------------------------------------------- sweeps
@@ -326,7 +327,7 @@ def range_sweep(aircraft: Aircraft, pack: BatteryPack, payload_kg, *, reserve: f
     :math:`R = V\, t(P(V))` with :math:`t` the time at constant power from full to
     the reserve (:func:`planner.physics.battery.integral.time_to_charge`), at the cruise speed
     and at the best-range airspeed :math:`\arg\min_V P(V)/V`
-    (:func:`planner.power.speeds.best_speeds`). Climb and descent are not included;
+    (:func:`planner.physics.power.speeds.best_speeds`). Climb and descent are not included;
     the radius of action (out and back) is half the range.
     """
     from planner.physics.power.speeds import best_speeds
@@ -580,12 +581,13 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
 
     Each sortie is made as long as possible: every leg end after its start is tried
     (until the route alone would exceed the pack's charge budget), the furthest one
-    whose sortie passes :meth:`planner.chain.result.MissionChain.run` is kept, and the sortie
-    is then extended into the next leg by bisection on the fraction flown (a long
-    cruise leg is cut at an interior point). Greedy furthest-reach splitting gives
-    the minimum number of sorties when a shorter piece of the route is never harder
-    to fly than a longer piece containing it; :attr:`SortiePlan.lower_bound` gives a
-    bound no split can beat, and :attr:`SortiePlan.minimal` says when it is reached.
+    whose sortie passes :meth:`planner.chain.mission_chain.MissionChain.run` is kept, and
+    the sortie is then extended into the next leg by bisection on the fraction flown (a
+    long cruise leg is cut at an interior point; :class:`_SortieSearch`). Greedy
+    furthest-reach splitting gives the minimum number of sorties when a shorter piece of
+    the route is never harder to fly than a longer piece containing it;
+    :attr:`SortiePlan.lower_bound` gives a bound no split can beat, and
+    :attr:`SortiePlan.minimal` says when it is reached.
 
     Raises
     ------
@@ -599,85 +601,111 @@ def plan_sorties(mission: Mission, aircraft: Aircraft, pack: BatteryPack,
     n = len(mission.legs)
     if n == 0:
         raise InputError(f"{mission.source or mission.name}: the mission has no legs")
-    chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature_c)
-    flown = chain.run(mission, env, detail=True)
-    whole = flown.mission_result(0)
-    legs = whole.legs
-    # the chain's integral-model stress per leg: additive, so a route's share is a sum
-    cum = np.concatenate([[0.0], flown.detail["stress_end"][0]])
-    leg_stress = np.diff(cum)
-    scale = float(np.asarray(pack.model.charge_scale(flown.environment.temperature_c)))
-    limit_mah = whole.usable_mah - whole.reserve_mah
-    s_lim = integral.stress_from_charge(max(limit_mah, 0.0) * AS_PER_MAH / scale,
-                                        pack.model.beta)
-
-    def route_stress(a, b):
-        """Stress of the route between positions a and b (legs at constant power)."""
-        def at(p):
-            i = min(math.floor(p), n - 1)
-            return cum[i] + (p - i) * leg_stress[i]
-        return at(b) - at(a)
-
-    def run(a, b, k):
-        return chain.check(sortie_mission(mission, a, b, k), env)
-
-    def flies(r):
-        """GO with SPLIT_MARGIN_MAH to spare: the sortie's mission file, its positions
-        rounded to the file's precision, still passes the check."""
-        return (r.go and r.margin_mah >= SPLIT_MARGIN_MAH
-                and r.rtl_min_margin_mah >= SPLIT_MARGIN_MAH)
-
+    search = _SortieSearch(mission, MissionChain(aircraft, pack, reserve=reserve,
+                                                 temperature_c=temperature_c), env)
     sorties: list[Sortie] = []
     a = 0.0
     while a < n:
         k = len(sorties) + 1
         if k > max_sorties:
             raise InputError(f"more than {max_sorties} sorties needed with {pack.name}")
-        best_b, best_r = None, None
-        for j in range(math.floor(a) + 1, n + 1):
-            if route_stress(a, j) > s_lim:
-                break                      # the route alone already exceeds the budget
-            r = run(a, j, k)
-            if flies(r):
-                best_b, best_r = float(j), r
-        lo = best_b if best_b is not None else a
-        leg = min(math.floor(lo), n - 1) if lo < n else n
-        if lo < n:
-            hi = float(leg + 1)
-            for _ in range(BISECTION_STEPS):
-                mid = 0.5 * (lo + hi)
-                if mid <= a:
-                    break
-                r = run(a, mid, k)
-                if flies(r):
-                    lo, best_b, best_r = mid, mid, r
-                else:
-                    hi = mid
-        if best_b is None or best_b <= a:
-            e, nn, h = _point(mission.legs, a)
-            raise InputError(f"{pack.name} cannot fly any part of the route from "
-                             f"{mission.legs[min(int(a), n - 1)].origin or 'leg'} "
-                             f"({math.hypot(e, nn):.0f} m from home, {h:.0f} m up) and "
-                             "back with the reserve")
-        sorties.append(Sortie(k, a, best_b, sortie_mission(mission, a, best_b, k), best_r))
-        a = best_b
-    splits = []
-    for s in sorties[:-1]:
-        pos = s.end
-        i = min(math.floor(pos), n - 1)
-        f = pos - i
-        e, nn, h = _point(mission.legs, pos)
-        splits.append(SplitPoint(position=pos, leg=i, fraction=f,
-                                 time_s=float(legs.start_time_s.iloc[i]
-                                              + f * legs.duration_s.iloc[i]),
-                                 east_m=e, north_m=nn, altitude_m=h,
-                                 origin=mission.legs[i].origin or f"leg {i + 1}"))
-    lb = sortie_lower_bound(whole.charge_used_mah, limit_mah, pack.model.beta)
+        b, result = search.longest(a, k)
+        sorties.append(Sortie(k, a, b, sortie_mission(mission, a, b, k), result))
+        a = b
+    lb = sortie_lower_bound(search.whole.charge_used_mah, search.limit_mah, pack.model.beta)
     notes = []
     if len(sorties) > lb:
         notes.append(f"{len(sorties)} sorties; the charge bound allows {lb}: transit to "
                      "and from the split points costs the difference")
-    return SortiePlan(pack=pack, sorties=sorties, splits=splits, lower_bound=lb, notes=notes)
+    return SortiePlan(pack=pack, sorties=sorties,
+                      splits=[_split_point(mission, search.whole.legs, s.end)
+                              for s in sorties[:-1]], lower_bound=lb, notes=notes)
+
+
+class _SortieSearch:
+    """The furthest point of the route each sortie can reach (:func:`plan_sorties`).
+
+    The whole mission is flown once by the chain: its integral-model stress per leg is
+    additive, so the stress of a piece of the route is a sum, and a piece whose stress
+    alone exceeds the pack's budget :math:`(C_{limit}/s)^\\beta` needs no check.
+    """
+
+    def __init__(self, mission: Mission, chain: MissionChain, env: Environment):
+        self.mission, self.chain, self.env = mission, chain, env
+        self.n = len(mission.legs)
+        pack = chain.pack
+        flown = chain.run(mission, env, detail=True)
+        self.whole = flown.mission_result(0)
+        self.cum = np.concatenate([[0.0], flown.detail["stress_end"][0]])
+        self.leg_stress = np.diff(self.cum)
+        scale = float(np.asarray(pack.model.charge_scale(flown.environment.temperature_c)))
+        self.limit_mah = self.whole.usable_mah - self.whole.reserve_mah
+        self.s_lim = integral.stress_from_charge(
+            max(self.limit_mah, 0.0) * AS_PER_MAH / scale, pack.model.beta)
+
+    def route_stress(self, a: float, b: float) -> float:
+        """Stress of the route between positions a and b (legs at constant power).
+        [(A s)^β]"""
+        def at(p):
+            i = min(math.floor(p), self.n - 1)
+            return self.cum[i] + (p - i) * self.leg_stress[i]
+        return at(b) - at(a)
+
+    def check(self, a: float, b: float, k: int) -> MissionResult:
+        """The pre-flight check of sortie ``k`` from position ``a`` to ``b``."""
+        return self.chain.check(sortie_mission(self.mission, a, b, k), self.env)
+
+    @staticmethod
+    def flies(r: MissionResult) -> bool:
+        """GO with SPLIT_MARGIN_MAH to spare: the sortie's mission file, its positions
+        rounded to the file's precision, still passes the check."""
+        return (r.go and r.margin_mah >= SPLIT_MARGIN_MAH
+                and r.rtl_min_margin_mah >= SPLIT_MARGIN_MAH)
+
+    def longest(self, a: float, k: int) -> tuple[float, MissionResult]:
+        """The furthest end of sortie ``k`` from position ``a`` and its check: the last
+        leg end that flies, then into the next leg by :data:`BISECTION_STEPS` bisection
+        steps. Raises :class:`InputError` when no part of the route from ``a`` flies."""
+        n = self.n
+        best_b, best_r = None, None
+        for j in range(math.floor(a) + 1, n + 1):
+            if self.route_stress(a, j) > self.s_lim:
+                break                      # the route alone already exceeds the budget
+            r = self.check(a, j, k)
+            if self.flies(r):
+                best_b, best_r = float(j), r
+        lo = best_b if best_b is not None else a
+        if lo < n:
+            hi = float(min(math.floor(lo), n - 1) + 1)
+            for _ in range(BISECTION_STEPS):
+                mid = 0.5 * (lo + hi)
+                if mid <= a:
+                    break
+                r = self.check(a, mid, k)
+                if self.flies(r):
+                    lo, best_b, best_r = mid, mid, r
+                else:
+                    hi = mid
+        if best_b is None or best_b <= a:
+            e, nn, h = _point(self.mission.legs, a)
+            raise InputError(f"{self.chain.pack.name} cannot fly any part of the route from "
+                             f"{self.mission.legs[min(int(a), n - 1)].origin or 'leg'} "
+                             f"({math.hypot(e, nn):.0f} m from home, {h:.0f} m up) and "
+                             "back with the reserve")
+        return best_b, best_r
+
+
+def _split_point(mission: Mission, legs: pd.DataFrame, pos: float) -> SplitPoint:
+    """The point of the route at position ``pos`` (leg index + fraction), timed on the
+    single-flight timeline of ``legs`` (the check's leg table)."""
+    n = len(mission.legs)
+    i = min(math.floor(pos), n - 1)
+    f = pos - i
+    e, nn, h = _point(mission.legs, pos)
+    return SplitPoint(position=pos, leg=i, fraction=f,
+                      time_s=float(legs.start_time_s.iloc[i] + f * legs.duration_s.iloc[i]),
+                      east_m=e, north_m=nn, altitude_m=h,
+                      origin=mission.legs[i].origin or f"leg {i + 1}")
 
 
 def plan_long_mission(mission: Mission, aircraft: Aircraft, packs: list[BatteryPack],

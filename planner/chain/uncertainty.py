@@ -1,8 +1,8 @@
 r"""A probabilistic verdict: Monte Carlo of the mission through the one chain.
 
 Every input of the pre-flight check is uncertain. :func:`monte_carlo` draws the inputs,
-flies every draw through :class:`~planner.chain.mission_chain.MissionChain` — the chain's pack axis is
-the sample axis, each sample a variant of the pack (``pack_samples``) with its own payload
+flies every draw through :class:`~planner.chain.mission_chain.MissionChain` — the chain's
+pack axis is the sample axis, each sample a variant of the pack (``pack_samples``) with its own payload
 — and reports the probability of landing with the reserve, percentiles of the charge left
 on landing and of the smallest return-home margin, the conditional value at risk of the
 landing charge and which input drives the spread.
@@ -66,17 +66,19 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.special import ndtri
 
-from planner.chain.mission_chain import CHECK_CONSTRAINTS, ChainResult, MissionChain
+from planner.chain.mission_chain import ChainResult, MissionChain
+from planner.chain.steps import CHECK_CONSTRAINTS
 from planner.errors import InputError
+from planner.physics import atmosphere
+from planner.physics.battery import integral
 from planner.physics.mission import Environment, Mission
+from planner.physics.units import J_PER_WH, ZERO_CELSIUS_K
 
 __all__ = ["Spreads", "UncertaintyResult", "monte_carlo", "cvar"]
 
 #: Standard deviations within which a drawn value must stay physical (a capacity, δ, a
 #: payload): a spread that reaches zero inside this many is refused as bad input.
 PHYSICAL_SIGMAS = 4.0
-#: ISA lapse rate, for the site temperature when the forecast gives none. [K/m]
-ISA_LAPSE_K_PER_M = 0.0065
 #: Payload levels per weather draw (stratified; the power and circuit models run once per
 #: distinct take-off mass).
 PAYLOAD_LEVELS = 8
@@ -264,7 +266,7 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
     payload = mission.payload_kg if payload_kg is None else float(payload_kg)
     t_forecast = chain.temperature_c if chain.temperature_c is not None else env.temperature_c
     t_base = (t_forecast if t_forecast is not None
-              else 15.0 - ISA_LAPSE_K_PER_M * env.site_altitude_m)
+              else atmosphere.temperature(env.site_altitude_m) - ZERO_CELSIUS_K)
 
     # -- bad spreads: a drawn value must stay physical
     for name, value in (("wind_sd_ms", s.wind_sd_ms),
@@ -356,25 +358,26 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
     landing_ok = ok_land & (landing >= reserve - 1e-9)
 
     # -- variance split: standardised regression coefficients
-    p_mean, t_mission = (float(nominal.energy_wh[0]) * 3600.0 / max(nominal.duration_s, 1e-9),
+    p_mean, t_mission = (float(nominal.energy_wh[0]) * J_PER_WH / max(nominal.duration_s, 1e-9),
                          nominal.duration_s)
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        model_charge = (t_mission / (theta[:, 0] * p_mean ** theta[:, 1])) ** (1.0 / theta[:, 2])
+        model_charge = integral.charge_from_stress(
+            t_mission * integral.stress_rate(p_mean, theta[:, 0], theta[:, 1]), theta[:, 2])
     cov_origin = (f"{where}: model.covariance (fit-battery)" if cov is not None else
                   f"absent: {where} stores no model.covariance (fit-battery writes one)"
                   if pack.model.covariance is None else "not drawn")
     columns = [
         ("integral model δ, ε, β", model_charge, "covariance of the fit" if cov is not None
          else "—", cov_origin),
-        ("wind speed", wind[group], f"±{s.wind_sd_ms:g} m/s", "--wind-sd"),
-        ("wind direction", direction[group], f"±{s.wind_direction_sd_deg:g}°", "--wind-sd"),
+        ("wind speed", wind[group], f"±{s.wind_sd_ms:g} m/s", "wind_sd_ms"),
+        ("wind direction", direction[group], f"±{s.wind_direction_sd_deg:g}°", "wind_direction_sd_deg"),
         ("gusts", (1.0 + (s.gust_factor - 1.0) * u[:, 3])[group] if weather_spread
          else np.ones(samples), f"factor {s.gust_factor:g}",
-         "--gust: effective wind uniform between the mean and factor × mean"),
-        ("air temperature", temp[group], f"±{s.temperature_sd_c:g} °C", "--temperature-sd"),
+         "gust_factor: effective wind uniform between the mean and factor × mean"),
+        ("air temperature", temp[group], f"±{s.temperature_sd_c:g} °C", "temperature_sd_c"),
         ("state of health", soh_eff, f"{s.soh:g}±{s.soh_sd:g}",
-         "--soh: usable charge × SoH"),
-        ("payload", pay, f"±{s.payload_sd_kg:g} kg", "--payload-sd"),
+         "soh: usable charge × SoH"),
+        ("payload", pay, f"±{s.payload_sd_kg:g} kg", "payload_sd_kg"),
     ]
     sources, xs, names = [], [], []
     for name, x, spread, origin in columns:

@@ -1,7 +1,7 @@
 """Command line: ``endurance <command> ...`` (also ``python -m planner``).
 
 Argparse only; every command calls importable library functions. Exit status
-(DESIGN §7): 0 success (``check``: GO), 1 ``check`` says NO-GO, 2 bad input
+(docs/commands.md): 0 success (``check``: GO), 1 ``check`` says NO-GO, 2 bad input
 (one line on stderr naming the file, the field and what was expected),
 3 unexpected internal error.
 
@@ -21,7 +21,7 @@ import warnings
 
 from planner import __version__
 from planner.io import files
-from planner.errors import InputError, ModelError, PlannerError
+from planner.errors import InputError, ModelError, PlannerError, WrongFileError
 
 #: Modules that each register one or more sub-commands, in help order.
 COMMAND_MODULES = (
@@ -68,9 +68,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: Options (``dest``) that name output files: all checked against every file the command
-#: read before its first write (:mod:`planner.io.files`).
+#: Options (``dest``) that name outputs: all checked before the command starts (read-only
+#: files are not replaced) and against every file the command reads
+#: (:mod:`planner.io.files`). A command whose output option names a folder sets
+#: ``output_folders`` (the flags) in its parser's defaults.
 OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out")
+
+
+#: Where each kind of file is given, by the option (``dest``) that takes it: the first of
+#: the command's options.
+KIND_OPTIONS = {"battery pack": ("battery", "packs"), "aircraft": ("aircraft",),
+                "pack catalog": ("packs",), "mission": ("mission",)}
+
+
+def where_to_give(kind: str, args) -> str:
+    """``": give it as --battery"``: the option of this command that takes a file of
+    ``kind`` (a mission is the command's first argument); "" when it has none."""
+    for dest in KIND_OPTIONS.get(kind, ()):
+        if dest in vars(args):
+            return (": give it as the mission (the first argument)" if dest == "mission"
+                    else f": give it as --{dest}")
+    return ""
 
 
 def _format_warning(message, category, filename, lineno, line=None):
@@ -90,11 +108,14 @@ def main(argv: list[str] | None = None) -> int:
     to_stdout = "-" in outputs.values()
     saved = sys.stdout
     try:
-        files.reset(outputs)
+        files.reset(outputs, folders=tuple(getattr(args, "output_folders", ())))
         if to_stdout:
             # standard output carries that output alone; the command's text goes to stderr
             files.STDOUT, sys.stdout = saved, sys.stderr
         return int(args.func(args))
+    except WrongFileError as exc:
+        print(f"error: {exc}{where_to_give(exc.kind, args)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except (InputError, ModelError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -115,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return EXIT_INTERNAL
     finally:
+        files.finish()
         if to_stdout:
             sys.stdout, files.STDOUT = saved, None
 

@@ -88,6 +88,10 @@ DIAGNOSE_WORST = 5
 BATCH_MAX = 32
 #: Flights ahead in which a pack's retirement is flagged (``--within``). [flights]
 WITHIN_DEFAULT = 50
+#: What the fleet's files are called in messages (the output folder's).
+OUTPUT = "fleet output"
+#: The ``pack_id_source`` of a pack named by the packs CSV.
+PACK_MAP = "packs CSV"
 
 
 @dataclass
@@ -205,7 +209,7 @@ def read_pack_map(path: str | os.PathLike, aircraft: dict | None = None
         if craft and aircraft is not None:
             if craft not in names:
                 raise InputError(f"{path}: row {k}: aircraft {craft!r} is none of the "
-                                 f"--aircraft (expected one of {', '.join(aircraft)})")
+                                 f"aircraft given (expected one of {', '.join(aircraft)})")
             craft = names[craft]
         name = Path(log).name
         if name in out and (out[name].pack or "") != pack:
@@ -218,19 +222,21 @@ def read_pack_map(path: str | os.PathLike, aircraft: dict | None = None
 def _check_out_dir(out_dir: Path) -> Path:
     out = out_dir.resolve()
     if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out_dir}: not a folder")
+        raise InputError(f"{out_dir}: not a folder (expected the output folder)")
     if not out.parent.is_dir():
-        raise InputError(f"--out {out_dir}: folder {out.parent} does not exist")
+        raise InputError(f"{out_dir}: folder {out.parent} does not exist (expected the "
+                         "output folder in an existing one)")
     for name in files.inputs():
         real = Path(os.path.realpath(name))
         if real == out or out in real.parents:
-            raise InputError(f"--out {out_dir}: contains the input file {name}; outputs "
-                             "are never written among the inputs, expected another folder")
+            raise InputError(f"{out_dir}: the output folder contains the input file {name}; "
+                             "outputs are never written among the inputs, expected another "
+                             "folder")
     return out
 
 
 def _read_parquet(path: Path, what: str) -> pd.DataFrame | None:
-    """A table a previous run wrote into ``--out`` (None when there is none)."""
+    """A table a previous run wrote into the output folder (None when there is none)."""
     if not path.exists():
         return None
     p = files.own_output_path(path, "table", what)
@@ -238,7 +244,7 @@ def _read_parquet(path: Path, what: str) -> pd.DataFrame | None:
         return pd.read_parquet(p)
     except Exception as exc:  # noqa: BLE001 - pyarrow's errors are many
         raise InputError(f"{path}: not a readable {what} ({type(exc).__name__}); move "
-                         "it away or give another --out") from None
+                         "it away or give another output folder") from None
 
 
 def _read_table(path: Path) -> pd.DataFrame | None:
@@ -248,13 +254,14 @@ def _read_table(path: Path) -> pd.DataFrame | None:
     missing = [c for c in COLUMNS if c not in old.columns]
     if missing:
         raise InputError(f"{path}: not a fleet table of this version (no column "
-                         f"{', '.join(missing[:3])}); move it away or give another --out")
+                         f"{', '.join(missing[:3])}); move it away or give another output "
+                         "folder")
     return to_frame(old[list(COLUMNS)].to_dict("records"))
 
 
 def _write_table(path: Path, table: pd.DataFrame) -> None:
     path.parent.mkdir(exist_ok=True)
-    with files.output_file(path, "--out") as tmp:
+    with files.output_file(path, OUTPUT) as tmp:
         table.to_parquet(tmp, index=False)
 
 
@@ -300,7 +307,8 @@ def _client(workers: int | None, scheduler: str | None):
         try:
             return Client(scheduler, timeout="10s"), None
         except (OSError, TimeoutError, ValueError) as exc:
-            raise InputError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+            raise InputError(f"{scheduler}: cannot connect to the Dask scheduler ({exc})") \
+                from None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                            processes=True, dashboard_address=None)
     return Client(cluster), cluster
@@ -348,7 +356,7 @@ def log_items(logs: list[Path], pack_map: dict | None) -> list[tuple]:
     items = []
     for p in logs:
         entry = (pack_map or {}).get(Path(p).name) or PackEntry(None)
-        items.append((str(p), entry.pack, "--packs" if entry.pack else "unknown",
+        items.append((str(p), entry.pack, PACK_MAP if entry.pack else "unknown",
                       entry.cycle, entry.aircraft))
     return items
 
@@ -471,7 +479,7 @@ def write_pack_files(health: list[PackHealth], pack, folder: Path
             name, k = f"{stem}-{k}.yaml", k + 1
         path = folder / name
         files.write_text(path, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
-                         "--out")
+                         OUTPUT)
         written[h.pack_id] = path
     return written, notes
 
@@ -667,7 +675,8 @@ def _pack_health(result: FleetResult, models: dict, out: Path, retire: float) ->
         return
     with_pack = [h for h in result.health if new_pack(h.pack_id) is not None]
     if len(with_pack) < len(result.health):
-        result.notes.append("no pack file (--battery or the aircraft's battery) for "
+        result.notes.append("no pack file (no new pack given, and the aircraft file names "
+                            "no battery) for "
                             + ", ".join(h.pack_id for h in result.health
                                         if h not in with_pack))
     if with_pack:

@@ -143,6 +143,6 @@ def write_aircraft_file(cal: AircraftCalibration, folder: Path) -> Path | None:
                          f"({fitted}); energy error on {cal.validation_flights} held-out "
                          f"flights {before:+.1f} % as given, {after:+.1f} % calibrated")
     files.write_text(path, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
-                     "--out")
+                     "fleet output")
     cal.file = path
     return path

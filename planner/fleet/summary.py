@@ -157,8 +157,8 @@ def choose_aircraft(models: dict, key: str | None, meta: dict, path: str
     if key is not None and key in models:
         return (key, *models[key])
     if key is not None and any(a is not None for a, _ in models.values()):
-        raise PlannerError(f"{path}: the --packs CSV names aircraft {key!r}, none of the "
-                           f"--aircraft ({', '.join(models)})")
+        raise PlannerError(f"{path}: the packs CSV names aircraft {key!r}, none of the "
+                           f"aircraft given ({', '.join(models)})")
     if len(models) <= 1:
         return next(((k, *v) for k, v in models.items()), (None, None, None))
     kind = meta.get("vehicle_type")
@@ -166,9 +166,9 @@ def choose_aircraft(models: dict, key: str | None, meta: dict, path: str
     if len(fits) == 1:
         return (fits[0], *models[fits[0]])
     raise PlannerError(f"{path}: which aircraft flew this {kind or 'unknown'} log? "
-                       f"{'several' if fits else 'none'} of the --aircraft "
+                       f"{'several' if fits else 'none'} of the aircraft given "
                        f"({', '.join(fits or list(models))}) could have: name it in the "
-                       "--packs CSV (column aircraft)")
+                       "packs CSV (column aircraft)")
 
 
 class NotReplayable(PlannerError):

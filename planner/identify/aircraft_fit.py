@@ -294,7 +294,8 @@ def per_experiment_energy_error(aircraft, s: Samples, mass) -> dict[str, float]:
     for exp_id in dict.fromkeys(s.experiment):
         m = s.experiment == exp_id
         e_m = float(np.sum(s.measured_w[m] * s.dt[m]))
-        out[str(exp_id)] = 100.0 * (float(np.sum(pred[m] * s.dt[m])) - e_m) / e_m
+        out[str(exp_id)] = (100.0 * (float(np.sum(pred[m] * s.dt[m])) - e_m) / e_m
+                            if e_m > 0 else float("nan"))
     return out
 
 

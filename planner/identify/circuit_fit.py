@@ -30,7 +30,6 @@ they are optimistic.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any
 

@@ -87,7 +87,6 @@ from planner.identify.stats import covariance
 from planner.io import record
 from planner.parameters import Aircraft
 from planner.physics import atmosphere
-from planner.physics.atmosphere import G
 from planner.physics.power.energy_rate import (
     energy_rate,
     glide_drag_coefficient,

@@ -313,7 +313,8 @@ def power_replay(exp: pd.DataFrame, chain: MissionChain, mass_kg: float,
                             "predicted_w": pp,
                             "error_pct": 100.0 * (pp - pm) / pm if pm > 0 else float("nan")}
     result = PowerReplay(rmse_w=float(np.sqrt(np.mean(r**2))), bias_w=float(np.mean(r)),
-                         energy_error_pct=100.0 * (e_pred - e_meas) / e_meas,
+                         energy_error_pct=100.0 * (e_pred - e_meas) / e_meas if e_meas > 0
+                         else float("nan"),
                          measured_energy_wh=e_meas, predicted_energy_wh=e_pred,
                          phases=phases, airspeed_source=vsource, density_source=dsource)
     return result, {"predicted_w": predicted, "phase": phase}

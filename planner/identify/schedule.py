@@ -20,14 +20,14 @@ __all__ = ["read_schedule", "write_schedule"]
 
 
 def write_schedule(schedule: pd.DataFrame, path: str | os.PathLike,
-                   comment: str | None = None, option: str = "power schedule") -> Path:
+                   comment: str | None = None, option: str = "output") -> Path:
     """Write a power schedule as a CSV for a programmable load (constant-power mode).
 
     Format: ``#`` comment lines (what it is, units, ``comment``), then the header
     ``time_s,power_w`` and one row per step: from ``time_s`` [s] on, draw
     ``power_w`` [W] until the next row; the last row (power 0) switches the load
-    off at the end. Read it back with :func:`read_schedule`. ``option``: what the output
-    is called in an error message (the command line gives its option).
+    off at the end. Read it back with :func:`read_schedule`. ``option`` names the output
+    in messages (the command line's option).
     """
     path = Path(path)
     starts = schedule["start_s"].to_numpy(float)

@@ -15,10 +15,14 @@ Outputs
 -------
 Every output is checked against that registry before it is written: the same file,
 whatever the spelling (``..``, a symbolic link, a hard link: same device and inode), is
-refused with exit 2 naming both paths — input files are never overwritten. Outputs are
-written to a temporary file in the target folder and renamed into place
-(:func:`os.replace`), so an interrupted run never leaves a half-written file where a good
-one was. An output given as ``-`` goes to standard output.
+refused with exit 2 naming both paths — input files are never overwritten. The outputs a
+command is given are declared at its start (:func:`reset`) and checked there, before any
+work: a read-only file (its owner may not write it) is refused, never replaced, and so is
+a folder given for a file, a file given for a folder, and a folder that does not exist;
+an input read later that is one of them is refused as it is read. Outputs are written to
+a temporary file in the target folder and renamed into place (:func:`os.replace`), so an
+interrupted run never leaves a half-written file where a good one was; a device or a pipe
+(``/dev/null``) is written in place. An output given as ``-`` goes to standard output.
 
 YAML
 ----
@@ -47,8 +51,9 @@ import yaml
 
 from planner.errors import InputError
 
-__all__ = ["SIZE_LIMITS", "check_output", "check_outputs", "input_path", "inputs",
-           "output_file", "own_output_path",
+__all__ = ["SIZE_LIMITS", "check_output", "check_outputs", "check_target", "finish",
+           "input_path",
+           "inputs", "output_file", "own_output_path", "read_only",
            "load_yaml", "read_bytes", "read_text", "reset", "save_figure", "write_bytes",
            "write_text"]
 
@@ -70,20 +75,86 @@ _INPUTS: dict[tuple[int, int], str] = {}
 _INPUT_PATHS: dict[str, str] = {}
 #: The running command's outputs (option → path), all checked at the first write.
 _DECLARED: dict[str, Any] = {}
+#: Identity (device, inode) and resolved path of each declared output that exists → (option,
+#: path as named): an input read later that is one of them is refused as it is read.
+_OUTPUT_IDS: dict[Any, tuple[str, str]] = {}
 #: Where an output named ``-`` goes: the standard output the command started with (the
 #: CLI sends the command's own text to standard error then, so that standard output holds
 #: that output and nothing else).
 STDOUT = None
 
 
-def reset(outputs: dict[str, Any] | None = None) -> None:
+def reset(outputs: dict[str, Any] | None = None, folders: tuple[str, ...] = ()) -> None:
     """Forget the previous command's files and declare this one's outputs (the CLI calls
-    it at the start): at its first write the command's every output is checked against
-    its inputs, so that nothing is written when any output names an input."""
+    it at the start, with ``{option: path}``; ``folders``: the options that name a folder).
+    Each output is checked at once (:func:`check_target`: not read-only, a file or a folder
+    as it should be, its folder existing), and again against the inputs at the command's
+    first write and as each input is read, so that nothing is written when any output
+    names an input and no work is done for an output that cannot be written."""
     _INPUTS.clear()
     _INPUT_PATHS.clear()
     _DECLARED.clear()
-    _DECLARED.update({k: v for k, v in (outputs or {}).items() if v is not None})
+    _OUTPUT_IDS.clear()
+    declared = {k: v for k, v in (outputs or {}).items() if v is not None}
+    for option, path in declared.items():
+        check_target(path, option, folder=option in folders)
+    _DECLARED.update({k: v for k, v in declared.items() if k not in folders})
+    for option, path in _DECLARED.items():
+        if str(path) == "-":
+            continue
+        _OUTPUT_IDS[os.path.realpath(path)] = (option, str(path))
+        try:
+            st = os.stat(path)
+        except OSError:
+            continue
+        _OUTPUT_IDS[(st.st_dev, st.st_ino)] = (option, str(path))
+
+
+def finish() -> None:
+    """The command has ended (the CLI calls it): its outputs are no longer guarded against
+    being read (a caller may read what it wrote); the inputs it read stay listed."""
+    _DECLARED.clear()
+    _OUTPUT_IDS.clear()
+
+
+def read_only(path: str | os.PathLike) -> bool:
+    """Whether an existing file is read-only: its owner may not write it (its mode has no
+    owner write bit, which holds for every user, the superuser too), or this process may
+    not."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return False
+    return not st.st_mode & stat.S_IWUSR or not os.access(path, os.W_OK)
+
+
+def check_target(path: str | os.PathLike | None, option: str = "output", *,
+                 folder: bool = False) -> None:
+    """Refuse an output that cannot or may not be written, before any work: a read-only
+    file (never replaced), a folder given for a file, a file given for a folder, a file in
+    a folder that does not exist. A folder output that does not exist yet is created by the
+    command; a device or a pipe is written in place."""
+    if path is None or str(path) == "-":
+        return
+    p = Path(path)
+    real = Path(os.path.realpath(p))
+    if folder:
+        if real.exists() and not real.is_dir():
+            raise InputError(f"{option} {path}: not a folder (expected a folder to write into)")
+        if not real.parent.is_dir():
+            raise InputError(f"{option} {path}: folder {real.parent} does not exist")
+        return
+    if real.is_dir():
+        raise InputError(f"{option} {path}: is a folder, expected a file name")
+    if not real.parent.is_dir():
+        raise InputError(f"{option} {path}: folder {real.parent} does not exist")
+    try:
+        st = os.stat(real)
+    except OSError:
+        return
+    if stat.S_ISREG(st.st_mode) and read_only(real):
+        raise InputError(f"{option} {path}: read-only; not replaced (a read-only file is "
+                         "protected: make it writable or give another path)")
 
 
 def _first_write() -> None:
@@ -128,8 +199,15 @@ def input_path(path: str | os.PathLike, kind: str, what: str = "file") -> Path:
     if st.st_size > limit:
         raise InputError(f"{p}: {st.st_size / 2**20:.0f} MB is larger than a {what} can be "
                          f"(at most {limit / 2**20:.0f} MB)")
+    real = os.path.realpath(p)
+    taken = _OUTPUT_IDS.get((st.st_dev, st.st_ino)) or _OUTPUT_IDS.get(real)
+    if taken is not None:
+        option, named = taken
+        raise InputError(f"{option} {named}: is the input file {path} of this command (the "
+                         "same file by another name, a link or a copy of its path); input "
+                         "files are never overwritten, expected another path")
     _INPUTS[(st.st_dev, st.st_ino)] = str(path)
-    _INPUT_PATHS[os.path.realpath(p)] = str(path)
+    _INPUT_PATHS[real] = str(path)
     return p
 
 
@@ -279,6 +357,7 @@ def check_output(path: str | os.PathLike | None, option: str = "output") -> None
         raise InputError(f"{option} {path}: is the input file {same} of this command (the "
                          "same file by another name, a link or a copy of its path); input "
                          "files are never overwritten, expected another path")
+    check_target(path, option)
 
 
 def check_outputs(outputs: dict[str, Any]) -> None:

@@ -14,20 +14,22 @@ from pathlib import Path
 
 import pandas as pd
 
-from planner.io import files
 from planner.io import record as rec
 from planner.errors import InputError
 
 
 def _is_record_csv(path: Path) -> bool:
+    """A flight-record CSV: a ``.csv`` or ``.csv.gz`` file whose header names ``time_s``
+    (a damaged compressed one is named by the record reader)."""
     name = path.name.lower()
     if not (name.endswith(".csv") or name.endswith(".csv.gz")):
         return False
     try:
-        head = pd.read_csv(files.input_path(path, "table", "flight-record CSV"), nrows=0)
-    except Exception:  # unreadable: let the reader name the problem
-        return False
-    return "time_s" in head.columns
+        return "time_s" in rec.read_header(path)
+    except InputError:
+        if name.endswith(".gz"):
+            raise
+        return False  # unreadable: let the reader name the problem
 
 
 def _read_one(p: Path, column_map, require_battery: bool, battery_instance: int | None = None):

@@ -16,9 +16,14 @@ column and the first bad row.
 
 from __future__ import annotations
 
+import csv
+import gzip
+import io
 import itertools
 import os
+import re
 import warnings
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,6 +37,8 @@ from planner.physics.units import AS_PER_MAH
 
 __all__ = [
     "COLUMNS",
+    "MAX_FLIGHT_S",
+    "MAX_TIME_GAP_S",
     "REQUIRED",
     "Column",
     "add_consumed",
@@ -40,6 +47,7 @@ __all__ = [
     "cumulative_trapezoid",
     "experiments",
     "interpolate_onto",
+    "read_header",
     "read_record",
     "resample_record",
     "validate_record",
@@ -118,6 +126,50 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "axial_speed_ms": (-100.0, 100.0),
 }
 
+#: Other units a column is often written in by mistake: (unit, factor to the column's
+#: unit, offset). Named when every value of a column is outside :data:`PLAUSIBLE` and the
+#: values in that unit are inside it.
+OTHER_UNITS: dict[str, tuple[tuple[str, float, float], ...]] = {
+    "voltage_v": (("mV", 1e-3, 0.0), ("µV", 1e-6, 0.0)),
+    "current_a": (("mA", 1e-3, 0.0), ("cA", 1e-2, 0.0), ("µA", 1e-6, 0.0)),
+    "power_w": (("mW", 1e-3, 0.0), ("µW", 1e-6, 0.0)),
+    "consumed_mah": (("µAh", 1e-3, 0.0), ("mAs", 1 / 3600, 0.0)),
+    "temperature_c": (("K", 1.0, -273.15), ("c°C", 1e-2, 0.0), ("m°C", 1e-3, 0.0)),
+    "ambient_temperature_c": (("K", 1.0, -273.15), ("c°C", 1e-2, 0.0), ("m°C", 1e-3, 0.0)),
+    "pressure_pa": (("hPa", 100.0, 0.0), ("kPa", 1e3, 0.0), ("mPa", 1e-3, 0.0)),
+    "altitude_m": (("mm", 1e-3, 0.0), ("cm", 1e-2, 0.0)),
+    "climb_rate_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
+    "groundspeed_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
+    "airspeed_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
+    "course_deg": (("c°", 1e-2, 0.0),),
+    "wind_n_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
+    "wind_e_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
+    "specific_force_ms2": (("mm/s²", 1e-3, 0.0), ("mg", 9.80665e-3, 0.0)),
+    "axial_speed_ms": (("mm/s", 1e-3, 0.0), ("cm/s", 1e-2, 0.0)),
+}
+#: Magnitude from which a value is a no-data sentinel (−3.4e38 is −FLT_MAX), not a reading.
+SENTINEL = 1e30
+
+#: Longest gap between two samples of one flight (in a log, or within one experiment of a
+#: record); a time stamp beyond it is damage (a garbage ``TimeUS``, 163 000 years after
+#: boot, in a duplicated chunk) or a clock reset, and the samples on the far side of the
+#: gap are dropped. [s]
+MAX_TIME_GAP_S = 6 * 3600.0
+#: Longest experiment of a record: one flight or one bench discharge lasts less than a
+#: day; a longer time axis is in another unit (ms, µs). [s]
+MAX_FLIGHT_S = 24 * 3600.0
+#: Largest median step between two samples of an experiment: a logger samples its battery
+#: at least every few minutes; a larger step is a time axis in another unit. [s]
+MAX_MEDIAN_STEP_S = 1e4
+#: Longest header line of a flight-record CSV. [bytes]
+HEADER_MAX_BYTES = 1 << 20
+#: A compressed record may expand to at most this many times its size (and to at least
+#: :data:`GZIP_MIN_BOUND`): flight records compress 3 to 20 times; a file that expands
+#: further is a decompression bomb.
+GZIP_MAX_RATIO = 100
+#: Size a compressed record may always expand to. [bytes]
+GZIP_MIN_BOUND = 16 * 2**20
+
 _BATTERY = {"voltage_v", "current_a", "power_w", "consumed_mah"}
 _TEXT = {n for n, c in COLUMNS.items() if c.kind == "text"}
 _NUMERIC = [n for n, c in COLUMNS.items() if c.kind != "text"]
@@ -139,7 +191,8 @@ def _row_label(df: pd.DataFrame, pos: int, csv_lines: bool) -> str:
 
 
 def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *,
-                    require_power: bool = True, csv_lines: bool | None = None) -> pd.DataFrame:
+                    require_power: bool = True, csv_lines: bool | None = None,
+                    strict: bool = False) -> pd.DataFrame:
     """Check a flight record against its columns (``docs/record.md``) and return a
     normalised copy.
 
@@ -157,6 +210,10 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
     csv_lines : bool, optional
         Name bad rows by CSV line number as well (default: when ``source`` is
         a ``.csv`` path).
+    strict : bool, default False
+        A record file as given by a user (:func:`read_record`): a column none of whose
+        values is plausible (a unit mistake, a no-data sentinel) and a power that is not
+        about voltage × current are errors, not missing samples.
 
     Returns
     -------
@@ -168,9 +225,10 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
     ------
     InputError
         A missing required column, a non-numeric value in a numeric column, a
-        missing or non-finite ``time_s``, or a time that goes backwards within
-        one experiment; the message names the source, the column and the first
-        bad row (:func:`planner.io.tables.cell_error`).
+        missing or non-finite ``time_s``, a time that goes backwards within
+        one experiment, or (``require_power``) no battery value in any row; the message
+        names the source, the column and the first bad row
+        (:func:`planner.io.tables.cell_error`).
     """
     where = _where(source)
     if csv_lines is None:
@@ -178,7 +236,11 @@ def validate_record(df: pd.DataFrame, source: str | os.PathLike | None = None, *
     _check_columns(df, where, require_power)
     out = df.copy()
     _numbers(out, df, where, csv_lines)
-    _implausible_as_missing(out, df, where, csv_lines)
+    _implausible_as_missing(out, df, where, csv_lines, strict)
+    if require_power:
+        _check_battery_values(out, df, where, csv_lines, strict)
+    if strict:
+        _check_power_units(out, df, where, csv_lines)
     for name in _TEXT:
         if name in out.columns:
             out[name] = out[name].astype("str")
@@ -196,15 +258,31 @@ def _check_columns(df, where: str, require_power: bool) -> None:
         raise InputError(f"{where}: expected a table (DataFrame), got {type(df).__name__}")
     for name in REQUIRED:
         if name not in df.columns:
-            raise InputError(f"{where}: missing required column '{name}' "
-                             f"(columns: {', '.join(map(str, df.columns)) or 'none'})")
+            raise InputError(f"{where}: missing required column '{name}'"
+                             f"{_like(name, df.columns)} (columns: "
+                             f"{_shown_columns(df.columns) or 'none'})")
     if require_power and "power_w" not in df.columns and "voltage_v" not in df.columns:
         missing = [c for c in ("voltage_v", "current_a") if c not in df.columns]
-        raise InputError(f"{where}: missing required column '{missing[0]}' "
+        raise InputError(f"{where}: missing required column '{missing[0]}'"
+                         f"{_like(missing[0], df.columns) or _like('power_w', df.columns)} "
                          "(need 'power_w' or both 'voltage_v' and 'current_a')")
     if df.columns.duplicated().any():
         dup = df.columns[df.columns.duplicated()][0]
         raise InputError(f"{where}: column '{dup}' appears more than once")
+
+
+def _shown_columns(columns, most: int = 30) -> str:
+    names = [str(c) for c in columns]
+    return ", ".join(names[:most]) + (f" … ({len(names)} in all)" if len(names) > most else "")
+
+
+def _like(name: str, columns) -> str:
+    """``" (is 'Time_S' it?)"``: a column whose name is close to a missing one."""
+    import difflib
+
+    pool = {str(c).strip().lower(): str(c) for c in columns}
+    close = difflib.get_close_matches(name, list(pool), n=1, cutoff=0.6)
+    return f" (is {pool[close[0]]!r} it? the names are exact)" if close else ""
 
 
 def _numbers(out: pd.DataFrame, df: pd.DataFrame, where: str, csv_lines: bool) -> None:
@@ -233,8 +311,10 @@ def _numbers(out: pd.DataFrame, df: pd.DataFrame, where: str, csv_lines: bool) -
 
 
 def _implausible_as_missing(out: pd.DataFrame, df: pd.DataFrame, where: str,
-                            csv_lines: bool) -> None:
-    """Values outside :data:`PLAUSIBLE` become NaN, with a warning per column."""
+                            csv_lines: bool, strict: bool = False) -> None:
+    """Values outside :data:`PLAUSIBLE` become NaN, with a warning per column; ``strict``:
+    a column none of whose finite values is plausible is an error naming the unit it
+    looks like (:data:`OTHER_UNITS`) or the sentinel it holds."""
     for name, (low, high) in PLAUSIBLE.items():
         if name not in out.columns:
             continue
@@ -243,6 +323,13 @@ def _implausible_as_missing(out: pd.DataFrame, df: pd.DataFrame, where: str,
             odd = (values < low) | (values > high)
         if name in _BATTERY:  # an infinite battery reading is reported where it is used
             odd &= np.isfinite(values)
+        finite = np.isfinite(values)
+        if strict and odd.sum() >= min(2, len(values)) and not (finite & ~odd).any():
+            first = int(np.flatnonzero(odd)[0])
+            raise InputError(
+                f"{where}: column '{name}' {_row_label(df, first, csv_lines)}: "
+                f"{values[first]:g}{_unit_hint(name, values[finite & odd])}; no value of "
+                f"the column is inside [{low:g}, {high:g}] {COLUMNS[name].unit}")
         if odd.any():
             first = int(np.flatnonzero(odd)[0])
             warnings.warn(f"{where}: column '{name}': {int(odd.sum())} value(s) outside "
@@ -250,6 +337,76 @@ def _implausible_as_missing(out: pd.DataFrame, df: pd.DataFrame, where: str,
                           f"{_row_label(df, first, csv_lines)} = {values[first]:g}: read as "
                           "missing", stacklevel=3)
             out[name] = np.where(odd, np.nan, values)
+
+
+def _unit_hint(name: str, values: np.ndarray) -> str:
+    """``": in mV? (15.52 V)"``: the unit in which most of ``values`` are plausible, or
+    that they are a no-data sentinel."""
+    if not len(values):
+        return ""
+    unit = COLUMNS[name].unit
+    mid = float(np.median(values))
+    if abs(mid) >= SENTINEL:
+        return ": a no-data value (a sentinel such as -3.4e38), not a reading"
+    low, high = PLAUSIBLE[name]
+    for other, factor, offset in OTHER_UNITS.get(name, ()):
+        scaled = values * factor + offset
+        if np.mean((scaled >= low) & (scaled <= high)) > 0.9:
+            return f": in {other}? ({mid:g} {other} = {mid * factor + offset:.4g} {unit})"
+    return ""
+
+
+def _check_battery_values(out: pd.DataFrame, df: pd.DataFrame, where: str,
+                          csv_lines: bool, strict: bool = False) -> None:
+    """A record that should carry battery data has a value in some row (``strict``: a
+    reading, a power or a voltage that is not about zero)."""
+    cols = [c for c in ("power_w", "voltage_v", "current_a") if c in out.columns]
+    if not cols or not len(out):
+        return
+    floor = {"power_w": 1e-6, "voltage_v": 0.1, "current_a": np.inf} if strict else {}
+    for c in cols:
+        v = np.abs(out[c].to_numpy(float))
+        with np.errstate(invalid="ignore"):
+            if (np.isfinite(v) & (v >= floor.get(c, 0.0))).any():
+                return
+    rows = (f"{_row_label(df, 0, csv_lines)} to {_row_label(df, len(df) - 1, csv_lines)}"
+            if len(df) > 1 else _row_label(df, 0, csv_lines))
+    raise InputError(f"{where}: column{'s' if len(cols) > 1 else ''} "
+                     f"{', '.join(repr(c) for c in cols)} {rows}: no battery reading in any "
+                     "row (every one empty, not a number, implausible"
+                     + (" or about zero" if strict else "") + "); expected the pack's power, "
+                     "or its voltage and current")
+
+
+#: Ratio of ``power_w`` to voltage × current outside which one of the three is in another
+#: unit (a separate power sensor and V·I agree within a few per cent).
+POWER_RATIO_RANGE = (0.2, 5.0)
+
+
+def _check_power_units(out: pd.DataFrame, df: pd.DataFrame, where: str,
+                       csv_lines: bool) -> None:
+    """``power_w`` about ``voltage_v`` × ``current_a`` where all three are given."""
+    if not {"power_w", "voltage_v", "current_a"} <= set(out.columns):
+        return
+    p, v, i = (out[c].to_numpy(float) for c in ("power_w", "voltage_v", "current_a"))
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        ok = np.isfinite(p) & np.isfinite(v) & np.isfinite(i) & (v > 1.0) & \
+            (np.abs(i) > 0.5)
+        if ok.sum() < 10:
+            return
+        ratio = p[ok] / (v[ok] * i[ok])
+    r = float(np.median(ratio))
+    low, high = POWER_RATIO_RANGE
+    if low <= r <= high:
+        return
+    first = int(np.flatnonzero(ok)[0])
+    guess = ("power_w in mW?" if 300 <= r <= 3000 else
+             "current_a in mA (or voltage_v in mV)?" if 3e-4 <= r <= 3e-3 else
+             "current_a in cA?" if 3e-3 < r <= 3e-2 else
+             "one of the three in another unit?")
+    raise InputError(f"{where}: column 'power_w' {_row_label(df, first, csv_lines)}: "
+                     f"{r:.3g} × voltage_v × current_a (the median over {int(ok.sum())} rows; "
+                     f"expected about 1, W = V × A): {guess}")
 
 
 def _check_time(out: pd.DataFrame, df: pd.DataFrame, where: str, csv_lines: bool) -> None:
@@ -431,9 +588,286 @@ def drop_truncated_last_line(df: pd.DataFrame, path: str | os.PathLike,
     return df.iloc[:-1]
 
 
+def read_header(path: str | os.PathLike) -> list[str]:
+    """The column names of a flight-record CSV (``.csv`` or ``.csv.gz``) as its header line
+    gives them, stripped, duplicates included (pandas would rename a second ``voltage_v``
+    to ``voltage_v.1``).
+
+    Raises
+    ------
+    InputError
+        Not a regular file, empty, a header that is not UTF-8 text or longer than
+        :data:`HEADER_MAX_BYTES`, a damaged compressed file.
+    """
+    path = files.input_path(path, "table", "flight-record CSV")
+    if _compressed(path):
+        data, _ = _gunzip(path)
+        return _header_names(path, data[:HEADER_MAX_BYTES + 1].split(b"\n", 1)[0])
+    try:
+        with open(path, "rb") as fh:
+            line = fh.readline(HEADER_MAX_BYTES + 1)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    return _header_names(path, line)
+
+
+def _compressed(path: Path) -> bool:
+    return path.name.lower().endswith(".gz")
+
+
+def _header_names(path: Path, line: bytes) -> list[str]:
+    if len(line) > HEADER_MAX_BYTES:
+        raise InputError(f"{path}: the first line is longer than {HEADER_MAX_BYTES >> 20} MB; "
+                         "expected a header line of column names (docs/record.md)")
+    if not line.strip():
+        raise InputError(f"{path}: empty file, expected a flight-record CSV")
+    try:
+        text = line.decode("utf-8").removeprefix("\ufeff")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: header (line 1): not UTF-8 text (byte {exc.start}); "
+                         "expected a header line of column names") from None
+    names = next(csv.reader([text.rstrip("\r\n")]), [])
+    return [n.strip() for n in names]
+
+
+def _gunzip(path: Path) -> tuple[bytes, str | None]:
+    """The bytes of a gzip-compressed file, bounded (:data:`GZIP_MAX_RATIO`): a file cut
+    short gives what it holds and the reason to warn; damaged data is an error."""
+    raw = files.read_bytes(path, "table", "flight-record CSV")
+    bound = max(GZIP_MIN_BOUND, GZIP_MAX_RATIO * len(raw))
+    if raw[:2] != b"\x1f\x8b":
+        raise InputError(f"{path}: not gzip-compressed data (its name ends in .gz); expected a "
+                         "flight-record CSV compressed with gzip, or name it .csv")
+    out, size, rest, cut = [], 0, raw, None
+    while rest:
+        d = zlib.decompressobj(wbits=31)
+        try:
+            while True:
+                chunk = d.decompress(rest, 1 << 20)
+                out.append(chunk)
+                size += len(chunk)
+                if size > bound:
+                    raise InputError(f"{path}: expands to more than {bound >> 20} MB, "
+                                     f"{GZIP_MAX_RATIO} times its size (a decompression "
+                                     "bomb?); expected a compressed flight-record CSV")
+                rest = d.unconsumed_tail
+                if d.eof or (not chunk and not rest):
+                    break
+        except zlib.error as exc:
+            raise InputError(f"{path}: damaged compressed data ({exc}); the file cannot be "
+                             "read, expected a whole gzip file") from None
+        if not d.eof:
+            cut = "the compressed data ends early (file cut short?)"
+            break
+        rest = d.unused_data
+        if rest and rest[:2] != b"\x1f\x8b":
+            if rest.strip(b"\x00"):
+                cut = f"{len(rest)} byte(s) after the compressed data ignored"
+            break
+    return b"".join(out), cut
+
+
+def _check_fields(path: Path, data: bytes | None, n_names: int) -> bool:
+    """Every row has as many fields as the header names (a row with more or fewer is
+    ambiguous: which value is which column's?). Checked by counting separators, in blocks
+    (files with quoted fields are left to the CSV parser). Returns whether the last line
+    was cut short (fewer fields and no newline: a file copied while it was written)."""
+    if data is not None:
+        blocks = (data[k:k + (1 << 20)] for k in range(0, len(data), 1 << 20))
+    else:
+        fh = open(path, "rb")
+        blocks = iter(lambda: fh.read(1 << 20), b"")
+    try:
+        line_no, carry = 0, b""
+        for block in blocks:
+            buf = carry + block
+            cut = buf.rfind(b"\n")
+            if cut < 0:
+                carry = buf
+                if len(carry) > 64 << 20:
+                    raise InputError(f"{path}: a line longer than 64 MB; expected one row "
+                                     "per line")
+                continue
+            body, carry = buf[:cut + 1], buf[cut + 1:]
+            if b'"' in body:
+                return False
+            a = np.frombuffer(body, np.uint8)
+            nl = np.flatnonzero(a == 10)
+            commas = np.cumsum(a == 44, dtype=np.int64)[nl]
+            per_line = np.diff(commas, prepend=0) + 1
+            length = np.diff(nl, prepend=-1) - 1
+            blank = (length == 0) | ((length == 1) & (a[nl - 1] == 13))
+            bad = (per_line != n_names) & ~blank
+            if line_no == 0:
+                bad[0] = False                                   # the header
+            if bad.any():
+                k = int(np.flatnonzero(bad)[0])
+                _bad_fields(path, line_no + k + 1, int(per_line[k]), n_names)
+            line_no += len(nl)
+        if carry.strip() and b'"' not in carry:
+            got = carry.count(b",") + 1
+            if got > n_names:
+                _bad_fields(path, line_no + 1, got, n_names)
+            return got < n_names and line_no > 0
+        return False
+    finally:
+        if data is None:
+            fh.close()
+
+
+def _bad_fields(path: Path, line: int, got: int, n_names: int):
+    raise InputError(f"{path}: {row_label(line - 2, line)}: {got} fields, the header names "
+                     f"{n_names} columns; which value belongs to which column is ambiguous "
+                     "(expected one field per column)")
+
+
+def _parse(path: Path, data: bytes | None, names: list[str]) -> pd.DataFrame:
+    """The table under the header, the columns in the order of ``names`` (made unique)."""
+    unique = [f"Unnamed: {k}" if not n else n if names.index(n) == k else f"{n}\x00{k}"
+              for k, n in enumerate(names)]
+    text = {u: str for u, n in zip(unique, names) if n in _TEXT}
+    source = io.BytesIO(data) if data is not None else path
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", pd.errors.ParserWarning)
+        try:
+            df = pd.read_csv(source, header=0, names=unique, index_col=False, dtype=text,
+                             low_memory=False, compression=None)
+        except pd.errors.EmptyDataError:
+            raise InputError(f"{path}: empty file, expected a flight-record CSV") from None
+        except pd.errors.ParserError as exc:
+            m = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(exc))
+            if m:
+                _bad_fields(path, int(m[2]), int(m[3]), len(names))
+            raise InputError(f"{path}: not a readable CSV file "
+                             f"({str(exc).strip().splitlines()[-1]})") from None
+        except (UnicodeDecodeError, ValueError, OSError, EOFError) as exc:
+            raise InputError(f"{path}: not a readable CSV file ({type(exc).__name__}: "
+                             f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
+    for w in caught:
+        if issubclass(w.category, pd.errors.ParserWarning):
+            _bad_fields(path, 2, len(names) + 1, len(names))   # pandas' first-row case
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return df
+
+
+def _one_of_each(path: Path, df: pd.DataFrame, names: list[str]) -> pd.DataFrame:
+    """A column named twice: the same values are read once (with a warning); different
+    values make the record ambiguous, an error naming the column and the first row."""
+    seen: dict[str, list[int]] = {}
+    for k, n in enumerate(names):
+        if n:
+            seen.setdefault(n, []).append(k)
+    drop = []
+    for name, where in seen.items():
+        if len(where) < 2:
+            continue
+        a = df.iloc[:, where[0]]
+        for k in where[1:]:
+            b = df.iloc[:, k]
+            na, nb = pd.to_numeric(a, errors="coerce"), pd.to_numeric(b, errors="coerce")
+            both = (na.notna() & nb.notna()).to_numpy()
+            same = np.where(both, na.to_numpy(float) == nb.to_numpy(float),
+                            (a.astype("string").fillna("") ==
+                             b.astype("string").fillna("")).to_numpy(bool, na_value=False))
+            if not same.all():
+                r = int(np.flatnonzero(~same)[0])
+                raise InputError(
+                    f"{path}: column '{name}' {row_label(r, r + 2)}: the header names "
+                    f"'{name}' {len(where)} times (fields {where[0] + 1} and {k + 1}) with "
+                    f"different values ({_cell(a.iloc[r])} and {_cell(b.iloc[r])}); which is the "
+                    "record's is ambiguous, expected each column once")
+            drop.append(df.columns[k])
+        warnings.warn(f"{path}: column '{name}': the header names it {len(where)} times "
+                      "(the same values): read once", stacklevel=3)
+    return df.drop(columns=drop) if drop else df
+
+
+def _cell(value) -> str:
+    value = value.item() if hasattr(value, "item") else value
+    return repr(value)
+
+
+def _time_axis(out: pd.DataFrame, where: str) -> pd.DataFrame:
+    """The time axis of a record file, per experiment: a median step or a duration that
+    no flight has is a unit mistake (an error naming the unit it looks like); samples
+    beyond a gap of more than :data:`MAX_TIME_GAP_S` within an experiment are dropped
+    (the longest stretch is kept), as the log readers do."""
+    if len(out) < 2:
+        return out
+    t = out["time_s"].to_numpy(float)
+    group = (pd.factorize(out["experiment"])[0] if "experiment" in out.columns
+             else np.zeros(len(out), int))
+    same = group[1:] == group[:-1]
+    dt = np.diff(t)
+    steps = pd.Series(dt[same & (dt > 0)], index=group[1:][same & (dt > 0)])
+    if len(steps):
+        median = steps.groupby(level=0).median()
+        worst = int(median.idxmax())
+        if median[worst] >= MAX_MEDIAN_STEP_S:
+            rows = np.flatnonzero(group == worst)
+            span = float(t[rows[-1]] - t[rows[0]])
+            raise InputError(
+                f"{where}: column 'time_s' {_csv_row(out, rows[0])}: the median step between "
+                f"samples is {median[worst]:g} s{_of(out, rows[0])}, a sample every "
+                f"{median[worst] / 3600:.3g} h{_time_unit(median[worst], span)}")
+    # the gap rule: the longest stretch of each experiment without a gap
+    gap = np.r_[False, same & (dt > MAX_TIME_GAP_S)]
+    if gap.any():
+        first = int(np.flatnonzero(gap)[0])
+        stretch = np.cumsum(np.r_[True, ~same] | gap)
+        sizes = pd.Series(stretch).groupby(group).agg(lambda s: s.value_counts().idxmax())
+        keep = np.isin(stretch, sizes.to_numpy())
+        warnings.warn(f"{where}: column 'time_s' {_csv_row(out, first)}: time jumps by "
+                      f"{t[first] - t[first - 1]:g} s{_of(out, first)} (a gap of more than "
+                      f"{MAX_TIME_GAP_S / 3600:g} h: damaged data or a clock reset); kept "
+                      f"the longest stretch, dropped {int((~keep).sum())} row(s)",
+                      stacklevel=3)
+        out = out[keep]
+        t, group = t[keep], group[keep]
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    ends = np.r_[starts[1:], len(t)] - 1
+    span = t[ends] - t[starts]
+    if (span > MAX_FLIGHT_S).any():
+        k = int(np.argmax(span))
+        a, b = int(starts[k]), int(ends[k])
+        step = float(np.median(np.diff(t[a:b + 1]))) if b > a else 0.0
+        raise InputError(
+            f"{where}: column 'time_s' {_csv_row(out, a)} to {_csv_row(out, b)}: "
+            f"{span[k] / 3600:.3g} h{_of(out, a)}, longer than a flight or a discharge "
+            f"({MAX_FLIGHT_S / 3600:g} h){_time_unit(step, float(span[k]))}")
+    return out
+
+
+def _csv_row(df: pd.DataFrame, pos: int) -> str:
+    label = int(df.index[pos])
+    return row_label(label, label + 2)
+
+
+def _of(df: pd.DataFrame, pos: int) -> str:
+    return (f" in experiment {df['experiment'].iloc[pos]!r}" if "experiment" in df.columns
+            else "")
+
+
+def _time_unit(step_s: float, span_s: float) -> str:
+    """``": in µs? (0.2 s steps, 353 s in all)"``: the unit a time axis looks like."""
+    for unit, factor in (("ms", 1e3), ("µs", 1e6), ("ns", 1e9)):
+        if step_s / factor <= 100.0 and span_s / factor <= MAX_FLIGHT_S:
+            return (f": time in {unit}? ({step_s / factor:.3g} s steps, "
+                    f"{span_s / factor:.4g} s in all; expected seconds)")
+    return "; expected seconds since the start of the experiment"
+
+
 def read_record(path: str | os.PathLike, *, derive: bool = True,
                 require_power: bool = True) -> pd.DataFrame:
     """Read a flight-record CSV file and validate it.
+
+    The header is read here (a column named twice with different values is ambiguous:
+    an error; pandas would rename one), every row must have one field per column, a
+    compressed file cut short gives the rows it holds with a warning, a column none of
+    whose values is plausible is a unit mistake (:data:`OTHER_UNITS`), a time axis with
+    a median step or an experiment longer than any flight has is in another unit, and the
+    samples beyond a gap of more than :data:`MAX_TIME_GAP_S` within an experiment are
+    dropped, as the log readers do.
 
     Parameters
     ----------
@@ -447,22 +881,31 @@ def read_record(path: str | os.PathLike, *, derive: bool = True,
     Raises
     ------
     InputError
-        The file is missing, empty or not CSV, or fails :func:`validate_record`.
+        The file is missing, empty, not CSV, damaged or ambiguous, or fails
+        :func:`validate_record`: one line naming the file, the column and the row.
     """
     path = files.input_path(path, "table", "flight-record CSV")
-    try:
-        df = pd.read_csv(path, dtype={"experiment": str, "mode": str}, low_memory=False)
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a directory, expected a CSV file") from None
-    except pd.errors.EmptyDataError:
-        raise InputError(f"{path}: empty file, expected a flight-record CSV") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OSError) as exc:
-        raise InputError(f"{path}: not a readable CSV file ({exc})") from None
-    df.columns = [str(c).strip() for c in df.columns]
-    df = drop_truncated_last_line(df, path)
-    out = validate_record(df, path, require_power=require_power, csv_lines=True)
+    data, cut = None, None
+    if _compressed(path):
+        data, cut = _gunzip(path)
+        if cut is not None:
+            whole = data.rfind(b"\n") + 1
+            lines = data.count(b"\n", 0, whole)
+            warnings.warn(f"{path}: {cut}: read the {lines} whole line(s) before it",
+                          stacklevel=2)
+            data = data[:whole]
+        names = _header_names(path, data[:HEADER_MAX_BYTES + 1].split(b"\n", 1)[0])
+    else:
+        names = read_header(path)
+    partial = _check_fields(path, data, len(names))
+    df = _one_of_each(path, _parse(path, data, names), names)
+    df.columns = [str(c).split("\x00")[0] for c in df.columns]
+    if partial and len(df):
+        warnings.warn(f"{path}: the last line is incomplete (fewer fields than the header; "
+                      "file truncated?): skipped", stacklevel=2)
+        df = df.iloc[:-1]
+    out = validate_record(df, path, require_power=require_power, csv_lines=True, strict=True)
+    out = _time_axis(out, str(path)).reset_index(drop=True)
     if derive:
         out = complete_record(out)
     return out

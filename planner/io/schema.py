@@ -28,7 +28,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from planner.errors import InputError
+from planner.errors import InputError, WrongFileError
 
 NUMBER = "number"
 INTEGER = "integer"
@@ -129,6 +129,32 @@ def fields_from(cls, values: dict[str, Any], **changes) -> dict[str, Any]:
     that are fields of ``cls``), with ``changes`` on top."""
     names = {f.name for f in dataclasses.fields(cls)}
     return {**{k: v for k, v in values.items() if k in names}, **changes}
+
+
+#: Keys that only one kind of definition or mission file has: what a file given in the
+#: wrong place is.
+KIND_MARKERS: dict[str, tuple[str, ...]] = {
+    "battery pack": ("cells_series", "capacity_mah"),
+    "aircraft": ("empty_mass_kg", "multirotor", "fixed_wing"),
+    "pack catalog": ("packs",),
+    "mission": ("legs", "waypoints"),
+}
+
+
+def refuse_other_kind(data: Any, expected: str, where: str) -> None:
+    """Raise :class:`~planner.errors.WrongFileError` when ``data`` has the keys of another
+    kind of file (:data:`KIND_MARKERS`) and none of ``expected``'s: ``pack.yaml: this is a
+    battery pack file (it has cells_series, capacity_mah), not an aircraft file``."""
+    if not isinstance(data, dict):
+        return
+    if any(k in data for k in KIND_MARKERS[expected]):
+        return
+    for kind, keys in KIND_MARKERS.items():
+        has = [k for k in keys if k in data]
+        if kind != expected and has:
+            article = "an" if expected[0] in "aeiou" else "a"
+            raise WrongFileError(f"{where}: this is a {kind} file (it has {', '.join(has)}), "
+                                 f"not {article} {expected} file", kind)
 
 
 class Problems:

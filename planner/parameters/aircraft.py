@@ -13,6 +13,7 @@ methods stay thin: they pass the stored parameters to the pure power models of
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +26,7 @@ from planner.io import files
 from planner.io import schema as S
 from planner.parameters.pack import BatteryPack, load_battery
 from planner.physics import limits as L
+from planner.physics.atmosphere import G as G0
 from planner.physics.power.efficiency import load_dependent_battery_power
 from planner.physics.power.fixed_wing import min_loiter_radius
 from planner.physics.power.momentum import DEFAULT_FIGURE_OF_MERIT
@@ -274,6 +276,14 @@ class Aircraft:
         return (self.multirotor.max_airspeed_ms if self.is_multirotor
                 else self.fixed_wing.top_airspeed_ms)
 
+    def heaviest_takeoff(self) -> tuple[float, str]:
+        """The heaviest take-off this aircraft could make and what bounds it (kg, text):
+        its maximum take-off mass, else the mass its rotor disks or its wing could lift at
+        the highest loading of its class (:func:`heaviest_takeoff_kg`). A mass a user gives
+        beyond it is in another unit."""
+        block = self.multirotor if self.is_multirotor else self.fixed_wing
+        return heaviest_takeoff_kg(self.type, block, self.max_takeoff_mass_kg)
+
     @property
     def min_airspeed_ms(self) -> float:
         """Least airspeed of steady flight. [m/s]
@@ -414,6 +424,32 @@ class Aircraft:
         return out
 
 
+def heaviest_takeoff_kg(kind: str, block, max_takeoff_mass_kg: float | None
+                        ) -> tuple[float, str]:
+    """The heaviest take-off of an aircraft and what bounds it (kg, text): the maximum
+    take-off mass where given, else the mass its rotor disks lift at
+    :data:`planner.physics.limits.DISK_LOADING_MAX_N_M2` (multirotor) or its wing at
+    :data:`planner.physics.limits.WING_LOADING_MAX_N_M2` (fixed wing). [kg]"""
+    if max_takeoff_mass_kg is not None:
+        return float(max_takeoff_mass_kg), "the aircraft's maximum take-off mass"
+    if block is None:
+        return L.MASS_MAX_KG, "the heaviest electric UAV"
+    if kind == "multirotor":
+        disk = block.rotors * math.pi * block.rotor_diameter_m ** 2 / 4.0
+        return (L.DISK_LOADING_MAX_N_M2 * disk / G0,
+                f"the most its {block.rotors} rotors of {block.rotor_diameter_m:g} m lift")
+    return (L.WING_LOADING_MAX_N_M2 * block.wing_area_m2 / G0,
+            f"the most its wing of {block.wing_area_m2:g} m² lifts")
+
+
+def in_grams(value_kg: float, bound_kg: float) -> str:
+    """``": grams? (350 g = 0.35 kg)"`` when a mass beyond ``bound_kg`` written in grams
+    would be within it, else ``""``."""
+    if value_kg / 1000.0 <= bound_kg:
+        return f": grams? ({value_kg:g} g = {value_kg / 1000.0:g} kg)"
+    return ""
+
+
 def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
     """Validate an aircraft mapping (:data:`AIRCRAFT_KEYS`, then the block of its type)
     and build the aircraft.
@@ -423,6 +459,7 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
     InputError
         Every problem of the mapping at once, in one line naming ``where`` and each key.
     """
+    S.refuse_other_kind(data, "aircraft", where)
     problems = S.Problems(where)
     d = S.check_mapping(data, AIRCRAFT_KEYS, where, problems=problems)
     kind = d["type"]
@@ -430,6 +467,7 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
     if kind in AIRCRAFT_TYPES:
         blocks[kind] = _type_block(d, kind, where, problems)
     allowed = _cells_series_allowed(d["cells_series_allowed"], problems)
+    _check_masses(d, kind, blocks.get(kind), problems)
     mr = blocks["multirotor"]
     if (mr is not None and mr.power_model == "rotor_losses" and d["efficiency_slope"]
             and data.get("efficiency_slope") is not None):
@@ -442,6 +480,24 @@ def aircraft_from_mapping(data: Any, where: str) -> Aircraft:
         Aircraft, d, climb_rate_ms=d["climb_rate_ms"] or climb,
         descent_rate_ms=d["descent_rate_ms"] or descent, battery_path=d["battery"],
         cells_series_allowed=allowed, **blocks, path=where))
+
+
+def _check_masses(d: dict, kind: str, block, problems: S.Problems) -> None:
+    """The empty mass within the heaviest take-off (:func:`heaviest_takeoff_kg`): beyond it
+    the mass was written in another unit (grams)."""
+    empty, top = d["empty_mass_kg"], d["max_takeoff_mass_kg"]
+    if not isinstance(empty, (int, float)) or isinstance(empty, bool) or not empty > 0:
+        return
+    if not (isinstance(top, (int, float)) and not isinstance(top, bool) and top > 0):
+        top = None
+    if top is None and block is None:
+        return
+    bound, what = heaviest_takeoff_kg(kind, block, top)
+    if empty > bound:
+        key = "max_takeoff_mass_kg" if top is not None else None
+        problems.add(f"empty_mass_kg {empty:g} kg is more than {what}"
+                     + (f" ({key} {bound:g} kg)" if key else f", {bound:.3g} kg")
+                     + (in_grams(empty, bound) or "; expected kg"))
 
 
 def _type_block(d: dict, kind: str, where: str, problems: S.Problems):

@@ -73,6 +73,7 @@ def catalog_from_mapping(data: Any, where: str, base_dir: str | Path | None = No
         A missing or empty ``packs`` list, an unknown top-level key, or any problem in
         any pack (``catalog.yaml: packs[3]: mass_kg must be > 0, got -1``).
     """
+    S.refuse_other_kind(data, "pack catalog", where)
     d = S.check_mapping(data, CATALOG_KEYS, where)
     items = d["packs"]
     if not items:
@@ -100,8 +101,9 @@ def load_catalog(path: str | Path) -> list[BatteryPack]:
     ----------
     path : str or Path
         A catalog file (``packs:`` list of battery mappings, docs/formats.md, each with
-        optional ``price`` and ``count``), or a folder whose ``*.yaml``/``*.yml``
-        files are single packs or catalogs themselves (read in name order).
+        optional ``price`` and ``count``), a single pack file (a catalog of one), or a
+        folder whose ``*.yaml``/``*.yml`` files are single packs or catalogs themselves
+        (read in name order).
 
     Returns
     -------
@@ -126,4 +128,8 @@ def load_catalog(path: str | Path) -> list[BatteryPack]:
         if problems:
             raise InputError("; ".join(problems))
         return packs
-    return catalog_from_mapping(files.load_yaml(path, empty_ok=False), str(path))
+    data = files.load_yaml(path, empty_ok=False)
+    if isinstance(data, dict) and "packs" not in data and any(
+            k in data for k in S.KIND_MARKERS["battery pack"]):
+        return [battery_from_mapping(data, str(path))]        # one pack: a catalog of one
+    return catalog_from_mapping(data, str(path))

@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from planner.physics.battery.chemistry import CHEMISTRY_NAMES
-from planner.errors import InputError
 from planner.io import files
 from planner.io import schema as S
 from planner.parameters.blocks import (
@@ -434,6 +433,7 @@ def battery_from_mapping(data: Any, where: str, base_dir: str | Path | None = No
     InputError
         Every problem of the mapping at once, in one line naming ``where`` and each key.
     """
+    S.refuse_other_kind(data, "battery pack", where)
     problems = S.Problems(where)
     d = S.check_mapping(data, BATTERY_KEYS, where, problems=problems)
     model = None if d["model"] is None else _model(d["model"], where, problems)

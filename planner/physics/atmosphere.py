@@ -19,9 +19,10 @@ References
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from planner.errors import ModelError
+from planner.physics.numeric import like_inputs, require
+from planner.physics.units import ZERO_CELSIUS_K
 
 G = 9.80665
 """Standard acceleration of gravity [m s⁻²] ([1]_, Table 2)."""
@@ -36,64 +37,13 @@ LAPSE_RATE = 0.0065
 """ISA tropospheric temperature lapse rate, temperature falls with height [K m⁻¹]."""
 R_AIR = 287.05287
 """Specific gas constant of dry air [J kg⁻¹ K⁻¹]."""
-KELVIN = 273.15
-"""Offset from degrees Celsius to kelvin [K]."""
 ALTITUDE_RANGE_M = (-500.0, 11000.0)
+"""Validity range of the tropospheric model (geopotential altitude) [m]."""
 MAX_WIND_MS = 100.0
 """Strongest wind the planner takes [m s⁻¹]: above any sustained surface wind on record
 (the strongest tropical cyclones reach some 85–90 m/s); larger values only overflow."""
-"""Validity range of the tropospheric model (geopotential altitude) [m]."""
 
 _EXPONENT = G / (R_AIR * LAPSE_RATE)  # 5.25588, barometric exponent [unitless]
-
-
-# --------------------------------------------------------------------------------------
-# Private helpers shared by the layer-1 physics modules (planner.physics.power.*).
-# --------------------------------------------------------------------------------------
-def _restore(result, *inputs):
-    """Return ``result`` as the kind of the inputs: Series, float or ndarray.
-
-    A pandas Series among ``inputs`` (first one wins) gives a Series with its index when
-    the shapes agree; all-scalar inputs give a float; anything else an ndarray.
-    """
-    result = np.asarray(result, dtype=float)
-    for value in inputs:
-        if isinstance(value, pd.Series) and result.shape == (len(value),):
-            return pd.Series(result, index=value.index, name=value.name)
-    if all(np.ndim(value) == 0 for value in inputs):
-        return float(result)
-    return result
-
-
-def _require(value, name, *, gt=None, ge=None, lt=None, le=None, unit=""):
-    """Raise :class:`ModelError` naming ``name`` when any non-NaN value is out of range.
-
-    The bounds ``gt``, ``ge``, ``lt``, ``le`` are exclusive/inclusive limits; NaN values
-    pass (they propagate through the model instead).
-    """
-    arr = np.asarray(value, dtype=float)
-    bad = np.zeros(arr.shape, dtype=bool)
-    rule = []
-    if gt is not None:
-        bad |= arr <= gt
-        rule.append(f"> {gt:g}")
-    if ge is not None:
-        bad |= arr < ge
-        rule.append(f">= {ge:g}")
-    if lt is not None:
-        bad |= arr >= lt
-        rule.append(f"< {lt:g}")
-    if le is not None:
-        bad |= arr > le
-        rule.append(f"<= {le:g}")
-    if np.any(bad):
-        first = arr[bad].flat[0] if arr.ndim else float(arr)
-        unit_text = f" {unit}" if unit else ""
-        raise ModelError(
-            f"{name} must be {' and '.join(rule)}{unit_text}, got {first:g}"
-            " (physically impossible or outside the model's validity range)"
-        )
-    return arr
 
 
 def _check_altitude(altitude_m):
@@ -107,6 +57,16 @@ def _check_altitude(altitude_m):
             f"got {first:g}"
         )
     return arr
+
+
+def _isa_temperature(h):
+    """:math:`T = T_0 - L h` (ndarray in m, out in K)."""
+    return T0 - LAPSE_RATE * h
+
+
+def _isa_pressure(h):
+    """:math:`p = p_0 (T/T_0)^{g_0/(R L)}` (ndarray in m, out in Pa)."""
+    return P0 * (_isa_temperature(h) / T0) ** _EXPONENT
 
 
 # --------------------------------------------------------------------------------------
@@ -137,8 +97,7 @@ def temperature(altitude_m):
 
     Linear lapse of the first layer of [1]_ (Table 4) and [2]_.
     """
-    h = _check_altitude(altitude_m)
-    return _restore(T0 - LAPSE_RATE * h, altitude_m)
+    return like_inputs(_isa_temperature(_check_altitude(altitude_m)), altitude_m)
 
 
 def pressure(altitude_m):
@@ -148,17 +107,12 @@ def pressure(altitude_m):
     Parameters
     ----------
     altitude_m : numeric
-        Geopotential altitude above mean sea level, in [-500, 11000]. [m]
+        As in :func:`temperature` (which raises the same error). [m]
 
     Returns
     -------
     pressure : numeric
         Static pressure. [Pa]
-
-    Raises
-    ------
-    ModelError
-        If an altitude lies outside [-500 m, 11000 m].
 
     Notes
     -----
@@ -168,8 +122,7 @@ def pressure(altitude_m):
     with :math:`p_0` = 101325 Pa, :math:`g_0` = 9.80665 m s⁻², :math:`R` = 287.05287
     J kg⁻¹ K⁻¹ (exponent 5.25588).
     """
-    h = _check_altitude(altitude_m)
-    return _restore(P0 * ((T0 - LAPSE_RATE * h) / T0) ** _EXPONENT, altitude_m)
+    return like_inputs(_isa_pressure(_check_altitude(altitude_m)), altitude_m)
 
 
 def density(altitude_m=0.0, temperature_c=None, pressure_pa=None):
@@ -223,20 +176,20 @@ def density(altitude_m=0.0, temperature_c=None, pressure_pa=None):
     1.2041
     """
     if pressure_pa is not None:
-        p = _require(pressure_pa, "pressure_pa", gt=0.0, unit="Pa")
+        p = require(pressure_pa, "pressure_pa", gt=0.0, unit="Pa")
     if temperature_c is not None:
-        t = _require(temperature_c, "temperature_c", gt=-KELVIN, unit="°C") + KELVIN
+        t = require(temperature_c, "temperature_c", gt=-ZERO_CELSIUS_K, unit="°C") + ZERO_CELSIUS_K
     if pressure_pa is None or temperature_c is None:
         h = _check_altitude(altitude_m)
         if pressure_pa is None:
-            p = P0 * ((T0 - LAPSE_RATE * h) / T0) ** _EXPONENT
+            p = _isa_pressure(h)
         if temperature_c is None:
-            t = T0 - LAPSE_RATE * h
+            t = _isa_temperature(h)
         used = [altitude_m, temperature_c, pressure_pa]
     else:
         used = [temperature_c, pressure_pa]
     rho = p / (R_AIR * t)
-    return _restore(rho, *[u for u in used if u is not None])
+    return like_inputs(rho, *[u for u in used if u is not None])
 
 
 def site_density(altitude_amsl_m, site_altitude_m=0.0, site_temperature_c=None,
@@ -275,8 +228,8 @@ def site_density(altitude_amsl_m, site_altitude_m=0.0, site_temperature_c=None,
     if site_pressure_pa is not None:
         p = site_pressure_pa * (pressure(h) / pressure(site_altitude_m))
         if t is None:
-            t = temperature(h) - KELVIN
-    return _restore(density(h, temperature_c=t, pressure_pa=p), altitude_amsl_m)
+            t = temperature(h) - ZERO_CELSIUS_K
+    return like_inputs(density(h, temperature_c=t, pressure_pa=p), altitude_amsl_m)
 
 
 def pressure_altitude(pressure_pa):
@@ -296,6 +249,6 @@ def pressure_altitude(pressure_pa):
     altitude : numeric
         Geopotential altitude in [-500, 11000]. [m]
     """
-    p = _require(pressure_pa, "pressure_pa", gt=0.0, unit="Pa")
+    p = require(pressure_pa, "pressure_pa", gt=0.0, unit="Pa")
     h = T0 / LAPSE_RATE * (1.0 - (p / P0) ** (1.0 / _EXPONENT))
-    return _restore(np.clip(h, ALTITUDE_RANGE_M[0], ALTITUDE_RANGE_M[1]), pressure_pa)
+    return like_inputs(np.clip(h, ALTITUDE_RANGE_M[0], ALTITUDE_RANGE_M[1]), pressure_pa)

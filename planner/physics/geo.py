@@ -68,6 +68,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from planner.physics.numeric import as_float_or_array
+
 #: WGS-84 semi-major axis. [m]
 WGS84_A = 6378137.0
 #: WGS-84 flattening. [unitless]
@@ -82,9 +84,6 @@ EARTH_RADIUS_M = 6371008.8
 FRAME_ERROR_KM = 490.0
 
 
-def _out(x):
-    x = np.asarray(x, dtype=float)
-    return float(x) if x.ndim == 0 else x
 
 
 def meridian_radius(lat_deg):
@@ -101,24 +100,20 @@ def meridian_radius(lat_deg):
         ``M = a (1 - e²) / (1 - e² sin² φ)^{3/2}``. [m]
     """
     s = np.sin(np.radians(np.asarray(lat_deg, dtype=float)))
-    return _out(WGS84_A * (1.0 - WGS84_E2) / (1.0 - WGS84_E2 * s * s) ** 1.5)
+    return as_float_or_array(WGS84_A * (1.0 - WGS84_E2) / (1.0 - WGS84_E2 * s * s) ** 1.5)
 
 
 def normal_radius(lat_deg):
-    """Prime-vertical radius of curvature of the WGS-84 ellipsoid.
+    """Prime-vertical radius of curvature of the WGS-84 ellipsoid,
+    ``N = a / sqrt(1 - e² sin² φ)`` [m], at the geodetic latitude ``lat_deg`` [deg]
+    (numeric; the kind of the result as in :func:`meridian_radius`)."""
+    return as_float_or_array(_prime_vertical(np.sin(np.radians(np.asarray(lat_deg,
+                                                                         dtype=float)))))
 
-    Parameters
-    ----------
-    lat_deg : numeric
-        Geodetic latitude. [deg]
 
-    Returns
-    -------
-    radius : numeric
-        ``N = a / sqrt(1 - e² sin² φ)``. [m]
-    """
-    s = np.sin(np.radians(np.asarray(lat_deg, dtype=float)))
-    return _out(WGS84_A / np.sqrt(1.0 - WGS84_E2 * s * s))
+def _prime_vertical(sin_lat):
+    """``N = a / sqrt(1 - e² sin² φ)`` from ``sin φ`` (ndarray). [m]"""
+    return WGS84_A / np.sqrt(1.0 - WGS84_E2 * sin_lat * sin_lat)
 
 
 def _unit(lat_rad, lon_rad):
@@ -186,7 +181,7 @@ def great_circle(lat1_deg, lon1_deg, lat2_deg, lon2_deg):
     vectors, which keeps full precision at every range.
     """
     sigma, alpha = _polar(lat2_deg, lon2_deg, lat1_deg, lon1_deg)
-    return _out(sigma), _out(np.degrees(alpha) % 360.0)
+    return as_float_or_array(sigma), as_float_or_array(np.degrees(alpha) % 360.0)
 
 
 def great_circle_distance(lat1_deg, lon1_deg, lat2_deg, lon2_deg):
@@ -207,7 +202,7 @@ def great_circle_distance(lat1_deg, lon1_deg, lat2_deg, lon2_deg):
     """
     sigma, alpha = _polar(lat2_deg, lon2_deg, lat1_deg, lon1_deg)
     m, n = meridian_radius(lat1_deg), normal_radius(lat1_deg)
-    return _out(sigma * np.hypot(m * np.cos(alpha), n * np.sin(alpha)))
+    return as_float_or_array(sigma * np.hypot(m * np.cos(alpha), n * np.sin(alpha)))
 
 
 def latlon_to_aeqd(lat_deg, lon_deg, home_lat_deg, home_lon_deg):
@@ -228,7 +223,8 @@ def latlon_to_aeqd(lat_deg, lon_deg, home_lat_deg, home_lon_deg):
     """
     sigma, alpha = _polar(lat_deg, lon_deg, home_lat_deg, home_lon_deg)
     m0, n0 = meridian_radius(home_lat_deg), normal_radius(home_lat_deg)
-    return _out(n0 * sigma * np.sin(alpha)), _out(m0 * sigma * np.cos(alpha))
+    return (as_float_or_array(n0 * sigma * np.sin(alpha)),
+            as_float_or_array(m0 * sigma * np.cos(alpha)))
 
 
 def aeqd_to_latlon(east_m, north_m, home_lat_deg, home_lon_deg):
@@ -265,7 +261,7 @@ def aeqd_to_latlon(east_m, north_m, home_lat_deg, home_lon_deg):
     px, py, pz = (c * up[k] + ce * east[k] + cn * north[k] for k in range(3))
     lat = np.degrees(np.arctan2(pz, np.hypot(px, py)))
     lon = np.degrees(np.arctan2(py, px))
-    return _out(lat), _out(lon)
+    return as_float_or_array(lat), as_float_or_array(lon)
 
 
 def frame_error(lat1_deg, lon1_deg, lat2_deg, lon2_deg, home_lat_deg, home_lon_deg):
@@ -293,7 +289,7 @@ def frame_error(lat1_deg, lon1_deg, lat2_deg, lon2_deg, home_lat_deg, home_lon_d
     sigma, _ = _polar(lat2_deg, lon2_deg, lat1_deg, lon1_deg)
     with np.errstate(invalid="ignore", divide="ignore"):
         err = np.where(sigma > 0, np.abs(chord - sigma) / np.where(sigma > 0, sigma, 1.0), 0.0)
-    return _out(np.where(np.isnan(sigma), np.nan, err))
+    return as_float_or_array(np.where(np.isnan(sigma), np.nan, err))
 
 
 # --------------------------------------------------------------------------
@@ -302,7 +298,7 @@ def frame_error(lat1_deg, lon1_deg, lat2_deg, lon2_deg, home_lat_deg, home_lon_d
 def _ecef(lat_rad, lon_rad):
     """Earth-centred Earth-fixed coordinates of points on the ellipsoid. [m]"""
     s = np.sin(lat_rad)
-    n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * s * s)
+    n = _prime_vertical(s)
     c = np.cos(lat_rad)
     return n * c * np.cos(lon_rad), n * c * np.sin(lon_rad), n * _B2_OVER_A2 * s
 
@@ -312,10 +308,8 @@ def latlon_to_en(lat_deg, lon_deg, home_lat_deg, home_lon_deg):
 
     Parameters
     ----------
-    lat_deg, lon_deg : numeric
-        Geodetic latitude and longitude of the points (WGS-84). [deg]
-    home_lat_deg, home_lon_deg : float
-        Home point, the origin of the local frame. [deg]
+    lat_deg, lon_deg, home_lat_deg, home_lon_deg
+        As in :func:`latlon_to_aeqd`. [deg]
 
     Returns
     -------
@@ -328,7 +322,7 @@ def latlon_to_en(lat_deg, lon_deg, home_lat_deg, home_lon_deg):
                     np.radians(np.asarray(lon_deg, dtype=float)))
     dx, dy, dz = x - x0, y - y0, z - z0
     _, (ex, ey, _), (nx, ny, nz) = _axes(lat0, lon0)
-    return _out(ex * dx + ey * dy), _out(nx * dx + ny * dy + nz * dz)
+    return as_float_or_array(ex * dx + ey * dy), as_float_or_array(nx * dx + ny * dy + nz * dz)
 
 
 def en_to_latlon(east_m, north_m, home_lat_deg, home_lon_deg):
@@ -371,4 +365,4 @@ def en_to_latlon(east_m, north_m, home_lat_deg, home_lon_deg):
     x, y, z = qx + t * ux, qy + t * uy, qz + t * uz
     lat = np.degrees(np.arctan2(z, _B2_OVER_A2 * np.hypot(x, y)))
     lon = np.degrees(np.arctan2(y, x))
-    return _out(lat), _out(lon)
+    return as_float_or_array(lat), as_float_or_array(lon)

@@ -174,3 +174,15 @@ SUPERCAP_ESR_MAX_OHM = 100.0
 SUPERCAP_VOLTAGE_MAX_V = 10.0
 #: Supercapacitor cells in series: a 1000 V bank of 2.7 V cells has 370. [count]
 SUPERCAP_CELLS_SERIES_MAX = 500
+#: Disk loading, take-off weight over total rotor disk area: small multirotors fly at
+#: 50–200 N/m², heavy-lift ones and helicopters up to some 700 N/m² (CH-53E about
+#: 720 N/m²). Beyond this no rotor of the given size lifts the mass: the mass was written in
+#: another unit. [N/m²]
+DISK_LOADING_MAX_N_M2 = 2000.0
+#: Wing loading, take-off weight over wing area: small UAVs fly at 30–300 N/m², airliners
+#: at some 6000 N/m². Beyond this no small electric aircraft of the given wing flies. [N/m²]
+WING_LOADING_MAX_N_M2 = 6000.0
+#: Specific energy of a battery pack, from its nominal energy and mass: LiFePO4 packs hold
+#: about 90 Wh/kg, LiPo 130–200 Wh/kg, the best Li-ion cells some 270 Wh/kg; outside this
+#: range the mass or the capacity was written in another unit. [Wh/kg]
+PACK_SPECIFIC_ENERGY_MIN_WH_KG, PACK_SPECIFIC_ENERGY_MAX_WH_KG = 20.0, 500.0

@@ -23,6 +23,9 @@ from typing import Any
 
 import numpy as np
 
+from planner.physics.units import S_PER_H
+from planner.physics.wind import course_deg
+
 LEG_KINDS = ("climb", "cruise", "hover", "loiter", "descend")
 
 #: Most legs, waypoints or mission items a mission file may hold: a survey of a few
@@ -33,7 +36,7 @@ MAX_ITEMS = 10_000
 #: Longest total flight time the planner simulates (the legs at their planned speeds);
 #: beyond it a mission is refused, which bounds the memory of the time-stepped battery
 #: models. [s]
-MAX_FLIGHT_S = 24 * 3600.0
+MAX_FLIGHT_S = 24 * S_PER_H
 
 
 def too_many(where: str, what: str, n: int) -> str | None:
@@ -101,11 +104,11 @@ class Leg:
     @property
     def course_deg(self) -> float:
         """Direction of travel over ground, 0 = north, clockwise. [deg]"""
-        de = self.end_en_m[0] - self.start_en_m[0]
-        dn = self.end_en_m[1] - self.start_en_m[1]
-        return float(np.degrees(np.arctan2(de, dn)) % 360.0)
+        return float(course_deg(self.end_en_m[0] - self.start_en_m[0],
+                                self.end_en_m[1] - self.start_en_m[1]))
 
     def with_(self, **changes) -> Leg:
+        """A copy of the leg with some fields changed."""
         return replace(self, **changes)
 
 
@@ -201,6 +204,9 @@ class NavDefaults:
         Multirotor circle radius of a ``LOITER_TURNS`` of radius 0 (``CIRCLE_RADIUS``). [m]
     accel_ms2 : float
         Multirotor horizontal acceleration limit (``WPNAV_ACCEL``). [m/s²]
+    max_speed_ms : float or None
+        The aircraft's maximum airspeed: a mission speed beyond it was typed in another
+        unit where it is plausible in km/h. [m/s]
     """
 
     vehicle_type: str
@@ -211,6 +217,7 @@ class NavDefaults:
     circle_rate_dps: float = CIRCLE_RATE_DPS
     circle_radius_m: float = CIRCLE_RADIUS_M
     accel_ms2: float = WPNAV_ACCEL_MS2
+    max_speed_ms: float | None = None
 
     @classmethod
     def of(cls, aircraft: Any) -> NavDefaults:
@@ -222,4 +229,6 @@ class NavDefaults:
                    climb_rate_ms=float(aircraft.climb_rate_ms),
                    descent_rate_ms=float(aircraft.descent_rate_ms),
                    loiter_radius_m=(float(fw.loiter_radius_m) if fw is not None
-                                    and getattr(fw, "loiter_radius_m", None) else None))
+                                    and getattr(fw, "loiter_radius_m", None) else None),
+                   max_speed_ms=(float(aircraft.max_airspeed_ms)
+                                 if getattr(aircraft, "max_airspeed_ms", None) else None))

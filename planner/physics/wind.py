@@ -20,7 +20,24 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["airspeed_from_ground", "capped_groundspeed", "wind_triangle", "wind_vector"]
+__all__ = ["airspeed_from_ground", "capped_groundspeed", "course_deg", "wind_triangle",
+           "wind_vector"]
+
+
+def course_deg(east, north):
+    """Bearing of a track or a velocity over ground from its east and north components.
+
+    Parameters
+    ----------
+    east, north : numeric
+        Components (a displacement [m] or a velocity [m/s]; the unit cancels).
+
+    Returns
+    -------
+    course : numeric
+        0 = north, clockwise, in [0, 360); 0 for a zero vector. [deg]
+    """
+    return np.degrees(np.arctan2(east, north)) % 360.0
 
 
 def wind_vector(wind_speed_ms, wind_from_deg):

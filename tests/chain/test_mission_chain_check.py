@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planner.physics.battery.circuit import loaded_current
+from planner.physics.battery.elements import loaded_current
 from planner.chain.mission_chain import MissionChain
 from planner.physics.mission import Environment, Leg, Mission
 from planner.parameters import load_aircraft_and_battery

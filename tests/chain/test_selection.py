@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from planner.chain import selection as sel
-from planner.physics.battery.circuit import loaded_current
+from planner.physics.battery.elements import loaded_current
 from planner.chain.mission_chain import MissionChain
 from planner.errors import InputError
 from planner.io.mission import load_mission

@@ -9,7 +9,7 @@ import pytest
 
 from planner.chain import selection as sel
 from planner.chain import sizing
-from planner.chain.result import MissionChain
+from planner.chain.mission_chain import MissionChain
 from planner.errors import InputError
 from planner.physics.mission import Environment, Leg, Mission
 from planner.parameters import (

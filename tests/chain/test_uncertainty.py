@@ -131,23 +131,6 @@ def test_return_home_points_of_the_subset_agree_with_every_point():
         chain.run(mission, detail=False, rtl_subset=sub[:-1])
 
 
-def test_the_compiled_leg_pass_equals_the_array_code():
-    """Many packs (no per-leg detail) take the compiled pass; one pack the array code that
-    keeps the detail: every figure must agree, including undeliverable power."""
-    ac, pack, mission = solo()
-    packs = [replace(pack, internal_resistance_ohm=r, usable_fraction=f)
-             for r in (None, 0.01, 2.5) for f in (0.8, 1.0)]
-    chain = MissionChain(ac, packs)
-    a, b = chain.run(mission, detail=True), chain.run(mission, detail=False)
-    for name in ("charge_used_mah", "energy_wh", "peak_current_a", "peak_leg",
-                 "undeliverable_leg", "undeliverable_power_w", "deliverable_max_w",
-                 "rtl_min_margin_mah", "pnr_index", "margin_time_s"):
-        np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-9,
-                                   equal_nan=True, err_msg=name)
-    assert (a.undeliverable_leg >= 0).any()          # the 2.5 Ω pack cannot deliver
-    np.testing.assert_array_equal(a.violated, b.violated)
-
-
 def test_failsafe_from_the_monte_carlo_is_at_least_the_forecast_one():
     ac, pack, mission = solo()
     chain = MissionChain(ac, pack)

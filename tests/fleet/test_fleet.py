@@ -68,7 +68,7 @@ def _models():
 def _run(paths, out, client, **kw):
     from planner.fleet import read_pack_map, run_fleet
 
-    files.reset({"--out": str(out)})
+    files.reset({"--out": str(out)}, folders=("--out",))
     craft, packs = _models()
     from planner.cli.plots.fleet import write_figures
 
@@ -189,7 +189,7 @@ def test_parquet_schema_and_rows(first, fleet):
     assert (smart["pack_id"] == "4242").all()
     assert (smart["pack_id_source"] == "log battery serial").all()
     assert (ok.loc[ok["pack"] != "4242", "pack_id"] == ok.loc[ok["pack"] != "4242", "pack"]).all()
-    assert (ok.loc[ok["pack"] != "4242", "pack_id_source"] == "--packs").all()
+    assert (ok.loc[ok["pack"] != "4242", "pack_id_source"] == "packs CSV").all()
     # a smart battery's ULog carries its cycle count
     ulg = smart[smart["format"] == "ulog"]
     assert len(ulg) and (ulg["cycle"] == ulg["cycle_true"]).all()
@@ -291,7 +291,7 @@ def test_cli_runs_a_mixed_fleet_and_names_an_unknown_aircraft(fleet_dir, tmp_pat
                  "--packs", str(bad), "--workers", "1"])
     err = capsys.readouterr().err
     assert code == 2
-    assert "packs.csv: row 3: aircraft 'hexa' is none of the --aircraft" in err
+    assert "packs.csv: row 3: aircraft 'hexa' is none of the aircraft given" in err
     assert not (tmp_path / "o").exists()
 
 
@@ -481,7 +481,7 @@ def test_a_fleet_without_aircraft_keeps_each_packs_nominal_capacity(client, tmp_
 
     g = generate_fleet(tmp_path / "small", flights_per_pack=4, packs=PACKS[1:3])
     _, pack = load_aircraft_and_battery(AIRCRAFT)
-    files.reset({"--out": str(tmp_path / "o")})
+    files.reset({"--out": str(tmp_path / "o")}, folders=("--out",))
     res = run_fleet([g.logs], out_dir=tmp_path / "o", aircraft=None, pack=pack,
                     pack_map=read_pack_map(g.packs_csv), client=client, progress=False)
     assert (res.table["status"] == "ok").all()
@@ -500,4 +500,4 @@ def test_an_aircraft_the_run_does_not_have_is_a_failed_row_that_names_it(fleet):
                                                           packs["solo_survey"])},
                         aircraft_key="hexa")
     assert row["status"] == "failed"
-    assert "names aircraft 'hexa', none of the --aircraft (solo_survey)" in row["error"]
+    assert "names aircraft 'hexa', none of the aircraft given (solo_survey)" in row["error"]

@@ -14,6 +14,7 @@ from planner.cli.commands.common import (
     fmt,
     output_path,
     parse_float,
+    parse_mass,
     plot_path,
     write_json,
 )
@@ -73,13 +74,14 @@ def run(args) -> int:
     if plot_out and not fixed_wing:
         raise InputError("--plot: the figure is drawn for a fixed wing's fit")
     if args.mass is not None:
-        mass = parse_float(args.mass, "--mass", 0.01, 10000.0)
+        mass = parse_mass(args.mass, "--mass", aircraft, "all-up mass", 0.01, 1.5)
     else:
         path = args.battery or default_battery_path(aircraft)
         if path is None:
             raise InputError(f"{args.aircraft}: no pack known: give --battery or --mass")
         mass = (aircraft.empty_mass_kg + load_battery(path).total_mass_kg
-                + parse_float(args.payload, "--payload", 0.0, 1000.0))
+                + parse_mass(args.payload, "--payload", aircraft))
+    site = parse_float(args.site_altitude, "--site-altitude", -500, 9000, "m")
     data, _ = load_flight_data(args.data, column_map=args.map,
                                battery_instance=battery_instance(args))
     opts = {"airborne_height_m": None if args.airborne_height is None else
@@ -97,8 +99,7 @@ def run(args) -> int:
         warnings.simplefilter("always")
         result = fit(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
                      train=_list(args.train), validate=_list(args.validate),
-                     site_altitude_m=parse_float(args.site_altitude, "--site-altitude",
-                                                 -500, 9000), **opts)
+                     site_altitude_m=site, **opts)
     for w in caught:
         print(f"warning: {w.message}")
     if fixed_wing:

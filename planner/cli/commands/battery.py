@@ -46,7 +46,7 @@ def _register_fit(sub) -> None:
         description="Fit the integral capacity model t = δ P^ε C^β to measured discharges "
                     "(flight-record CSV: time_s, power_w or voltage_v+current_a, and "
                     "current_a or consumed_mah; several experiments told apart by "
-                    "'experiment'). Default split (seed paper): the experiments with the "
+                    "'experiment'). Default split ([UAV23]): the experiments with the "
                     "lowest and the highest mean power train, the rest validate. Exit 1 when "
                     "a parameter ends on its bound or outside its physical range (a misfit, "
                     "written as fit_status).")
@@ -198,6 +198,8 @@ def run_fit(args) -> int:
     plot_out = plot_path(args.plot)
     json_out = output_path(args.json, "--json")
     beta = parse_float(args.fix_beta, "--fix-beta", 0.5, 1.5) if args.fix_beta else None
+    mass_kg = (parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0, "kg")
+               if args.mass_kg is not None else None)
     train, validate = _ids(args.train, "--train"), _ids(args.validate, "--validate")
     base_raw = None
     if args.battery:
@@ -229,9 +231,9 @@ def run_fit(args) -> int:
         cells = (parse_int(args.cells, "--cells", 1, 40) if args.cells
                  else _cells_from_voltage(experiments))
         capacity = max(m.final_charge_mah for m in result.metrics)
+        check_pack_mass(mass_kg, args.mass_kg, cells, capacity)
         mapping = {"name": args.name, "cells_series": cells,
-                   "capacity_mah": float(round(capacity)),
-                   "mass_kg": parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0),
+                   "capacity_mah": float(round(capacity)), "mass_kg": mass_kg,
                    "model": model.to_mapping()}
     mapping["source"] = source
     mapping["fit_status"] = result.fit_status
@@ -269,6 +271,43 @@ def run_fit(args) -> int:
         save_fit_plot(experiments, result, plot_out)
     # a parameter on its bound or outside its physical range: written as such, exit 1
     return 0 if result.fit_status == "ok" else 1
+
+
+#: Nominal cell voltage of the specific-energy check of ``--mass-kg`` (LiPo 3.7 V,
+#: Li-ion 3.6 V: the check's range is far wider than their difference). [V]
+CHECK_CELL_VOLTAGE_V = 3.7
+
+
+#: Least share of the pack's charge a discharge of the training data is taken to have
+#: drawn when ``--mass-kg`` is checked against it: the charge drawn is a lower bound of
+#: the capacity (a short flight draws a tenth of it), so a low specific energy refuses the
+#: mass only below this share of the range's floor. [unitless]
+DRAWN_SHARE_FLOOR = 0.05
+
+
+def check_pack_mass(mass_kg: float, text: str, cells: int, capacity_mah: float) -> None:
+    """``--mass-kg`` against the pack's nominal energy (cells × 3.7 V × the charge its
+    discharges drew): a specific energy above
+    :data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MAX_WH_KG`, or below
+    :data:`DRAWN_SHARE_FLOOR` × :data:`~planner.physics.limits.PACK_SPECIFIC_ENERGY_MIN_WH_KG`
+    (the charge drawn may be a small part of the capacity), is a mass in another unit."""
+    from planner.physics import limits as L
+
+    if not (capacity_mah > 0 and mass_kg):
+        return
+    energy_wh = cells * CHECK_CELL_VOLTAGE_V * capacity_mah / 1000.0
+    spec = energy_wh / mass_kg
+    low, high = L.PACK_SPECIFIC_ENERGY_MIN_WH_KG, L.PACK_SPECIFIC_ENERGY_MAX_WH_KG
+    if DRAWN_SHARE_FLOOR * low <= spec <= high:
+        return
+    hint = "; expected kg"
+    if spec < low and DRAWN_SHARE_FLOOR * low <= spec * 1000.0 <= high:
+        hint = f": grams? ({mass_kg:g} g = {mass_kg / 1000:g} kg, {spec * 1000:.0f} Wh/kg)"
+    elif spec > high and low <= spec / 1000.0 <= high:
+        hint = f": tonnes? ({spec / 1000:.0f} Wh/kg in tonnes)"
+    raise InputError(f"--mass-kg {text}: {mass_kg:g} kg for a {cells}S pack of "
+                     f"{capacity_mah:.0f} mAh ({energy_wh:.0f} Wh) is {spec:.3g} Wh/kg, "
+                     f"outside the [{low:g}, {high:g}] Wh/kg of battery packs{hint}")
 
 
 def fit_covariance(result: fit.IntegralFit):
@@ -462,7 +501,7 @@ def run_aprbs(args) -> int:
     if min_duration / max(lo, resolution) > MAX_APRBS_STEPS:
         raise InputError(f"--hold {args.hold}: holds this short make more than "
                          f"{MAX_APRBS_STEPS:,} steps in {min_duration:g} s; expected longer "
-                         "holds (the seed paper holds 30–300 s)")
+                         "holds ([UAV23] holds 30–300 s)")
     if args.seed is not None:
         seed = parse_int(args.seed, "--seed", 0, 2**32 - 1)
     else:
@@ -565,7 +604,7 @@ def _register_bench(sub) -> None:
                     "the virtual bench (equivalent-circuit LiPo pack with a diffusion-limited "
                     "capacity, constant-power load, 1 Hz logging with seeded measurement "
                     "noise, stop at the loaded cut-off) and write it as a flight-record CSV. "
-                    "With --report, fit the seed paper's m_const, m_2step and m_APRBS (β held "
+                    "With --report, fit [UAV23]'s m_const, m_2step and m_APRBS (β held "
                     "at 0.9648 and free) and print their cross-validation table (seed "
                     "Fig. 12–13).")
     p.add_argument("--campaign", required=True, choices=list(campaign.CAMPAIGNS),

@@ -6,7 +6,8 @@ import dataclasses
 import math
 
 from planner.io import files
-from planner.chain.result import MissionChain, MissionResult
+from planner.chain.mission_chain import MissionChain
+from planner.chain.result import MissionResult
 from planner.cli.commands.common import (
     flags_for,
     fmt,
@@ -14,7 +15,9 @@ from planner.cli.commands.common import (
     parse_float,
     parse_fraction,
     parse_int,
+    parse_mass,
     parse_wind,
+    check_speed,
     plot_path,
     write_json,
 )
@@ -93,16 +96,22 @@ def run(args) -> int:
     version = parse_version(args.firmware_version, firmware)
     plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
-    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
+    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0, "°C")
                    if args.temperature is not None else None)
     aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
+    payload = (parse_mass(args.payload, "--payload", aircraft)
+               if args.payload is not None else None)
+    wind = parse_wind(args.wind) if args.wind is not None else None
+    if wind is not None:
+        check_speed(wind[0], "--wind", args.wind, aircraft, "wind")
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     env = mission.environment
-    if args.wind is not None:
-        speed, direction = parse_wind(args.wind)
-        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
-    if args.payload is not None:
-        mission.payload_kg = parse_float(args.payload, "--payload", 0.0, 1000.0)
+    if wind is not None:
+        env = dataclasses.replace(env, wind_speed_ms=wind[0], wind_from_deg=wind[1])
+    if payload is not None:
+        mission.payload_kg = payload
+    else:
+        check_mission_payload(mission, args.mission, aircraft)
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
     spreads, mc = (parse_spreads(args), parse_mc(args)) if args.uncertainty else (None, None)
@@ -157,6 +166,17 @@ def run(args) -> int:
     if unc is not None:
         return 0 if unc.go else 1
     return 0 if result.go else 1
+
+
+def check_mission_payload(mission, path, aircraft) -> None:
+    """The payload a mission file carries, within the heaviest take-off of the aircraft
+    (else it was written in grams)."""
+    from planner.parameters.aircraft import in_grams
+
+    bound, why = aircraft.heaviest_takeoff()
+    if mission.payload_kg > bound:
+        raise InputError(f"{path}: payload_kg {mission.payload_kg:g} kg is more than {why} "
+                         f"{bound:.3g} kg{in_grams(mission.payload_kg, bound) or '; expected kg'}")
 
 
 def parse_spreads(args) -> Spreads:
@@ -236,7 +256,7 @@ def render_uncertainty(u: UncertaintyResult) -> str:
     for src in u.sources:
         share = "" if src["share"] is None else f"{100 * src['share']:5.1f} %"
         lines.append(f"    {src['name']:<{width}}  {share:>7}  {src['spread']:<14} "
-                     f"{src['origin']}")
+                     f"{_origin_flag(src['origin'])}")
     if u.driver:
         lines.append(f"  drives the spread most: {u.driver}")
     lines.append("")
@@ -358,3 +378,15 @@ def render(r: MissionResult, name: str) -> str:
     lines.append("")
     lines.append(r.verdict_line())
     return "\n".join(lines)
+
+
+#: The spread settings of ``monte_carlo`` and the flags that set them.
+_SPREAD_FLAGS = {"wind_sd_ms": "--wind-sd", "wind_direction_sd_deg": "--wind-sd",
+                 "gust_factor": "--gust", "temperature_sd_c": "--temperature-sd",
+                 "soh": "--soh", "payload_sd_kg": "--payload-sd"}
+
+
+def _origin_flag(origin: str) -> str:
+    """An uncertainty source's origin with the setting named by its flag."""
+    head, sep, rest = origin.partition(":")
+    return _SPREAD_FLAGS.get(head, head) + sep + rest

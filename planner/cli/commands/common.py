@@ -57,14 +57,27 @@ def parse_wind(text: str, max_speed_ms: float = MAX_WIND_MS) -> tuple[float, flo
     return speed, direction % 360.0
 
 
+#: A bare number in this range given for a fraction is ambiguous: ``--reserve 1.5`` may be
+#: 1.5 % (as a number above 1 is read) or a slip for 0.15; such a small share is written
+#: with its ``%``.
+AMBIGUOUS_PERCENT = (1.0, 5.0)
+
+
 def parse_fraction(text: str, option: str) -> float:
-    """``0.2``, ``20%`` or ``20`` → 0.2: a number above 1 is read as per cent."""
+    """``0.2``, ``20%`` or ``20`` → 0.2: a number above 1 is read as per cent. A bare
+    number between 1 and 5 (:data:`AMBIGUOUS_PERCENT`) is refused: 1.5 % is written
+    ``1.5%``, 15 % ``0.15`` or ``15``."""
     t = text.strip()
     try:
         value = float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
     except ValueError:
         raise InputError(f"{option}: expected a fraction such as 0.2 or a percentage such as "
                          f"20 or 20%, got {text!r}") from None
+    low, high = AMBIGUOUS_PERCENT
+    if not t.endswith("%") and low < value < high:
+        raise InputError(f"{option} {text}: ambiguous: {value:g} % (a number above 1 is read "
+                         f"as per cent) or a mistyped fraction? Write {value:g}% for "
+                         f"{value:g} %, or the fraction below 1 (0.2 for 20 %)")
     if not t.endswith("%") and 1.0 < value < 100.0:
         value /= 100.0
     if not 0.0 <= value < 1.0:
@@ -73,15 +86,61 @@ def parse_fraction(text: str, option: str) -> float:
     return value
 
 
+def parse_mass(text: str, option: str, aircraft, what: str = "payload",
+               low: float = 0.0, factor: float = 1.0) -> float:
+    """A mass [kg] a user typed (payload, all-up mass, battery mass) for ``aircraft``: a
+    number ≥ ``low`` and at most ``factor`` × the heaviest take-off of its class
+    (:meth:`~planner.parameters.Aircraft.heaviest_takeoff`; an overloaded flight's all-up
+    mass may pass its rating, not by half again); beyond it the mass was typed in another
+    unit, and the message says which (``350 kg is more than the aircraft's maximum take-off
+    mass 2 kg: grams?``)."""
+    from planner.parameters.aircraft import in_grams
+
+    value = parse_float(text, option, low, None, "kg")
+    bound, why = aircraft.heaviest_takeoff()
+    if factor != 1.0:
+        bound, why = factor * bound, f"{factor:g} × {why}"
+    if value > bound:
+        raise InputError(f"{option} {text}: {value:g} kg of {what} is more than {why} "
+                         f"{bound:.3g} kg{in_grams(value, bound) or '; expected kg'}")
+    return value
+
+
+def check_speed(value: float, option: str, text: str, aircraft, what: str) -> None:
+    """A speed [m/s] a user typed that no flight of ``aircraft`` reaches (more than twice
+    its maximum airspeed) was typed in another unit: km/h or knots."""
+    top = aircraft.max_airspeed_ms
+    if value <= 2.0 * top:
+        return
+    for unit, factor in (("km/h", 1 / 3.6), ("knots", 0.514444)):
+        if value * factor <= top:
+            raise InputError(f"{option} {text}: {value:g} m/s of {what} is more than twice "
+                             f"the aircraft's maximum airspeed {top:g} m/s: {unit}? "
+                             f"({value:g} {unit} = {value * factor:.3g} m/s)")
+    raise InputError(f"{option} {text}: {value:g} m/s of {what} is more than twice the "
+                     f"aircraft's maximum airspeed {top:g} m/s; expected m/s")
+
+
 def parse_float(text: str, option: str, low: float | None = None,
-                high: float | None = None) -> float:
+                high: float | None = None, unit: str = "") -> float:
+    """A number in [low, high] (``unit`` named in the message; ``°C`` and ``m`` also say
+    when the value looks like °F or feet)."""
     try:
         value = float(text)
     except ValueError:
         raise InputError(f"{option}: expected a number, got {text!r}") from None
     if not math.isfinite(value) or (low is not None and value < low) or (
             high is not None and value > high):
-        raise InputError(f"{option}: expected a number in [{low}, {high}], got {text!r}")
+        hint = ""
+        if math.isfinite(value) and unit == "°C" and low <= (value - 32) / 1.8 <= high:
+            hint = f": °F? ({value:g} °F = {(value - 32) / 1.8:.1f} °C)"
+        elif math.isfinite(value) and unit == "m" and low <= value * 0.3048 <= high:
+            hint = f": feet? ({value:g} ft = {value * 0.3048:.0f} m)"
+        rng = (f"[{low:g}, {high:g}]" if low is not None and high is not None else
+               f"≥ {low:g}" if low is not None else f"≤ {high:g}" if high is not None
+               else "(finite)")
+        raise InputError(f"{option}: expected a number in {rng}{' ' + unit if unit else ''}, "
+                         f"got {text!r}{hint}")
     return value
 
 

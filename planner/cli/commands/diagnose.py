@@ -15,6 +15,7 @@ from planner.cli.commands.common import (
     battery_instance,
     output_path,
     parse_float,
+    parse_mass,
     plot_path,
     write_json,
 )
@@ -31,7 +32,7 @@ def register(sub) -> None:
                     "model) on training splits of the data, then fit each candidate effect ("
                     + ", ".join(EFFECTS) + ") and keep only those whose gain on held-out "
                     "experiments or time blocks is statistically and practically significant "
-                    "(DESIGN §6).")
+                    "(docs/commands.md).")
     p.add_argument("data", nargs="+", metavar="DATA",
                    help="flight-record CSV files or logs (.bin, .px4log, .tlog, .ulg, mapped CSV)")
     p.add_argument("--battery", help="battery-pack YAML flown (start values of the integral "
@@ -41,7 +42,7 @@ def register(sub) -> None:
     p.add_argument("--map", help="column map for CSV data that is not a flight record "
                                  "(e.g. dji_m100)")
     add_battery_instance(p)
-    p.add_argument("--json", help="write the findings as JSON (DESIGN §6); - for standard "
+    p.add_argument("--json", help="write the findings as JSON (docs/commands.md); - for standard "
                                   "output")
     p.add_argument("--plot", help="write a PNG: residuals against time and against each "
                                   "finding's driver, before and after")
@@ -63,12 +64,17 @@ def run(args) -> int:
     json_out = output_path(args.json, "--json")
     plot_out = plot_path(args.plot)
     out = output_path(args.out, "--out")
-    payload = parse_float(args.payload, "--payload", 0.0, 1000.0)
-    mass = parse_float(args.mass, "--mass", 0.01, 10000.0) if args.mass else None
-    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0)
+    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0, "m")
     effects = [s.strip() for s in args.effects.split(",") if s.strip()] if args.effects \
         else None
     pack, aircraft = load_definitions(args.battery, args.aircraft)
+    if aircraft is not None:
+        payload = parse_mass(args.payload, "--payload", aircraft)
+        mass = (parse_mass(args.mass, "--mass", aircraft, "all-up mass", 0.01, 1.5)
+                if args.mass else None)
+    else:
+        payload = parse_float(args.payload, "--payload", 0.0, 1000.0, "kg")
+        mass = parse_float(args.mass, "--mass", 0.01, 10000.0, "kg") if args.mass else None
     if out and pack is None and aircraft is None:
         raise InputError("--out needs --battery or --aircraft (the definition to extend)")
     result = diagnose(list(args.data), pack, aircraft, payload_kg=payload, mass_kg=mass,

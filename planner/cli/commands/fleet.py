@@ -42,7 +42,7 @@ def register(sub) -> None:
     p.add_argument("--within", default="50",
                    help="flag the packs that reach --retire within this many flights "
                         "(default 50)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, output_folders=("--out",))
 
 
 def run(args) -> int:

@@ -6,7 +6,14 @@ import dataclasses
 
 import numpy as np
 
-from planner.cli.commands.common import output_path, parse_float, parse_int, parse_wind, write_json
+from planner.cli.commands.common import (
+    check_speed,
+    output_path,
+    parse_float,
+    parse_int,
+    parse_wind,
+    write_json,
+)
 from planner.errors import InputError
 from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import load_aircraft_and_battery
@@ -34,7 +41,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from planner.physics.battery.hybrid import BCAP1500, matched_bank, simulate_hybrid
-    from planner.chain.result import MissionChain
+    from planner.chain.mission_chain import MissionChain
 
     json_out = output_path(args.json, "--json")
     aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
@@ -42,8 +49,10 @@ def run(args) -> int:
     env = mission.environment
     if args.wind:
         speed, direction = parse_wind(args.wind)
+        check_speed(speed, "--wind", args.wind, aircraft, "wind")
         env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
-    temp = parse_float(args.temperature, "--temperature", -20, 60) if args.temperature else 25.0
+    temp = (parse_float(args.temperature, "--temperature", -20, 60, "°C") if args.temperature
+            else 25.0)
     step = parse_float(args.step, "--step", 0.01, 10.0)
     n_par = parse_int(args.supercap_parallel, "--supercap-parallel", 1, 100)
     battery = pack.circuit_parameters()

@@ -1,4 +1,4 @@
-"""``endurance export LOG --csv F``: any supported log → flight-record CSV (DESIGN §7)."""
+"""``endurance export LOG --csv F``: any supported log → flight-record CSV (docs/record.md)."""
 
 from __future__ import annotations
 
@@ -59,7 +59,7 @@ def register(subparsers) -> None:
         "export", help="any supported log -> flight record CSV",
         description="Read an ArduPilot .bin, PX4 .px4log/.ulg, MAVLink .tlog, a PX4 topic "
         "export (a folder or zip of pyulog ulog2csv files) or a CSV file (with --map) and "
-        "write the flight record (DESIGN §4) as CSV. One row per battery sample; the other "
+        "write the flight record (docs/record.md) as CSV. One row per battery sample; the other "
         "channels are interpolated onto the battery times.")
     p.add_argument("log", metavar="LOG", help="log file (.bin, .px4log, .ulg, .tlog, .csv) or "
                                               "a folder or zip of PX4 topic CSV files")

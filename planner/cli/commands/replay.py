@@ -13,6 +13,7 @@ from planner.cli.commands.common import (
     output_path,
     parse_float,
     parse_fraction,
+    parse_mass,
     plot_path,
     write_json,
 )
@@ -52,10 +53,11 @@ def run(args) -> int:
     json_out = output_path(args.json, "--json")
     plot_out = plot_path(args.plot)
     csv_out = output_path(args.csv, "--csv")
-    payload = parse_float(args.payload, "--payload", 0.0, 1000.0)
     reserve = parse_fraction(args.reserve, "--reserve")
-    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0)
+    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0, "m")
     aircraft = load_aircraft(args.aircraft) if args.aircraft else None
+    payload = (parse_mass(args.payload, "--payload", aircraft) if aircraft is not None
+               else parse_float(args.payload, "--payload", 0.0, 1000.0, "kg"))
     pack = load_battery(args.battery) if args.battery else None
     if aircraft is not None and pack is None and aircraft.battery_path:
         from planner.parameters import default_battery_path

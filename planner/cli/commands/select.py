@@ -18,7 +18,9 @@ from planner.cli.commands.common import (
     parse_float,
     parse_fraction,
     parse_int,
+    parse_mass,
     parse_wind,
+    check_speed,
     plot_path,
     write_json,
 )
@@ -57,9 +59,9 @@ def register(sub) -> None:
     p.add_argument("--no-sorties", action="store_true",
                    help="when no pack is feasible, do not plan sorties")
     p.add_argument("--sorties-out", metavar="DIR",
-                   help="write one mission file per sortie into this existing folder, in "
+                   help="write one mission file per sortie into this folder (created), in "
                         "the mission's own format (.plan, .waypoints or YAML)")
-    p.set_defaults(func=run_select)
+    p.set_defaults(func=run_select, output_folders=("--sorties-out",))
 
     s = sub.add_parser("sweep", help="sizing sweeps: endurance vs battery mass, range vs "
                                      "payload",
@@ -104,19 +106,24 @@ def run_select(args) -> int:
     reserve = parse_fraction(args.reserve, "--reserve")
     top = None if args.top is None else parse_int(args.top, "--top", 1, 10**9)
     min_tw = parse_float(args.min_thrust_to_weight, "--min-thrust-to-weight", 0.0, 20.0)
-    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
+    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0, "°C")
                    if args.temperature is not None else None)
-    payload = (parse_float(args.payload, "--payload", 0.0, 1000.0)
-               if args.payload is not None else None)
     aircraft = load_aircraft(args.aircraft)
+    payload = (parse_mass(args.payload, "--payload", aircraft)
+               if args.payload is not None else None)
+    wind = parse_wind(args.wind) if args.wind is not None else None
+    if wind is not None:
+        check_speed(wind[0], "--wind", args.wind, aircraft, "wind")
     packs = load_catalog(args.packs)
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
+    if payload is None:
+        from planner.cli.commands.check import check_mission_payload
+        check_mission_payload(mission, args.mission, aircraft)
     env = mission.environment
-    if args.wind is not None:
-        speed, direction = parse_wind(args.wind)
-        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
+    if wind is not None:
+        env = dataclasses.replace(env, wind_speed_ms=wind[0], wind_from_deg=wind[1])
     selection = sel.select_pack(mission, aircraft, packs, env, objective=args.objective,
                                 reserve=reserve, temperature_c=temperature,
                                 payload_kg=payload, min_thrust_to_weight=min_tw)
@@ -214,16 +221,15 @@ def render_selection(selection, catalog, env, top=None) -> str:
 
 
 def sorties_folder(folder: str | None, mission_path: str, no_sorties: bool):
-    """``--sorties-out``: an existing folder, for a mission format that can be written."""
+    """``--sorties-out``: a folder (created when the sorties are written; its parent must
+    exist), for a mission format that can be written."""
     from planner.io.mission.writers import WRITERS
 
     if folder is None:
         return None
     if no_sorties:
         raise InputError("--sorties-out: cannot be given with --no-sorties")
-    if not Path(folder).is_dir():
-        raise InputError(f"--sorties-out {folder}: not an existing folder (expected the "
-                         "folder to write the sortie mission files into)")
+    files.check_target(folder, "--sorties-out", folder=True)
     suffix = Path(mission_path).suffix.lower()
     if suffix not in WRITERS:
         raise InputError(f"--sorties-out: cannot write missions in the format of "
@@ -238,6 +244,11 @@ def write_sorties(plan, mission_path: str, folder: Path, defaults) -> list[Path]
 
     src = Path(mission_path)
     write = writers.WRITE[writers.WRITERS[src.suffix.lower()]]
+    try:
+        folder.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--sorties-out {folder}: cannot create the folder "
+                         f"({exc.strerror or exc})") from None
     out = []
     for s in plan.sorties:
         text = write(s.mission, defaults=defaults)
@@ -269,7 +280,9 @@ def render_plan(plan) -> str:
 
 # --------------------------------------------------------------------------- sweep
 
-def _parse_range(text, default):
+def _parse_range(text, default, aircraft=None, what="payload"):
+    """``--range LO:HI`` [kg]; with ``aircraft``, HI at most its heaviest take-off (else
+    the masses were typed in grams)."""
     if text is None:
         return default
     try:
@@ -279,6 +292,13 @@ def _parse_range(text, default):
         raise InputError(f"--range: expected LO:HI in kg, e.g. 0.2:3, got {text!r}") from None
     if not (math.isfinite(lo) and math.isfinite(hi)) or lo < 0 or hi <= lo:
         raise InputError(f"--range: expected 0 <= LO < HI, got {text!r}")
+    if aircraft is not None:
+        from planner.parameters.aircraft import in_grams
+
+        bound, why = aircraft.heaviest_takeoff()
+        if hi > bound:
+            raise InputError(f"--range {text}: {hi:g} kg of {what} is more than {why} "
+                             f"{bound:.3g} kg{in_grams(hi, bound) or '; expected kg'}")
     return lo, hi
 
 
@@ -289,19 +309,20 @@ def run_sweep(args) -> int:
     csv_out = output_path(args.csv, "--csv")
     plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
-    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
+    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0, "°C")
                    if args.temperature is not None else None)
-    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0)
+    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0, "m")
     env = Environment(temperature_c=temperature, site_altitude_m=site)
+    aircraft = load_aircraft(args.aircraft)
     if args.wind is not None:
         speed, direction = parse_wind(args.wind)
+        check_speed(speed, "--wind", args.wind, aircraft, "wind")
         env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
-    aircraft = load_aircraft(args.aircraft)
     battery_path = args.battery or default_battery_path(aircraft)
     pack = load_battery(battery_path) if battery_path else None
 
     if args.kind == "battery-mass":
-        altitude = parse_float(args.altitude or "0", "--altitude", 0.0, 10000.0)
+        altitude = parse_float(args.altitude or "0", "--altitude", 0.0, 10000.0, "m")
         chem = args.chemistry or (pack.chemistry if pack is not None else "lipo")
         defaults = sizing.CHEMISTRIES.get(chem, sizing.CHEMISTRIES["lipo"])
         cell_v = (parse_float(args.cell_voltage, "--cell-voltage", 1.0, 5.0)
@@ -331,9 +352,9 @@ def run_sweep(args) -> int:
             source = f"{chem} default (assumed)"
         model = (pack.model if pack is not None and not pack.model.literature
                  and pack.cells_series == cells and args.chemistry is None else None)
-        payload = parse_float(args.payload or "0", "--payload", 0.0, 1000.0)
+        payload = parse_mass(args.payload or "0", "--payload", aircraft)
         m0 = aircraft.empty_mass_kg + payload
-        lo, hi = _parse_range(args.sweep_range, (0.05 * m0, 4.0 * m0))
+        lo, hi = _parse_range(args.sweep_range, (0.05 * m0, 4.0 * m0), aircraft, "battery")
         lo = max(lo, 1e-3)
         n = 200 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
         with flags_for(reserve="--reserve"):
@@ -357,10 +378,11 @@ def run_sweep(args) -> int:
     if pack is None:
         raise InputError(f"{args.aircraft}: no 'battery' key and no --battery given "
                          "(the payload sweep needs a pack)")
-    altitude = parse_float(args.altitude or "50", "--altitude", 0.0, 10000.0)
+    altitude = parse_float(args.altitude or "50", "--altitude", 0.0, 10000.0, "m")
     free = (aircraft.max_takeoff_mass_kg - aircraft.empty_mass_kg - pack.total_mass_kg
             if aircraft.max_takeoff_mass_kg is not None else aircraft.empty_mass_kg)
-    lo, hi = _parse_range(args.sweep_range, (0.0, max(free, 0.1 * aircraft.empty_mass_kg)))
+    lo, hi = _parse_range(args.sweep_range, (0.0, max(free, 0.1 * aircraft.empty_mass_kg)),
+                          aircraft, "payload")
     n = 41 if args.points is None else parse_int(args.points, "--points", 3, 100_000)
     with flags_for(reserve="--reserve"):
         sweep = sizing.range_sweep(aircraft, pack, np.linspace(lo, hi, n), reserve=reserve,

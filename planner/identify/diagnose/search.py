@@ -121,6 +121,7 @@ from scipy.optimize import least_squares
 from scipy.stats import chi2
 
 from planner.physics import atmosphere
+from planner.physics.battery import integral
 from planner.identify import stats
 from planner.errors import FitError, ModelError
 from planner.identify.aircraft_fit import with_params
@@ -437,7 +438,7 @@ class CapacityLevel:
         ([UAV23] eq. 14 up to the scale δ, fitted linearly). [s^(1/β)]"""
         rate = np.exp(-x[0] * self.logp) * self.on
         S = self.cumulate(self.half_dt * (rate[1:] + rate[:-1]))
-        return np.maximum(S, 0.0) ** (1.0 / self._beta(x))
+        return integral.charge_from_stress(S, self._beta(x))
 
     def design(self, x: np.ndarray, effects) -> np.ndarray:
         """Per-sample cumulative columns: G, then one per effect."""

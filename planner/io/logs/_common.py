@@ -22,7 +22,13 @@ import numpy as np
 import pandas as pd
 
 from planner.errors import InputError
-from planner.io.record import NO_CURRENT_NOTE, COLUMNS, cumulative_trapezoid, interpolate_onto
+from planner.io.record import (
+    COLUMNS,
+    MAX_TIME_GAP_S,
+    NO_CURRENT_NOTE,
+    cumulative_trapezoid,
+    interpolate_onto,
+)
 from planner.physics.limits import CELLS_SERIES_MAX
 from planner.physics.units import AS_PER_MAH
 
@@ -344,12 +350,6 @@ def increasing_subset(t: np.ndarray) -> np.ndarray:
         out.append(i)
         i = prev[i]
     return fin[np.array(out[::-1], dtype=np.int64)]
-
-
-#: Longest gap between two samples of one stream in a log of one flight; a time stamp
-#: beyond it is damage (a garbage ``TimeUS``, 163 000 years after boot, in a duplicated
-#: chunk), and the samples on the far side of the gap are dropped. [s]
-MAX_TIME_GAP_S = 6 * 3600.0
 
 
 def _clean(ch: Channel, meta: Meta, dropped: dict) -> np.ndarray:

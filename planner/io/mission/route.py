@@ -133,6 +133,11 @@ ARC_STEP_DEG = 5.0
 MAX_ARC_DEG = 7200.0
 #: A home further than this from a leg is "on another continent" in the messages. [km]
 FAR_HOME_KM = 1000.0
+#: A waypoint this far from home whose latitude and longitude, swapped, lie within
+#: :data:`SWAP_NEAR_KM` of home was written with the two swapped. [km]
+SWAP_FAR_KM = 100.0
+#: See :data:`SWAP_FAR_KM`. [km]
+SWAP_NEAR_KM = 20.0
 
 ACTIONS = ("takeoff", "waypoint", "arc", "hold", "loiter", "loiter_to_alt", "rtl", "land",
            "speed", "climb_rate", "descent_rate")
@@ -311,6 +316,51 @@ def arc_center(start: tuple[float, float], end: tuple[float, float],
     return ((a22 * bx - a12 * by) / det, (a11 * by - a21 * bx) / det)
 
 
+def _check_swapped(steps, lat, lon, east, north, home_lat: float, home_lon: float,
+                   where: str) -> None:
+    """A waypoint more than :data:`SWAP_FAR_KM` from home whose coordinates, swapped, lie
+    within :data:`SWAP_NEAR_KM` of it (or of the other waypoints) had its latitude and
+    longitude swapped: an error naming the item."""
+    with np.errstate(invalid="ignore"):
+        far = np.hypot(east, north) > SWAP_FAR_KM * 1e3
+    if not far.any():
+        return
+    ok = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lon) <= 90.0)
+    for i in np.flatnonzero(far & ok):
+        e, n = latlon_to_aeqd(lon[i], lat[i], home_lat, home_lon)
+        near = float(np.hypot(e, n))
+        if near <= SWAP_NEAR_KM * 1e3:
+            d = float(np.hypot(east[i], north[i]))
+            raise InputError(
+                f"{where}: {steps[i].origin}: ({lat[i]:.6g}, {lon[i]:.6g}) is {d / 1e3:.0f} km "
+                f"from home ({home_lat:.6g}, {home_lon:.6g}): latitude and longitude swapped? "
+                f"({lon[i]:.6g}, {lat[i]:.6g}) is {near / 1e3:.2g} km from home")
+    if far[np.isfinite(east)].all() and abs(home_lon) <= 90.0:
+        # every point far from home: the home itself may be the swapped one
+        e, n = latlon_to_aeqd(lat, lon, home_lon, home_lat)
+        with np.errstate(invalid="ignore"):
+            if np.nanmedian(np.hypot(e, n)) <= SWAP_NEAR_KM * 1e3:
+                raise InputError(
+                    f"{where}: home ({home_lat:.6g}, {home_lon:.6g}) is "
+                    f"{float(np.nanmin(np.hypot(east, north))) / 1e3:.0f} km from every "
+                    f"waypoint: latitude and longitude swapped? ({home_lon:.6g}, "
+                    f"{home_lat:.6g}) is among them")
+
+
+def _check_speeds(steps, defaults: NavDefaults | None, where: str) -> None:
+    """A mission speed above the aircraft's maximum airspeed that is within it in km/h was
+    typed in km/h: an error naming the item."""
+    top = defaults.max_speed_ms if defaults is not None else None
+    if not top:
+        return
+    for step in steps:
+        v = step.speed_ms
+        if step.action == "speed" and v is not None and v > top and v / 3.6 <= top:
+            raise InputError(f"{where}: {step.origin}: speed {v:g} m/s is above the "
+                             f"aircraft's maximum airspeed {top:g} m/s: km/h? ({v:g} km/h = "
+                             f"{v / 3.6:.3g} m/s); expected m/s")
+
+
 def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: float, *,
                   where: str, speed_ms: float | None = None,
                   speed_is_airspeed: bool | None = None,
@@ -359,6 +409,8 @@ def route_to_legs(steps: list[RouteStep], home_lat_deg: float, home_lon_deg: flo
     lon = np.array([np.nan if s.lon_deg is None else s.lon_deg for s in steps], dtype=float)
     east, north = latlon_to_aeqd(lat, lon, home_lat_deg, home_lon_deg)
     east, north = np.atleast_1d(east), np.atleast_1d(north)
+    _check_swapped(steps, lat, lon, east, north, home_lat_deg, home_lon_deg, where)
+    _check_speeds(steps, defaults, where)
     home_ll = (float(home_lat_deg), float(home_lon_deg))
 
     legs: list[Leg] = []

@@ -74,7 +74,7 @@ from planner.io.mission.route import (
     route_to_legs,
     total_hold_problem,
 )
-from planner.io.schema import EXPONENT_TEXT
+from planner.io.schema import EXPONENT_TEXT, refuse_other_kind
 
 #: Slowest mission speed: slower, a leg never ends in a flight's time. [m/s]
 MIN_SPEED_MS = 0.1
@@ -486,6 +486,7 @@ def load_yaml_mission(path: str | Path, *, vehicle_type: str | None = None,
     if not isinstance(data, dict):
         raise InputError(f"{where}: expected a mapping with legs: or waypoints:, got "
                          f"{_describe(data)}")
+    refuse_other_kind(data, "mission", where)
     chk = _Checker(where)
     has_legs, has_wps = "legs" in data, "waypoints" in data
     if has_legs and has_wps:

@@ -113,6 +113,7 @@ import numba
 import numpy as np
 import pandas as pd
 
+from planner.physics.battery import elements as el
 from planner.physics.battery.ocv import lipo_ocv
 from planner.physics.battery.thermal import (
     T_RANGE_C,
@@ -129,15 +130,15 @@ from planner.physics.limits import (
     HYSTERESIS_GAMMA_MAX,
     HYSTERESIS_MAX_V,
 )
+from planner.physics.units import AS_PER_AH
 
-#: Universal gas constant. [J/(mol K)]
-R_GAS = 8.314462618
 #: Default Arrhenius activation energy of R0 (see module notes). [J/mol]
 DEFAULT_R0_ACTIVATION_J_MOL = 25_000.0
 #: Default capacity loss per °C below the reference temperature (see module notes). [1/°C]
 DEFAULT_CAPACITY_TEMP_COEFF = 0.006
-#: Points of the uniform SoC grid on which OCV and R0(SoC) are tabulated for the time loop.
-_GRID_N = 4001
+#: Points of the uniform SoC grid on which OCV and R0(SoC) are tabulated for the time loops
+#: (here and in :mod:`planner.physics.battery.hybrid`).
+SOC_GRID_POINTS = 4001
 
 # --------------------------------------------------------------------------- parameters
 
@@ -301,6 +302,7 @@ class CircuitParameters:
     # ---------------------------------------------------------------- evaluation
     @property
     def r0_is_table(self) -> bool:
+        """Whether R0 is a table against the state of charge (else one number)."""
         return isinstance(self.r0_ohm, tuple)
 
     @property
@@ -314,18 +316,17 @@ class CircuitParameters:
         return self.capacity_ah * self.cells_parallel
 
     def arrhenius_factor(self, temperature_c):
-        """R0(T)/R0(T_ref) from the Arrhenius law. [unitless]"""
-        t_k = np.asarray(temperature_c, dtype=float) + 273.15
-        t_ref = self.reference_temperature_c + 273.15
-        f = np.exp(self.r0_activation_energy_j_mol / R_GAS * (1.0 / t_k - 1.0 / t_ref))
-        return float(f) if np.ndim(f) == 0 else f
+        """R0(T)/R0(T_ref) of these cells at ``temperature_c`` [°C]
+        (:func:`planner.physics.battery.elements.arrhenius_factor`). [unitless]"""
+        return el.arrhenius_factor(np.asarray(temperature_c, dtype=float),
+                                   self.r0_activation_energy_j_mol,
+                                   self.reference_temperature_c)
 
     def capacity_factor(self, temperature_c):
-        """Q(T)/Q_ref, linear below the reference temperature, 1 above. [unitless]"""
-        t = np.asarray(temperature_c, dtype=float)
-        f = 1.0 - self.capacity_temp_coeff_per_c * np.maximum(
-            0.0, self.reference_temperature_c - t)
-        return float(f) if np.ndim(f) == 0 else f
+        """Q(T)/Q_ref of these cells at ``temperature_c`` [°C]
+        (:func:`planner.physics.battery.elements.capacity_factor`). [unitless]"""
+        return el.capacity_factor(np.asarray(temperature_c, dtype=float),
+                                  self.capacity_temp_coeff_per_c, self.reference_temperature_c)
 
     def r0_cell_ohm(self, soc, temperature_c=None):
         """Cell ohmic resistance at ``soc`` and ``temperature_c`` (default T_ref). [Ω]"""
@@ -339,58 +340,21 @@ class CircuitParameters:
 
     def r0_pack_ohm(self, soc, temperature_c=None):
         """Pack ohmic resistance. [Ω]"""
-        return self.r0_cell_ohm(soc, temperature_c) * self.cells_series / self.cells_parallel
+        return el.pack_resistance(self.r0_cell_ohm(soc, temperature_c), self.cells_series,
+                                  self.cells_parallel)
 
     def ocv_pack_v(self, soc):
         """Pack open-circuit voltage (without hysteresis). [V]"""
         return self.ocv(soc) * self.cells_series
 
     def max_power_w(self, soc, temperature_c=None):
-        """Largest power the rested pack can deliver, ``OCV²/(4 R0)``. [W]
-
-        Infinite when R0 is 0.
+        """Largest power the rested pack can deliver, ``OCV²/(4 R0)``
+        (:func:`planner.physics.battery.elements.power_limit`); infinite when R0 is 0. [W]
         """
-        v = np.asarray(self.ocv_pack_v(soc), dtype=float)
-        r = np.asarray(self.r0_pack_ohm(soc, temperature_c), dtype=float)
-        with np.errstate(divide="ignore"):
-            p = np.where(r > 0, v * v / (4.0 * np.where(r > 0, r, 1.0)), np.inf)
-        return float(p) if np.ndim(p) == 0 else p
+        return el.power_limit(np.asarray(self.ocv_pack_v(soc), dtype=float),
+                              np.asarray(self.r0_pack_ohm(soc, temperature_c), dtype=float))
 
 # --------------------------------------------------------------------------- simulation
-
-def loaded_current(power_w, open_circuit_v, resistance_ohm):
-    r"""
-    Pack current that delivers ``power_w`` through a series resistance.
-
-    .. math:: I = \frac{V_{oc} - \sqrt{V_{oc}^2 - 4 R P}}{2 R}
-
-    the smaller root of :math:`P = (V_{oc} - I R) I` ([HESS] eq. 2 with the RC branch and
-    the hysteresis at rest), as the time step of :func:`simulate` solves it.
-
-    Parameters
-    ----------
-    power_w : numeric
-        Power drawn. [W]
-    open_circuit_v : numeric
-        Open-circuit voltage. [V]
-    resistance_ohm : numeric
-        Series resistance; 0 gives ``P / V_oc``. Broadcasts (one per pack). [Ω]
-
-    Returns
-    -------
-    current : ndarray
-        NaN where :math:`P > V_{oc}^2/(4R)`, the most the pack can deliver. [A]
-    """
-    p = np.asarray(power_w, dtype=float)
-    v = np.asarray(open_circuit_v, dtype=float)
-    r = np.asarray(resistance_ohm, dtype=float)
-    r_safe = np.where(r > 0, r, 1.0)
-    disc = v**2 - 4.0 * r_safe * p
-    with np.errstate(invalid="ignore", divide="ignore"):
-        current = np.where(disc >= 0, (v - np.sqrt(np.where(disc >= 0, disc, 0.0)))
-                           / (2 * r_safe), np.nan)
-        return np.where(r > 0, current, p / v)
-
 
 @dataclass
 class CircuitResult:
@@ -485,7 +449,15 @@ class CircuitResult:
             "charge_as": self.charge_as, "energy_j": self.energy_j})
 
 
-def _as_series_input(value, n: int, name: str) -> np.ndarray:
+def series_input(value, n: int, name: str) -> np.ndarray:
+    """A load or temperature given for a run of ``n`` samples: a constant, or one finite
+    value per sample, as a float ndarray of length ``n`` (units unchanged).
+
+    Raises
+    ------
+    InputError
+        Another length, or a value that is not finite (naming ``name`` and the sample).
+    """
     arr = np.asarray(value, dtype=float)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
@@ -498,12 +470,34 @@ def _as_series_input(value, n: int, name: str) -> np.ndarray:
     return arr
 
 
-def _grid(func, n: int = _GRID_N) -> np.ndarray:
+def soc_grid(func, n: int = SOC_GRID_POINTS) -> np.ndarray:
+    """``func`` (an OCV curve, soc → V) tabulated on ``n`` uniform states of charge from 0
+    to 1, for :func:`on_soc_grid`. [V]
+
+    Raises
+    ------
+    InputError
+        The function does not return one finite voltage per state of charge.
+    """
     z = np.linspace(0.0, 1.0, n)
     values = np.asarray(func(z), dtype=float)
     if values.shape != z.shape or not np.all(np.isfinite(values)):
         raise InputError("the OCV function must return finite voltages for soc in [0, 1]")
     return values
+
+
+@el.compiled
+def on_soc_grid(table, row, soc):
+    """Row ``row`` of a table on the uniform grid of :func:`soc_grid` at ``soc``, linearly
+    interpolated and held at the ends (units of the table; compiled, for the time loops)."""
+    last = table.shape[1] - 1
+    x = soc * last
+    if x <= 0.0:
+        return table[row, 0]
+    if x >= last:
+        return table[row, last]
+    j = int(x)
+    return table[row, j] + (x - j) * (table[row, j + 1] - table[row, j])
 
 
 # --------------------------------------------------------------------------- the step kernel
@@ -520,7 +514,7 @@ _NAN = float("nan")
 
 @numba.njit(cache=True)
 def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
-            ns, npar, cap_as, eta_c, m_h, gamma, r1, tau1, ea_r, t_ref, kq,
+            ns, npar, cap_as, eta_c, m_h, gamma, r1, r1_pack, tau1, ea, t_ref, kq,
             ocv_tab, ocv_idx, r0_tab, r0_idx, r0_scale, diff_gain, tau_d,
             thermal, r_th, tau_th, t_air, t0, temps, t_lo, t_hi,
             cut, stop_at_cutoff, end_at_cutoff, n_window, probe_slot, n_probes,
@@ -528,7 +522,6 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
     """Run the circuit of every pack through the load (see :func:`simulate_packs`)."""
     n = t.size
     k = ns.size
-    gn = ocv_tab.shape[1] - 1
     rec_n = n if record else 1
     out = np.full((12, k if record else 1, rec_n), _NAN)
     ev = np.full((12, k), _NAN)   # events and reductions, rows documented in simulate_packs
@@ -578,26 +571,13 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
             else:
                 tc = temps[j]
                 temp[i] = tc
-            fa = np.exp(ea_r[i] * (1.0 / (tc + 273.15) - 1.0 / (t_ref[i] + 273.15)))
-            fq = 1.0 - kq[i] * (t_ref[i] - tc) if tc < t_ref[i] else 1.0
+            fa = el.arrhenius_factor_jit(tc, ea[i], t_ref[i])
+            fq = el.capacity_factor_jit(tc, kq[i], t_ref[i])
             # tabulated OCV and R0 at the surface state of charge z − x (held at the ends)
-            x = (z[i] - xd[i]) * gn
-            oi = ocv_idx[i]
-            ri = r0_idx[i]
-            if x <= 0.0:
-                ocv = ocv_tab[oi, 0]
-                r0b = r0_tab[ri, 0]
-            elif x >= gn:
-                ocv = ocv_tab[oi, gn]
-                r0b = r0_tab[ri, gn]
-            else:
-                jj = int(x)
-                fr = x - jj
-                ocv = ocv_tab[oi, jj] + fr * (ocv_tab[oi, jj + 1] - ocv_tab[oi, jj])
-                r0b = r0_tab[ri, jj] + fr * (r0_tab[ri, jj + 1] - r0_tab[ri, jj])
-            r0c = r0b * r0_scale[i] * fa
+            ocv = on_soc_grid(ocv_tab, ocv_idx[i], z[i] - xd[i])
+            r0c = on_soc_grid(r0_tab, r0_idx[i], z[i] - xd[i]) * r0_scale[i] * fa
             e_p = ns[i] * (ocv + h[i] - v1[i])
-            r_p = ns[i] * r0c / npar[i]
+            r_p = el.pack_resistance_jit(r0c, ns[i], npar[i])
             ld = load_table[i, col]
             if disconnected[i]:
                 cur = 0.0
@@ -605,21 +585,10 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
                 cur = ld
             elif ld == 0.0:
                 cur = 0.0
-            elif r_p <= 0.0:
-                if e_p > 0.0:
-                    cur = ld / e_p
-                else:
-                    cur = 0.0
-                    if ld > 0.0 and np.isnan(ev[2, i]):
-                        ev[2, i] = t[j]
             else:
-                disc = e_p * e_p - 4.0 * r_p * ld
-                if disc >= 0.0 and e_p + np.sqrt(disc) > 0.0:
-                    cur = 2.0 * ld / (e_p + np.sqrt(disc))
-                else:
-                    cur = e_p / (2.0 * r_p) if e_p > 0.0 else 0.0
-                    if np.isnan(ev[2, i]):
-                        ev[2, i] = t[j]
+                cur, delivered = el.delivered_current(ld, e_p, r_p)
+                if not delivered and np.isnan(ev[2, i]):
+                    ev[2, i] = t[j]
             volt = e_p - r_p * cur
             # the cut-off event compares the loaded cell voltage
             if cut > 0.0 and np.isnan(ev[0, i]):
@@ -644,9 +613,7 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
                 prev_t[i] = t[j]
             if np.isnan(ev[0, i]):
                 all_cut = False
-            heat = cur * cur * r_p
-            if tau1[i] > 0.0:
-                heat += ns[i] * npar[i] * v1[i] * v1[i] / r1[i]
+            heat = el.joule_heat_jit(cur, r_p, ns[i] * v1[i], r1_pack[i])
             if record:
                 out[0, i, j] = cur
                 out[1, i, j] = volt * cur
@@ -683,10 +650,9 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
             if diff_gain[i] > 0.0:
                 xd[i] = a_d[i] * xd[i] + (1.0 - a_d[i]) * diff_gain[i] * (dq / d) / qcap
             if gamma[i] > 0.0 and dq != 0.0:
-                eh = np.exp(-gamma[i] * abs(dq) / qcap)
-                h[i] = eh * h[i] + (1.0 - eh) * (-m_h[i] if dq > 0.0 else m_h[i])
+                h[i] = el.hysteresis_step_jit(h[i], dq, qcap, gamma[i], m_h[i])
             if tau1[i] > 0.0:
-                v1[i] = a_rc[i] * v1[i] + r1[i] * (1.0 - a_rc[i]) * icell
+                v1[i] = el.rc_step_jit(v1[i], icell, r1[i], a_rc[i])
             if thermal[i]:
                 temp[i] = lumped_step(temp[i], t_air[i], heat, r_th[i], a_th[i])
             q[i] += cur * d
@@ -704,13 +670,13 @@ def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
 def _tables(params_list):
     """Unique OCV and R0(SoC) grids of the packs, and each pack's row in them."""
     ocv_rows, ocv_key, ocv_idx = [], {}, []
-    r0_rows, r0_key, r0_idx, r0_scale = [np.ones(_GRID_N)], {}, [], []
-    z = np.linspace(0.0, 1.0, _GRID_N)
+    r0_rows, r0_key, r0_idx, r0_scale = [np.ones(SOC_GRID_POINTS)], {}, [], []
+    z = np.linspace(0.0, 1.0, SOC_GRID_POINTS)
     for p in params_list:
         key = id(p.ocv)
         if key not in ocv_key:
             ocv_key[key] = len(ocv_rows)
-            ocv_rows.append(_grid(p.ocv))
+            ocv_rows.append(soc_grid(p.ocv))
         ocv_idx.append(ocv_key[key])
         if p.r0_is_table:
             key = (tuple(p.r0_ohm[0]), tuple(p.r0_ohm[1]))
@@ -785,15 +751,17 @@ def _prepare(params_list, thermal_list, t, temperature_c):
     thermal = np.array([th is not None for th in thermal_list], np.bool_)
     th_or = lambda f, d: np.array([f(th) if th is not None else d  # noqa: E731
                                    for th in thermal_list], float)
-    temps = _as_series_input(temperature_c, t.size, "temperature_c")
+    temps = series_input(temperature_c, t.size, "temperature_c")
     return dict(
         ns=arr(lambda p: p.cells_series), npar=arr(lambda p: p.cells_parallel),
-        cap_as=arr(lambda p: p.capacity_ah * 3600.0),
+        cap_as=arr(lambda p: p.capacity_ah * AS_PER_AH),
         eta_c=arr(lambda p: p.coulombic_efficiency),
         m_h=arr(lambda p: p.hysteresis_v),
         gamma=arr(lambda p: p.hysteresis_gamma if p.hysteresis_v > 0 else 0.0),
         r1=arr(lambda p: p.r1_ohm), tau1=arr(lambda p: p.tau1_s),
-        ea_r=arr(lambda p: p.r0_activation_energy_j_mol / R_GAS),
+        r1_pack=arr(lambda p: el.pack_resistance(p.r1_ohm, p.cells_series, p.cells_parallel)
+                    if p.r1_ohm > 0 else np.inf),
+        ea=arr(lambda p: p.r0_activation_energy_j_mol),
         t_ref=arr(lambda p: p.reference_temperature_c),
         kq=arr(lambda p: p.capacity_temp_coeff_per_c),
         ocv_tab=ocv_tab, ocv_idx=ocv_idx, r0_tab=r0_tab, r0_idx=r0_idx, r0_scale=r0_scale,
@@ -959,7 +927,7 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         k = int(np.flatnonzero(dt < 0)[0]) + 1
         raise InputError(f"time_s must not decrease (sample {k})")
     by_power = power_w is not None
-    load = _as_series_input(power_w if by_power else current_a, n,
+    load = series_input(power_w if by_power else current_a, n,
                             "power_w" if by_power else "current_a")
     if not (0.0 <= float(soc0) <= 1.0):
         raise InputError(f"soc0 must lie in [0, 1], got {soc0!r}")
@@ -980,7 +948,7 @@ def simulate(params: CircuitParameters, time_s, *, power_w=None, current_a=None,
         check_temperature(thermal.initial_c, "initial pack temperature")
         temps = 25.0
     else:
-        temps = _as_series_input(temperature_c, n, "temperature_c")
+        temps = series_input(temperature_c, n, "temperature_c")
         check_temperature(temps, "cell temperature")
     k = _prepare([params], [thermal], t, temps)
     k.pop("k")

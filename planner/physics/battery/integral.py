@@ -6,8 +6,8 @@ with charge :math:`\hat C` in A·s, time in s and electric power :math:`P` in W
 ([UAV23] eq. 14; :func:`stress_rate`, :func:`charge`, :func:`charge_from_stress`). For a
 constant power it reduces to :math:`t = \delta P^\varepsilon C^\beta` ([UAV23] eq. 15,
 :func:`discharge_time`; Peukert's law written for power), with the literature start
-values of eq. 16–17 (:func:`literature_delta`, :func:`literature_epsilon`). A power of zero or less is a rest:
-the load is off and the model draws no charge.
+values of eq. 16–17 (:func:`literature_delta`, :func:`literature_epsilon`). A power of
+zero or less is a rest: the load is off and the model draws no charge.
 
 The running integral :math:`S(t) = \int_0^t dt / (\delta P^\varepsilon)` is
 called the *discharge stress* here; it is additive, while the charge
@@ -20,6 +20,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from planner.errors import ModelError
+from planner.physics.battery.elements import compiled, quiet
 
 #: β of [UAV23] (held fixed in its fits, Table 5). [unitless]
 LITERATURE_BETA = 0.9648
@@ -32,7 +33,7 @@ def literature_delta(cells_series):
 
     .. math:: \delta_0(N) = -0.1067 N^3 + 0.8960 N^2 + 2.488 N + 0.6299
 
-    [UAV23] eq. 16, the start value of the integral model's δ (DESIGN §5).
+    [UAV23] eq. 16, the start value of the integral model's δ.
 
     Parameters
     ----------
@@ -126,13 +127,34 @@ def stress_piecewise(duration_s, power_w, delta, epsilon):
                      axis=-1)
 
 
+def _charge_from_stress(stress, beta):
+    return np.exp(np.log(np.maximum(stress, 0.0)) / beta)
+
+
+@quiet
 def charge_from_stress(stress, beta):
-    r"""Charge drawn :math:`\hat C = S^{1/\beta}` ([UAV23] eq. 14); 0 for S ≤ 0. [A s]"""
-    st = np.asarray(stress, float)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        c = np.exp(np.log(np.where(st > 0, st, 1.0)) / beta)
-    out = np.where(st > 0, c, np.where(np.isnan(st), np.nan, 0.0))
-    return out if out.ndim else float(out)
+    r"""Charge drawn from the discharge stress, :math:`\hat C = S^{1/\beta}`.
+
+    [UAV23] eq. 14 solved for the charge; the one home of this rule (the mission chain's
+    compiled kernels call its twin ``charge_from_stress_jit``).
+
+    Parameters
+    ----------
+    stress : numeric
+        Discharge stress :math:`S`; S ≤ 0 (nothing drawn) gives 0, NaN stays NaN.
+        [(A s)^β]
+    beta : numeric
+        Integral model exponent β, > 0. [unitless]
+
+    Returns
+    -------
+    charge : numeric
+        [A s]
+    """
+    return _charge_from_stress(stress, beta)
+
+
+charge_from_stress_jit = compiled(_charge_from_stress)
 
 
 def stress_from_charge(charge_as, beta):

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from planner.errors import InputError
+from planner.physics.battery.elements import compiled
+from planner.physics.numeric import like_inputs
 
 
 def lipo_ocv(soc):
@@ -28,7 +29,9 @@ def lipo_ocv(soc):
     .. math:: V_{oc} = -1.031 e^{-35 s} + 3.685 + 0.2156 s - 0.1178 s^2 + 0.3201 s^3
 
     The fit of [1]_, eq. (4), to a 850 mAh Li-ion polymer cell (TCL PL-383562):
-    4.10 V full, 3.70 V at half charge, steep knee below 10 %.
+    4.10 V full, 3.80 V at half charge, steep knee below 10 %. The one home of this curve:
+    the circuit model tabulates it, the mission chain's compiled kernel calls
+    :data:`lipo_ocv_jit`.
 
     References
     ----------
@@ -36,14 +39,15 @@ def lipo_ocv(soc):
        capable of predicting runtime and I–V performance," IEEE Trans. Energy
        Convers., vol. 21, no. 2, pp. 504–511, 2006, doi:10.1109/TEC.2006.874229.
     """
-    s = np.clip(soc, 0.0, 1.0)
-    return -1.031 * np.exp(-35.0 * s) + 3.685 + 0.2156 * s - 0.1178 * s**2 + 0.3201 * s**3
+    s = np.minimum(np.maximum(soc, 0.0), 1.0)
+    return -1.031 * np.exp(-35.0 * s) + 3.685 + s * (0.2156 + s * (-0.1178 + 0.3201 * s))
+
+
+#: :func:`lipo_ocv` compiled for the time loops (one value per call; the same source).
+lipo_ocv_jit = compiled(lipo_ocv)
 
 
 # --------------------------------------------------------------------------- tables
-
-#: Units accepted in the header of an OCV CSV file, and their factor to SI.
-
 
 class OcvTable:
     """An open-circuit-voltage curve given as a table, linearly interpolated.
@@ -70,21 +74,13 @@ class OcvTable:
         return interpolate_ocv(soc, self.soc, self.ocv_v)
 
     def soc_from_ocv(self, ocv_v):
-        """State of charge at which the curve reaches ``ocv_v`` (clipped to the table). [unitless]"""
-        return _same_kind(ocv_v, np.interp(np.asarray(ocv_v, dtype=float), self.ocv_v, self.soc))
+        """State of charge at which the curve reaches ``ocv_v`` [V] (clipped to the table).
+        [unitless]"""
+        return like_inputs(np.interp(np.asarray(ocv_v, dtype=float), self.ocv_v, self.soc), ocv_v)
 
     def __repr__(self) -> str:
         return (f"OcvTable({len(self.soc)} points, {self.ocv_v[0]:.3f}–{self.ocv_v[-1]:.3f} V"
                 f"{', ' + self.source if self.source else ''})")
-
-
-def _same_kind(template, values):
-    """Return ``values`` as the kind of ``template``: float, ndarray or Series."""
-    if isinstance(template, pd.Series):
-        return pd.Series(values, index=template.index)
-    if np.ndim(template) == 0:
-        return float(values)
-    return np.asarray(values)
 
 
 def interpolate_ocv(soc, soc_table, ocv_table):
@@ -108,7 +104,7 @@ def interpolate_ocv(soc, soc_table, ocv_table):
     """
     values = np.interp(np.asarray(soc, dtype=float), np.asarray(soc_table, dtype=float),
                        np.asarray(ocv_table, dtype=float))
-    return _same_kind(soc, values)
+    return like_inputs(values, soc)
 
 
 def ocv_table(soc, ocv_v, where: str = "OCV table") -> OcvTable:

@@ -59,6 +59,11 @@ import numpy as np
 from scipy.linalg import expm
 
 from planner.errors import InputError, ModelError
+from planner.physics.battery.elements import pack_capacitance, pack_resistance
+
+#: Surge voltage of a supercap cell relative to its rated voltage (Maxwell K2: 2.85/2.7 V,
+#: datasheet [3]). [unitless]
+SURGE_RATIO = 2.85 / 2.7
 
 
 @dataclass(frozen=True)
@@ -136,7 +141,8 @@ class SupercapParameters:
         return float(q) if q.ndim == 0 else q
 
     def fast_voltage(self, q):
-        """Inverse of :meth:`fast_charge` (the root with ``C0 + Cv v > 0``). [V]"""
+        """Inverse of :meth:`fast_charge` (the root with ``C0 + Cv v > 0``), from a cell's
+        fast-branch charge ``q`` [C]. [V]"""
         q = np.asarray(q, dtype=float)
         if self.cv_f_per_v == 0:
             v = q / self.c0_f
@@ -144,6 +150,18 @@ class SupercapParameters:
             disc = np.maximum(self.c0_f ** 2 + 2.0 * self.cv_f_per_v * q, 0.0)
             v = (np.sqrt(disc) - self.c0_f) / self.cv_f_per_v
         return float(v) if v.ndim == 0 else v
+
+    def fast_voltage_after(self, v_fast, charge_out):
+        """Fast-branch cell voltage after the charge ``charge_out`` [C] left the branch:
+        the exact charge balance ``q_f(v_new) = q_f(v_old) − Δq`` with the nonlinear
+        ``q_f`` (module notes). [V]"""
+        return self.fast_voltage(self.fast_charge(v_fast) - charge_out)
+
+    def bank_fast_capacitance_f(self, v_fast) -> float:
+        """Capacitance of the bank's fast branch at the cell voltage ``v_fast`` [V],
+        :math:`C_f(v) = C_0 + C_v v` scaled to the bank. [F]"""
+        return pack_capacitance(self.c0_f + self.cv_f_per_v * v_fast, self.cells_series,
+                                self.cells_parallel)
 
     def equivalent_capacitance_f(self, v_high=None, v_low=None) -> float:
         """Constant-current capacitance of one cell between two voltages, ΔQ/ΔV. [F]
@@ -165,6 +183,7 @@ class SupercapParameters:
     # ------------------------------------------------------------ bank
     @property
     def n_cells(self) -> int:
+        """Cells in the bank, series × parallel."""
         return self.cells_series * self.cells_parallel
 
     @property
@@ -175,10 +194,11 @@ class SupercapParameters:
     @property
     def bank_esr_ohm(self) -> float:
         """Bank series resistance of the fast branch. [Ω]"""
-        return self.r_fast_ohm * self.cells_series / self.cells_parallel
+        return pack_resistance(self.r_fast_ohm, self.cells_series, self.cells_parallel)
 
     @property
     def bank_mass_kg(self) -> float | None:
+        """Mass of the bank (None when the cell's is unknown). [kg]"""
         return None if self.mass_kg is None else self.mass_kg * self.n_cells
 
     def bank(self, cells_series: int, cells_parallel: int = 1) -> SupercapParameters:
@@ -222,25 +242,46 @@ def matched_series_count(v_max_v: float, cell_rated_v: float = 2.7) -> int:
 
 # --------------------------------------------------------------------------- linear node
 
-class _LinearNode:
+class LinearNode:
     """Battery Thevenin source (optional) and a supercap bank sharing one node.
 
     States ``x = [v_rc, v_f, v_s]`` (pack/bank volts), inputs ``u = [E, I_L]``
     (battery source voltage, load current). Over a step with ``u`` and the
     fast capacitance held, ``x`` follows a linear ODE; its zero-order-hold
     solution, the integral of ``[x; u]`` and the integral of the squared
-    battery current come from matrix exponentials (Van Loan 1978), cached
-    while the coefficients stay within ``rtol``.
+    battery current come from matrix exponentials (C. F. Van Loan, "Computing
+    integrals involving the matrix exponential," IEEE Trans. Autom. Control 23(3),
+    1978), cached while the coefficients stay within ``rtol``.
+
+    Parameters
+    ----------
+    bank : SupercapParameters
+        The bank (its branch conductances and slow capacitance follow from it).
+    r1p, c1p : float
+        The battery's RC branch at pack level (0 and 1: none). [Ω], [F]
+    quadratic : bool
+        Also compute the matrix of ∫ i_b² dt (:attr:`w_quad`).
+    rtol : float
+        Relative change of the conductance or capacitance that recomputes the matrices.
     """
 
-    def __init__(self, *, g0, r1p, c1p, gf, gs, cs, gl, quadratic=False, rtol=1e-3):
-        self.g0, self.r1p, self.c1p = g0, r1p, c1p
-        self.gf, self.gs, self.cs, self.gl = gf, gs, cs, gl
+    def __init__(self, bank: SupercapParameters, *, r1p=0.0, c1p=1.0, quadratic=False,
+                 rtol=1e-3):
+        ns, npar = bank.cells_series, bank.cells_parallel
+        self.r1p, self.c1p = r1p, c1p
+        self.gf = 1.0 / pack_resistance(bank.r_fast_ohm, ns, npar)
+        has_slow = bank.r_slow_ohm is not None
+        self.gs = 1.0 / pack_resistance(bank.r_slow_ohm, ns, npar) if has_slow else 0.0
+        self.cs = pack_capacitance(bank.c_slow_f, ns, npar) if has_slow else 1.0
+        self.gl = (1.0 / pack_resistance(bank.r_leak_ohm, ns, npar)
+                   if bank.r_leak_ohm is not None else 0.0)
         self.quadratic = quadratic
         self.rtol = rtol
         self._key = None
 
     def rows(self, g0):
+        """The node's algebraic rows at the battery conductance ``g0`` [S]: node voltage
+        and branch currents as linear functions of the states and inputs."""
         gf, gs, gl = self.gf, self.gs, self.gl
         gt = g0 + gf + gs + gl
         a_node = np.array([-g0, gf, gs]) / gt
@@ -254,6 +295,8 @@ class _LinearNode:
         return a_node, b_node, c_b, d_b, c_f, d_f, c_s, d_s
 
     def prepare(self, g0: float, cf: float, dt: float) -> None:
+        """Step matrices for the battery conductance ``g0`` [S], the fast capacitance
+        ``cf`` [F] and the step ``dt`` [s] (kept while within ``rtol``)."""
         key = (g0, cf, dt)
         if self._key is not None:
             g_old, c_old, dt_old = self._key
@@ -367,16 +410,12 @@ def simulate_supercap(params: SupercapParameters, time_s, current_a, *, v0_v=Non
     v0 = p.bank_rated_v if v0_v is None else float(v0_v)
     vs0 = v0 if slow_v0_v is None else float(slow_v0_v)
     for name, v in (("v0_v", v0), ("slow_v0_v", vs0)):
-        if not (0.0 <= v / ns <= p.v_rated_v * 1.0556):
+        if not (0.0 <= v / ns <= p.v_rated_v * SURGE_RATIO):
             raise ModelError(f"supercap: {name} gives {v / ns:.3f} V per cell, outside "
-                             f"[0 V, {p.v_rated_v * 1.0556:.2f} V] (rated {p.v_rated_v} V "
+                             f"[0 V, {p.v_rated_v * SURGE_RATIO:.2f} V] (rated {p.v_rated_v} V "
                              "plus surge)")
     has_slow = p.r_slow_ohm is not None
-    node = _LinearNode(
-        g0=0.0, r1p=0.0, c1p=1.0, gf=npar / (ns * p.r_fast_ohm),
-        gs=npar / (ns * p.r_slow_ohm) if has_slow else 0.0,
-        cs=p.c_slow_f * npar / ns if has_slow else 1.0,
-        gl=npar / (ns * p.r_leak_ohm) if p.r_leak_ohm is not None else 0.0)
+    node = LinearNode(p)
     vf_cell = v0 / ns
     vs = vs0
     out_v = np.empty(n)
@@ -386,7 +425,7 @@ def simulate_supercap(params: SupercapParameters, time_s, current_a, *, v0_v=Non
     out_q = np.empty(n)
     d_prev = float(dt[dt > 0][0]) if np.any(dt > 0) else 1.0
     for k in range(n):
-        cf = (p.c0_f + p.cv_f_per_v * vf_cell) * npar / ns
+        cf = p.bank_fast_capacitance_f(vf_cell)
         d = dt[k] if k < n - 1 else 0.0
         if d > 0:
             d_prev = d
@@ -406,6 +445,6 @@ def simulate_supercap(params: SupercapParameters, time_s, current_a, *, v0_v=Non
         y1 = node.phi @ y
         iy = node.integral @ y
         q_out_cell = (node.w_f @ iy) / npar
-        vf_cell = p.fast_voltage(p.fast_charge(vf_cell) - q_out_cell)
+        vf_cell = p.fast_voltage_after(vf_cell, q_out_cell)
         vs = y1[2]
     return SupercapResult(t, cur, out_v, out_vf, out_vs, out_e, out_q)

@@ -43,6 +43,7 @@ import pandas as pd
 from scipy.signal import lfilter
 
 from planner.errors import InputError, ModelError
+from planner.physics.battery.elements import joule_heat
 
 #: Temperature range of the battery models (cell temperature). [°C]
 T_RANGE_C = (-20.0, 60.0)
@@ -162,14 +163,12 @@ def heat_generation(current_a, r0_ohm, rc_voltage_v=0.0, r1_ohm=None):
 
     Notes
     -----
-    .. math:: Q_{gen} = I^2 R_0 + v_{RC}^2 / R_1
-
-    In steady state (``v_RC = I R1``) this is ``I² (R0 + R1)``.
+    :func:`planner.physics.battery.elements.joule_heat` ([HESS] eq. 10):
+    :math:`Q_{gen} = I^2 R_0 + v_{RC}^2 / R_1`; in steady state (``v_RC = I R1``) this is
+    ``I² (R0 + R1)``.
     """
-    q = np.square(current_a) * r0_ohm
-    if r1_ohm is not None and np.any(np.asarray(r1_ohm) > 0):
-        q = q + np.square(rc_voltage_v) / r1_ohm
-    return q
+    r1 = np.inf if r1_ohm is None else np.where(np.asarray(r1_ohm) > 0, r1_ohm, np.inf)
+    return joule_heat(current_a, r0_ohm, rc_voltage_v, r1)
 
 
 def steady_state_temperature(heat_w, t_air_c, r_th):
@@ -204,7 +203,7 @@ def lumped_temperature(time_s, heat_w, t_air_c, r_th, c_th, t0_c=None):
 
     Notes
     -----
-    Exact solution of :math:`C_{th} \dot T + (T - T_{air})/R_{th} = Q` (seed
+    Exact solution of :math:`C_{th} \dot T + (T - T_{air})/R_{th} = Q` ([HESS]
     eq. 11) for heat and air temperature constant over each step:
 
     .. math:: T_{k+1} = a_k T_k + (1 - a_k)(T_{air,k} + R_{th} Q_k), \quad

@@ -5,11 +5,12 @@ radians). Every function takes floats, ndarrays or pandas Series (broadcasting) 
 the same kind; NaN samples propagate; physically impossible parameters raise
 :class:`planner.errors.ModelError` naming the parameter.
 
+The power model is that of [UAV23] eq. 2–6: :math:`P_{tot} = P_S + P_R/\eta`,
+:math:`P_R = A V^3 + B/V + W\dot h`.
+
 References
 ----------
-.. [1] "Battery Testing and Discharge Model Validation for Electric UAV" (the seed
-   paper), eqs. (2)–(6): :math:`P_{tot} = P_S + P_R`, :math:`P_R = A V^3 + B/V + W\dot h`.
-.. [2] J. D. Anderson, Aircraft Performance and Design. Boston, MA, USA: McGraw-Hill,
+.. [1] J. D. Anderson, Aircraft Performance and Design. Boston, MA, USA: McGraw-Hill,
    1999: ch. 2 (parabolic drag polar), ch. 5 (power required, minimum-power and
    maximum-range speeds), ch. 6 (level coordinated turn).
 """
@@ -18,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from planner.physics.atmosphere import G, _require, _restore
+from planner.physics.atmosphere import G
+from planner.physics.numeric import like_inputs, require
 
 
 def induced_drag_factor(aspect_ratio, oswald_efficiency):
@@ -41,11 +43,11 @@ def induced_drag_factor(aspect_ratio, oswald_efficiency):
     -----
     .. math:: K = \frac{1}{\pi e AR}
 
-    Parabolic drag polar, [2]_ ch. 2; the seed [1]_ uses the same polar.
+    Parabolic drag polar, [1]_ ch. 2; [UAV23] eq. 3–4 use the same polar.
     """
-    ar = _require(aspect_ratio, "aspect_ratio", gt=0.0)
-    e = _require(oswald_efficiency, "oswald_efficiency", gt=0.0, le=1.0)
-    return _restore(1.0 / (np.pi * e * ar), aspect_ratio, oswald_efficiency)
+    ar = require(aspect_ratio, "aspect_ratio", gt=0.0)
+    e = require(oswald_efficiency, "oswald_efficiency", gt=0.0, le=1.0)
+    return like_inputs(1.0 / (np.pi * e * ar), aspect_ratio, oswald_efficiency)
 
 
 def polar_coefficients(air_density, wing_area, cd0, k, weight, load_factor=1.0):
@@ -83,16 +85,16 @@ def polar_coefficients(air_density, wing_area, cd0, k, weight, load_factor=1.0):
 
     [UAV23] eq. 3–4, extended with the load factor :math:`n` (lift = :math:`nW`).
     """
-    rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
-    s = _require(wing_area, "wing_area", gt=0.0, unit="m²")
-    c = _require(cd0, "cd0", ge=0.0)
-    kk = _require(k, "k", ge=0.0)
-    w = _require(weight, "weight", gt=0.0, unit="N")
-    n = _require(load_factor, "load_factor", ge=1.0)
+    rho = require(air_density, "air_density", gt=0.0, unit="kg/m³")
+    s = require(wing_area, "wing_area", gt=0.0, unit="m²")
+    c = require(cd0, "cd0", ge=0.0)
+    kk = require(k, "k", ge=0.0)
+    w = require(weight, "weight", gt=0.0, unit="N")
+    n = require(load_factor, "load_factor", ge=1.0)
     a = 0.5 * rho * s * c
     b = 2.0 * kk * (n * w) ** 2 / (rho * s)
     args = (air_density, wing_area, cd0, k, weight, load_factor)
-    return _restore(a, *args), _restore(b, *args)
+    return like_inputs(a, *args), like_inputs(b, *args)
 
 
 def required_power(airspeed, air_density, mass, wing_area, cd0, k, climb_rate=0.0,
@@ -141,8 +143,8 @@ def required_power(airspeed, air_density, mass, wing_area, cd0, k, climb_rate=0.
     [UAV23] eq. 2, with :math:`A`, :math:`B` from :func:`polar_coefficients`.
     Small flight-path angles: lift is taken as :math:`nW`, not :math:`nW\cos\gamma`.
     """
-    v = _require(airspeed, "airspeed", ge=0.0, unit="m/s")
-    m = _require(mass, "mass", gt=0.0, unit="kg")
+    v = require(airspeed, "airspeed", ge=0.0, unit="m/s")
+    m = require(mass, "mass", gt=0.0, unit="kg")
     weight = m * gravity
     a, b = polar_coefficients(np.asarray(air_density, dtype=float), wing_area, cd0, k,
                               weight, load_factor)
@@ -151,7 +153,7 @@ def required_power(airspeed, air_density, mass, wing_area, cd0, k, climb_rate=0.
         induced = b / v  # +inf at V = 0 (b > 0); 0/0 only for K = 0 at V = 0
     induced = np.where((v == 0.0) & (b == 0.0), 0.0, induced)
     p = a * v**3 + induced + weight * hdot
-    return _restore(p, airspeed, air_density, mass, wing_area, cd0, k, climb_rate,
+    return like_inputs(p, airspeed, air_density, mass, wing_area, cd0, k, climb_rate,
                     load_factor)
 
 
@@ -177,11 +179,17 @@ def bank_angle(airspeed, turn_radius, gravity=G):
     -----
     .. math:: \tan\phi = \frac{V^2}{g r}
 
-    [2]_, ch. 6 (level turn: :math:`L\cos\phi = W`, :math:`L\sin\phi = m V^2 / r`).
+    [1]_, ch. 6 (level turn: :math:`L\cos\phi = W`, :math:`L\sin\phi = m V^2 / r`).
     """
+    return like_inputs(np.arctan(_turn_ratio(airspeed, turn_radius, gravity)), airspeed,
+                       turn_radius)
+
+
+def _turn_ratio(airspeed, turn_radius, gravity):
+    """:math:`\\tan\\phi = V^2/(g r)` of a level coordinated turn, ndarray. [unitless]"""
     v = np.asarray(airspeed, dtype=float)
-    r = _require(turn_radius, "turn_radius", gt=0.0, unit="m")
-    return _restore(np.arctan(v**2 / (gravity * r)), airspeed, turn_radius)
+    r = require(turn_radius, "turn_radius", gt=0.0, unit="m")
+    return v**2 / (gravity * r)
 
 
 def bank_load_factor(airspeed, turn_radius, gravity=G):
@@ -190,12 +198,8 @@ def bank_load_factor(airspeed, turn_radius, gravity=G):
 
     Parameters
     ----------
-    airspeed : numeric
-        True airspeed. [m s⁻¹]
-    turn_radius : numeric
-        Turn radius, > 0. [m]
-    gravity : float, default 9.80665
-        Acceleration of gravity. [m s⁻²]
+    airspeed, turn_radius, gravity
+        As in :func:`bank_angle`. [m s⁻¹], [m], [m s⁻²]
 
     Returns
     -------
@@ -206,11 +210,10 @@ def bank_load_factor(airspeed, turn_radius, gravity=G):
     -----
     .. math:: n = \sqrt{1 + \left(\frac{V^2}{g r}\right)^2}
 
-    [2]_, ch. 6. A 45° bank (:math:`V^2 = g r`) gives :math:`n = \sqrt2`.
+    [1]_, ch. 6. A 45° bank (:math:`V^2 = g r`) gives :math:`n = \sqrt2`.
     """
-    v = np.asarray(airspeed, dtype=float)
-    r = _require(turn_radius, "turn_radius", gt=0.0, unit="m")
-    return _restore(np.sqrt(1.0 + (v**2 / (gravity * r)) ** 2), airspeed, turn_radius)
+    return like_inputs(np.sqrt(1.0 + _turn_ratio(airspeed, turn_radius, gravity) ** 2),
+                       airspeed, turn_radius)
 
 
 def battery_power(required_power, efficiency, system_power=0.0):
@@ -236,16 +239,16 @@ def battery_power(required_power, efficiency, system_power=0.0):
     -----
     .. math:: P = \frac{\max(P_R, 0)}{\eta} + P_S
 
-    Seed [1]_, :math:`P_{tot} = P_S + P_R / \eta`, with a floor: the propeller does not
+    [UAV23] eq. 2–6, :math:`P_{tot} = P_S + P_R / \eta`, with a floor: the propeller does not
     regenerate. When :math:`P_R < 0` (a descent steeper than the glide at that airspeed)
     the motor is off, the aircraft glides and the extra potential energy goes into drag
     (speed brakes, a steeper path), so only :math:`P_S` is drawn.
     """
     p = np.asarray(required_power, dtype=float)
-    eta = _require(efficiency, "efficiency", gt=0.0, le=1.0)
-    ps = _require(system_power, "system_power", ge=0.0, unit="W")
+    eta = require(efficiency, "efficiency", gt=0.0, le=1.0)
+    ps = require(system_power, "system_power", ge=0.0, unit="W")
     out = np.maximum(p, 0.0) / eta + ps
-    return _restore(out, required_power, efficiency, system_power)
+    return like_inputs(out, required_power, efficiency, system_power)
 
 
 def min_power_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravity=G):
@@ -254,20 +257,11 @@ def min_power_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravi
 
     Parameters
     ----------
-    air_density : numeric
-        Air density. [kg m⁻³]
-    mass : numeric
-        All-up mass. [kg]
-    wing_area : numeric
-        Wing reference area. [m²]
+    air_density, mass, wing_area, k, load_factor, gravity
+        As in :func:`required_power`. [kg m⁻³], [kg], [m²], [unitless], [unitless],
+        [m s⁻²]
     cd0 : numeric
         Zero-lift drag coefficient, > 0. [unitless]
-    k : numeric
-        Induced-drag factor. [unitless]
-    load_factor : numeric, default 1
-        Lift over weight, ≥ 1. [unitless]
-    gravity : float, default 9.80665
-        Acceleration of gravity. [m s⁻²]
 
     Returns
     -------
@@ -279,13 +273,10 @@ def min_power_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravi
     .. math:: V_{mp} = \left(\frac{B}{3A}\right)^{1/4}
 
     From :math:`dP_R/dV = 3AV^2 - B/V^2 = 0` with the polar of [UAV23] eq. 2;
-    [2]_, ch. 5. Equivalent to :math:`C_L = \sqrt{3 C_{D0}/K}`.
+    [1]_, ch. 5. Equivalent to :math:`C_L = \sqrt{3 C_{D0}/K}`.
     """
-    m = _require(mass, "mass", gt=0.0, unit="kg")
-    _require(cd0, "cd0", gt=0.0)
-    a, b = polar_coefficients(np.asarray(air_density, dtype=float), wing_area, cd0, k,
-                              m * gravity, load_factor)
-    return _restore((b / (3.0 * a)) ** 0.25, air_density, mass, wing_area, cd0, k,
+    a, b = _speed_polar(air_density, mass, wing_area, cd0, k, load_factor, gravity)
+    return like_inputs((b / (3.0 * a)) ** 0.25, air_density, mass, wing_area, cd0, k,
                     load_factor)
 
 
@@ -295,20 +286,9 @@ def max_range_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravi
 
     Parameters
     ----------
-    air_density : numeric
-        Air density. [kg m⁻³]
-    mass : numeric
-        All-up mass. [kg]
-    wing_area : numeric
-        Wing reference area. [m²]
-    cd0 : numeric
-        Zero-lift drag coefficient, > 0. [unitless]
-    k : numeric
-        Induced-drag factor. [unitless]
-    load_factor : numeric, default 1
-        Lift over weight, ≥ 1. [unitless]
-    gravity : float, default 9.80665
-        Acceleration of gravity. [m s⁻²]
+    air_density, mass, wing_area, cd0, k, load_factor, gravity
+        As in :func:`min_power_speed`. [kg m⁻³], [kg], [m²], [unitless], [unitless],
+        [unitless], [m s⁻²]
 
     Returns
     -------
@@ -320,15 +300,20 @@ def max_range_speed(air_density, mass, wing_area, cd0, k, load_factor=1.0, gravi
     -----
     .. math:: V_{mr} = \left(\frac{B}{A}\right)^{1/4}
 
-    From :math:`d(P_R/V)/dV = 2AV - 2B/V^3 = 0` with [UAV23] eq. 2; [2]_, ch. 5. With a
+    From :math:`d(P_R/V)/dV = 2AV - 2B/V^3 = 0` with [UAV23] eq. 2; [1]_, ch. 5. With a
     constant efficiency and :math:`P_S = 0` this also maximises range per battery energy;
-    for wind or a system load use :func:`planner.power.speeds.best_speeds`.
+    for wind or a system load use :func:`planner.physics.power.speeds.best_speeds`.
     """
-    m = _require(mass, "mass", gt=0.0, unit="kg")
-    _require(cd0, "cd0", gt=0.0)
-    a, b = polar_coefficients(np.asarray(air_density, dtype=float), wing_area, cd0, k,
+    a, b = _speed_polar(air_density, mass, wing_area, cd0, k, load_factor, gravity)
+    return like_inputs((b / a) ** 0.25, air_density, mass, wing_area, cd0, k, load_factor)
+
+
+def _speed_polar(air_density, mass, wing_area, cd0, k, load_factor, gravity):
+    """A and B of :func:`polar_coefficients` for the best-speed formulas (C_D0 > 0)."""
+    m = require(mass, "mass", gt=0.0, unit="kg")
+    require(cd0, "cd0", gt=0.0)
+    return polar_coefficients(np.asarray(air_density, dtype=float), wing_area, cd0, k,
                               m * gravity, load_factor)
-    return _restore((b / a) ** 0.25, air_density, mass, wing_area, cd0, k, load_factor)
 
 
 def min_loiter_radius(loiter_airspeed_ms: float, stall_speed_ms: float | None = None,

@@ -23,8 +23,8 @@ References
    :math:`(1 + K\mu^2)` with :math:`K \approx 4.65`).
 .. [2] H. Glauert, "A general theory of the autogyro," Aeronautical Research Committee,
    London, U.K., R&M 1111, 1926.
-.. [3] "Battery Testing and Discharge Model Validation for Electric UAV" (the seed
-   paper): momentum theory for the multirotor, :math:`P_{batt} = P_R/\eta`.
+
+The battery power is :math:`P_{batt} = P_R/\eta` as in [UAV23] eq. 22–24.
 """
 
 from __future__ import annotations
@@ -35,7 +35,8 @@ from typing import Any
 import numba
 import numpy as np
 
-from planner.physics.atmosphere import G, _require, _restore
+from planner.physics.atmosphere import G
+from planner.physics.numeric import like_inputs, require
 from planner.errors import ModelError
 
 # Leishman's empirical fit of measured induced velocity in the vortex-ring and turbulent
@@ -67,12 +68,12 @@ DEFAULT_FIGURE_OF_MERIT = 0.6
 
 DEFAULT_ROTOR_CT = 0.01
 """Rotor thrust coefficient :math:`C_T = T/(\\rho A (\\Omega R)^2)` used to estimate the
-tip speed when ``tip_speed`` is None. The seed's 7-inch propeller
+tip speed when ``tip_speed`` is None. The 7-inch propeller of [UAV23] (section 4)
 (:math:`C_T` = 0.0823 in the propeller convention) has 0.0106 [unitless]."""
 
 MIN_ROTOR_SPEED_RATIO = 0.5
 """Default idle rotor speed as a fraction of the hover rotor speed (power floor), as in
-:data:`planner.power.multirotor.MIN_ROTOR_SPEED_RATIO` [unitless]."""
+:data:`planner.physics.power.multirotor.MIN_ROTOR_SPEED_RATIO` [unitless]."""
 
 _NEWTON_ITERATIONS = 60
 
@@ -202,10 +203,20 @@ def hover_induced_velocity(thrust, air_density, disk_area):
 
     [1]_, ch. 2 (hover momentum theory).
     """
-    t = _require(thrust, "thrust", ge=0.0, unit="N")
-    rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
-    a = _require(disk_area, "disk_area", gt=0.0, unit="m²")
-    return _restore(np.sqrt(t / (2.0 * rho * a)), thrust, air_density, disk_area)
+    t, rho, a = _disk_inputs(thrust, air_density, disk_area)
+    return like_inputs(_hover_velocity(t, rho, a), thrust, air_density, disk_area)
+
+
+def _disk_inputs(thrust, air_density, disk_area):
+    """Thrust [N], air density [kg m⁻³] and disk area [m²], checked."""
+    return (require(thrust, "thrust", ge=0.0, unit="N"),
+            require(air_density, "air_density", gt=0.0, unit="kg/m³"),
+            require(disk_area, "disk_area", gt=0.0, unit="m²"))
+
+
+def _hover_velocity(thrust, air_density, disk_area):
+    """:math:`v_h = \\sqrt{T/(2\\rho A)}` ([1]_ ch. 2), ndarrays. [m s⁻¹]"""
+    return np.sqrt(thrust / (2.0 * air_density * disk_area))
 
 
 def ideal_hover_power(thrust, air_density, disk_area):
@@ -214,12 +225,8 @@ def ideal_hover_power(thrust, air_density, disk_area):
 
     Parameters
     ----------
-    thrust : numeric
-        Thrust, ≥ 0. [N]
-    air_density : numeric
-        Air density. [kg m⁻³]
-    disk_area : numeric
-        Disk area (total for several rotors sharing the thrust equally). [m²]
+    thrust, air_density, disk_area : numeric
+        As in :func:`hover_induced_velocity`. [N], [kg m⁻³], [m²]
 
     Returns
     -------
@@ -232,10 +239,8 @@ def ideal_hover_power(thrust, air_density, disk_area):
 
     [1]_, ch. 2. At constant thrust it scales as :math:`\rho^{-1/2}`.
     """
-    t = _require(thrust, "thrust", ge=0.0, unit="N")
-    rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
-    a = _require(disk_area, "disk_area", gt=0.0, unit="m²")
-    return _restore(t**1.5 / np.sqrt(2.0 * rho * a), thrust, air_density, disk_area)
+    t, rho, a = _disk_inputs(thrust, air_density, disk_area)
+    return like_inputs(t * _hover_velocity(t, rho, a), thrust, air_density, disk_area)
 
 
 def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.0,
@@ -245,12 +250,8 @@ def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.
 
     Parameters
     ----------
-    thrust : numeric
-        Thrust carried by the disk(s), ≥ 0. [N]
-    air_density : numeric
-        Air density. [kg m⁻³]
-    disk_area : numeric
-        Disk area (total thrust with total area for several equal rotors). [m²]
+    thrust, air_density, disk_area : numeric
+        As in :func:`hover_induced_velocity`. [N], [kg m⁻³], [m²]
     airspeed : numeric, default 0
         Horizontal true airspeed :math:`V`, ≥ 0. [m s⁻¹]
     climb_rate : numeric, default 0
@@ -322,29 +323,46 @@ def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.
     (:math:`x \ge 0`) and for :math:`\mu_h \ge 1`; a smooth interpolation between them
     otherwise. The result is continuous, finite and positive everywhere.
     """
-    t = _require(thrust, "thrust", ge=0.0, unit="N")
-    rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
-    a = _require(disk_area, "disk_area", gt=0.0, unit="m²")
-    v = _require(airspeed, "airspeed", ge=0.0, unit="m/s")
+    t, rho, a = _disk_inputs(thrust, air_density, disk_area)
+    v = require(airspeed, "airspeed", ge=0.0, unit="m/s")
     vc = np.asarray(climb_rate, dtype=float)
     alpha = np.asarray(disk_tilt, dtype=float)
-    vh = np.sqrt(t / (2.0 * rho * a))
+    vh = _hover_velocity(t, rho, a)
     axial = v * np.sin(alpha) + vc * np.cos(alpha)
     inplane = np.abs(v * np.cos(alpha) - vc * np.sin(alpha))
-    vi = _induced_from_components(vh, axial, inplane)
-    return _restore(vi, thrust, air_density, disk_area, airspeed, climb_rate, disk_tilt)
+    vi = induced_from_components(vh, axial, inplane)
+    return like_inputs(vi, thrust, air_density, disk_area, airspeed, climb_rate, disk_tilt)
 
 
-def _induced_from_components(vh, axial, inplane):
-    """v_i from v_h and the axial/in-plane free-stream components (ndarrays)."""
+def induced_from_components(hover_velocity, axial, inplane):
+    r"""Induced velocity from :math:`v_h` and the free-stream components through the disk.
+
+    :math:`v_i = \lambda(\mu_h, x)\, v_h` with :math:`x = V_z/v_h`,
+    :math:`\mu_h = V_{xy}/v_h` (module notes, :func:`induced_velocity`); 0 where
+    :math:`v_h = 0` (no thrust), NaN where it is NaN.
+
+    Parameters
+    ----------
+    hover_velocity : ndarray
+        Hover induced velocity :math:`v_h` at the thrust. [m s⁻¹]
+    axial, inplane : ndarray
+        Axial (through the disk, positive down) and in-plane free-stream components
+        :math:`V_z`, :math:`V_{xy}`. [m s⁻¹]
+
+    Returns
+    -------
+    velocity : ndarray
+        :math:`v_i`. [m s⁻¹]
+    """
+    vh = hover_velocity
     safe = np.where(vh > 0.0, vh, 1.0)
     lam = _induced_ratio(inplane / safe, axial / safe)
     return np.where(vh > 0.0, lam * vh, np.where(np.isnan(vh), np.nan, 0.0))
 
 
 @dataclass(frozen=True)
-class MomentumPower:
-    """Power budget of a multirotor from momentum theory (all rotors together).
+class RotorPowerTerms:
+    """The aerodynamic power budget of a multirotor, term by term (all rotors together).
 
     Each field has the kind of the inputs (float, ndarray or Series).
     """
@@ -352,21 +370,124 @@ class MomentumPower:
     induced: Any
     """Induced power :math:`\\kappa T v_i`. [W]"""
     profile: Any
-    """Blade profile power :math:`P_0`. [W]"""
+    """Blade profile power :math:`P_0 = r_0 T v_h (1 + 4.65\\mu^2)`. [W]"""
     parasite: Any
-    """Body parasite power :math:`D V`. [W]"""
+    """Body parasite power :math:`D V = \\tfrac12\\rho V^3 f`. [W]"""
     climb: Any
     """Rate of change of potential energy :math:`W V_c` (negative in descent). [W]"""
     shaft: Any
     """Sum of the four terms, the rotors' shaft power (may be < 0 in a fast descent). [W]"""
-    floor: Any
-    """Shaft power at idle rotor speed, the least the motors draw. [W]"""
     battery: Any
-    """Battery (discharge) power :math:`\\max(P_{shaft}, P_{floor})/\\eta + P_S`. [W]"""
+    """Battery (discharge) power. [W]"""
     thrust: Any
     """Total thrust :math:`T`. [N]"""
+
+
+@dataclass(frozen=True)
+class MomentumPower(RotorPowerTerms):
+    """Power budget of a multirotor from momentum theory (:func:`momentum_power_components`).
+
+    The terms of :class:`RotorPowerTerms`, with the battery power
+    :math:`\\max(P_{shaft}, P_{floor})/\\eta + P_S`, and:
+    """
+
+    floor: Any
+    """Shaft power at idle rotor speed, the least the motors draw. [W]"""
     induced_velocity: Any
     """Induced velocity :math:`v_i`. [m s⁻¹]"""
+
+
+def profile_power_ratio_of(figure_of_merit, profile_power_ratio, induced_factor):
+    r"""Hover profile power over ideal hover power, :math:`r_0 = P_{0,h}/(T v_h)`.
+
+    Given directly (``profile_power_ratio``, ≥ 0) or from the hover figure of merit,
+    :math:`r_0 = 1/FM - \kappa` (from :math:`FM = T v_h/(\kappa T v_h + P_{0,h})`,
+    [1]_ ch. 2); neither: FM = :data:`DEFAULT_FIGURE_OF_MERIT`. [unitless]
+
+    Raises
+    ------
+    ModelError
+        Both given, or an FM above :math:`1/\kappa` (a negative profile power).
+    """
+    if figure_of_merit is not None and profile_power_ratio is not None:
+        raise ModelError("give figure_of_merit or profile_power_ratio, not both")
+    if profile_power_ratio is not None:
+        return require(profile_power_ratio, "profile_power_ratio", ge=0.0)
+    fm = DEFAULT_FIGURE_OF_MERIT if figure_of_merit is None else figure_of_merit
+    fm = require(fm, "figure_of_merit", gt=0.0, le=1.0)
+    r0 = 1.0 / fm - induced_factor
+    if np.any(r0 < 0.0):
+        raise ModelError(
+            f"figure_of_merit must be <= 1/induced_factor (profile power >= 0), "
+            f"got figure_of_merit={figure_of_merit}, induced_factor={induced_factor}")
+    return r0
+
+
+def rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate, drag_area,
+                      induced_factor, figure_of_merit, profile_power_ratio, tip_speed,
+                      load_factor, min_rotor_speed_ratio, gravity, thrust=None) -> dict:
+    r"""
+    The rotors' aerodynamic power, term by term, from momentum theory (ndarrays).
+
+    The part :func:`momentum_power_components` and
+    :func:`planner.physics.power.rotor_losses.rotor_losses_components` share: the inputs
+    checked, the trim (or the given ``thrust``), the inflow and the four power terms and
+    the idle-speed floor of :func:`momentum_power_components` (its Notes give the
+    equations, [1]_ ch. 2 and 5). Parameters as there, in SI units.
+
+    Returns
+    -------
+    terms : dict of ndarray
+        ``weight`` [N], ``thrust`` [N], ``induced_velocity`` [m s⁻¹], ``induced``,
+        ``profile``, ``parasite``, ``climb``, ``shaft``, ``floor`` [W].
+    """
+    m = require(mass, "mass", gt=0.0, unit="kg")
+    rho = require(air_density, "air_density", gt=0.0, unit="kg/m³")
+    n_rot = require(rotors, "rotors", ge=1.0)
+    if np.any(n_rot != np.round(n_rot)):
+        raise ModelError(f"rotors must be a whole number >= 1, got {rotors}")
+    d = require(diameter, "diameter", gt=0.0, unit="m")
+    v = require(airspeed, "airspeed", ge=0.0, unit="m/s")
+    vc = np.asarray(climb_rate, dtype=float)
+    f = require(drag_area, "drag_area", ge=0.0, unit="m²")
+    kappa = require(induced_factor, "induced_factor", ge=1.0)
+    n = require(load_factor, "load_factor", ge=1.0)
+    r = require(min_rotor_speed_ratio, "min_rotor_speed_ratio", ge=0.0, le=1.0)
+    r0 = profile_power_ratio_of(figure_of_merit, profile_power_ratio, kappa)
+    if tip_speed is not None:
+        vtip = require(tip_speed, "tip_speed", gt=0.0, unit="m/s")
+
+    weight = m * gravity
+    area = n_rot * 0.25 * np.pi * d**2
+    drag = 0.5 * rho * v**2 * f
+    t = (np.sqrt((n * weight) ** 2 + drag**2) if thrust is None
+         else require(thrust, "thrust", ge=0.0, unit="N"))
+    vh = _hover_velocity(t, rho, area)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        axial = np.where(t > 0.0, (drag * v + weight * vc) / np.where(t > 0.0, t, 1.0), 0.0)
+        inplane = np.sqrt(np.maximum(v**2 + vc**2 - axial**2, 0.0))
+    vi = induced_from_components(vh, axial, inplane)
+    if tip_speed is None:
+        vtip = vh * np.sqrt(2.0 / DEFAULT_ROTOR_CT)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mu = np.where(vtip > 0.0, inplane / np.where(vtip > 0.0, vtip, 1.0), 0.0)
+
+    induced = kappa * t * vi
+    profile = r0 * t * vh * (1.0 + PROFILE_K * mu**2)
+    parasite = drag * v
+    climb = weight * vc
+    vh_weight = _hover_velocity(weight, rho, area)
+    return {"weight": weight, "thrust": t, "induced_velocity": vi, "induced": induced,
+            "profile": profile, "parasite": parasite, "climb": climb,
+            "shaft": induced + profile + parasite + climb,
+            "floor": r**3 * weight * vh_weight * (kappa + r0)}
+
+
+def terms_like_inputs(terms: dict, battery, inputs) -> dict:
+    """Each term broadcast against the battery power and given the kind of the inputs
+    (:func:`planner.physics.numeric.like_inputs`); units unchanged."""
+    return {name: like_inputs(np.broadcast_to(value, np.broadcast(battery, value).shape),
+                              *inputs) for name, value in terms.items()}
 
 
 def momentum_power_components(mass, air_density, rotors, diameter, efficiency, airspeed=0.0,
@@ -464,94 +585,35 @@ def momentum_power_components(mass, air_density, rotors, diameter, efficiency, a
     :math:`r\,\Omega_{hover}` and ESCs do not regenerate, so the shaft power is at least
     :math:`r^3` times the hover shaft power at the weight,
     :math:`P_{floor} = r^3\, W v_h(W)\,(\kappa + r_0)`, :math:`r` = 0.5 by default
-    (12.5 %), the same floor as :func:`planner.power.multirotor.propeller_battery_power`.
+    (12.5 %), the same floor as :func:`planner.physics.power.multirotor.propeller_battery_power`.
 
-    *Battery* ([3]_):
+    *Battery* ([UAV23] eq. 22–24):
 
     .. math:: P_{batt} = \frac{\max(P, P_{floor})}{\eta} + P_S
     """
-    m = _require(mass, "mass", gt=0.0, unit="kg")
-    rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
-    n_rot = _require(rotors, "rotors", ge=1.0)
-    if np.any(n_rot != np.round(n_rot)):
-        raise ModelError(f"rotors must be a whole number >= 1, got {rotors}")
-    d = _require(diameter, "diameter", gt=0.0, unit="m")
-    eta = _require(efficiency, "efficiency", gt=0.0, le=1.0)
-    v = _require(airspeed, "airspeed", ge=0.0, unit="m/s")
-    vc = np.asarray(climb_rate, dtype=float)
-    f = _require(drag_area, "drag_area", ge=0.0, unit="m²")
-    kappa = _require(induced_factor, "induced_factor", ge=1.0)
-    ps = _require(system_power, "system_power", ge=0.0, unit="W")
-    n = _require(load_factor, "load_factor", ge=1.0)
-    r = _require(min_rotor_speed_ratio, "min_rotor_speed_ratio", ge=0.0, le=1.0)
-    if figure_of_merit is not None and profile_power_ratio is not None:
-        raise ModelError("give figure_of_merit or profile_power_ratio, not both")
-    if profile_power_ratio is not None:
-        r0 = _require(profile_power_ratio, "profile_power_ratio", ge=0.0)
-    else:
-        fm = DEFAULT_FIGURE_OF_MERIT if figure_of_merit is None else figure_of_merit
-        fm = _require(fm, "figure_of_merit", gt=0.0, le=1.0)
-        r0 = 1.0 / fm - kappa
-        if np.any(r0 < 0.0):
-            raise ModelError(
-                f"figure_of_merit must be <= 1/induced_factor (profile power >= 0), "
-                f"got figure_of_merit={figure_of_merit}, induced_factor={induced_factor}"
-            )
-    if tip_speed is not None:
-        vtip = _require(tip_speed, "tip_speed", gt=0.0, unit="m/s")
-
-    weight = m * gravity
-    area = n_rot * 0.25 * np.pi * d**2
-    drag = 0.5 * rho * v**2 * f
-    thrust = np.sqrt((n * weight) ** 2 + drag**2)
-    vh = np.sqrt(thrust / (2.0 * rho * area))
-
-    with np.errstate(invalid="ignore"):
-        axial = (drag * v + weight * vc) / thrust
-        inplane = np.sqrt(np.maximum(v**2 + vc**2 - axial**2, 0.0))
-    vi = _induced_from_components(vh, axial, inplane)
-
-    if tip_speed is None:
-        vtip = vh * np.sqrt(2.0 / DEFAULT_ROTOR_CT)
-    mu = inplane / vtip
-
-    induced = kappa * thrust * vi
-    profile = r0 * thrust * vh * (1.0 + PROFILE_K * mu**2)
-    parasite = drag * v
-    climb = weight * vc
-    shaft = induced + profile + parasite + climb
-
-    vh_weight = np.sqrt(weight / (2.0 * rho * area))
-    floor = r**3 * weight * vh_weight * (kappa + r0)
-    battery = np.maximum(shaft, floor) / eta + ps
-
+    terms = rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
+                              drag_area, induced_factor, figure_of_merit, profile_power_ratio,
+                              tip_speed, load_factor, min_rotor_speed_ratio, gravity)
+    eta = require(efficiency, "efficiency", gt=0.0, le=1.0)
+    ps = require(system_power, "system_power", ge=0.0, unit="W")
+    battery = np.maximum(terms["shaft"], terms["floor"]) / eta + ps
     inputs = (mass, air_density, rotors, diameter, efficiency, airspeed, climb_rate,
               drag_area, induced_factor, system_power, load_factor)
-
-    def kind(value):
-        return _restore(np.broadcast_to(value, np.broadcast(battery, value).shape), *inputs)
-
-    return MomentumPower(
-        induced=kind(induced), profile=kind(profile), parasite=kind(parasite),
-        climb=kind(climb), shaft=kind(shaft), floor=kind(floor), battery=kind(battery),
-        thrust=kind(thrust), induced_velocity=kind(vi),
-    )
+    out = terms_like_inputs({k: terms[k] for k in (
+        "induced", "profile", "parasite", "climb", "shaft", "floor", "thrust",
+        "induced_velocity")} | {"battery": battery}, battery, inputs)
+    return MomentumPower(**out)
 
 
-def momentum_battery_power(mass, air_density, rotors, diameter, efficiency, airspeed=0.0,
-                           climb_rate=0.0, drag_area=0.0, induced_factor=1.15,
-                           figure_of_merit=None, profile_power_ratio=None, tip_speed=None,
-                           system_power=0.0, load_factor=1.0,
-                           min_rotor_speed_ratio=MIN_ROTOR_SPEED_RATIO, gravity=G):
+def momentum_battery_power(mass, air_density, rotors, diameter, efficiency, **kwargs):
     r"""
     Battery power of a multirotor from momentum theory.
 
     Parameters
     ----------
-    mass, air_density, rotors, diameter, efficiency, airspeed, climb_rate, drag_area, \
-induced_factor, figure_of_merit, profile_power_ratio, tip_speed, system_power, \
-load_factor, min_rotor_speed_ratio, gravity
-        As in :func:`momentum_power_components`.
+    mass, air_density, rotors, diameter, efficiency, **kwargs
+        As in :func:`momentum_power_components`. [kg], [kg m⁻³], [unitless], [m],
+        [unitless]
 
     Returns
     -------
@@ -567,10 +629,5 @@ load_factor, min_rotor_speed_ratio, gravity
     See :func:`momentum_power_components` for the terms, the defaults (κ 1.15, FM 0.6,
     tip speed from :math:`C_T` 0.01, idle speed 0.5 of hover) and the references.
     """
-    return momentum_power_components(
-        mass, air_density, rotors, diameter, efficiency, airspeed=airspeed,
-        climb_rate=climb_rate, drag_area=drag_area, induced_factor=induced_factor,
-        figure_of_merit=figure_of_merit, profile_power_ratio=profile_power_ratio,
-        tip_speed=tip_speed, system_power=system_power, load_factor=load_factor,
-        min_rotor_speed_ratio=min_rotor_speed_ratio, gravity=gravity,
-    ).battery
+    return momentum_power_components(mass, air_density, rotors, diameter, efficiency,
+                                     **kwargs).battery

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planner.physics.atmosphere import _require, _restore
+from planner.physics.numeric import like_inputs, require
 
 
 def induced_velocity(thrust, airspeed, air_density, disc_area):
@@ -75,12 +75,12 @@ def induced_velocity(thrust, airspeed, air_density, disc_area):
 
     [1]_ §6.3, [2]_ eq. 2.124; at :math:`V = 0` the hover value :math:`\sqrt{T/(2\rho A)}`.
     """
-    rho = _require(air_density, "air_density", gt=0.0)
-    area = _require(disc_area, "disc_area", gt=0.0)
+    rho = require(air_density, "air_density", gt=0.0)
+    area = require(disc_area, "disc_area", gt=0.0)
     t = np.maximum(np.asarray(thrust, float), 0.0)
     v = np.asarray(airspeed, float)
     out = -0.5 * v + np.sqrt(0.25 * v * v + t / (2.0 * rho * area))
-    return _restore(out, thrust, airspeed, air_density, disc_area)
+    return like_inputs(out, thrust, airspeed, air_density, disc_area)
 
 
 def shaft_power(thrust, airspeed, air_density, diameter, count=1, induced_factor=1.0,
@@ -110,16 +110,16 @@ def shaft_power(thrust, airspeed, air_density, diameter, count=1, induced_factor
     power : numeric
         [W]
     """
-    d = _require(diameter, "propeller_diameter_m", gt=0.0)
-    n = _require(count, "propellers", ge=1)
-    kappa = _require(induced_factor, "propeller_induced_factor", ge=1.0)
-    p0 = _require(profile_power, "propeller_profile_power_w", ge=0.0)
+    d = require(diameter, "propeller_diameter_m", gt=0.0)
+    n = require(count, "propellers", ge=1)
+    kappa = require(induced_factor, "propeller_induced_factor", ge=1.0)
+    p0 = require(profile_power, "propeller_profile_power_w", ge=0.0)
     area = n * np.pi * d * d / 4.0
     t = np.asarray(thrust, float)
     v = np.asarray(airspeed, float)
     vi = induced_velocity(t, v, air_density, area)
     out = np.where(t > 0.0, t * v + kappa * t * vi + p0, 0.0)
-    return _restore(out, thrust, airspeed, air_density)
+    return like_inputs(out, thrust, airspeed, air_density)
 
 
 def propulsive_efficiency(thrust, airspeed, air_density, diameter, count=1,
@@ -132,7 +132,7 @@ def propulsive_efficiency(thrust, airspeed, air_density, diameter, count=1,
     t = np.asarray(thrust, float)
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where((t > 0.0) & (p > 0.0), t * np.asarray(airspeed, float) / p, np.nan)
-    return _restore(out, thrust, airspeed, air_density)
+    return like_inputs(out, thrust, airspeed, air_density)
 
 
 def inflow_ratio(advance_ratio, thrust_coefficient):
@@ -142,7 +142,7 @@ def inflow_ratio(advance_ratio, thrust_coefficient):
     """
     j = np.asarray(advance_ratio, float)
     ct = np.maximum(np.asarray(thrust_coefficient, float), 0.0)
-    return _restore(-0.5 * j + np.sqrt(0.25 * j * j + 2.0 * ct / np.pi), advance_ratio,
+    return like_inputs(-0.5 * j + np.sqrt(0.25 * j * j + 2.0 * ct / np.pi), advance_ratio,
                     thrust_coefficient)
 
 
@@ -154,4 +154,4 @@ def power_coefficient(advance_ratio, thrust_coefficient, induced_factor=1.0,
     j = np.asarray(advance_ratio, float)
     ct = np.asarray(thrust_coefficient, float)
     out = ct * j + induced_factor * ct * inflow_ratio(j, ct) + profile_cp
-    return _restore(out, advance_ratio, thrust_coefficient)
+    return like_inputs(out, advance_ratio, thrust_coefficient)

@@ -31,7 +31,7 @@ draws while it turns:
 * :math:`\eta_d` — what is left between battery and motors (ESC switching, wiring).
 
 With :math:`P_{nl} = P_{cu} = 0`, :math:`\eta_d = \eta`, :math:`P_{stop} = P_S` and the
-idle-speed floor it is exactly :func:`planner.power.momentum.momentum_battery_power`.
+idle-speed floor it is exactly :func:`planner.physics.power.momentum.momentum_battery_power`.
 
 References
 ----------
@@ -55,48 +55,33 @@ from typing import Any
 
 import numpy as np
 
-from planner.physics.atmosphere import G, _require, _restore
-from planner.errors import ModelError
+from planner.physics.atmosphere import RHO0, G
+from planner.physics.numeric import require
 from planner.physics.power.momentum import (
-    DEFAULT_FIGURE_OF_MERIT,
-    DEFAULT_ROTOR_CT,
-    PROFILE_K,
-    _induced_from_components,
+    RotorPowerTerms,
+    rotor_shaft_terms,
+    terms_like_inputs,
 )
 
 __all__ = ["REFERENCE_DENSITY", "RotorLossesPower", "battery_power_from_unit_terms",
            "rotor_losses_battery_power", "rotor_losses_components"]
 
-REFERENCE_DENSITY = 1.225
+REFERENCE_DENSITY = RHO0
 """Air density of the reference hover at which :math:`\\hat\\Omega = \\hat Q = 1`:
 ISA sea level. [kg m⁻³]"""
 
 
 @dataclass(frozen=True)
-class RotorLossesPower:
-    """Power budget of :func:`rotor_losses_components`, term by term.
-
-    Each field has the kind of the inputs (float, ndarray or Series).
+class RotorLossesPower(RotorPowerTerms):
+    """Power budget of :func:`rotor_losses_components`: the aerodynamic terms of
+    :class:`~planner.physics.power.momentum.RotorPowerTerms` (shaft power before the
+    floor), the battery power of the module notes, and the motor losses:
     """
 
-    induced: Any
-    """Induced power :math:`\\kappa T v_i`. [W]"""
-    profile: Any
-    """Blade profile power :math:`r_0 T v_h (1 + 4.65\\mu^2)`. [W]"""
-    parasite: Any
-    """Body parasite power :math:`\\tfrac12\\rho V^3 f`. [W]"""
-    climb: Any
-    """Climb power :math:`W \\dot h` (negative in descent). [W]"""
-    shaft: Any
-    """Aerodynamic shaft power before the floor (may be < 0 in a fast descent). [W]"""
     no_load: Any
     """Motor no-load loss :math:`P_{nl}\\hat\\Omega`. [W]"""
     copper: Any
     """Motor copper loss :math:`P_{cu}\\hat Q^2`. [W]"""
-    battery: Any
-    """Battery (discharge) power. [W]"""
-    thrust: Any
-    """Total thrust :math:`T`. [N]"""
     rotor_speed_ratio: Any
     """:math:`\\hat\\Omega`, rotor speed over that of the reference hover. [unitless]"""
 
@@ -113,30 +98,13 @@ def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficienc
 
     Parameters
     ----------
-    mass : numeric
-        All-up mass. [kg]
-    air_density : numeric
-        Air density. [kg m⁻³]
-    rotors : int
-        Number of equal rotors :math:`N`. [unitless]
-    diameter : numeric
-        Rotor diameter. [m]
+    mass, air_density, rotors, diameter, airspeed, climb_rate, drag_area, \
+induced_factor, figure_of_merit, profile_power_ratio, tip_speed, load_factor
+        As in :func:`planner.physics.power.momentum.momentum_power_components`. [kg],
+        [kg m⁻³], [unitless], [m], [m s⁻¹], [m s⁻¹], [m²], [unitless], [unitless],
+        [unitless], [m s⁻¹], [unitless]
     drive_efficiency : numeric, default 0.95
         Battery-to-motor efficiency :math:`\eta_d` (ESC, wiring), in (0, 1]. [unitless]
-    airspeed : numeric, default 0
-        Horizontal true airspeed :math:`V`, ≥ 0. [m s⁻¹]
-    climb_rate : numeric, default 0
-        Vertical speed :math:`\dot h`, up positive. [m s⁻¹]
-    drag_area : numeric, default 0
-        Body equivalent flat-plate area :math:`f`, ≥ 0. [m²]
-    induced_factor : numeric, default 1.15
-        Induced-power factor :math:`\kappa \ge 1`. [unitless]
-    figure_of_merit, profile_power_ratio : numeric, optional
-        Hover figure of merit or :math:`r_0 = P_{0,h}/(T v_h)`, one or neither (default
-        FM 0.6), as in :func:`planner.power.momentum.momentum_power_components`.
-        [unitless]
-    tip_speed : numeric, optional
-        Blade tip speed; None: :math:`v_h\sqrt{2/C_T}`, :math:`C_T` = 0.01. [m s⁻¹]
     stopped_power : numeric, default 0
         :math:`P_{stop}`, drawn with the rotors stopped, ≥ 0. [W]
     no_load_power : numeric, default 0
@@ -150,8 +118,6 @@ def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficienc
     thrust : numeric, optional
         Measured total thrust (e.g. mass × accelerometer specific force); default the
         trim thrust :math:`\sqrt{(nW)^2 + D^2}`. [N]
-    load_factor : numeric, default 1
-        Weight-balancing thrust over weight (turns), ≥ 1. [unitless]
     rotors_turning : bool or array of bool, default True
         :math:`s`: False where the rotors are stopped (only :math:`P_{stop}` drawn).
     min_rotor_speed_ratio : float, default 0
@@ -174,91 +140,38 @@ def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficienc
 
     :math:`P_{shaft} = \kappa T v_i + r_0 T v_h (1 + 4.65\mu^2) + \tfrac12\rho V^3 f +
     W\dot h` ([1]_ ch. 2 and 5; :math:`v_i` from
-    :func:`planner.power.momentum.induced_velocity`'s Glauert / vortex-ring solution with
+    :func:`planner.physics.power.momentum.induced_velocity`'s Glauert / vortex-ring solution with
     the axial inflow :math:`V_z = (DV + W\dot h)/T`); the motor terms follow Drela's
     first-order motor model [3]_ (:math:`I_0V \propto \Omega`, :math:`I^2R \propto Q^2`)
     with :math:`\Omega \propto \sqrt{T/\rho}` and :math:`Q \propto T` of a fixed-pitch
     propeller, as Gur & Rosen [4]_ model UAV motor losses.
     """
-    m = _require(mass, "mass", gt=0.0, unit="kg")
-    rho = _require(air_density, "air_density", gt=0.0, unit="kg/m³")
-    n_rot = _require(rotors, "rotors", ge=1.0)
-    if np.any(n_rot != np.round(n_rot)):
-        raise ModelError(f"rotors must be a whole number >= 1, got {rotors}")
-    d = _require(diameter, "diameter", gt=0.0, unit="m")
-    eta = _require(drive_efficiency, "drive_efficiency", gt=0.0, le=1.0)
-    v = _require(airspeed, "airspeed", ge=0.0, unit="m/s")
-    vc = np.asarray(climb_rate, dtype=float)
-    f = _require(drag_area, "drag_area", ge=0.0, unit="m²")
-    kappa = _require(induced_factor, "induced_factor", ge=1.0)
-    p_stop = _require(stopped_power, "stopped_power", ge=0.0, unit="W")
-    p_nl = _require(no_load_power, "no_load_power", ge=0.0, unit="W")
-    p_cu = _require(copper_loss_power, "copper_loss_power", ge=0.0, unit="W")
-    m_ref = m if reference_mass is None else _require(reference_mass, "reference_mass",
-                                                      gt=0.0, unit="kg")
-    rho_ref = _require(reference_density, "reference_density", gt=0.0, unit="kg/m³")
-    n = _require(load_factor, "load_factor", ge=1.0)
-    r = _require(min_rotor_speed_ratio, "min_rotor_speed_ratio", ge=0.0, le=1.0)
-    if figure_of_merit is not None and profile_power_ratio is not None:
-        raise ModelError("give figure_of_merit or profile_power_ratio, not both")
-    if profile_power_ratio is not None:
-        r0 = _require(profile_power_ratio, "profile_power_ratio", ge=0.0)
-    else:
-        fm = DEFAULT_FIGURE_OF_MERIT if figure_of_merit is None else figure_of_merit
-        fm = _require(fm, "figure_of_merit", gt=0.0, le=1.0)
-        r0 = 1.0 / fm - kappa
-        if np.any(r0 < 0.0):
-            raise ModelError(
-                f"figure_of_merit must be <= 1/induced_factor (profile power >= 0), "
-                f"got figure_of_merit={figure_of_merit}, induced_factor={induced_factor}")
-    if tip_speed is not None:
-        vtip = _require(tip_speed, "tip_speed", gt=0.0, unit="m/s")
-
-    weight = m * gravity
-    area = n_rot * 0.25 * np.pi * d**2
-    drag = 0.5 * rho * v**2 * f
-    if thrust is None:
-        t = np.sqrt((n * weight) ** 2 + drag**2)
-    else:
-        t = _require(thrust, "thrust", ge=0.0, unit="N")
-    vh = np.sqrt(t / (2.0 * rho * area))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        axial = np.where(t > 0.0, (drag * v + weight * vc) / np.where(t > 0.0, t, 1.0), 0.0)
-        inplane = np.sqrt(np.maximum(v**2 + vc**2 - axial**2, 0.0))
-    vi = _induced_from_components(vh, axial, inplane)
-    if tip_speed is None:
-        vtip = vh * np.sqrt(2.0 / DEFAULT_ROTOR_CT)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mu = np.where(vtip > 0.0, inplane / np.where(vtip > 0.0, vtip, 1.0), 0.0)
-
-    induced = kappa * t * vi
-    profile = r0 * t * vh * (1.0 + PROFILE_K * mu**2)
-    parasite = drag * v
-    climb = weight * vc
-    shaft = induced + profile + parasite + climb
-    vh_weight = np.sqrt(weight / (2.0 * rho * area))
-    floor = r**3 * weight * vh_weight * (kappa + r0)
-
+    terms = rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
+                              drag_area, induced_factor, figure_of_merit, profile_power_ratio,
+                              tip_speed, load_factor, min_rotor_speed_ratio, gravity,
+                              thrust=thrust)
+    eta = require(drive_efficiency, "drive_efficiency", gt=0.0, le=1.0)
+    p_stop = require(stopped_power, "stopped_power", ge=0.0, unit="W")
+    p_nl = require(no_load_power, "no_load_power", ge=0.0, unit="W")
+    p_cu = require(copper_loss_power, "copper_loss_power", ge=0.0, unit="W")
+    m_ref = (np.asarray(mass, dtype=float) if reference_mass is None
+             else require(reference_mass, "reference_mass", gt=0.0, unit="kg"))
+    rho_ref = require(reference_density, "reference_density", gt=0.0, unit="kg/m³")
+    t, rho = terms["thrust"], np.asarray(air_density, dtype=float)
     t_ref = m_ref * gravity
     speed = np.sqrt((t / rho) / (t_ref / rho_ref))
-    torque = t / t_ref
     no_load = p_nl * speed
-    copper = p_cu * torque**2
-    battery = _battery(shaft, floor, no_load, copper, eta, p_stop, rotors_turning)
-
+    copper = p_cu * (t / t_ref) ** 2
+    battery = _battery(terms["shaft"], terms["floor"], no_load, copper, eta, p_stop,
+                       rotors_turning)
     inputs = (mass, air_density, rotors, diameter, drive_efficiency, airspeed, climb_rate,
               drag_area, induced_factor, stopped_power, no_load_power, copper_loss_power,
-              load_factor)
-    if thrust is not None:
-        inputs = inputs + (thrust,)
-
-    def kind(value):
-        return _restore(np.broadcast_to(value, np.broadcast(battery, value).shape), *inputs)
-
-    return RotorLossesPower(
-        induced=kind(induced), profile=kind(profile), parasite=kind(parasite),
-        climb=kind(climb), shaft=kind(shaft), no_load=kind(no_load), copper=kind(copper),
-        battery=kind(battery), thrust=kind(t), rotor_speed_ratio=kind(speed))
+              load_factor) + (() if thrust is None else (thrust,))
+    out = terms_like_inputs({k: terms[k] for k in (
+        "induced", "profile", "parasite", "climb", "shaft", "thrust")} | {
+        "no_load": no_load, "copper": copper, "battery": battery,
+        "rotor_speed_ratio": speed}, battery, inputs)
+    return RotorLossesPower(**out)
 
 
 def _battery(shaft, floor, no_load, copper, eta, p_stop, turning):

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from planner.physics.atmosphere import _restore
+from planner.physics.numeric import like_inputs
 from planner.errors import ModelError
 
 GRID_POINTS = 401
@@ -134,4 +134,4 @@ def best_speeds(power_fn, v_min, v_max, headwind=0.0):
             v_range_unique[k] = _refine(energy_per_metre, grid, per_metre,
                                         max(v_min, h), v_max)
     v_range = v_range_unique[inverse].reshape(hw.shape)
-    return BestSpeeds(v_endurance, _restore(v_range, headwind))
+    return BestSpeeds(v_endurance, like_inputs(v_range, headwind))

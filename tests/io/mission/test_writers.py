@@ -60,8 +60,7 @@ def long_survey(tmp_path_factory):
 def test_each_sortie_file_is_in_the_input_format_and_passes_check(long_survey, suffix,
                                                                    tmp_path, capsys):
     src = long_survey / f"survey{suffix}"
-    out = tmp_path / "sorties"
-    out.mkdir()
+    out = tmp_path / "sorties"          # created by the command
     status = main(["select", str(src), "--aircraft", str(SOLO), "--packs",
                    str(long_survey / "solo.yaml"), "--sorties-out", str(out)])
     text = capsys.readouterr().out
@@ -90,9 +89,15 @@ def test_each_sortie_file_is_in_the_input_format_and_passes_check(long_survey, s
 def test_sorties_out_bad_input_exits_2(long_survey, tmp_path, capsys):
     src = long_survey / "survey.waypoints"
     status = main(["select", str(src), "--aircraft", str(SOLO), "--packs", str(CATALOG),
-                   "--sorties-out", str(tmp_path / "missing")])
+                   "--sorties-out", str(tmp_path / "missing" / "sorties")])
     err = capsys.readouterr().err
-    assert status == 2 and "--sorties-out" in err and "not an existing folder" in err
+    assert status == 2 and "--sorties-out" in err and "does not exist" in err
+    assert not (tmp_path / "missing").exists()
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    status = main(["select", str(src), "--aircraft", str(SOLO), "--packs", str(CATALOG),
+                   "--sorties-out", str(a_file)])
+    assert status == 2 and "not a folder" in capsys.readouterr().err
     other = tmp_path / "m.mission"
     other.write_text((long_survey / "survey.waypoints").read_text())
     status = main(["select", str(other), "--aircraft", str(SOLO), "--packs", str(CATALOG),
