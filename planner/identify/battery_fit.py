@@ -581,6 +581,7 @@ class IntegralFit:
         ``well_determined``."""
         out = {k: getattr(self, k) for k in _FIT_KEYS}
         out["well_determined"] = self.well_determined
+        out["misfit"] = [dict(m) for m in self.misfit]
         return {k: out[k] for k in (*_FIT_KEYS[:9], "well_determined", *_FIT_KEYS[9:])}
 
 

@@ -752,7 +752,8 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     resist_ev = EV.resistance_temperature(exps) if "temperature" in names else None
     direct = _direct_findings(power_ev if "current_offset" in names else None, resist_ev,
                               exps, run)
-    findings = direct + _ranked_findings(run.levels)
+    found = direct + _ranked_findings(run.levels)
+    findings = _merge_direct(direct, found[len(direct):])
     withheld = [w for lv in run.levels.values() for w in lv.result.withheld]
     blind = [_offset_or_load(df, run.levels, findings)]
     if cut.effects and "cutoff" not in run.levels and "capacity" in run.levels:
@@ -764,9 +765,29 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
                     "barely changes when the capacity shrinks: no finding there measures a "
                     "capacity loss")})
     detection = _detection(run, wanted, power_ev if "current_offset" in names else None,
-                           resist_ev, findings)
+                           resist_ev, found)
     return DiagnoseResult(run.levels, findings, run.skipped, run.notes, pack, aircraft,
                           sources, withheld, [b for b in blind if b], detection)
+
+
+def _merge_direct(direct: list[dict], ranked: list[dict]) -> list[dict]:
+    """One finding per cause: a direct finding whose effect a model level also names is
+    carried by that level's finding (``direct_evidence``: the direct finding's level,
+    cause, parameters and evidence; its cause appended), which keeps its rank and the
+    held-out figures; the other direct findings lead."""
+    out = [dict(f) for f in ranked]
+    lead = []
+    for d in direct:
+        same = next((f for f in out if f["effect"] == d["effect"]), None)
+        if same is None:
+            lead.append(d)
+            continue
+        same["direct_evidence"] = {k: d[k] for k in ("level", "cause", "parameters",
+                                                      "evidence", "headline")}
+        same["cause"] = f"{same['cause']}. Direct evidence as well: {d['cause']}"
+        same["alternatives"] = list(same.get("alternatives", [])) + [
+            a for a in d.get("alternatives", []) if a not in same.get("alternatives", [])]
+    return lead + out
 
 
 def _direct_findings(power_ev: dict | None, resist_ev: dict | None, exps: list[dict],

@@ -477,17 +477,18 @@ class CurrentOffset(CapacityEffect):
     def skip_reason(self, cap) -> str | None:
         """A load that is never (nearly) off: less than :data:`MIN_LOW_LOAD_SHARE` of the
         time below :data:`LOW_LOAD` of the median power."""
+        reasons = []
         if getattr(cap, "power_from_current", False):
-            return ("the power is the logged voltage × the logged current: an offset of the "
-                    "current sensor is in the power too, and the integral model driven by "
-                    "that power draws the offset's charge itself")
+            reasons.append("the power is the logged voltage × the logged current: an offset "
+                           "of the current sensor is in the power too, and the integral model "
+                           "driven by that power draws the offset's charge itself")
         share = cap.low_load_fraction
         if share < MIN_LOW_LOAD_SHARE:
-            return (f"the load is never (nearly) off: only {100 * share:.1f} % of the time below "
-                    f"{100 * LOW_LOAD:.0f} % of the median power (needs "
-                    f"{100 * MIN_LOW_LOAD_SHARE:g} %): a sensor bias cannot be told from the "
-                    "calibration without rests or idle periods")
-        return None
+            reasons.append(f"the load is never (nearly) off: only {100 * share:.1f} % of the "
+                           f"time below {100 * LOW_LOAD:.0f} % of the median power (needs "
+                           f"{100 * MIN_LOW_LOAD_SHARE:g} %): a sensor bias cannot be told "
+                           "from the calibration without rests or idle periods")
+        return "; and ".join(reasons) or None
 
     def cumulative(self, cap, G, dG):
         r"""Time since each experiment's start: the drift :math:`b\,t` per unit b. [s]"""

@@ -111,12 +111,30 @@ def test_two_capacity_effects_are_both_found():
 
 
 def test_offset_without_rests_is_skipped_not_guessed():
-    """Constant-power steps without rests: a sensor bias cannot be told from δ."""
+    """Constant-power steps without rests, the power the logged V·I: a sensor bias cannot
+    be told from δ, and the detection entry says it is not identifiable."""
     df, _ = capacity_dataset("current_offset", 0.3, profile="steps", seed=0)
+    df["power_w"] = df["voltage_v"] * df["current_a"]
     res = diagnose(df, battery())
     assert "current_offset" not in _names(res)
     assert any(s["effect"] == "current_offset" and "rests" in s["reason"]
                for s in res.skipped)
+    entries = [d for d in res.detection if d["effect"] == "current_offset"]
+    assert entries and not any(d["identifiable"] for d in entries)
+    assert all("not identifiable" in d["text"] for d in entries)
+
+
+def test_offset_without_rests_is_found_on_an_independent_power_channel():
+    """The same steps with the load's own power logged: the current minus power/voltage
+    is the bias, sample by sample (direct evidence), with no rest needed."""
+    df, _ = capacity_dataset("current_offset", 0.3, profile="steps", seed=0)
+    res = diagnose(df, battery())
+    first = res.findings[0]
+    assert first["effect"] == "current_offset" and first["level"] == "sensors"
+    p = first["parameters"]
+    assert p["current_offset_a"] == pytest.approx(0.3, abs=3 * p["current_offset_a_stderr"]
+                                                  + 0.01)
+    assert any("separate load" in a for a in first["alternatives"])
 
 
 def test_fade_from_experiment_order_says_so():
