@@ -151,6 +151,9 @@ class DiagnoseResult:
             out["rmse_note"] = (f"held-out RMSE of {level.bin_s:.1f}-s means of the airborne "
                                 "power; final error: Σ|energy error| / Σ energy over held-out "
                                 "segments")
+            alt = calibration_alternatives(lv, self.aircraft)
+            if alt:
+                out["alternatives"] = alt
         return out
 
     @property
@@ -289,6 +292,9 @@ class DiagnoseResult:
                          f"{_num(b.rmse)} {unit}, "
                          f"final error {_num(b.final_error_pct, 2)} % "
                          f"(as given: {_num(lv.rmse_as_given)} {unit})")
+            alt = calibration_alternatives(lv, self.aircraft) if name == "power" else None
+            if alt:
+                lines.append(f"  {alt['text']}")
         if not self.levels:
             lines.append("No level could run: " + "; ".join(self.notes))
         if self.findings:
@@ -768,6 +774,58 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
                            resist_ev, found)
     return DiagnoseResult(run.levels, findings, run.skipped, run.notes, pack, aircraft,
                           sources, withheld, [b for b in blind if b], detection)
+
+
+#: Relative change of η by the calibration beyond which its alternatives are listed.
+#: [unitless]
+CALIBRATION_ALTERNATIVE_SHARE = 0.1
+
+
+def calibration_alternatives(lv: LevelReport, aircraft: Aircraft | None) -> dict | None:
+    r"""What else the power level's recalibration of η could stand for.
+
+    The calibration scales the whole modelled power by the file's η over the fitted one;
+    anything that raises (or lowers) the power nearly in proportion is absorbed there. Two
+    alternatives are sized on the flights (mean over the airborne bins): an all-up mass
+    heavier by :math:`\Delta m` at the file's η — :math:`\overline{M}\,(\eta_f/\hat\eta -
+    1) = \Delta m\,\overline{\partial M/\partial m}`, the mechanical power's change per
+    kg from the level's own model at the flown states (linearised: a first-order size) —
+    and a constant load :math:`P_S' = P_S + \overline{M}\,(1/\hat\eta - 1/\eta_f)`.
+    ``None`` when η moved by less than :data:`CALIBRATION_ALTERNATIVE_SHARE`.
+    Returns ``efficiency_file``, ``efficiency_fitted``, ``mass_kg`` (Δm), ``load_w``
+    (P_S'), ``load_file_w`` and ``text``.
+    """
+    if aircraft is None or lv.name != "power" or "efficiency" not in lv.base_values:
+        return None
+    eta_file, eta = float(aircraft.efficiency), float(lv.base_values["efficiency"])
+    if not (eta > 0 and abs(eta / eta_file - 1.0) >= CALIBRATION_ALTERNATIVE_SHARE):
+        return None
+    level, base = lv.result.level, lv.result.base_fit
+    ps = float(aircraft.system_power_w)
+    mean_m = eta * (float(np.mean(level.measured)) - ps)      # mean mechanical power [W]
+    try:
+        per_kg = float(np.mean(level.signature(base, [], EFFECTS["payload_change"]())[:, 0]))             * eta
+    except Exception:       # a level whose model cannot be linearised: no mass figure
+        per_kg = math.nan
+    dm = (eta_file / eta - 1.0) * mean_m / per_kg if per_kg > 0 else math.nan
+    load = ps + mean_m * (1.0 / eta - 1.0 / eta_file)
+    parts = []
+    if math.isfinite(dm):
+        parts.append(f"an all-up mass {abs(dm):.2f} kg {'heavier' if dm > 0 else 'lighter'} "
+                     f"than the {level.mass0:.2f} kg given at the file's η "
+                     f"({'a payload not given' if dm > 0 else 'less payload than given'})")
+    if load >= 0:
+        parts.append(f"a constant load of {load:.0f} W (file {ps:g} W) at the file's η")
+    if not parts:
+        return None
+    text = (f"η recalibrated from the file's {eta_file:.3g} to {eta:.3g}: the flights' power "
+            f"is {'higher' if eta < eta_file else 'lower'} than the file's model by "
+            f"{100 * abs(eta_file / eta - 1):.0f} %: read as a "
+            f"{'less' if eta < eta_file else 'more'} efficient drive, but equally "
+            "consistent with " + " or with ".join(parts) + ", or a mix; the calibration "
+            "cannot tell them apart (the payload flown, given, pins the mass)")
+    return {"efficiency_file": eta_file, "efficiency_fitted": eta, "mass_kg": dm,
+            "load_w": load, "load_file_w": ps, "text": text}
 
 
 def _merge_direct(direct: list[dict], ranked: list[dict]) -> list[dict]:
