@@ -899,7 +899,9 @@ def _detection(run: "_Run", wanted, power_ev: dict | None, resist_ev: dict | Non
             out.append(LIM.not_identifiable("current_offset", "sensors", power_ev["why"]))
     if resist_ev is not None:
         if resist_ev.get("testable"):
-            ok = resist_ev["implausible"] is None or ("resistance", "temperature") in found
+            # an implausible slope that is not significant is noise around none
+            ok = (resist_ev["implausible"] is None or ("resistance", "temperature") in found
+                  or resist_ev["z"] < EV.MIN_Z)
             why = "" if ok else resist_ev["implausible"]
             top = EV.ACTIVATION_RANGE_J_PER_MOL[1]
             if ok and resist_ev["limit_j_per_mol"] > top:

@@ -310,3 +310,34 @@ def test_diagnose_plot_gives_panels_only_to_significant_findings():
     for ax in shown:
         if "time" in ax.get_xlabel():
             assert "[min]" in ax.get_xlabel()
+
+
+# ----------------------------------------------------------------------------- direct evidence
+
+def test_pack_temperature_against_the_voltage_sag_measures_the_activation_energy():
+    """The generator's pack resistance follows Arrhenius at 25 kJ/mol: the voltage's step
+    against the current's step, per discharge, against the logged pack temperature gives
+    it back (direct evidence, carried by the capacity level's temperature finding)."""
+    df, _ = capacity_dataset("temperature", 0.006, profile="flights", seed=1)
+    res = diagnose(df, battery())
+    first = res.findings[0]
+    assert first["effect"] == "temperature" and first["level"] == "capacity"
+    ev = first["direct_evidence"]
+    assert ev["level"] == "resistance"
+    p = ev["parameters"]
+    assert p["activation_energy_j_per_mol"] == pytest.approx(
+        25_000.0, abs=3 * p["activation_energy_j_per_mol_stderr"] + 500.0)
+    assert "voltage sag" in first["cause"]
+    entry = next(d for d in res.detection if d["level"] == "resistance")
+    assert entry["found"] and entry["limit"] < 25_000.0
+
+
+def test_clean_pack_temperature_gives_a_limit_not_a_finding():
+    df, _ = capacity_dataset(None, profile="flights", seed=5)
+    res = diagnose(df, battery())
+    assert res.findings == []
+    entry = next(d for d in res.detection if d["effect"] == "temperature"
+                 and d["level"] == "resistance")
+    assert entry["identifiable"] and not entry["found"]
+    assert entry["text"].startswith("None found: a cold-pack effect smaller than")
+    assert entry["limit"] > 0
