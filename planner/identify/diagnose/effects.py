@@ -931,6 +931,16 @@ class PayloadChange(PowerEffect):
                      "fall at the end of a climb: the power model's climb may be wrong instead")
         return text
 
+    def alternatives(self, p, pw) -> list[str]:
+        """What else makes a step of the power within a flight."""
+        dm = p["mass_step_kg"]
+        dp = p.get("power_step_w", math.nan)
+        size = f"{abs(dp):.0f} W " if math.isfinite(dp) else ""
+        on = "switched off" if dm < 0 else "switched on"
+        return [f"a change of how the aircraft is flown there (flight mode, height above "
+                f"ground, speed) that the power model does not follow",
+                f"a load of {size}{on} (lights, a gimbal, a heater)"]
+
     def headline(self, p, pw):
         """``Power step … (a … kg payload drop or pick-up, or …)`` in one line."""
         dm = p["mass_step_kg"]

@@ -177,6 +177,11 @@ def test_hidden_power_effect_is_named_first(effect, magnitude, seed, profile):
         for flight, tc in truth["change_time_s"].items():
             found = p.get(f"change_time_s[{flight}]")
             assert found is None or abs(found - tc) < 30
+        # a step of the power, named with its evidence and what else makes one
+        assert first["headline"].startswith("Power step")
+        assert "or anything else that" in first["cause"]
+        assert any("flight mode" in a for a in first["alternatives"])
+        assert any("load of" in a for a in first["alternatives"])
     elif effect == "system_power":
         assert p["missing_w"] == pytest.approx(magnitude, rel=0.35)
     else:
