@@ -346,3 +346,36 @@ def test_clean_pack_temperature_gives_a_limit_not_a_finding():
     assert entry["identifiable"] and not entry["found"]
     assert entry["text"].startswith("None found: a cold-pack effect smaller than")
     assert entry["limit"] > 0
+
+
+# ----------------------------------------------------------------------------- detection limits
+
+def test_clean_flights_give_each_power_effect_a_detection_limit():
+    """Nothing found is never silent: every power effect asked for has the smallest size
+    these flights could reveal (or why none is identifiable), printed and in the JSON."""
+    res, _ = _power(None, None, 20)
+    assert res.findings == []
+    d = json.loads(json.dumps(res.to_dict(), default=float))
+    entries = {e["effect"]: e for e in d["detection_limits"] if e["level"] == "power"}
+    assert set(entries) >= {"wind", "payload_change", "system_power", "efficiency_curve"}
+    pay = entries["payload_change"]
+    assert pay["identifiable"] and not pay["found"] and pay["unit"] == "kg"
+    assert 0.0 < pay["limit"] < 0.9 * 2.8          # below 90 % of the all-up mass
+    assert pay["text"].startswith("None found: a payload change smaller than")
+    assert "these 4 flights" in pay["text"]
+    # the limit depends on where in the flights the change falls
+    by = {float(k): v for k, v in pay["by_position"].items() if v is not None}
+    assert min(by.values()) == pytest.approx(pay["limit"], rel=1e-6)
+    assert max(by[0.1], by[0.9]) > pay["limit"]    # harder at the start or the end
+    for e in entries.values():
+        assert e["identifiable"] == (e["limit"] is not None)
+        assert e["text"] and e["help"]
+    assert "Detection limits" in res.summary()
+
+
+def test_a_payload_change_above_its_limit_is_found_and_the_limit_says_so():
+    res, truth = _power("payload_change", -0.5, 0)
+    entry = next(e for e in res.detection if e["effect"] == "payload_change"
+                 and e["level"] == "power")
+    assert entry["found"] and entry["identifiable"]
+    assert entry["limit"] < 0.5
