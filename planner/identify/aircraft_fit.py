@@ -43,10 +43,32 @@ fitted by :func:`fit_rotor_losses`:
 Validation never uses samples the fit saw: whole flights are held out where
 there are several (``validate``), else the last 30 % of the single flight's
 time. The error is reported before (the aircraft file as given) and after.
+
+Fit status (every fit)
+----------------------
+A parameter that ends on one of its bounds, or outside its physical range, is a
+**misfit** of the model's form on these flights, not a value (``fit_status``
+``misfit: …``; ``fit-aircraft`` writes it into the file and exits 1). Physical ranges:
+η at most :data:`MAX_EFFICIENCY` (an electric motor with its ESC); a constant load P_S no
+more than what the aircraft draws on the ground with its rotors stopped or idle (the 95th
+percentile of its ground samples, plus :data:`GROUND_MARGIN_W` and three standard errors)
+and at most half the lowest airborne power. Each misfit names its likely cause from the
+flights: too little excitation (the flights barely move: 95 % of the airborne samples
+below :data:`MOVING_MS`, so the drag cannot be seen; or a power that varies by less than
+:data:`MIN_POWER_CV`), one regime only (:data:`ONE_REGIME_SHARE` of the airborne samples
+in hover, or in cruise), or a model whose form does not fit.
+
+A constant load outside its physical range is what the rotors' model cannot follow, put
+where it costs the least: the multirotor fit is then done again with P_S held at the
+aircraft file's value — as ``diagnose`` calibrates the same aircraft (its baseline holds
+P_S and fits η and the drag area) — and that fit is written, its status naming the free
+fit it replaces. ``diagnose`` and ``fit-aircraft`` then differ only in what each
+averages over (``diagnose``: bin means of B seconds and its own airborne phases).
 """
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, replace
 from typing import Any
@@ -101,6 +123,21 @@ STOPPED_MIN_SAMPLES = 10
 #: load), and a small term is reported when the flights pin it within half its value;
 #: this module's choice, not a published threshold. [unitless]
 POOR_RELATIVE_STDERR = 0.5
+#: Highest efficiency of an electric motor with its ESC, battery to shaft (module notes,
+#: "Fit status"). [unitless]
+MAX_EFFICIENCY = 0.95
+#: Allowance above the ground power for a constant load (sensor noise, heaters): as
+#: diagnose's (:data:`planner.identify.diagnose.effects.GROUND_POWER_MARGIN_W`). [W]
+GROUND_MARGIN_W = 5.0
+#: Ground speed below which an airborne sample counts as hovering, and the speed 95 % of
+#: the samples must exceed for the drag to be seen. [m/s]
+MOVING_MS = 3.0
+#: A power that varies by less than this coefficient of variation cannot tell η from a
+#: constant load. [unitless]
+MIN_POWER_CV = 0.05
+#: Share of the airborne samples in one regime (hover or cruise) beyond which the fit sees
+#: one regime only. [unitless]
+ONE_REGIME_SHARE = 0.9
 
 
 def get_param(aircraft: Aircraft, name: str) -> float:
@@ -338,6 +375,22 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         return _predict(ac, s_trn, mass_trn) - s_trn.measured_w
 
     sol = _solve(residual, x0, lo, hi, scale, kwargs)
+    ground = ground_power(data, site_altitude_m, set(s_trn.experiment))
+    misfit = misfits(dict(zip(names, map(float, sol.x))), dict(zip(names, lo)),
+                     dict(zip(names, hi)), s_trn, ground, _stderr(sol, names, warn=False)[0])
+    free = None
+    if aircraft.is_multirotor and "system_power_w" in names and parameters is None and \
+            any(m["parameter"] == "system_power_w" for m in misfit):
+        # the constant load the rotors' model cannot follow: fit again with it held at the
+        # file's value, as diagnose does, and write that (module notes, "Fit status")
+        free = (dict(zip(names, map(float, sol.x))), misfit)
+        keep = [i for i, n in enumerate(names) if n != "system_power_w"]
+        names = [n for n in names if n != "system_power_w"]
+        x0, lo, hi, scale = x0[keep], lo[keep], hi[keep], scale[keep]
+        sol = _solve(residual, x0, lo, hi, scale, kwargs)
+        misfit = misfits(dict(zip(names, map(float, sol.x))), dict(zip(names, lo)),
+                         dict(zip(names, hi)), s_trn, ground,
+                         _stderr(sol, names, warn=False)[0])
     fitted = with_params(aircraft, dict(zip(names, sol.x)))
     stderr, poor = _stderr(sol, names)
     result = {
@@ -346,7 +399,10 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "poorly_determined": poor, "split": how,
         "train_experiments": sorted(set(s_trn.experiment)),
         "validation_experiments": sorted(set(s_val.experiment)),
+        "experiments": list(dict.fromkeys(s.experiment)),
+        "ground_power": ground,
     }
+    result.update(_status(misfit, free, aircraft))
     result.update(_scores(aircraft, fitted, s, s, trn, val, mass_kg))
     return result
 
@@ -371,6 +427,107 @@ def energy_error_sd(fitted: Aircraft, s_trn: Samples, mass_kg) -> tuple[float | 
     if errors.size < MIN_FLIGHTS_ENERGY_ERROR_SD:
         return None, int(errors.size)
     return float(np.sqrt(np.mean(errors**2))), int(errors.size)
+def ground_power(data: pd.DataFrame, site_altitude_m: float, ids=None) -> dict | None:
+    """The power the aircraft draws on the ground (phase ``ground`` of
+    :func:`planner.chain.flightstate.flight_phases`, rotors stopped or idle) over the
+    experiments ``ids`` (default all): ``low_w`` and ``high_w`` (5th and 95th percentile)
+    and ``samples``; None with fewer than :data:`STOPPED_MIN_SAMPLES`. [W]"""
+    values = []
+    for exp_id, exp in record.experiments(data):
+        if ids is not None and str(exp_id) not in ids:
+            continue
+        if not record.has_power(exp):
+            continue
+        st = flightstate.from_record(exp.reset_index(drop=True), site_altitude_m)
+        p = st.measured_power_w
+        values.append(p[(st.phase == "ground") & np.isfinite(p)])
+    values = np.concatenate(values) if values else np.zeros(0)
+    if values.size < STOPPED_MIN_SAMPLES:
+        return None
+    return {"low_w": float(np.percentile(values, 5)), "high_w": float(np.percentile(values, 95)),
+            "samples": int(values.size)}
+
+
+def misfits(values: dict[str, float], low: dict[str, float], high: dict[str, float],
+            s: Samples, ground: dict | None, stderr: dict[str, float]) -> list[dict]:
+    """The parameters on a bound or outside their physical range, each with the likely
+    cause (module notes, "Fit status"): ``parameter``, ``value``, ``why``, ``cause``."""
+    out = []
+    for n, v in values.items():
+        lo, hi = low[n], high[n]
+        if min(v - lo, hi - v) <= 1e-4 * (hi - lo):
+            out.append({"parameter": n, "value": v,
+                        "why": f"ended on its {'low' if v - lo < hi - v else 'high'} bound "
+                               f"{v:.4g}"})
+        elif n == "efficiency" and v > MAX_EFFICIENCY:
+            out.append({"parameter": n, "value": v,
+                        "why": f"{v:.3f} is above any electric motor with its ESC "
+                               f"({MAX_EFFICIENCY:g})"})
+        elif n == "system_power_w":
+            se = stderr.get(n, 0.0)
+            se = se if math.isfinite(se) else 0.0
+            air = float(np.percentile(s.measured_w, 5))
+            if ground is not None and v > ground["high_w"] + GROUND_MARGIN_W + 3.0 * se:
+                out.append({"parameter": n, "value": v,
+                            "why": (f"{v:.0f} W is more than the aircraft draws on the ground "
+                                    f"with its rotors stopped or idle ({ground['low_w']:.0f}–"
+                                    f"{ground['high_w']:.0f} W): what the fit puts there is "
+                                    "drawn only while the rotors turn")})
+            elif v > 0.5 * air:
+                out.append({"parameter": n, "value": v,
+                            "why": (f"{v:.0f} W is more than half the lowest airborne power "
+                                    f"({air:.0f} W)")})
+    cause = likely_cause(s)
+    for m in out:
+        m["cause"] = cause
+    return out
+
+
+def likely_cause(s: Samples) -> str:
+    """Why the flights cannot pin the power parameters, in words (module notes)."""
+    v, p = np.abs(s.airspeed), s.measured_w
+    hover = float(np.mean((v < 1.0) & (np.abs(s.climb_rate) < 0.5)))
+    v95 = float(np.percentile(v, 95))
+    cv = float(np.std(p) / np.mean(p)) if np.mean(p) > 0 else 0.0
+    cruise = float(np.mean(np.abs(v - np.median(v)) < 1.0)) if v95 >= MOVING_MS else 0.0
+    if v95 < MOVING_MS:
+        return (f"too little excitation: the flights barely move (95 % of the airborne "
+                f"samples below {v95:.1f} m/s), so the drag cannot be seen and the efficiency "
+                "trades against the constant load")
+    if cv < MIN_POWER_CV:
+        return (f"too little excitation: the power varies by only {100 * cv:.1f} % over the "
+                "airborne samples, so the efficiency cannot be told from a constant load")
+    if hover >= ONE_REGIME_SHARE:
+        return (f"one regime only: {100 * hover:.0f} % of the airborne samples hover, so the "
+                "efficiency, the drag area and a constant load trade against each other")
+    if cruise >= ONE_REGIME_SHARE:
+        return (f"one regime only: {100 * cruise:.0f} % of the airborne samples cruise within "
+                f"1 m/s of {np.median(v):.1f} m/s")
+    return (f"the model's form does not fit how the power varies over the regimes flown "
+            f"({100 * hover:.0f} % hover, speeds up to {v95:.1f} m/s, power varying "
+            f"{100 * cv:.0f} %)")
+
+
+def _status(misfit: list[dict], free, aircraft: Aircraft) -> dict:
+    """``fit_status`` (``ok`` or ``misfit: …``), ``misfit`` and, where the free fit was
+    replaced by one with the constant load held, ``free_fit`` (its values and misfits)."""
+    parts = [f"{m['parameter']} {m['why']} ({m['cause']})" for m in misfit]
+    out: dict[str, Any] = {"misfit": misfit}
+    if free is not None:
+        values, bad = free
+        held = float(aircraft.system_power_w)
+        cause = bad[0]["cause"]
+        parts = ["the free fit: " + ", ".join(f"{m['parameter']} {m['why']}" for m in bad)
+                 + f" ({cause}); written instead: the fit with system_power_w held at the "
+                 f"file's {held:g} W, as diagnose calibrates"] + parts
+        out["free_fit"] = {"parameters": values, "misfit": bad}
+        why = next(m["why"] for m in bad if m["parameter"] == "system_power_w")
+        warnings.warn(f"system_power_w {why}: the fit is done again with it held at the "
+                      f"file's {held:g} W", stacklevel=3)
+    for m in out["misfit"]:
+        warnings.warn(f"{m['parameter']} {m['why']}: a misfit ({m['cause']})", stacklevel=3)
+    out["fit_status"] = "ok" if not parts else "misfit: " + "; ".join(parts)
+    return out
 
 
 def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg) -> dict:
@@ -399,12 +556,15 @@ def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg
     return out
 
 
-def _stderr(sol, names):
+def _stderr(sol, names, warn: bool = True):
     """Standard errors of the fitted parameters (AR(1)-inflated,
-    :func:`planner.identify.stats.covariance`) and the poorly determined ones."""
+    :func:`planner.identify.stats.covariance`) and the poorly determined ones (with a
+    warning unless ``warn`` is False)."""
     cov = stats.covariance(sol.jac, sol.fun)
-    cov.warn_if_singular("the aircraft fit")
     stderr = dict(zip(names, map(float, cov.stderr)))
+    if not warn:
+        return stderr, []
+    cov.warn_if_singular("the aircraft fit")
     return stderr, _poorly_determined(dict(zip(names, map(float, sol.x))), stderr)
 
 
@@ -577,9 +737,12 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     values, se, starts, at_bound, r0 = _figure_of_merit_values(
         aircraft, names, sol.x, cov.stderr, x0, lo, hi)
     values = {n: values[n] for n in chosen}
+    cause = likely_cause(s_trn)
+    misfit = [{"parameter": n, "value": float(values.get(n, math.nan)),
+               "why": "ended on its bound", "cause": cause} for n in at_bound]
     for n in at_bound:
         warnings.warn(f"{n} ended on its bound: a misfit of the model's form on these "
-                      "flights, not a value")
+                      f"flights, not a value ({cause})")
     poor = _poorly_determined(values, se)
     result = {
         "aircraft": fitted, "parameters": values, "start": starts,
@@ -589,6 +752,10 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "profile_power_ratio": r0,
         "train_experiments": sorted(set(s0.experiment[trn])),
         "validation_experiments": sorted(set(s0.experiment[val])),
+        "experiments": list(dict.fromkeys(s0.experiment)),
+        "misfit": misfit,
+        "fit_status": "ok" if not misfit else "misfit: " + "; ".join(
+            f"{m['parameter']} {m['why']} ({m['cause']})" for m in misfit),
     }
     result.update(_scores(aircraft, fitted, samples[given_lead], samples[lead], trn, val,
                           mass_kg))

@@ -66,6 +66,16 @@ Poorly determined
     parameter that ends on a bound: a warning, and the parameter is listed in
     :attr:`IntegralFit.poorly_determined`. 10 % because a battery fit's δ and ε set
     the endurance directly: a 10 % error in δ is a 10 % error in the flight time.
+Fit status
+    A parameter that ends on a bound of the solver, or outside its physical range
+    (:data:`EPSILON_PHYSICAL`: the energy to empty :math:`E = \delta P^{1+\varepsilon}
+    C^\beta` cannot grow with the power faster than :math:`P^{1/2}`, nor fall faster than
+    :math:`P^{-3/2}`), is a **misfit** (``fit_status`` ``misfit: …``), not a value: the
+    status names the parameter, where it ended, the validation error and the likely
+    cause — one regime only (every training discharge draws one constant power, all at
+    about the same), too little excitation (the training powers span less than
+    :data:`MIN_POWER_SPAN`), or a model whose form does not fit. ``fit-battery`` writes the
+    status into the pack file and exits 1.
 Metrics (per experiment, every split)
     RMSE of :math:`r = C - \hat C` [mAh] ([UAV23] eq. 29); final normalised error
     :math:`R = r_{final} / C_{final} \cdot 100` [%] (eq. 30); time error
@@ -125,6 +135,14 @@ RW_LAG_FRACTION = 0.01
 #: Condition number of the column-normalised Jacobian above which the fit is
 #: "ill-conditioned". [unitless]
 CONDITION_LIMIT = 1e6
+#: Physical range of ε (module notes, "Fit status"): [UAV23]'s LiPo packs give −1.03 to
+#: −1.1, a Peukert-like loss of energy with power. [unitless]
+EPSILON_PHYSICAL = (-2.5, -0.5)
+#: Least ratio of the highest to the lowest mean training power that excites ε. [unitless]
+MIN_POWER_SPAN = 1.5
+#: Largest coefficient of variation of the power within a discharge for it to count as a
+#: constant-power one. [unitless]
+CONSTANT_POWER_CV = 0.05
 
 _PARAMS = ("delta", "epsilon", "beta")
 
@@ -541,6 +559,11 @@ class IntegralFit:
     """Residual evaluations of the solver. [unitless]"""
     message: str
     """The solver's message."""
+    fit_status: str = "ok"
+    """``ok``, or ``misfit: …`` naming each parameter on a bound or outside its physical
+    range and the likely cause (module notes, "Fit status")."""
+    misfit: tuple = ()
+    """The misfits, each a dict: ``parameter``, ``value``, ``why``, ``cause``."""
 
     @property
     def well_determined(self) -> bool:
@@ -558,6 +581,7 @@ class IntegralFit:
         ``well_determined``."""
         out = {k: getattr(self, k) for k in _FIT_KEYS}
         out["well_determined"] = self.well_determined
+        out["misfit"] = [dict(m) for m in self.misfit]
         return {k: out[k] for k in (*_FIT_KEYS[:9], "well_determined", *_FIT_KEYS[9:])}
 
 
@@ -565,7 +589,7 @@ class IntegralFit:
 _FIT_KEYS = ("delta", "epsilon", "beta", "stderr", "correlation", "fixed", "train",
              "validate", "poorly_determined", "reference_power_w", "samples",
              "residual_rms", "stderr_method", "stderr_iid", "autocorrelation",
-             "condition_number", "nfev", "message")
+             "condition_number", "nfev", "message", "fit_status", "misfit")
 
 #: Start values, bounds and scales of the fitted coordinates (δ's start is solved in
 #: closed form; module notes, "Parametrisation").
@@ -642,6 +666,11 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
     split_of = {n: "train" for n in train} | {n: "validate" for n in validate}
     metrics = [experiment_metrics(e, delta, float(eps), float(b), split_of.get(e.name, "unused"))
                for e in experiments]
+    misfit = _misfits(problem, res, values, [by_name[n] for n in train], metrics)
+    status = "ok" if not misfit else "misfit: " + "; ".join(
+        f"{m['parameter']} {m['why']}: {m['cause']}" for m in misfit)
+    if misfit:
+        warnings.warn(f"fit_integral: {status}", OptimizeWarning, stacklevel=2)
     return IntegralFit(
         **values, stderr=unc.stderr, correlation=unc.correlation,
         fixed=["beta"] if problem.fix_beta else [], train=list(train),
@@ -650,7 +679,60 @@ def fit_integral(record, *, beta: float | None = None, train: Sequence[str] | No
         residual_rms=float(np.sqrt(unc.rss / res.fun.size)),
         stderr_method="random-walk sandwich", stderr_iid=unc.stderr_iid,
         autocorrelation=unc.autocorrelation, condition_number=unc.condition,
-        nfev=int(res.nfev), message=str(res.message))
+        nfev=int(res.nfev), message=str(res.message), fit_status=status,
+        misfit=tuple(misfit))
+
+
+def _misfits(problem: "_StressProblem", res, values: dict[str, float],
+             trained: Sequence[Experiment], metrics) -> list[dict]:
+    """The parameters on a bound or outside their physical range, with the likely cause
+    (module notes, "Fit status")."""
+    out = []
+    for i, name in enumerate(problem.names):
+        lo, hi = problem.lower[i], problem.upper[i]
+        if name == "log_delta_ref" or not np.isfinite(lo):
+            continue
+        if np.isclose(res.x[i], lo, atol=1e-6) or np.isclose(res.x[i], hi, atol=1e-6):
+            out.append({"parameter": name, "value": float(res.x[i]),
+                        "why": f"ended on its bound {res.x[i]:g}"})
+    eps = values["epsilon"]
+    if "epsilon" not in {m["parameter"] for m in out} and not \
+            EPSILON_PHYSICAL[0] <= eps <= EPSILON_PHYSICAL[1]:
+        out.append({"parameter": "epsilon", "value": eps,
+                    "why": (f"{eps:+.3f} is outside its physical range "
+                            f"[{EPSILON_PHYSICAL[0]:g}, {EPSILON_PHYSICAL[1]:g}] (the energy to "
+                            f"empty would go as P^{1 + eps:+.2f})")})
+    if not out:
+        return out
+    cause = _likely_cause(trained)
+    val = [m for m in metrics if m.split == "validate"]
+    if val:
+        worst = max(val, key=lambda m: abs(m.final_error_pct))
+        cause += (f"; validation final error up to {worst.final_error_pct:+.0f} % "
+                  f"({worst.experiment})")
+    for m in out:
+        m["cause"] = cause
+    return out
+
+
+def _likely_cause(trained: Sequence[Experiment]) -> str:
+    """Why the training discharges cannot pin ε and β, in words."""
+    powers = np.array([e.mean_power_w for e in trained])
+    constant = []
+    for e in trained:
+        p = e.power_w[e.power_w > 0]
+        constant.append(p.size > 0 and float(np.std(p) / np.mean(p)) < CONSTANT_POWER_CV)
+    span = float(powers.max() / max(powers.min(), 1e-9)) if powers.size else 1.0
+    listed = ", ".join(f"{p:.0f} W" for p in powers[:6])
+    if all(constant) and span < MIN_POWER_SPAN:
+        return (f"one regime only: every training discharge draws one constant power "
+                f"({listed}); the power exponent needs discharges at clearly different "
+                f"powers (at least {MIN_POWER_SPAN:g}× apart)")
+    if span < MIN_POWER_SPAN:
+        return (f"too little excitation: the training discharges' mean powers ({listed}) span "
+                f"only {span:.2f}× (needs {MIN_POWER_SPAN:g}×)")
+    return ("the model's form does not fit these discharges (the training powers span "
+            f"{span:.1f}×): check the data for charging, rests or a pack change")
 
 
 class _StressProblem:

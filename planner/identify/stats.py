@@ -26,6 +26,12 @@ from here.
   determine: a standard error that is not finite or exceeds a share of the value. The
   share is the fit's (10 % for the integral model, 50 % for an aircraft's power
   parameters; each module says why).
+* :func:`detectable_size` and :func:`noncentrality_for_power` — the power analysis of
+  ``diagnose``'s detection limits: the smallest size of an effect, given its signature
+  (the change it makes to the fitted quantity per unit of its parameter), the nuisance
+  columns it must be told apart from (the baseline's own parameters and the other
+  candidates), and the noise of the residuals, that a test at level α finds with the
+  given power [3]_, and that lowers the held-out error by the practical share.
 
 References
 ----------
@@ -35,6 +41,11 @@ References
 .. [2] A. C. Cameron and D. L. Miller, "A practitioner's guide to cluster-robust
    inference," Journal of Human Resources 50(2), 317–372, 2015 (eq. 11 and the
    small-sample factor :math:`\frac{G}{G-1}\frac{n-1}{n-p}`).
+.. [3] J. Cohen, *Statistical Power Analysis for the Behavioral Sciences*, 2nd ed.
+   Hillsdale, NJ, USA: Erlbaum, 1988, ch. 9 (power of the F and χ² tests through the
+   noncentrality parameter λ); the χ² form with λ = θᵀ(XᵀX)θ/σ² for a linear
+   regression's added columns, e.g. S. D. Silvey, *Statistical Inference*, Chapman &
+   Hall, 1975, sec. 7.
 """
 
 from __future__ import annotations
@@ -45,10 +56,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RHO_MAX", "Covariance", "ar1_inflation", "cluster_covariance", "covariance",
-           "delta_method", "jacobian_covariance", "lag1_autocorrelation",
-           "poorly_determined", "random_walk_covariance", "scaled_covariance",
-           "within_groups"]
+__all__ = ["RHO_MAX", "Covariance", "DetectionLimit", "ar1_inflation", "cluster_covariance",
+           "covariance", "delta_method", "detectable_size", "jacobian_covariance",
+           "lag1_autocorrelation", "long_run_variance", "noncentrality_for_power",
+           "paired_test_factor",
+           "poorly_determined", "practical_size", "project_out", "random_walk_covariance",
+           "scaled_covariance", "within_groups"]
 
 #: Largest lag-1 autocorrelation taken: beyond it the AR(1) inflation (39× at 0.95)
 #: stops describing the residuals (a drift, not a correlated noise). [unitless]
@@ -280,3 +293,161 @@ def delta_method(func, x, cov) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(invalid="ignore"):
         var = np.einsum("ij,jk,ik->i", grad, cov, grad)
     return f0, np.sqrt(np.clip(var, 0.0, None))
+
+
+
+# ============================================================================ power analysis
+
+def noncentrality_for_power(df: int, alpha: float = 0.05, power: float = 0.8,
+                            critical: float | None = None) -> float:
+    r"""The noncentrality λ at which a χ² test with ``df`` degrees of freedom at level
+    ``alpha`` rejects with probability ``power`` [3]_: :math:`P(\chi^2_{df}(\lambda) >
+    \chi^2_{df,1-\alpha}) = power`. For one degree of freedom √λ ≈ z₁₋α/₂ + z_power
+    (2.80 at 5 % and 80 %). ``critical``: a threshold of the statistic of its own instead
+    of the χ² quantile (e.g. a BIC-like 2 ln n). [unitless]"""
+    from scipy.optimize import brentq
+    from scipy.stats import chi2, ncx2
+
+    crit = float(chi2.ppf(1.0 - alpha, df)) if critical is None else float(critical)
+    return float(brentq(lambda lam: float(ncx2.sf(crit, df, lam)) - power, 1e-9, 1e4))
+
+
+def project_out(columns: np.ndarray, nuisance: np.ndarray | None) -> np.ndarray:
+    """``columns`` (n × k) less their least-squares fit on ``nuisance`` (n × p): the part
+    of an effect's signature the nuisance parameters cannot absorb. [unit of columns]"""
+    cols = np.asarray(columns, float).reshape(len(columns), -1)
+    if nuisance is None or np.size(nuisance) == 0:
+        return cols
+    X = np.asarray(nuisance, float).reshape(len(columns), -1)
+    ok = np.all(np.isfinite(X), axis=0) & (np.linalg.norm(X, axis=0) > 0)
+    if not ok.any():
+        return cols
+    X = X[:, ok]
+    coef, *_ = np.linalg.lstsq(X / np.linalg.norm(X, axis=0), cols, rcond=None)
+    return cols - (X / np.linalg.norm(X, axis=0)) @ coef
+
+
+def long_run_variance(resid, groups=None, dof: int = 0) -> float:
+    r"""σ²(1 + ρ)/(1 − ρ) of a residual series: the variance per row that a sum over
+    autocorrelated rows carries (AR(1), :func:`ar1_inflation`); σ² = RSS/(n − dof).
+    [unit of resid²]"""
+    r = np.asarray(resid, float)
+    n = r.size
+    if n <= dof + 1:
+        return math.inf
+    s2 = float(np.dot(r, r)) / (n - dof)
+    return s2 * ar1_inflation(lag1_autocorrelation(r, groups))
+
+
+@dataclass(frozen=True)
+class DetectionLimit:
+    """The smallest size of an effect that its tests find (:func:`detectable_size`).
+
+    Attributes
+    ----------
+    limit : float
+        The larger of ``statistical`` and ``practical`` (inf when the signature is
+        absorbed entirely). [unit of the effect's parameter]
+    statistical : float
+        The size the χ² test at level α finds with the given power. [same]
+    practical : float
+        The size that lowers the held-out error by the practical share. [same]
+    stderr : float
+        Standard error of the parameter along its least visible direction. [same]
+    visible_share : float
+        Share of the signature's sum of squares left after the nuisance columns
+        (0: absorbed entirely, 1: orthogonal to them). [unitless]
+    """
+
+    limit: float
+    statistical: float
+    practical: float
+    stderr: float
+    visible_share: float
+
+
+def paired_test_factor(alpha: float = 0.05, power: float = 0.8) -> float:
+    r"""The size, in standard errors, at which a one-sided paired test on held-out losses
+    rejects at level ``alpha`` with probability ``power``: :math:`2(z_{1-\alpha} +
+    z_{power})`, 4.97 at 5 % and 80 % (:func:`detectable_size`). [unitless]"""
+    from scipy.stats import norm
+
+    return 2.0 * float(norm.ppf(1.0 - alpha) + norm.ppf(power))
+
+
+def detectable_size(signature, nuisance, resid, groups=None, *, dof: int = 0,
+                    alpha: float = 0.05, power: float = 0.8,
+                    heldout_mse: float | None = None, min_gain: float = 0.05,
+                    paired: bool = False) -> DetectionLimit:
+    r"""Power analysis of one effect on one fitted quantity (module notes, [3]_).
+
+    An effect of size θ adds :math:`\theta\,s` to the fitted quantity (``signature`` s,
+    n × k for k parameters: the change per unit of the parameter, e.g. a column of ones
+    for a constant load in watts). What the nuisance columns (the baseline's own
+    parameters, the other candidates) can absorb is not visible: :math:`s_\perp` is s
+    less its fit on them (:func:`project_out`). With the residual's long-run variance
+    :math:`\sigma^2_{LR}` (:func:`long_run_variance`) the estimate's covariance is
+    :math:`\sigma^2_{LR} (s_\perp^\mathsf{T} s_\perp)^{-1}`; along its least visible
+    direction the standard error is SE. The χ² test of the k added parameters at level
+    α rejects with probability ``power`` from :math:`\theta = \sqrt{\lambda}\,SE`
+    (:func:`noncentrality_for_power`): the statistical limit. The held-out mean squared
+    error ``heldout_mse`` falls by the share ``min_gain`` of the root mean square when
+    :math:`\theta^2\,\overline{s_\perp^2} \ge ((1 - g)^{-2} - 1)\,MSE`: the practical
+    limit. Both are in the unit of the parameter.
+
+    With ``paired``, the effect must also pass a one-sided paired test on the held-out
+    losses: for each held-out row the loss without the effect exceeds the one with it by
+    :math:`\theta^2 s_i^2 + 2\theta s_i e_i` (e the noise), so their sum has mean
+    :math:`\theta^2 \lVert s\rVert^2` and standard deviation
+    :math:`2\theta\sigma_{LR}\lVert s\rVert`, and the test rejects with the given power
+    from :math:`\theta = 2(z_{1-\alpha} + z_{power})\,SE`
+    (:func:`paired_test_factor`) — the stricter of the two statistical tests.
+
+    Parameters
+    ----------
+    signature : ndarray, shape (n,) or (n, k)
+        Change of the fitted quantity per unit of each parameter. [fitted unit / unit]
+    nuisance : ndarray, shape (n, p), or None
+        Columns the effect must be told apart from.
+    resid : ndarray, shape (n,)
+        Residuals of the fit without the effect. [fitted unit]
+    groups : array, optional
+        Experiment of each row (the autocorrelation is taken within them).
+    dof : int
+        Parameters fitted to ``resid`` (for σ²).
+    alpha, power : float
+        Level and power of the test. [unitless]
+    heldout_mse : float, optional
+        Held-out mean squared error of the fit [fitted unit²]; None: no practical limit.
+    min_gain : float
+        Practical share of the held-out RMS error. [unitless]
+    """
+    s = np.asarray(signature, float).reshape(len(resid), -1)
+    total = float(np.sum(s * s))
+    sp = project_out(s, nuisance)
+    gram = sp.T @ sp
+    visible = float(np.trace(gram)) / total if total > 0 else 0.0
+    k = s.shape[1]
+    eig = np.linalg.eigvalsh(gram) if k > 1 else np.array([float(gram[0, 0])])
+    low = float(eig.min())
+    if not (low > 1e-12 * max(total, 1e-300)):
+        return DetectionLimit(math.inf, math.inf, math.inf, math.inf, visible)
+    s2 = long_run_variance(resid, groups, dof)
+    se = math.sqrt(s2 / low)
+    stat = math.sqrt(noncentrality_for_power(k, alpha, power)) * se
+    if paired:
+        stat = max(stat, paired_test_factor(alpha, power) * se)
+    prac = 0.0
+    if heldout_mse is not None and math.isfinite(heldout_mse):
+        prac = practical_size(low / len(resid), heldout_mse, min_gain)
+    return DetectionLimit(max(stat, prac), stat, prac, se, visible)
+
+
+def practical_size(mean_square: float, heldout_mse: float, min_gain: float = 0.05) -> float:
+    r"""The size θ of an effect whose visible signature has mean square ``mean_square``
+    per unit θ² that lowers a held-out root-mean-square error of ``heldout_mse`` (its
+    square) by the share ``min_gain``: :math:`\theta^2 m = ((1-g)^{-2} - 1)\,MSE`
+    (:func:`detectable_size`). [unit of the parameter]"""
+    if not mean_square > 0:
+        return math.inf
+    return math.sqrt(((1.0 - min_gain) ** -2 - 1.0) * heldout_mse / mean_square)

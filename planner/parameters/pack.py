@@ -63,6 +63,8 @@ BATTERY_KEYS = {
     "price": S.non_negative(high=L.PRICE_MAX, meaning="price of one pack, any currency (for `select`)"),
     "count": S.count(L.PACKS_MAX, default=1, meaning="identical packs flown in parallel"),
     "source": S.text("where the numbers come from"),
+    "fit_status": S.text("what `fit-battery` said of its fit: `ok`, or `misfit: <parameter> …` "
+                         "(read, not used)"),
 }
 
 MODEL_KEYS = {

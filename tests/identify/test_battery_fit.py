@@ -95,7 +95,8 @@ def test_the_fit_result_is_a_frozen_object_whose_parameters_are_the_model_keywor
                           "train", "validate", "poorly_determined", "well_determined",
                           "reference_power_w", "samples", "residual_rms", "stderr_method",
                           "stderr_iid", "autocorrelation", "condition_number", "nfev",
-                          "message"]
+                          "message", "fit_status", "misfit"]
+    assert data["fit_status"] == "ok" and data["misfit"] == []
     assert json.loads(json.dumps(data))["delta"] == result.delta
     # every field carries a docstring (the string right after it in the class body)
     body = ast.parse(textwrap.dedent(inspect.getsource(fit.IntegralFit))).body[0].body

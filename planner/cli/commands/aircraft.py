@@ -26,8 +26,9 @@ def register(sub) -> None:
                                    "measured in the glides) to the measured "
                                    "power of logged flights, and validate on flights (or the "
                                    "last 30 %% of one flight) the fit never saw. Exit 1 when "
-                                   "a fixed-wing parameter ends on its physical bound "
-                                   "(a misfit, written as fit_status).")
+                                   "a parameter ends on its bound or outside its physical "
+                                   "range (a misfit, written as fit_status, with the likely "
+                                   "cause).")
     p.add_argument("data", nargs="+", metavar="DATA", help="logs or flight-record CSV files")
     add_options(p, aircraft="aircraft YAML (start values)",
                 out={"required": True, "help": "write the fitted aircraft YAML here"},
@@ -115,6 +116,8 @@ def run(args) -> int:
     if fixed_wing:
         from planner.identify.fixed_wing_fit import fitted_mapping
         mapping = fitted_mapping(mapping, result)
+    else:
+        mapping["fit_status"] = result.get("fit_status", "ok")
     files.write_text(args.out, yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True),
                      "--out")
     if json_out:
@@ -128,9 +131,14 @@ def run(args) -> int:
 
 
 def render(r, mass) -> str:
-    lines = [f"Fit on {len(r['train_experiments'])} experiment(s), "
+    n_all = len(r.get("experiments", r["train_experiments"]))
+    held = ", ".join(r["validation_experiments"][:5]) or "none"
+    lines = [f"Fit on {len(r['train_experiments'])} of {n_all} experiment(s) "
+             f"({', '.join(r['train_experiments'][:5])}"
+             f"{' …' if len(r['train_experiments']) > 5 else ''}), "
              f"{r['samples']['train']} airborne samples, mass {mass_text(mass)}; validation: "
-             f"{r['split']} ({r['samples']['validation']} samples)", "",
+             f"{r['split']} ({held}{' …' if len(r['validation_experiments']) > 5 else ''}; "
+             f"{r['samples']['validation']} samples)", "",
              f"{'parameter':<19} {'start':>10} {'fitted':>10} {'± stderr':>10}"]
     units = {"no_load_power_w": "W", "copper_loss_power_w": "W", "drag_area_m2": "m²",
              "system_power_w": "W"}
@@ -150,6 +158,10 @@ def render(r, mass) -> str:
                                  r["lead_train_rmse_w"].items()) + ")")
         lines.append("standard errors cluster-robust, one cluster per flight")
     lines.append("")
+    if "free_fit" in r:
+        free = r["free_fit"]["parameters"]
+        lines.append("free fit, not written: " + ", ".join(
+            f"{k} {v:.4g}" for k, v in free.items()))
     for split in ("train", "validation"):
         if split in r:
             b, a = r[split]["before"], r[split]["after"]
@@ -167,4 +179,5 @@ def render(r, mass) -> str:
             lines.append(f"held-out flights: energy error after the fit, median "
                          f"{vals[len(vals) // 2]:+.1f} %, range {vals[0]:+.1f} … "
                          f"{vals[-1]:+.1f} % over {len(vals)} flight(s)")
+    lines.append(f"fit_status: {r.get('fit_status', 'ok')}")
     return "\n".join(lines)

@@ -38,7 +38,9 @@ FIT_DESCRIPTION = (
     "Fit the integral capacity model t = δ P^ε C^β to measured discharges (flight-record "
     "CSV: time_s, power_w or voltage_v+current_a, and current_a or consumed_mah; several "
     "experiments told apart by 'experiment'). Default split ([UAV23]): the experiments with "
-    "the lowest and the highest mean power train, the rest validate.")
+    "the lowest and the highest mean power train, the rest validate. Exit 1 when a "
+    "parameter ends on its bound or outside its physical range (a misfit, written as "
+    "fit_status).")
 
 
 def _register_fit(sub) -> None:
@@ -228,6 +230,7 @@ def run_fit(args) -> int:
                    "capacity_mah": float(round(capacity)), "mass_kg": mass_kg,
                    "model": model.to_mapping()}
     mapping["source"] = source
+    mapping["fit_status"] = result.fit_status
     if args.circuit and args.circuit_rates:
         raise InputError("give --circuit (a pulse test) or --circuit-rates (discharges at "
                          "several currents), not both")
@@ -245,6 +248,7 @@ def run_fit(args) -> int:
                      "--out")
 
     print(render_fit(result))
+    print(f"fit_status: {result.fit_status}")
     if dropped:
         print(f"note: model keys {', '.join(dropped)} of {args.battery} were dropped: they "
               "belong to the old δ, ε, β")
@@ -259,7 +263,8 @@ def run_fit(args) -> int:
         write_json(data, json_out)
     if plot_out:
         save_fit_plot(experiments, result, plot_out)
-    return 0
+    # a parameter on its bound or outside its physical range: written as such, exit 1
+    return 0 if result.fit_status == "ok" else 1
 
 
 #: Nominal cell voltage of the specific-energy check of ``--mass-kg`` (LiPo 3.7 V,

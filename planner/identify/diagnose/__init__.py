@@ -24,6 +24,14 @@ On each level the baseline's own parameters are calibrated first (δ, ε, β;
 training splits and scored on held-out splits, and only effects whose held-out
 gain is statistically and practically significant are reported, ranked by that
 gain. The splits and statistics are documented in :mod:`planner.identify.diagnose.search`.
+
+Direct evidence comes first wherever the record has it
+(:mod:`planner.identify.diagnose.evidence`): a power channel logged independently of the
+current measures a current sensor's offset sample by sample (level ``sensors``), and the
+pack temperature against the voltage's sag measures a cold pack's resistance (level
+``resistance``). Every effect asked for then gets a detection limit
+(:mod:`planner.identify.diagnose.limits`): the smallest size these data could reveal, or
+why it is not identifiable with them and what would make it so.
 """
 
 from __future__ import annotations
@@ -42,6 +50,8 @@ from planner.io import record as rec
 from planner.identify import stats
 from planner.physics.battery import integral
 from planner.identify.diagnose import cutoff as CO
+from planner.identify.diagnose import evidence as EV
+from planner.identify.diagnose import limits as LIM
 from planner.identify.diagnose import search as S
 from planner.identify.diagnose.effects import EFFECTS, make_effects
 from planner.errors import FitError, InputError, ModelError
@@ -94,6 +104,10 @@ class DiagnoseResult:
         Effects these data cannot tell apart whatever the fit says (``effects``, the
         candidates; ``level``; ``why``), e.g. a current-sensor offset and a constant load
         when the power is the logged voltage times the logged current.
+    detection : list of dict
+        Per effect asked for and level (or direct evidence) where it can be looked for:
+        the smallest size these data could reveal, or why it is not identifiable with
+        them and what would make it so (:func:`planner.identify.diagnose.limits.entry`).
     """
 
     levels: dict[str, LevelReport]
@@ -105,6 +119,7 @@ class DiagnoseResult:
     sources: list[str] = field(default_factory=list)
     withheld: list[dict[str, Any]] = field(default_factory=list)
     not_identifiable: list[dict[str, Any]] = field(default_factory=list)
+    detection: list[dict[str, Any]] = field(default_factory=list)
 
     # ------------------------------------------------------------------ JSON
     def baseline(self, name: str) -> dict[str, Any]:
@@ -136,6 +151,9 @@ class DiagnoseResult:
             out["rmse_note"] = (f"held-out RMSE of {level.bin_s:.1f}-s means of the airborne "
                                 "power; final error: Σ|energy error| / Σ energy over held-out "
                                 "segments")
+            alt = calibration_alternatives(lv, self.aircraft)
+            if alt:
+                out["alternatives"] = alt
         return out
 
     @property
@@ -173,8 +191,9 @@ class DiagnoseResult:
                              "tested effects explains it")
         for w in self.withheld:
             if w["kind"] == "confounded":
-                parts.append(f"{_title(w['level'])} level: a misfit that {w['effect']} would "
-                             f"absorb, not named: {w['why']} (candidates: "
+                seen = f"{w['evidence']}; " if w.get("evidence") else ""
+                parts.append(f"{_title(w['level'])} level: {seen}a misfit that {w['effect']} "
+                             f"would absorb, not named: {w['why']} (candidates: "
                              f"{', '.join(w['candidates'])})")
             else:
                 parts.append(f"{_title(w['level'])} level: a misfit of the model's form "
@@ -204,8 +223,9 @@ class DiagnoseResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON ``endurance diagnose`` writes: ``baseline``, ``findings``,
-        ``unexplained``, ``withheld`` and ``not_identifiable``, plus ``baselines``,
-        ``extended``, ``candidates``, ``skipped``, ``selection``, ``notes`` and ``data``."""
+        ``unexplained``, ``withheld``, ``not_identifiable`` and ``detection_limits``, plus
+        ``baselines``, ``extended``, ``candidates``, ``skipped``, ``selection``, ``notes``
+        and ``data``."""
         primary = self.primary_level
         candidates = []
         for name, lv in self.levels.items():
@@ -224,6 +244,7 @@ class DiagnoseResult:
             "unexplained": self.unexplained(),
             "withheld": [{k: v for k, v in w.items()} for w in self.withheld],
             "not_identifiable": [dict(x) for x in self.not_identifiable],
+            "detection_limits": [dict(x) for x in self.detection],
             "baselines": [self.baseline(n) for n in self.levels],
             "extended": self.extended(),
             "candidates": candidates,
@@ -271,6 +292,9 @@ class DiagnoseResult:
                          f"{_num(b.rmse)} {unit}, "
                          f"final error {_num(b.final_error_pct, 2)} % "
                          f"(as given: {_num(lv.rmse_as_given)} {unit})")
+            alt = calibration_alternatives(lv, self.aircraft) if name == "power" else None
+            if alt:
+                lines.append(f"  {alt['text']}")
         if not self.levels:
             lines.append("No level could run: " + "; ".join(self.notes))
         if self.findings:
@@ -278,10 +302,17 @@ class DiagnoseResult:
                          "energy at the end of the held-out segments):")
             for i, f in enumerate(self.findings, 1):
                 h = f["heldout"]
-                lines.append(f"  {i}. {f['headline']}; held-out error {_num(h['rmse_before'])} → "
-                             f"{_num(h['rmse_after'])} {f['unit']} ({h['gain_pct']:.0f} % "
-                             f"better)")
+                if h is None:
+                    how = "direct evidence"
+                elif "rmse_before" not in h:
+                    how = f"direct evidence, {h['gain_pct']:.0f} % better held out"
+                else:
+                    how = (f"held-out error {_num(h['rmse_before'])} → {_num(h['rmse_after'])} "
+                           f"{f['unit']} ({h['gain_pct']:.0f} % better)")
+                lines.append(f"  {i}. {f['headline']}; {how}")
                 lines.append(f"     {f['cause']}")
+                for alt in f.get("alternatives", ()):
+                    lines.append(f"     or: {alt}")
         elif self.levels:
             lines.append("No significant effect: the calibrated model explains the data as well "
                          "as any tested extension.")
@@ -298,6 +329,10 @@ class DiagnoseResult:
         for x in self.not_identifiable:
             lines.append(f"Not identifiable on these data: {' or '.join(x['effects'])}: "
                          f"{x['why']}")
+        if self.detection:
+            lines.append("Detection limits (the smallest effect these data could reveal):")
+            for d in self.detection:
+                lines.append(f"  {d['effect']} ({d['level']}): {d['text']}")
         un = self.unexplained()
         if un:
             lines.append(f"Unexplained: {un}")
@@ -606,7 +641,7 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                     drop[e.name] = {"effect": e.name, "level": level.name,
                                     "kind": "confounded", "why": conf[0],
                                     "candidates": conf[1], "where": e.driver_label,
-                                    "parameters": params}
+                                    "parameters": params, "evidence": e.cause(params, level)}
             if not drop:
                 break
             res.withheld += [w for w in drop.values() if w is not None]
@@ -670,6 +705,8 @@ def _findings(name: str, lv_result: S.LevelResult, level, values, stderr) -> lis
             "unit": level.unit,
             "headline": e.headline(params, level),
             "driver": e.driver_label,
+            "alternatives": (e.alternatives(params, level)
+                             if hasattr(e, "alternatives") else []),
         })
     return out
 
@@ -708,13 +745,21 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     if pack is None:
         pack = _literature_pack(df, metas, run.notes)
     wanted = make_effects(opts.get("effects"))
+    names = {e.name for e in wanted}
+    power_ev = EV.power_channel(df)
+    run.power_from_current = not power_ev["independent"]
     exps = _capacity_experiments(df, run.notes)
+    run.experiments = exps
     cap_effects = [e for e in wanted if e.level == "capacity"]
     cut = _cutoff_step(exps, pack, cap_effects, run)
     _capacity_step(df, exps, pack, [e for e in cap_effects if e.name not in cut.tested],
                    run)
     _power_step(df, pack, aircraft, opts, [e for e in wanted if e.level == "power"], run)
-    findings = _ranked_findings(run.levels)
+    resist_ev = EV.resistance_temperature(exps) if "temperature" in names else None
+    direct = _direct_findings(power_ev if "current_offset" in names else None, resist_ev,
+                              exps, run)
+    found = direct + _ranked_findings(run.levels)
+    findings = _merge_direct(direct, found[len(direct):])
     withheld = [w for lv in run.levels.values() for w in lv.result.withheld]
     blind = [_offset_or_load(df, run.levels, findings)]
     if cut.effects and "cutoff" not in run.levels and "capacity" in run.levels:
@@ -725,8 +770,152 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
                     "drawn per unit of energy, which the capacity level tests instead, "
                     "barely changes when the capacity shrinks: no finding there measures a "
                     "capacity loss")})
+    detection = _detection(run, wanted, power_ev if "current_offset" in names else None,
+                           resist_ev, found)
     return DiagnoseResult(run.levels, findings, run.skipped, run.notes, pack, aircraft,
-                          sources, withheld, [b for b in blind if b])
+                          sources, withheld, [b for b in blind if b], detection)
+
+
+#: Relative change of η by the calibration beyond which its alternatives are listed.
+#: [unitless]
+CALIBRATION_ALTERNATIVE_SHARE = 0.1
+
+
+def calibration_alternatives(lv: LevelReport, aircraft: Aircraft | None) -> dict | None:
+    r"""What else the power level's recalibration of η could stand for.
+
+    The calibration scales the whole modelled power by the file's η over the fitted one;
+    anything that raises (or lowers) the power nearly in proportion is absorbed there. Two
+    alternatives are sized on the flights (mean over the airborne bins): an all-up mass
+    heavier by :math:`\Delta m` at the file's η — :math:`\overline{M}\,(\eta_f/\hat\eta -
+    1) = \Delta m\,\overline{\partial M/\partial m}`, the mechanical power's change per
+    kg from the level's own model at the flown states (linearised: a first-order size) —
+    and a constant load :math:`P_S' = P_S + \overline{M}\,(1/\hat\eta - 1/\eta_f)`.
+    ``None`` when η moved by less than :data:`CALIBRATION_ALTERNATIVE_SHARE`.
+    Returns ``efficiency_file``, ``efficiency_fitted``, ``mass_kg`` (Δm), ``load_w``
+    (P_S'), ``load_file_w`` and ``text``.
+    """
+    if aircraft is None or lv.name != "power" or "efficiency" not in lv.base_values:
+        return None
+    eta_file, eta = float(aircraft.efficiency), float(lv.base_values["efficiency"])
+    if not (eta > 0 and abs(eta / eta_file - 1.0) >= CALIBRATION_ALTERNATIVE_SHARE):
+        return None
+    level, base = lv.result.level, lv.result.base_fit
+    ps = float(aircraft.system_power_w)
+    mean_m = eta * (float(np.mean(level.measured)) - ps)      # mean mechanical power [W]
+    try:
+        per_kg = float(np.mean(level.signature(base, [], EFFECTS["payload_change"]())[:, 0]))             * eta
+    except Exception:       # a level whose model cannot be linearised: no mass figure
+        per_kg = math.nan
+    dm = (eta_file / eta - 1.0) * mean_m / per_kg if per_kg > 0 else math.nan
+    load = ps + mean_m * (1.0 / eta - 1.0 / eta_file)
+    parts = []
+    if math.isfinite(dm):
+        parts.append(f"an all-up mass {abs(dm):.2f} kg {'heavier' if dm > 0 else 'lighter'} "
+                     f"than the {level.mass0:.2f} kg given at the file's η "
+                     f"({'a payload not given' if dm > 0 else 'less payload than given'})")
+    if load >= 0:
+        parts.append(f"a constant load of {load:.0f} W (file {ps:g} W) at the file's η")
+    if not parts:
+        return None
+    text = (f"η recalibrated from the file's {eta_file:.3g} to {eta:.3g}: the flights' power "
+            f"is {'higher' if eta < eta_file else 'lower'} than the file's model by "
+            f"{100 * abs(eta_file / eta - 1):.0f} %: read as a "
+            f"{'less' if eta < eta_file else 'more'} efficient drive, but equally "
+            "consistent with " + " or with ".join(parts) + ", or a mix; the calibration "
+            "cannot tell them apart (the payload flown, given, pins the mass)")
+    return {"efficiency_file": eta_file, "efficiency_fitted": eta, "mass_kg": dm,
+            "load_w": load, "load_file_w": ps, "text": text}
+
+
+def _merge_direct(direct: list[dict], ranked: list[dict]) -> list[dict]:
+    """One finding per cause: a direct finding whose effect a model level also names is
+    carried by that level's finding (``direct_evidence``: the direct finding's level,
+    cause, parameters and evidence; its cause appended), which keeps its rank and the
+    held-out figures; the other direct findings lead."""
+    out = [dict(f) for f in ranked]
+    lead = []
+    for d in direct:
+        same = next((f for f in out if f["effect"] == d["effect"]), None)
+        if same is None:
+            lead.append(d)
+            continue
+        same["direct_evidence"] = {k: d[k] for k in ("level", "cause", "parameters",
+                                                      "evidence", "headline")}
+        same["cause"] = f"{same['cause']}. Direct evidence as well: {d['cause']}"
+        same["alternatives"] = list(same.get("alternatives", [])) + [
+            a for a in d.get("alternatives", []) if a not in same.get("alternatives", [])]
+    return lead + out
+
+
+def _direct_findings(power_ev: dict | None, resist_ev: dict | None, exps: list[dict],
+                     run: "_Run") -> list[dict]:
+    """The findings of the direct evidence (:mod:`planner.identify.diagnose.evidence`):
+    a current sensor against an independent power channel, the pack's resistance against
+    its temperature; noted where the evidence is there but implausible."""
+    out = []
+    if power_ev is not None and power_ev.get("significant"):
+        out.append(EV.power_channel_finding(power_ev))
+    if resist_ev is not None and resist_ev.get("testable"):
+        if resist_ev["significant"]:
+            out.append(EV.resistance_finding(resist_ev, exps))
+        elif resist_ev["implausible"] and resist_ev["paired_p_value"] < S.ALPHA_HELDOUT:
+            run.notes.append("resistance: the pack's resistance follows its temperature, but "
+                             f"not as a cold pack: {resist_ev['implausible']}")
+    return out
+
+
+def _detection(run: "_Run", wanted, power_ev: dict | None, resist_ev: dict | None,
+               findings: list[dict]) -> list[dict]:
+    """The detection entries (:mod:`planner.identify.diagnose.limits`) of every effect
+    asked for: per level that ran, per level that could not run (not identifiable, with
+    why), and per direct evidence."""
+    found = {(f["level"], f["effect"]) for f in findings}
+    out, covered = [], set()
+    for name, lv in run.levels.items():
+        effects = run.level_effects.get(name, [])
+        out += LIM.level_limits(lv, effects, {e for lvl, e in found if lvl == name})
+        covered |= {(name, e.name) for e in effects}
+    asked = {e.name for e in wanted}
+    for s in run.skipped:
+        key = (s["level"], s["effect"])
+        if key in covered or s["effect"] not in asked or \
+                s["reason"].startswith("tested at the cut-off level instead"):
+            continue
+        covered.add(key)
+        out.append(LIM.not_identifiable(s["effect"], s["level"], s["reason"]))
+    if power_ev is not None:
+        top = EV.MAX_SENSOR_OFFSET_SHARE * power_ev.get("median_current_a", math.inf)
+        if power_ev["independent"] and power_ev["limit_a"] > top:
+            out.append(LIM.not_identifiable("current_offset", "sensors", LIM.beyond_physics(
+                "current_offset", "sensors", power_ev["limit_a"], top)))
+        elif power_ev["independent"]:
+            out.append(LIM.entry("current_offset", "sensors",
+                                 found=("sensors", "current_offset") in found,
+                                 identifiable=True, limit=power_ev["limit_a"],
+                                 n=len({e["name"] for e in run.experiments}) or 1,
+                                 stderr=power_ev["current_offset_a_stderr"]))
+        else:
+            out.append(LIM.not_identifiable("current_offset", "sensors", power_ev["why"]))
+    if resist_ev is not None:
+        if resist_ev.get("testable"):
+            # an implausible slope that is not significant is noise around none
+            ok = (resist_ev["implausible"] is None or ("resistance", "temperature") in found
+                  or resist_ev["z"] < EV.MIN_Z)
+            why = "" if ok else resist_ev["implausible"]
+            top = EV.ACTIVATION_RANGE_J_PER_MOL[1]
+            if ok and resist_ev["limit_j_per_mol"] > top:
+                ok, why = False, LIM.beyond_physics("temperature", "resistance",
+                                                    resist_ev["limit_j_per_mol"], top)
+            out.append(LIM.entry("temperature", "resistance",
+                                 found=("resistance", "temperature") in found,
+                                 identifiable=ok, limit=resist_ev["limit_j_per_mol"],
+                                 n=len(resist_ev["experiments"]), why=why,
+                                 stderr=resist_ev["activation_energy_j_per_mol_stderr"]))
+        else:
+            out.append(LIM.not_identifiable("temperature", "resistance", resist_ev["why"]))
+    order = {e.name: i for i, e in enumerate(wanted)}
+    return sorted(out, key=lambda d: order.get(d["effect"], 99))
 
 
 @dataclass
@@ -737,16 +926,25 @@ class _Run:
     levels: dict[str, LevelReport] = field(default_factory=dict)
     skipped: list[dict[str, str]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: The effects asked for at each level that ran.
+    level_effects: dict[str, list] = field(default_factory=dict)
+    #: The capacity experiments (dicts of :func:`_capacity_experiments`).
+    experiments: list[dict] = field(default_factory=list)
+    #: The record's power is the logged voltage × the logged current.
+    power_from_current: bool = True
 
     def skip(self, effects, level: str, reason: str) -> None:
         """Note ``effects`` (Effect objects or names) as not tested at ``level``."""
         self.skipped += [{"effect": getattr(e, "name", e), "level": level, "reason": reason}
                          for e in effects]
 
-    def add(self, name: str, level, res: S.LevelResult, as_given, base=None) -> None:
+    def add(self, name: str, level, res: S.LevelResult, as_given, base=None,
+            effects=()) -> None:
         """The report of a level that ran: baseline and final parameters, the file's
         error as given (``as_given()``, after them), the findings; the effects the
-        search skipped. ``base``: the baseline parameters, where already computed."""
+        search skipped. ``base``: the baseline parameters, where already computed;
+        ``effects``: those asked for at this level."""
+        self.level_effects[name] = list(effects)
         bv, bs = base if base is not None else level.physical(res.base_fit, [])
         fv, fs = level.physical(res.final_fit, [e for e, _ in res.selected])
         rg, fg = as_given()
@@ -779,7 +977,7 @@ def _cutoff_step(exps: list[dict], pack: BatteryPack, cap_effects, run: _Run) ->
         run.notes.append(f"cut-off level: {cut_what}")
         res = _run_level(cut_level, cut_effects, run.notes)
         if res is not None:
-            run.add("cutoff", cut_level, res, cut_level.as_given)
+            run.add("cutoff", cut_level, res, cut_level.as_given, effects=cut_effects)
             # direct evidence first: the capacity effects are tested on the energy to the
             # cut-off, not again on the charge per unit energy
             run.skip([e for e in cap_effects if e.name in cut_names], "capacity",
@@ -805,6 +1003,7 @@ def _capacity_step(df: pd.DataFrame, exps: list[dict], pack: BatteryPack, effect
     else:
         try:
             level = S.CapacityLevel(exps, pack)
+            level.power_from_current = run.power_from_current
         except (FitError, ModelError, ValueError) as exc:
             run.notes.append(f"capacity level not run: {exc}")
         if level is not None and level.n_rows < S.MIN_ROWS:
@@ -813,7 +1012,8 @@ def _capacity_step(df: pd.DataFrame, exps: list[dict], pack: BatteryPack, effect
             level = None
     res = _run_level(level, effects, run.notes) if level is not None else None
     if res is not None:
-        run.add("capacity", level, res, lambda: _as_given_capacity(level, pack))
+        run.add("capacity", level, res, lambda: _as_given_capacity(level, pack),
+                effects=effects)
     if level is None:
         run.skip(effects, "capacity", "capacity level not run")
 
@@ -832,7 +1032,8 @@ def _power_step(df: pd.DataFrame, pack: BatteryPack, aircraft: Aircraft | None, 
         return
     base = level.physical(res.base_fit, [])
     _withhold_on_impossible_baseline(res, base[0], run.notes)
-    run.add("power", level, res, lambda: _as_given_power(level, aircraft), base)
+    run.add("power", level, res, lambda: _as_given_power(level, aircraft), base,
+            effects=effects)
 
 
 def _power_level(df, pack, aircraft, opts, effects, notes):

@@ -18,8 +18,10 @@ Which discharges count
 An experiment *ends at the cut-off* when the lowest voltage of its last
 :data:`TAIL_SHARE` of samples (at least 3) is at most the pack's empty voltage
 (``cell_voltage_empty_v`` × cells in series), and it *starts full* when the highest
-voltage of its first :data:`TAIL_SHARE` of samples is at least :data:`FULL_CELL_V` per
-cell (a charged lithium cell under load; a partly charged pack reads less). Of those, the
+voltage of its first :data:`TAIL_SHARE` of samples is at least the full open-circuit
+voltage of the pack's chemistry (:mod:`planner.physics.battery.chemistry`) less
+:data:`FULL_MARGIN_V` per cell (a charged cell under load: 3.8 V for a LiPo; a partly
+charged pack reads less). Of those, the
 ones whose end voltage lies within :data:`CUTOFF_SPREAD_V` per cell of their median share
 one cut-off and are used; at least :data:`MIN_CUTOFF_EXPERIMENTS` are needed (the paired
 held-out test needs six units).
@@ -66,9 +68,10 @@ from planner.identify.diagnose.search import N_FOLDS, Fit, Split, Unit, experime
 #: Share of an experiment's samples at its end (start) searched for the cut-off (full
 #: charge). [unitless]
 TAIL_SHARE = 0.02
-#: Least voltage per cell at the start of a discharge from a full pack (a charged lithium
-#: cell at 4.1–4.2 V loses some 0.3 V at 4C). [V]
-FULL_CELL_V = 3.8
+#: Largest drop below the chemistry's full open-circuit voltage per cell at the start of a
+#: discharge from a full pack (a charged lithium cell at 4.1–4.2 V loses some 0.3 V at 4C;
+#: for a LiPo, full at 4.10 V on its curve, a start at 3.8 V). [V]
+FULL_MARGIN_V = 0.3
 #: Largest spread of the end voltages per cell of discharges that share one cut-off. [V]
 CUTOFF_SPREAD_V = 0.1
 #: Least number of discharges to the cut-off for the level to run. [unitless]
@@ -87,8 +90,11 @@ def select(exps: list[dict], pack) -> tuple[list[dict], str]:
     Returns the selected experiments (dicts of :func:`planner.identify.diagnose._capacity_experiments`
     with a ``voltage`` entry) and a sentence on what was found.
     """
+    from planner.physics.battery.chemistry import chemistry
+
     cells = max(int(pack.cells_series), 1)
     empty = float(pack.cell_voltage_empty_v)
+    full = round(chemistry(pack.chemistry).full_v - FULL_MARGIN_V, 2)
     with_v = [e for e in exps if e.get("voltage") is not None]
     if not with_v:
         return [], "no pack voltage in the data: the cut-off cannot be seen"
@@ -98,11 +104,11 @@ def select(exps: list[dict], pack) -> tuple[list[dict], str]:
         k = _tail(len(v))
         end = float(np.nanmin(v[-k:]))
         start = float(np.nanmax(v[:k]))
-        if end <= empty and start >= FULL_CELL_V:
+        if end <= empty and start >= full:
             keep.append(e)
             ends.append(end)
     if not keep:
-        return [], (f"no experiment runs from a full pack (≥ {FULL_CELL_V:g} V per cell at the "
+        return [], (f"no experiment runs from a full pack (≥ {full:g} V per cell at the "
                     f"start) to the empty voltage ({empty:g} V per cell) at its end")
     ends = np.asarray(ends)
     mid = float(np.median(ends))
@@ -261,6 +267,19 @@ class CutoffLevel:
         r = self.y[rows] - self._predict(fit.nl, Z, X, fit.coef)
         cov = stats.scaled_covariance(J, float(r @ r)).matrix
         return cov, np.r_[fit.nl, fit.coef]
+
+    def jacobian(self, fit: Fit, effects) -> np.ndarray:
+        """Change of the predicted ln E of every discharge per unit of each fitted
+        parameter [θ…, c₀, a]. [per unit]"""
+        Z = self._columns(effects)
+        _, X = self._linear()
+        q = 1.0 + Z @ fit.nl
+        return np.column_stack([-Z / q[:, None], X]) if Z.shape[1] else X
+
+    def signature(self, fit: Fit, effects, effect) -> np.ndarray:
+        """Change of the predicted ln E of every discharge per unit of ``effect``'s
+        coefficient, at no effect: −z. [per unit]"""
+        return -self._columns([effect])
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
         """Each effect's coefficient, the energy to the cut-off at the median discharge

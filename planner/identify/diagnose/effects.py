@@ -477,13 +477,18 @@ class CurrentOffset(CapacityEffect):
     def skip_reason(self, cap) -> str | None:
         """A load that is never (nearly) off: less than :data:`MIN_LOW_LOAD_SHARE` of the
         time below :data:`LOW_LOAD` of the median power."""
+        reasons = []
+        if getattr(cap, "power_from_current", False):
+            reasons.append("the power is the logged voltage × the logged current: an offset "
+                           "of the current sensor is in the power too, and the integral model "
+                           "driven by that power draws the offset's charge itself")
         share = cap.low_load_fraction
         if share < MIN_LOW_LOAD_SHARE:
-            return (f"the load is never (nearly) off: only {100 * share:.1f} % of the time below "
-                    f"{100 * LOW_LOAD:.0f} % of the median power (needs "
-                    f"{100 * MIN_LOW_LOAD_SHARE:g} %): a sensor bias cannot be told from the "
-                    "calibration without rests or idle periods")
-        return None
+            reasons.append(f"the load is never (nearly) off: only {100 * share:.1f} % of the "
+                           f"time below {100 * LOW_LOAD:.0f} % of the median power (needs "
+                           f"{100 * MIN_LOW_LOAD_SHARE:g} %): a sensor bias cannot be told "
+                           "from the calibration without rests or idle periods")
+        return "; and ".join(reasons) or None
 
     def cumulative(self, cap, G, dG):
         r"""Time since each experiment's start: the drift :math:`b\,t` per unit b. [s]"""
@@ -786,6 +791,11 @@ class PayloadChange(PowerEffect):
         the altitude-checked climb rate beyond ±:data:`planner.chain.flightstate.CLIMB_THRESHOLD_MS`)
         explains. Ground speed is deliberately not a regime here: with a wind it varies
         with the direction of travel, which a wind effect explains.
+
+        Where the record logs the flight mode, a step that falls at a change of mode in
+        every flight with one (:data:`MODE_BEFORE_S` before it to :data:`MODE_AFTER_S`
+        after) cannot be told from a change of how the aircraft is flown either (a mode
+        changes the controllers, the thrust, a landing detector).
         """
         from planner.identify.diagnose import CONFOUND_R
         from planner.chain.flightstate import CLIMB_THRESHOLD_MS
@@ -795,6 +805,11 @@ class PayloadChange(PowerEffect):
         located = [pw.names.index(k) for k, v in times.items() if v is not None]
         if mask is None or not located:
             return None
+        modes = _modes_at_steps(pw, {k: v for k, v in times.items() if v is not None})
+        if modes is not None:
+            return (f"every located step falls at a change of flight mode ({modes}): a step "
+                    "at a mode change cannot be told from a change of how the aircraft is "
+                    "flown", [self.name, f"the change of flight mode ({modes})"])
         rows = np.isin(pw.exp, located)
         y = np.asarray(mask, float)[rows]
         if np.var(y) <= 0:
@@ -886,31 +901,125 @@ class PayloadChange(PowerEffect):
             out["change_time_max_s"] = float(max(located.values()))
         out["changes_at_end_of_climb"] = float(sum(
             _end_of_climb(pw, pw.names.index(k), v) for k, v in located.items()))
+        out["power_step_w"] = _power_step(pw, values, state)
         for k, v in list(located.items())[:20]:
             out[f"change_time_s[{k}]"] = float(v)
         return out
 
     def cause(self, p, pw, state=None):
-        """A mass change in flight, in words, with its size [kg] and times [s]."""
+        """A power step in flight, in words, with its size [W], the mass change it is
+        consistent with [kg], its times [s], and a change of flight mode near it (the
+        ``mode`` channel): the evidence and the alternatives, not a payload as fact."""
         dm = p["mass_step_kg"]
-        what = "dropped" if dm < 0 else "picked up"
+        dp = p.get("power_step_w", math.nan)
         n = int(p.get("flights_with_change", 0))
         when = "" if not n else (f"at {p['change_time_min_s']:.0f} s" if n == 1 else
                                  f"in {n} flights ({p['change_time_min_s']:.0f}–"
                                  f"{p['change_time_max_s']:.0f} s after their start)")
-        text = (f"Mass changed in flight: {_pm(abs(dm), p['mass_step_kg_stderr'], 2)} kg "
-                f"{what} {when}; the power steps with it, which the flight state does not "
-                "explain")
+        step = f"a {dp:+.0f} W step" if math.isfinite(dp) else "a step"
+        text = (f"{step[0].upper() + step[1:]} of the power {when} that the flight state does "
+                f"not explain, consistent with a {_pm(abs(dm), p['mass_step_kg_stderr'], 2)} kg "
+                f"mass {'decrease' if dm < 0 else 'increase'} (a payload "
+                f"{'dropped' if dm < 0 else 'picked up'}) or anything else that "
+                f"{'lowers' if dm < 0 else 'raises'} the power")
+        modes = mode_changes_near(pw, p)
+        if modes:
+            text += "; " + "; ".join(modes)
         n_climb = int(p.get("changes_at_end_of_climb", 0))
         if n_climb and n_climb >= 0.5 * p["flights_with_change"]:
             text += (f". Caution: {n_climb} of {int(p['flights_with_change'])} change time(s) "
                      "fall at the end of a climb: the power model's climb may be wrong instead")
         return text
 
-    def headline(self, p, pw):
-        """``Payload drop …`` or ``pick-up …`` in one line."""
+    def alternatives(self, p, pw) -> list[str]:
+        """What else makes a step of the power within a flight."""
         dm = p["mass_step_kg"]
-        return f"Payload {'drop' if dm < 0 else 'pick-up'} of {abs(dm):.2f} kg in flight"
+        dp = p.get("power_step_w", math.nan)
+        size = f"{abs(dp):.0f} W " if math.isfinite(dp) else ""
+        on = "switched off" if dm < 0 else "switched on"
+        return [f"a change of how the aircraft is flown there (flight mode, height above "
+                f"ground, speed) that the power model does not follow",
+                f"a load of {size}{on} (lights, a gimbal, a heater)"]
+
+    def headline(self, p, pw):
+        """``Power step … (a … kg payload drop or pick-up, or …)`` in one line."""
+        dm = p["mass_step_kg"]
+        dp = p.get("power_step_w", math.nan)
+        n = int(p.get("flights_with_change", 0))
+        where = f" at {p['change_time_min_s']:.0f} s" if n == 1 else ""
+        size = f"{dp:+.0f} W " if math.isfinite(dp) else ""
+        return (f"Power step {size}in flight{where}: a {abs(dm):.2f} kg payload "
+                f"{'drop' if dm < 0 else 'pick-up'}, or anything else that "
+                f"{'lowers' if dm < 0 else 'raises'} the power")
+
+
+#: A change of flight mode this long before a located power step (or up to
+#: :data:`MODE_AFTER_S` after it) is named beside it. [s]
+MODE_BEFORE_S = 30.0
+MODE_AFTER_S = 5.0
+
+
+def _modes_at_steps(pw, times: dict) -> str | None:
+    """The mode changes near every located step, in words; None unless every located step
+    has one (:meth:`PayloadChange.regime_confound`)."""
+    changes = getattr(pw, "mode_changes", {})
+    found = []
+    for name, tc in times.items():
+        near = [(t, old, new) for t, old, new in changes.get(name, ())
+                if tc - MODE_BEFORE_S <= t <= tc + MODE_AFTER_S]
+        if not near:
+            return None
+        t, old, new = near[-1]
+        found.append(f"{old} to {new} at {t:.0f} s, the step at {tc:.0f} s" if len(times) == 1
+                     else f"flight {name}: {old} to {new} at {t:.0f} s")
+    return "; ".join(found[:5]) + (" …" if len(found) > 5 else "")
+
+
+def mode_changes_near(pw, p) -> list[str]:
+    """The changes of flight mode (the record's ``mode`` channel) near each located change
+    time of a payload step, in words."""
+    out = []
+    changes = getattr(pw, "mode_changes", {})
+    for key, tc in p.items():
+        if not key.startswith("change_time_s["):
+            continue
+        name = key[len("change_time_s["):-1]
+        for t, old, new in changes.get(name, ()):
+            if tc - MODE_BEFORE_S <= t <= tc + MODE_AFTER_S:
+                where = "" if p.get("flights_with_change", 0) <= 1 else f" of flight {name}"
+                out.append(f"the mode changed from {old} to {new} at {t:.0f} s{where}")
+    return out
+
+
+def _power_per_kg(pw, values) -> float:
+    """The calibrated model's median rise of the battery power per kg of mass over the
+    bins. [W/kg]"""
+    if "efficiency" not in values:
+        return float("nan")
+    shape = {k: values[k] for k in pw.shape}
+    rows = np.arange(pw.n_rows)
+    dm = 0.05 * pw.mass0
+    bumped = dict(pw.base_inputs)
+    bumped["mass"] = pw.base_inputs["mass"] + dm
+    m1 = pw.mechanical(shape, bumped, rows, table=False)
+    m0 = pw.mechanical(shape, pw.base_inputs, rows, table=False)
+    return float(np.median(m1 - m0) / dm / values["efficiency"])
+
+
+def _power_step(pw, values, state) -> float:
+    """The median power step of the located mass step over the bins after it: the change
+    of the model's power with the mass, × the step. [W]"""
+    mask = np.asarray(state.get("step_mask", np.zeros(pw.n_rows)), float) > 0
+    if not mask.any() or "efficiency" not in values:
+        return float("nan")
+    rows = np.flatnonzero(mask)
+    shape = {k: values[k] for k in pw.shape}
+    dm = float(values["mass_step_kg"])
+    bumped = dict(pw.base_inputs)
+    bumped["mass"] = pw.base_inputs["mass"] + dm
+    m1 = pw.mechanical(shape, bumped, rows, table=False)
+    m0 = pw.mechanical(shape, pw.base_inputs, rows, table=False)
+    return float(np.median(m1 - m0) / values["efficiency"])
 
 
 def _end_of_climb(pw, exp: int, tc: float, window_s: float = 30.0) -> bool:
@@ -959,7 +1068,8 @@ class SystemPower(PowerEffect):
         ps = values["system_power_w"]
         return {"system_power_w": ps, "system_power_w_stderr": stderr["system_power_w"],
                 "file_system_power_w": pw.file_system_power_w,
-                "missing_w": ps - pw.file_system_power_w}
+                "missing_w": ps - pw.file_system_power_w,
+                "power_per_kg_w": _power_per_kg(pw, values)}
 
     def implausible(self, p, pw):
         """A negative load, one above :data:`MAX_SYSTEM_SHARE` of the lowest airborne power,
@@ -994,6 +1104,16 @@ class SystemPower(PowerEffect):
         """``Constant load …`` in one line."""
         return (f"Constant load {p['system_power_w']:.0f} W (file {p['file_system_power_w']:.0f} W)"
                 " missing from the model")
+
+    def alternatives(self, p, pw) -> list[str]:
+        """What else the missing power could be: a payload not given (the mass that draws
+        it, from the model's power per kg at the flown state) [kg]."""
+        miss = p["missing_w"]
+        per_kg = p.get("power_per_kg_w", math.nan)
+        if not (math.isfinite(per_kg) and per_kg > 0) or miss <= 0:
+            return []
+        return [f"a payload of {miss / per_kg:.2f} kg not given (the model's power rises "
+                f"{per_kg:.0f} W per kg of mass on these flights)"]
 
 
 class EfficiencyCurve(PowerEffect):

@@ -125,6 +125,7 @@ from planner.physics.battery import integral
 from planner.identify import stats
 from planner.errors import FitError, ModelError
 from planner.identify.aircraft_fit import with_params
+from planner.identify.diagnose.evidence import mode_changes
 from planner.chain.flightstate import CLIMB_THRESHOLD_MS, from_record, inplane_speed
 from planner.physics.units import AS_PER_MAH
 
@@ -544,6 +545,59 @@ class CapacityLevel:
         J = np.column_stack(jnl + jac)
         return stats.covariance(J, r0, self.row_group[rows]).matrix, np.r_[fit.nl, fit.coef]
 
+    def jacobian(self, fit: Fit, effects) -> np.ndarray:
+        """Change of the weighted window increments (all rows) per unit of each fitted
+        parameter [nonlinear…, linear…] of ``fit``. [A s / √s per unit]"""
+        X0 = self.design(fit.nl, effects)
+        wt = self.weights
+        cols = [(X0[self.w1, j] - X0[self.w0, j]) * wt for j in range(X0.shape[1])]
+        base = (X0[self.w1] - X0[self.w0]) @ fit.coef * wt
+        jnl = []
+        for j in range(len(fit.nl)):
+            h = 1e-5
+            x = fit.nl.copy()
+            x[j] += h
+            X = self.design(x, effects)
+            jnl.append(((X[self.w1] - X[self.w0]) @ fit.coef * wt - base) / h)
+        return np.column_stack(jnl + cols)
+
+    def signature(self, fit: Fit, effects, effect) -> np.ndarray:
+        """Change of the weighted window increments per unit of ``effect``'s coefficient
+        (relative ones: per unit of the factor on the charge drawn), at ``fit``.
+        [A s / √s per unit]"""
+        effect.prepare(self)
+        G = self.G(fit.nl)
+        dG = np.diff(G)
+        dG[self.cross] = 0.0
+        col = effect.cumulative(self, G, dG)
+        scale = float(fit.coef[0]) if effect.relative else 1.0
+        return (col[self.w1] - col[self.w0]) * self.weights * scale
+
+    def cumulative_columns(self, fit: Fit, effects, extra=()) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample, restarted at each test unit's first sample: the change of the
+        predicted cumulative charge per unit of each fitted parameter, and per unit of
+        each ``extra`` effect's coefficient (as :meth:`signature`). [A s per unit]"""
+        first = self._unit_first(np.arange(len(self.t)))
+        X0 = self.design(fit.nl, effects)
+        base = X0 @ fit.coef
+        cols = []
+        for j in range(len(fit.nl)):
+            x = fit.nl.copy()
+            x[j] += 1e-5
+            cols.append((self.design(x, effects) @ fit.coef - base) / 1e-5)
+        cols += [X0[:, j] for j in range(X0.shape[1])]
+        J = np.column_stack(cols)
+        J = J - J[first]
+        G = self.G(fit.nl)
+        dG = np.diff(G)
+        dG[self.cross] = 0.0
+        sig = []
+        for e in extra:
+            e.prepare(self)
+            c = e.cumulative(self, G, dG) * (float(fit.coef[0]) if e.relative else 1.0)
+            sig.append(c - c[first])
+        return J, (np.column_stack(sig) if sig else np.zeros((len(self.t), 0)))
+
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
         """δ, ε, β and each effect's coefficient, with standard errors."""
         cov, x = self.covariance(fit, effects)
@@ -684,8 +738,11 @@ class PowerLevel:
                                 "pres", "temp", "alt_rate", "climb_smooth", "axial")}
         spans = []
         ground = []
+        #: Each experiment's changes of flight mode, (time [s], old, new) (``mode``).
+        self.mode_changes: dict[str, list] = {}
         for name, sub in exps:
             sub = sub.reset_index(drop=True)
+            self.mode_changes[name] = mode_changes(sub)
             n = len(sub)
             t = sub["time_s"].to_numpy(float)
             t = t - t[0]
@@ -1185,10 +1242,9 @@ class PowerLevel:
                 "finals": finals, "predicted": pred, "loss_units": self.row_unit[rows],
                 "loss": r**2}
 
-    def covariance(self, fit: Fit, effects):
-        """Covariance of [nonlinear…, linear…] of an all-data fit, AR(1)-inflated within
-        each flight (:func:`planner.identify.stats.covariance`)."""
-        rows = np.flatnonzero(fit.train)
+    def _jacobian(self, fit: Fit, effects, rows: np.ndarray):
+        """Change of the predicted power of ``rows`` per unit of each parameter
+        [nonlinear…, linear…], and the residual (model − measured) there. [W per unit], [W]"""
         y = self._y(effects)[rows]
         M = self._evaluate(fit.nl, fit.nl_names, effects, fit.state, rows)
         X = self._columns(M, effects, fit.state)
@@ -1202,7 +1258,55 @@ class PowerLevel:
             step = x[j] - fit.nl[j]
             Mj = self._evaluate(x, fit.nl_names, effects, fit.state, rows)
             cols.append((self._columns(Mj, effects, fit.state) @ fit.coef - y - r0) / step)
-        J = np.column_stack(cols + [X[:, j] for j in range(X.shape[1])])
+        return np.column_stack(cols + [X[:, j] for j in range(X.shape[1])]), r0
+
+    def jacobian(self, fit: Fit, effects) -> np.ndarray:
+        """Change of the predicted power of every bin per unit of each fitted parameter
+        [nonlinear…, linear…] of ``fit``. [W per unit]"""
+        return self._jacobian(fit, effects, np.arange(self.n_rows))[0]
+
+    def signature(self, fit: Fit, effects, effect) -> np.ndarray:
+        """Change of the predicted power of every bin per unit of ``effect``'s parameters
+        (at no effect), on the model ``fit`` of ``effects``: a column per parameter (wind:
+        north and east [W per m/s]; air density: per unit of the exponent; system power:
+        per W; efficiency curve: per unit of the slope coefficient c₁; payload change: per
+        kg of mass all flight long — the step is cut from it by the caller)."""
+        rows = np.arange(self.n_rows)
+        values = dict(zip(fit.nl_names, fit.nl))
+        state = dict(fit.state)
+        inputs = self._inputs(effects, values, state)
+        shape = {k: values[k] for k in self.shape}
+        M = self.mechanical(shape, inputs, rows, table=False)
+        inv_eta = float(fit.coef[0])
+        name = effect.name
+        if name == "system_power":
+            return np.ones((self.n_rows, 1))
+        if name == "efficiency_curve":
+            return (M * (M / float(np.median(M)) - 1.0))[:, None]
+        if name == "payload_change":
+            dm = 0.01 * self.mass0
+            bumped = dict(inputs)
+            bumped["mass"] = inputs["mass"] + dm
+            return ((self.mechanical(shape, bumped, rows, table=False) - M) / dm
+                    * inv_eta)[:, None]
+        cols = []
+        for key, h in (("wind_n_ms", 0.5), ("wind_e_ms", 0.5)) if name == "wind" else \
+                (("density_exponent", 0.05),):
+            trial = dict(values)
+            trial.update({"wind_n_ms": 0.0, "wind_e_ms": 0.0, "density_exponent": 0.0})
+            lo = effect.transform(inputs, trial, self, state)
+            trial[key] = h
+            hi = effect.transform(inputs, trial, self, state)
+            m_lo = self.mechanical(shape, lo, rows, table=False)
+            m_hi = self.mechanical(shape, hi, rows, table=False)
+            cols.append((m_hi - m_lo) / h * inv_eta)
+        return np.column_stack(cols)
+
+    def covariance(self, fit: Fit, effects):
+        """Covariance of [nonlinear…, linear…] of an all-data fit, AR(1)-inflated within
+        each flight (:func:`planner.identify.stats.covariance`)."""
+        rows = np.flatnonzero(fit.train)
+        J, r0 = self._jacobian(fit, effects, rows)
         return stats.covariance(J, r0, self.exp[rows]).matrix, np.r_[fit.nl, fit.coef]
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:

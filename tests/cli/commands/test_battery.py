@@ -422,3 +422,34 @@ def test_fit_battery_counts_the_cells_of_the_real_8s_log(tmp_path, capsys, share
                      "--mass-kg", "1.2", "--fix-beta", "0.9648")
     assert rc == 0, err
     assert load_battery(out).cells_series == 8
+
+
+def test_fit_battery_on_one_constant_power_is_a_misfit_exit_1(tmp_path, capsys):
+    """Issue 27: ``--train const_050W --validate const_125W`` on the seed campaign wrote
+    ε = +0.5 (its bound) with a 76 % validation error and exit 0. A parameter on its bound
+    is a misfit: the file says so, the command exits 1 naming it and the likely cause."""
+    from planner.identify import campaign
+
+    rec = campaign.run_campaign(seed=0)
+    data = tmp_path / "campaign.csv"
+    rec[rec["experiment"].isin(["const_050W", "const_125W"])].to_csv(data, index=False)
+    out = tmp_path / "p.yaml"
+    rc, text, _ = run(capsys, "fit-battery", data, "--out", out, "--name", "x",
+                      "--mass-kg", "0.5", "--train", "const_050W", "--validate",
+                      "const_125W")
+    assert rc == 1
+    status = yaml.safe_load(out.read_text())["fit_status"]
+    assert status.startswith("misfit: epsilon ended on its bound")
+    assert "one regime only" in status and "const_125W" in status
+    assert f"fit_status: {status}" in text
+    assert load_battery(out).name == "x"          # the file still loads (status read, not used)
+
+
+def test_fit_battery_at_two_powers_has_status_ok(tmp_path, capsys, bench):
+    const_path, _, _ = bench
+    out = tmp_path / "p.yaml"
+    rc, text, _ = run(capsys, "fit-battery", const_path, "--out", out, "--name", "x",
+                      "--cells", "4", "--mass-kg", "1")
+    assert rc == 0
+    assert yaml.safe_load(out.read_text())["fit_status"] == "ok"
+    assert "fit_status: ok" in text

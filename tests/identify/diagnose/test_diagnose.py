@@ -111,12 +111,30 @@ def test_two_capacity_effects_are_both_found():
 
 
 def test_offset_without_rests_is_skipped_not_guessed():
-    """Constant-power steps without rests: a sensor bias cannot be told from δ."""
+    """Constant-power steps without rests, the power the logged V·I: a sensor bias cannot
+    be told from δ, and the detection entry says it is not identifiable."""
     df, _ = capacity_dataset("current_offset", 0.3, profile="steps", seed=0)
+    df["power_w"] = df["voltage_v"] * df["current_a"]
     res = diagnose(df, battery())
     assert "current_offset" not in _names(res)
     assert any(s["effect"] == "current_offset" and "rests" in s["reason"]
                for s in res.skipped)
+    entries = [d for d in res.detection if d["effect"] == "current_offset"]
+    assert entries and not any(d["identifiable"] for d in entries)
+    assert all("not identifiable" in d["text"] for d in entries)
+
+
+def test_offset_without_rests_is_found_on_an_independent_power_channel():
+    """The same steps with the load's own power logged: the current minus power/voltage
+    is the bias, sample by sample (direct evidence), with no rest needed."""
+    df, _ = capacity_dataset("current_offset", 0.3, profile="steps", seed=0)
+    res = diagnose(df, battery())
+    first = res.findings[0]
+    assert first["effect"] == "current_offset" and first["level"] == "sensors"
+    p = first["parameters"]
+    assert p["current_offset_a"] == pytest.approx(0.3, abs=3 * p["current_offset_a_stderr"]
+                                                  + 0.01)
+    assert any("separate load" in a for a in first["alternatives"])
 
 
 def test_fade_from_experiment_order_says_so():
@@ -159,6 +177,11 @@ def test_hidden_power_effect_is_named_first(effect, magnitude, seed, profile):
         for flight, tc in truth["change_time_s"].items():
             found = p.get(f"change_time_s[{flight}]")
             assert found is None or abs(found - tc) < 30
+        # a step of the power, named with its evidence and what else makes one
+        assert first["headline"].startswith("Power step")
+        assert "or anything else that" in first["cause"]
+        assert any("flight mode" in a for a in first["alternatives"])
+        assert any("load of" in a for a in first["alternatives"])
     elif effect == "system_power":
         assert p["missing_w"] == pytest.approx(magnitude, rel=0.35)
     else:
@@ -292,3 +315,67 @@ def test_diagnose_plot_gives_panels_only_to_significant_findings():
     for ax in shown:
         if "time" in ax.get_xlabel():
             assert "[min]" in ax.get_xlabel()
+
+
+# ----------------------------------------------------------------------------- direct evidence
+
+def test_pack_temperature_against_the_voltage_sag_measures_the_activation_energy():
+    """The generator's pack resistance follows Arrhenius at 25 kJ/mol: the voltage's step
+    against the current's step, per discharge, against the logged pack temperature gives
+    it back (direct evidence, carried by the capacity level's temperature finding)."""
+    df, _ = capacity_dataset("temperature", 0.006, profile="flights", seed=1)
+    res = diagnose(df, battery())
+    first = res.findings[0]
+    assert first["effect"] == "temperature" and first["level"] == "capacity"
+    ev = first["direct_evidence"]
+    assert ev["level"] == "resistance"
+    p = ev["parameters"]
+    assert p["activation_energy_j_per_mol"] == pytest.approx(
+        25_000.0, abs=3 * p["activation_energy_j_per_mol_stderr"] + 500.0)
+    assert "voltage sag" in first["cause"]
+    entry = next(d for d in res.detection if d["level"] == "resistance")
+    assert entry["found"] and entry["limit"] < 25_000.0
+
+
+def test_clean_pack_temperature_gives_a_limit_not_a_finding():
+    df, _ = capacity_dataset(None, profile="flights", seed=5)
+    res = diagnose(df, battery())
+    assert res.findings == []
+    entry = next(d for d in res.detection if d["effect"] == "temperature"
+                 and d["level"] == "resistance")
+    assert entry["identifiable"] and not entry["found"]
+    assert entry["text"].startswith("None found: a cold-pack effect smaller than")
+    assert entry["limit"] > 0
+
+
+# ----------------------------------------------------------------------------- detection limits
+
+def test_clean_flights_give_each_power_effect_a_detection_limit():
+    """Nothing found is never silent: every power effect asked for has the smallest size
+    these flights could reveal (or why none is identifiable), printed and in the JSON."""
+    res, _ = _power(None, None, 20)
+    assert res.findings == []
+    d = json.loads(json.dumps(res.to_dict(), default=float))
+    entries = {e["effect"]: e for e in d["detection_limits"] if e["level"] == "power"}
+    assert set(entries) >= {"wind", "payload_change", "system_power", "efficiency_curve"}
+    pay = entries["payload_change"]
+    assert pay["identifiable"] and not pay["found"] and pay["unit"] == "kg"
+    assert 0.0 < pay["limit"] < 0.9 * 2.8          # below 90 % of the all-up mass
+    assert pay["text"].startswith("None found: a payload change smaller than")
+    assert "these 4 flights" in pay["text"]
+    # the limit depends on where in the flights the change falls
+    by = {float(k): v for k, v in pay["by_position"].items() if v is not None}
+    assert min(by.values()) == pytest.approx(pay["limit"], rel=1e-6)
+    assert max(by[0.1], by[0.9]) > pay["limit"]    # harder at the start or the end
+    for e in entries.values():
+        assert e["identifiable"] == (e["limit"] is not None)
+        assert e["text"] and e["help"]
+    assert "Detection limits" in res.summary()
+
+
+def test_a_payload_change_above_its_limit_is_found_and_the_limit_says_so():
+    res, truth = _power("payload_change", -0.5, 0)
+    entry = next(e for e in res.detection if e["effect"] == "payload_change"
+                 and e["level"] == "power")
+    assert entry["found"] and entry["identifiable"]
+    assert entry["limit"] < 0.5

@@ -300,3 +300,56 @@ def test_the_power_level_flies_each_m100_flight_at_its_own_payload(shared_data):
     result = diagnose([shared_data / "energy" / "m100_flights_sample.csv"], pack, ac,
                       column_map="dji_m100", effects=[])
     assert "payload per flight from the data: 0, 0.25 kg" in result.notes
+def test_log171_step_is_reported_with_its_evidence_and_the_mode_change(shared_data):
+    """Issue 27: on log 171 the output said ``Payload pick-up of 0.43 kg in flight`` as
+    fact, where the log switches LOITER → ACRO shortly before and the aircraft then sits
+    low. The step is reported as what was measured (a step of the power at a time), as
+    consistent with a mass increase *or anything else that raises the power*, with the
+    mode change beside it, and never as a finding."""
+    import warnings
+
+    from planner.identify.diagnose import diagnose
+    from planner.io.flightdata import load_flight_data
+    from planner.parameters import default_battery_path, load_aircraft, load_battery
+
+    ac = load_aircraft(REPO / "aircraft" / "solo_survey.yaml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df, _ = load_flight_data([shared_data / "logs" / LOGS[0]])
+        res = diagnose(df, load_battery(default_battery_path(ac)), ac)
+    assert "payload_change" not in [f["effect"] for f in res.findings]
+    w = next(w for w in res.withheld if w["effect"] == "payload_change")
+    assert w["kind"] == "confounded"
+    text = res.summary()
+    assert "step of the power at" in text and "or anything else that raises the power" in text
+    assert "LOITER to ACRO" in text
+    assert any("flight mode" in c for c in w["candidates"])
+    entry = next(d for d in res.detection if d["effect"] == "payload_change")
+    assert not entry["identifiable"] and "mode" in entry["why"]
+
+
+def test_solo_without_its_payload_lists_mass_and_load_beside_the_calibration(tmp_path):
+    """Issue 27: on the shipped simulated Solo log flown with 0.35 kg, diagnose without
+    the payload said "Constant load 46 W (file 8 W)" alone. The power level's
+    recalibration is now listed with what else it is consistent with: a heavier aircraft
+    (a payload not given) or a constant load, sized on the flight."""
+    from planner.identify.diagnose import calibration_alternatives
+    from planner.identify.diagnose import diagnose
+    from planner.io.flightdata import load_flight_data
+    from planner.parameters import default_battery_path, load_aircraft, load_battery
+
+    ac = load_aircraft(REPO / "aircraft" / "solo_survey.yaml")
+    pack = load_battery(default_battery_path(ac))
+    df, _ = load_flight_data([REPO / "logs" / "sim_solo_calm.bin"])
+    bare = diagnose(df, pack, ac)
+    alt = calibration_alternatives(bare.levels["power"], ac)
+    assert alt is not None and alt["mass_kg"] > 0.2 and alt["load_w"] > 2 * ac.system_power_w
+    assert "a payload not given" in bare.summary() and "constant load" in bare.summary()
+    power = next(b for b in bare.to_dict()["baselines"] if b["level"] == "power")
+    assert power["alternatives"]["mass_kg"] == pytest.approx(alt["mass_kg"])
+    given = diagnose(df, pack, ac, payload_kg=0.35)
+    alt2 = calibration_alternatives(given.levels["power"], ac)
+    # with the payload given, what is left to explain is smaller
+    assert alt2 is None or alt2["mass_kg"] < alt["mass_kg"] - 0.2
+    assert not any(f["effect"] == "system_power" and not f.get("alternatives")
+                   for f in bare.findings)

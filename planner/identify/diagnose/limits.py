@@ -1,0 +1,368 @@
+r"""Detection limits of ``diagnose``: the smallest size of each effect the data could reveal.
+
+For every effect of the vocabulary asked for, on every level where it can be tested, a
+power analysis (:func:`planner.identify.stats.detectable_size`) gives the size that the
+search's tests (:mod:`planner.identify.diagnose.search`) find with 80 % power. An effect
+that was not found is then said to be smaller than that ("a payload change smaller than
+0.18 kg cannot be seen in these 16 flights"); an effect that cannot be tested at all (a
+channel missing, a level that cannot run, a record that does not vary the effect's
+driver) is *not identifiable with these data*, with what would make it identifiable.
+
+What enters (per level, on the calibrated baseline fitted on all the data)
+---------------------------------------------------------------------------
+* The effect's **signature**: the change of the fitted quantity per unit of the
+  effect's parameter at no effect (the levels' ``signature`` methods): per bin of power
+  [W], per window increment of charge, per discharge's ln energy to the cut-off.
+* What it must be told apart from (**nuisance**): the baseline's own parameters (the
+  levels' ``jacobian``) and the signatures of the other effects that can be tested on
+  the same level — the candidates the search weighs it against. A constant load and an
+  efficiency curve on flights whose power barely varies, or a payload dropped at the
+  turnaround of an out-and-back route and a steady wind, leave little of their
+  signature visible: their limit is large, and the output says the data cannot tell
+  them.
+* The **noise**: the residual of the final fit (the effects found included), its
+  long-run variance (AR(1), within experiments) for the χ² test at 5 % with 80 % power,
+  and the held-out mean squared error for the practical gain of
+  :data:`planner.identify.diagnose.search.MIN_GAIN_PCT`.
+* The effect's own **floor** where the search has one (a payload change of at least
+  :data:`planner.identify.diagnose.effects.MIN_MASS_STEP` of the all-up mass).
+
+A payload change needs more: it is located flight by flight, where its step must beat
+a threshold of 2 ln n long-run variances (module notes of ``search``), so its limit is
+the larger of the pooled one (net of each flight's own constant mass, the climb and
+descent regimes and the other candidates) and the size at which the median flight
+locates it with 80 % power; both depend on where in the flights it happens, and the
+limit is given by position (``by_position``: fraction of each flight's airborne span).
+The limit falls as 1/√(number of flights) for the pooled tests.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from planner.identify import stats
+from planner.physics.units import AS_PER_MAH
+
+__all__ = ["HELP", "POSITIONS", "beyond_physics", "entry", "largest_physical", "level_limits",
+           "not_identifiable"]
+
+#: Fractions of each flight's airborne span at which a payload change's limit is given.
+POSITIONS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
+
+#: What would make each effect identifiable, in words.
+HELP = {
+    "payload_change": "more flights (the limit falls as 1/√ of their number), a change away "
+                      "from the start, the end and the turnaround of the flights, and the "
+                      "climb rate and ground speed logged",
+    "wind": "flights in more directions (a course that turns), the course over ground "
+            "logged, and no airspeed sensor standing in for it",
+    "air_density": "the static pressure and the air temperature logged, on flights at "
+                   "different densities (days, sites)",
+    "system_power": "flights over a wider range of power (climbs, fast and slow legs), or "
+                    "the load measured with the rotors stopped on the ground",
+    "efficiency_curve": "flights over a wider range of power (climbs, fast and slow legs)",
+    "current_offset": "the power logged independently of the current (a power module), or "
+                      "rests with the load off",
+    "temperature": "the pack temperature logged, flights or discharges at different "
+                   "temperatures, current steps (the voltage sag then measures the "
+                   "resistance) and discharges to the cut-off",
+    "capacity_fade": "the cycle count logged, and discharges from full to the cut-off at "
+                     "several ages of the pack",
+}
+
+#: What each effect is called in the sentences.
+NOUN = {"payload_change": "a payload change", "wind": "a steady wind",
+        "air_density": "a dependence of the power on the measured air density",
+        "system_power": "a constant load", "efficiency_curve": "an efficiency that changes "
+        "with load", "current_offset": "a current-sensor offset",
+        "temperature": "a cold-pack effect", "capacity_fade": "capacity fade"}
+
+#: The parameter each level's limit is given in: (key, unit, scale to the unit, digits).
+PARAMETER = {
+    ("power", "payload_change"): ("mass_step_kg", "kg", 1.0, 2),
+    ("power", "wind"): ("wind_speed_ms", "m/s", 1.0, 1),
+    ("power", "air_density"): ("density_exponent", "(exponent; momentum theory: 1)", 1.0, 2),
+    ("power", "system_power"): ("system_power_w", "W", 1.0, 0),
+    ("power", "efficiency_curve"): ("efficiency_slope", "(η per relative change of the "
+                                    "mechanical power)", 1.0, 3),
+    ("capacity", "temperature"): ("temperature_coefficient_per_c", "%/°C", 100.0, 3),
+    ("capacity", "capacity_fade"): ("fade_per_cycle", "%/cycle", 100.0, 4),
+    ("capacity", "current_offset"): ("current_offset_a", "A", 1.0, 3),
+    ("cutoff", "temperature"): ("temperature_coefficient_per_c", "%/°C", 100.0, 3),
+    ("cutoff", "capacity_fade"): ("fade_per_cycle", "%/cycle", 100.0, 4),
+    ("sensors", "current_offset"): ("current_offset_a", "A", 1.0, 3),
+    ("resistance", "temperature"): ("activation_energy_j_per_mol", "kJ/mol", 1e-3, 1),
+}
+
+
+def _fmt(level: str, effect: str, x: float) -> str:
+    _, unit, scale, digits = PARAMETER[(level, effect)]
+    return f"{scale * x:.{digits}f} {unit}" if math.isfinite(x) else "∞"
+
+
+def _things(level_name: str, n: int) -> str:
+    if level_name == "power":
+        return "this flight" if n == 1 else f"these {n} flights"
+    if level_name == "cutoff":
+        return f"these {n} discharges to the cut-off"
+    return "this experiment" if n == 1 else f"these {n} experiments"
+
+
+def entry(effect: str, level: str, *, found: bool, identifiable: bool,
+          limit: float | None = None, why: str = "", n: int = 0, by_position=None,
+          stderr: float | None = None, per: str | None = None,
+          confused_with: list[str] | None = None) -> dict[str, Any]:
+    """One detection entry (fields: docs/commands.md, Diagnose): ``effect``, ``level``,
+    ``parameter``, ``unit``, ``found``, ``identifiable``, ``limit`` (in the parameter's
+    unit; None when not identifiable), ``by_position``, ``why``, ``help`` and ``text``."""
+    key, unit, scale, _ = PARAMETER.get((level, effect), (None, "", 1.0, 3))
+    noun = NOUN[effect]
+    if found and confused_with:
+        text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level, but these data "
+                f"cannot tell it from {' or '.join(confused_with)}: against them none "
+                f"smaller than {_fmt(level, effect, limit)} could be seen; read the finding "
+                f"as either. Telling them apart needs {HELP[effect]}")
+        identifiable = True
+    elif not identifiable:
+        text = f"{noun[0].upper() + noun[1:]}: not identifiable with these data: {why}. " \
+               f"It would be with {HELP[effect]}"
+    elif found:
+        text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level (these data show "
+                f"one down to {_fmt(level, effect, limit)})")
+    else:
+        where = ""
+        if by_position:
+            lo = min(by_position.values())
+            edge = max(by_position[0.1], by_position[0.9])
+            where = (f" where it falls best in the flights ({_fmt(level, effect, edge)} "
+                     "in their first or last tenth)") if math.isfinite(edge) and edge > lo \
+                else ""
+        text = (f"None found: {noun} smaller than {_fmt(level, effect, limit)}{where} cannot "
+                f"be seen in {_things(level, n)} (below it, it is not identifiable with these "
+                f"data). A smaller one needs {HELP[effect]}")
+    if per == "experiment order":
+        unit = "%/experiment"
+        text = text.replace("%/cycle", "%/experiment")
+    out = {"effect": effect, "level": level, "parameter": key, "unit": unit.strip("()"),
+           "scale_to_unit": scale, "found": bool(found), "identifiable": bool(identifiable),
+           "limit": (float(limit) if identifiable and limit is not None
+                     and math.isfinite(limit) else None),
+           "why": why, "help": HELP[effect], "text": text}
+    if stderr is not None:
+        out["stderr"] = float(stderr)
+    if by_position:
+        out["by_position"] = {f"{k:g}": (float(v) if math.isfinite(v) else None)
+                              for k, v in by_position.items()}
+    if per is not None:
+        out["per"] = per
+    if confused_with:
+        out["confused_with"] = list(confused_with)
+    return out
+
+
+def largest_physical(effect: str, level) -> float:
+    """The largest size of an effect that is still physical on this level's data (the
+    bounds of :mod:`planner.identify.diagnose.effects`): a limit beyond it means no
+    physical size of the effect can be seen. [unit of the parameter]"""
+    from planner.identify.diagnose import effects as E
+    from planner.physics import limits as L
+
+    name = getattr(level, "name", "")
+    if effect == "payload_change":
+        return E.MAX_DROP_SHARE * level.mass0
+    if effect == "wind":
+        return E.MAX_WIND_SHARE * level.aircraft.max_airspeed_ms
+    if effect == "air_density":
+        return E.DENSITY_EXPONENT_RANGE[1]
+    if effect == "system_power":
+        return E.MAX_SYSTEM_SHARE * float(np.percentile(level.measured, 5))
+    if effect == "efficiency_curve":
+        return L.EFFICIENCY_SLOPE_MAX
+    if effect == "temperature":
+        return E.MAX_TEMPERATURE_COEFF
+    if effect == "capacity_fade":
+        span = float(np.ptp(level.cycles)) if name in ("capacity", "cutoff") else 0.0
+        return E.MAX_FADE_SPAN / span if span > 0 else math.inf
+    if effect == "current_offset":
+        return E.MAX_OFFSET_SHARE * getattr(level, "median_current_a", math.inf)
+    return math.inf
+
+
+def beyond_physics(effect: str, level_name: str, limit: float, top: float) -> str:
+    return (f"even the largest physical one ({_fmt(level_name, effect, top)}) is below the "
+            f"smallest these data could reveal ({_fmt(level_name, effect, limit)})")
+
+
+def not_identifiable(effect: str, level: str, why: str) -> dict[str, Any]:
+    """The entry of an effect that cannot be tested at ``level``: ``why``."""
+    return entry(effect, level, found=False, identifiable=False, why=why)
+
+
+# ============================================================================ per level
+
+def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
+    """The detection entries of one level that ran (a :class:`LevelReport`): every effect
+    of ``effects`` (those asked for at this level) — skipped ones as not identifiable."""
+    res = report.result
+    level = res.level
+    skipped = dict(res.skipped)
+    tested = [e for e in effects if e.name not in skipped and e.name not in res.failed]
+    out = []
+    for e in effects:
+        if e.name in skipped:
+            out.append(not_identifiable(e.name, report.name, skipped[e.name]))
+        elif e.name in res.failed:
+            out.append(not_identifiable(e.name, report.name,
+                                        f"the fit failed ({res.failed[e.name]})"))
+    if not tested:
+        return out
+    base = res.base_fit
+    final = res.final_fit or base
+    try:
+        J = level.jacobian(base, [])
+        sigs = {e.name: np.asarray(level.signature(base, [], e), float) for e in tested}
+    except Exception:       # a level whose model cannot be linearised here: say so
+        return out + [not_identifiable(e.name, report.name, "its signature could not be "
+                                       "computed on these data") for e in tested]
+    resid = np.asarray(final.train_resid, float)
+    groups = level.row_group
+    ho = np.asarray(res.final.heldout_row_resid, float)
+    mse_rows = float(np.mean(ho**2)) if ho.size else None
+    withheld = {w["effect"]: w for w in res.withheld}
+    for e in tested:
+        others = [sigs[o.name] for o in tested if o.name != e.name
+                  and o.name != "payload_change"]
+        if e.name == "payload_change":
+            out.append(_payload(report, level, base, J, sigs, tested, resid, mse_rows,
+                                e.name in found))
+            continue
+        if e.name == "wind" and "payload_change" in sigs:
+            others.append(_steps(level, sigs["payload_change"][:, 0], 0.5)[:, None])
+        nuisance = np.column_stack([J] + others) if others else J
+        sig = sigs[e.name]
+        if report.name == "capacity":
+            lim = _capacity_limit(level, res, base, e, [o for o in tested if o is not e],
+                                  sig, nuisance, resid, groups)
+        else:
+            lim = stats.detectable_size(sig, nuisance, resid, groups, dof=J.shape[1],
+                                        heldout_mse=mse_rows, paired=True)
+        limit = lim.limit
+        if e.name == "efficiency_curve":         # c1 → the slope η1 = −c1/c0²
+            c0 = float(base.coef[0])
+            limit = limit / c0**2
+        why = ""
+        ident = math.isfinite(limit)
+        top = largest_physical(e.name, level)
+        confused = None
+        if not ident:
+            why = ("its signature is absorbed entirely by the calibration and the other "
+                   "candidates")
+        elif limit > top:
+            ident, why = False, beyond_physics(e.name, report.name, limit, top)
+        if e.name in found and not (ident and limit <= top):
+            confused = _confused_with(e, tested, sigs, J, resid, groups, top)
+        if e.name in withheld and e.name not in found:
+            w = withheld[e.name]
+            ident = False
+            why = f"the fit that explains the misfit is withheld: {w['why']}"
+        per = getattr(level, "cycle_source", None) if e.name == "capacity_fade" else None
+        out.append(entry(e.name, report.name, found=e.name in found, identifiable=ident,
+                         limit=limit, why=why, n=level.n_experiments, stderr=lim.stderr,
+                         per=per, confused_with=confused))
+    return out
+
+
+def _confused_with(effect, tested, sigs, J, resid, groups, top) -> list[str]:
+    """The other candidates that, each alone beside the calibration, take a found
+    effect's limit beyond its physical range (those the data cannot tell it from)."""
+    out = []
+    for o in tested:
+        if o.name in (effect.name, "payload_change"):
+            continue
+        lim = stats.detectable_size(sigs[effect.name], np.column_stack([J, sigs[o.name]]),
+                                    resid, groups, dof=J.shape[1]).limit
+        if not lim <= top:
+            out.append(o.name)
+    return out or ["the other candidates together"]
+
+
+def _capacity_limit(level, res, base, effect, others, sig, nuisance, resid, groups):
+    """The statistical limit on the window increments and the practical one on the
+    held-out cumulative charge (what the search scores)."""
+    stat = stats.detectable_size(sig, nuisance, resid, groups, dof=nuisance.shape[1],
+                                 paired=True)
+    J_cum, S_cum = level.cumulative_columns(base, [], [effect] + others)
+    visible = stats.project_out(S_cum[:, :1], np.column_stack([J_cum, S_cum[:, 1:]]))
+    mse = (float(res.final.rmse) * AS_PER_MAH) ** 2
+    prac = stats.practical_size(float(np.mean(visible**2)), mse)
+    return stats.DetectionLimit(max(stat.statistical, prac), stat.statistical, prac,
+                                stat.stderr, stat.visible_share)
+
+
+def _steps(level, s: np.ndarray, u: float) -> np.ndarray:
+    """The mass step's signature at fraction ``u`` of each flight's span: ``s`` (power per
+    kg all flight long) after the change, 0 before. [W per kg]"""
+    out = np.zeros_like(s)
+    for f in np.unique(level.exp):
+        m = level.exp == f
+        t = level.time[m]
+        tc = t.min() + u * (t.max() - t.min())
+        out[m] = np.where(t >= tc, s[m], 0.0)
+    return out
+
+
+def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> dict:
+    """The payload change's limit by position (module notes)."""
+    from planner.chain.flightstate import CLIMB_THRESHOLD_MS
+    from planner.identify.diagnose.effects import MIN_MASS_STEP
+
+    s = sigs["payload_change"][:, 0]
+    exp = level.exp
+    flights = np.unique(exp)
+    per_flight = np.column_stack([np.where(exp == f, s, 0.0) for f in flights] +
+                                 [(exp == f).astype(float) for f in flights])
+    regime = np.column_stack([(level.climb > CLIMB_THRESHOLD_MS).astype(float),
+                              (level.climb < -CLIMB_THRESHOLD_MS).astype(float)])
+    others = [sigs[o.name] for o in tested if o.name != "payload_change"]
+    nuisance = np.column_stack([J, per_flight, regime] + others)
+    within = stats.within_groups(resid, exp)
+    floor = MIN_MASS_STEP * level.mass0
+    # per flight: the long-run variance and the noncentrality at which its change point
+    # beats the 2 ln n threshold of the search with 80 % power
+    s2 = {f: stats.long_run_variance(within[exp == f]) for f in flights}
+    lam = {f: stats.noncentrality_for_power(1, critical=2.0 * math.log(max((exp == f).sum(), 3)))
+           for f in flights}
+    by = {}
+    se_mid = math.nan
+    for u in POSITIONS:
+        g = _steps(level, s, u)
+        pooled = stats.detectable_size(g, nuisance, within, exp, dof=J.shape[1] + len(flights),
+                                       heldout_mse=mse_rows, paired=True)
+        if u == 0.5:
+            se_mid = pooled.stderr
+        located = []
+        for f in flights:
+            m = exp == f
+            gf = stats.project_out(g[m][:, None], s[m][:, None])[:, 0]
+            ss = float(np.dot(gf, gf))
+            if ss <= 0:
+                located.append(math.inf)
+                continue
+            located.append(math.sqrt(lam[f] * s2[f] / ss))
+        by[u] = max(pooled.limit, float(np.median(located)), floor)
+    best = min(by.values())
+    ident = math.isfinite(best)
+    why = "" if ident else ("a step in the power is absorbed entirely by each flight's own "
+                            "mass, the climb and descent and the other candidates")
+    top = largest_physical("payload_change", level)
+    if ident and best > top:
+        ident, why = False, beyond_physics("payload_change", "power", best, top)
+    withheld = {w["effect"]: w for w in report.result.withheld}
+    if "payload_change" in withheld and not found:
+        ident, why = False, ("the fit that explains the misfit is withheld: "
+                             + withheld["payload_change"]["why"])
+    return entry("payload_change", "power", found=found, identifiable=ident, limit=best,
+                 why=why, n=level.n_experiments, by_position=by, stderr=se_mid)

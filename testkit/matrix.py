@@ -1,0 +1,766 @@
+r"""The effect matrix of ``diagnose`` on real data (``benchmarks/bench_effect_matrix.py``).
+
+Every effect of diagnose's vocabulary × every real source that can carry it × the
+richness of the record × when the effect happens × its size, each cell run on fresh
+draws of the real data with the effect injected by a physical law of
+:mod:`testkit.injections` (never the planner's own models).
+
+Sources (``../shared/data``, PROVENANCE.md in each folder)
+---------------------------------------------------------
+``m100``
+    16 cruise flights of the DJI Matrice 100 delivery data set (Rodrigues et al., Sci.
+    Data 8, 155, 2021, CC BY 4.0; route R1, flights 8–277), all of one payload class
+    (0, 250 or 500 g, from ``m100_parameters.csv``, drawn at random), so that the mass
+    given to diagnose is the flights' own; ``aircraft/dji_m100.yaml``, site 300 m.
+``log171``
+    ArduCopter log 171 (a 3DR-Solo-like quad; CC BY-SA 3.0), ``aircraft/solo_survey.yaml``.
+``ac313_2004``, ``ac313_2044``
+    The two ArduCopter 3.1.3 flights (no licence: validation only); no aircraft file is
+    known for them, so diagnose's power level cannot run.
+``mcgill_hover``
+    The McGill hexarotor's 44-minute hover to a critical battery (no licence: validation
+    only), no aircraft file.
+``solar_surfer``
+    Flight 3 of MIT's Solar Surfer (Sharpe & Hansman 2024, MIT licence), a PX4 topic
+    export, ``aircraft/solar_surfer.yaml``.
+``p42a``, ``q30``
+    Molicel P42A and Samsung 30Q cell discharges (:mod:`testkit.cells`).
+``a123``
+    The A123 LiFePO4 cell discharged at C/30 to 2.0 V at eight chamber temperatures,
+    −25…45 °C (Plett 2015, CC BY-NC-SA 4.0): a real cold effect, nothing injected.
+
+Richness
+--------
+``everything`` — every channel the source (and the injection) has; ``plain`` — time,
+voltage, current, power, altitude, climb rate, ground speed, course; ``minimal`` — time,
+voltage, current.
+
+Timing (the payload change only; the other effects last the whole record)
+--------------------------------------------------------------------------
+The change falls at a fraction of each flight's airborne span: ``early`` 0.10–0.25,
+``mid`` 0.40–0.60, ``late`` 0.75–0.90, ``random`` 0.10–0.90 drawn per flight.
+
+Sizes
+-----
+``realistic`` as below, ``2x`` twice it. Payload 0.2–0.4 kg (M100; 0.1–0.2 kg on the
+1.5-kg Solo, 0.5–1.0 kg on the 9.4-kg Solar Surfer), carried from take-off and released
+(the real flight is the state after the release, so the masses stay physical). Steady
+wind 3–6 m/s from a random direction. Air density 75–85 % of the site's in half the
+flights (2×: 50–70 %). A constant load of 3.3–9 % of the median airborne power (15–40 W
+on the M100). A copper loss R·I² of 3–8 % of the power at the median current. A current
+sensor reading 0.3–0.8 A too high (cells: 0.05–0.15 A), the power channel logged
+independently of it where the record has one. A pack at −5…30 °C per flight (resistance
+by Arrhenius, 19 kJ/mol; 2×: 38 kJ/mol), its temperature logged. Capacity fade of
+0.04 %/cycle with DC resistance +0.06 %/cycle over 0–500 cycles per discharge (P42A,
+30Q), the cycle count logged. Cold cells: half the discharges at 0 °C (10 % less capacity,
+resistance by Arrhenius; :func:`testkit.cells.chill`).
+
+What is scored (per run)
+------------------------
+The findings named (first, anywhere), causes named other than the injected one (false),
+the detection limit diagnose gives for the injected effect (``detection`` in its JSON)
+against the injected size, and whether the fitted parameter lies within two of its
+standard errors of the injected one (where the effect is named first).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+import warnings
+import zlib
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from testkit import cells, injections as inj
+
+REPO = Path(__file__).resolve().parents[1]
+DATA = REPO.parent / "shared" / "data"
+ENERGY = DATA / "energy"
+LOGS = DATA / "logs"
+
+PLAIN = ("experiment", "time_s", "voltage_v", "current_a", "power_w", "altitude_m",
+         "climb_rate_ms", "groundspeed_ms", "course_deg")
+MINIMAL = ("experiment", "time_s", "voltage_v", "current_a")
+RICHNESS = ("everything", "plain", "minimal")
+TIMINGS = {"early": (0.10, 0.25), "mid": (0.40, 0.60), "late": (0.75, 0.90),
+           "random": (0.10, 0.90)}
+SIZES = {"realistic": 1.0, "2x": 2.0}
+
+#: injection → the effect diagnose should name.
+EXPECT = {"clean": None, "payload": "payload_change", "wind": "wind",
+          "density": "air_density", "load": "system_power", "copper": "efficiency_curve",
+          "offset": "current_offset", "cold_pack": "temperature", "fade": "capacity_fade",
+          "cold_cells": "temperature", "real_cold": "temperature"}
+
+
+def available() -> bool:
+    """True when the real data lie beside the repository."""
+    return (ENERGY / "m100_parameters.csv").is_file() and LOGS.is_dir()
+
+
+def reduce(df: pd.DataFrame, richness: str) -> pd.DataFrame:
+    """The record as a user with ``richness`` would have it (module notes)."""
+    if richness == "everything":
+        return df
+    keep = PLAIN if richness == "plain" else MINIMAL
+    return df[[c for c in keep if c in df]].copy()
+
+
+# ============================================================================ sources
+
+@dataclass
+class Draw:
+    """One run's clean data and what diagnose and the injections need to know."""
+
+    record: pd.DataFrame
+    pack: object
+    aircraft: object | None
+    payload_kg: float = 0.0
+    mass_kg: float = 0.0
+    site_altitude_m: float = 0.0
+    rho: float = 1.225
+    pack_resistance_ohm: float = 0.0
+    rotors: inj.Rotors | None = None
+    wing: inj.Wing | None = None
+    cells_kind: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def flights(self) -> list:
+        return [k for k, _ in inj.experiments(self.record)]
+
+
+def _definitions(aircraft_yaml: str | None, battery_yaml: str | None = None):
+    from planner.parameters import default_battery_path, load_aircraft, load_battery
+
+    ac = load_aircraft(REPO / aircraft_yaml) if aircraft_yaml else None
+    path = battery_yaml and REPO / battery_yaml or (default_battery_path(ac) if ac else None)
+    return (load_battery(path) if path else None), ac
+
+
+@functools.lru_cache(maxsize=1)
+def m100_flights() -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The M100 route-R1 cruise flights with a course (the map's ground velocity's
+    direction, op ``enu_course``) and the per-flight parameters table."""
+    import yaml
+
+    from planner.io.flightdata import load_flight_data
+
+    spec = yaml.safe_load((REPO / "planner/io/logs/maps/dji_m100.yaml").read_text())
+    spec["derived"]["course_deg"] = {"op": "enu_course",
+                                     "of": spec["derived"]["groundspeed_ms"]["of"]}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df, _ = load_flight_data(sorted(ENERGY.glob("m100_flights_part*.csv.gz")),
+                                 column_map=spec)
+    par = pd.read_csv(ENERGY / "m100_parameters.csv")
+    r1 = par[(par["route"] == "R1") & par["payload"].isin([0.0, 250.0, 500.0])]
+    df = df[df["experiment"].astype(int).isin(r1["flight"])].reset_index(drop=True)
+    return df, r1
+
+
+class Source:
+    """A real data source: its name, what it can carry and how a run draws from it."""
+
+    name = ""
+    kind = "flights"          # or "cells"
+    carries: tuple[str, ...] = ()
+    #: Effects the real data carry themselves (never a false cause here).
+    real: tuple[str, ...] = ()
+    runs_scale = 1.0          # share of the runs asked for (deterministic sources: fewer)
+
+    def draw(self, rng) -> Draw:
+        raise NotImplementedError
+
+
+class M100(Source):
+    name = "m100"
+    carries = ("clean", "payload", "wind", "density", "load", "copper", "offset", "cold_pack")
+
+    def draw(self, rng) -> Draw:
+        df, par = m100_flights()
+        have = set(df["experiment"].astype(int).unique())
+        cls = float(rng.choice([0.0, 250.0, 500.0]))
+        ids = [f for f in par.loc[par["payload"] == cls, "flight"] if f in have]
+        pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
+        rec = df[df["experiment"].astype(str).isin(pick)].reset_index(drop=True)
+        pack, ac = _definitions("aircraft/dji_m100.yaml")
+        payload = cls / 1000.0
+        return Draw(rec, pack, ac, payload, ac.empty_mass_kg + pack.total_mass_kg + payload,
+                    site_altitude_m=300.0, rho=_isa(300.0), pack_resistance_ohm=0.05,
+                    rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m))
+
+
+def _isa(h: float) -> float:
+    from planner.physics import atmosphere
+
+    return float(atmosphere.density(h))
+
+
+@functools.lru_cache(maxsize=8)
+def _log(name: str, battery_instance: int | None = None) -> pd.DataFrame:
+    from planner.io.flightdata import load_flight_data
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df, _ = load_flight_data([LOGS / name if not name.startswith("/") else name],
+                                 battery_instance=battery_instance)
+    return df
+
+
+class Log(Source):
+    """One real autopilot log, with its aircraft file where one is known."""
+
+    kind = "flights"
+    runs_scale = 0.5
+
+    def __init__(self, name, file, aircraft=None, battery=None, rotors=None, payload=0.0,
+                 resistance=0.03, carries=None):
+        self.name, self.file, self.aircraft_yaml = name, file, aircraft
+        self.battery_yaml, self.rotors, self.payload = battery, rotors, payload
+        self.resistance = resistance
+        self.carries = carries or ("clean", "payload", "wind", "density", "load", "copper",
+                                   "offset", "cold_pack")
+
+    def draw(self, rng) -> Draw:
+        rec = _log(self.file).copy()
+        pack, ac = _definitions(self.aircraft_yaml, self.battery_yaml)
+        if pack is None:
+            from planner.identify.replay import literature_pack
+
+            pack, _ = literature_pack(None, None, rec["voltage_v"])
+        mass = (ac.empty_mass_kg if ac else 1.5) + pack.total_mass_kg + self.payload
+        return Draw(rec, pack, ac, self.payload, mass, rho=1.2,
+                    pack_resistance_ohm=self.resistance, rotors=self.rotors)
+
+
+class SolarSurfer(Source):
+    name = "solar_surfer"
+    carries = ("clean", "payload", "wind", "density", "load", "copper", "offset", "cold_pack")
+    runs_scale = 0.5
+
+    def draw(self, rng) -> Draw:
+        rec = _log(str(DATA / "fixed_wing/solar_surfer/flight3"), 1).copy()
+        pack, ac = _definitions("aircraft/solar_surfer.yaml")
+        mass = ac.empty_mass_kg + pack.total_mass_kg
+        return Draw(rec, pack, ac, 0.0, mass, rho=1.11, pack_resistance_ohm=0.06,
+                    wing=inj.Wing(4.267, 0.9, 0.5))
+
+
+class Cells(Source):
+    """Single-cell discharges (:mod:`testkit.cells`)."""
+
+    kind = "cells"
+
+    def __init__(self, name):
+        self.name = name
+        self.carries = {"p42a": ("clean", "offset", "fade", "cold_cells"),
+                        "q30": ("clean", "offset", "fade", "cold_cells"),
+                        "a123": ("real_cold", "offset")}[name]
+        self.runs_scale = 0.5 if name == "a123" else 1.0
+        self.real = ("temperature",) if name == "a123" else ()
+
+    def draw(self, rng) -> Draw:
+        from planner.parameters import BatteryPack
+
+        data = _cells(self.name)
+        exps = {k: g.reset_index(drop=True) for k, g in data.groupby("experiment", sort=False)}
+        names = list(exps)
+        if self.name == "p42a":
+            cyc = [n for n in names if "cycle" in n]
+            sto = [n for n in names if "storage" in n]
+            pick = list(rng.choice(cyc, 8, replace=False)) + list(rng.choice(sto, 7,
+                                                                             replace=False))
+        elif self.name == "q30":
+            pick = list(rng.choice(names, 10, replace=False))
+        else:
+            pick = names
+        rec = pd.concat([exps[n] for n in pick], ignore_index=True)
+        cap = {"p42a": 4200.0, "q30": 3000.0, "a123": 2060.0}[self.name]
+        chem = "lifepo4" if self.name == "a123" else "lipo"
+        empty = 2.5 if self.name == "a123" else 3.5
+        pack = BatteryPack(name=self.name, cells_series=1, capacity_mah=cap, mass_kg=0.07,
+                           chemistry=chem, cell_voltage_empty_v=empty)
+        return Draw(rec, pack, None, cells_kind=self.name,
+                    pack_resistance_ohm={"p42a": 7.87e-3, "q30": 30e-3, "a123": 10e-3}[self.name])
+
+
+@functools.lru_cache(maxsize=4)
+def _cells(name: str) -> pd.DataFrame:
+    if name == "p42a":
+        return cells.p42a(("cycle", "storage")).drop(columns="consumed_mah")
+    if name == "q30":
+        return cells.q30()
+    return a123_discharges()
+
+
+#: The A123 files' chamber temperature from their name. [°C]
+A123_TEMPS = {"N25": -25.0, "N15": -15.0, "N05": -5.0, "P05": 5.0, "P15": 15.0,
+              "P25": 25.0, "P35": 35.0, "P45": 45.0}
+
+
+def a123_discharges() -> pd.DataFrame:
+    """The A123 C/30 discharges to 2.0 V (step 2 of each OCV file), one experiment per
+    chamber temperature, with that temperature as the pack's (``temperature_c``): the
+    cell soaked at it before the test and C/30 barely heats it."""
+    parts = []
+    for tag, temp in A123_TEMPS.items():
+        d = pd.read_csv(DATA / "battery/a123_temperature" / f"A123_OCV_{tag}_S1.csv")
+        d = d[d["Step_Index"] == 2]
+        t = d["Step_Time(s)"].to_numpy(float)
+        i = -d["Current(A)"].to_numpy(float)
+        v = d["Voltage(V)"].to_numpy(float)
+        parts.append(pd.DataFrame({"experiment": f"a123_{tag}", "time_s": t - t[0],
+                                   "voltage_v": v, "current_a": i, "power_w": v * i,
+                                   "temperature_c": temp}))
+    return pd.concat(parts, ignore_index=True)
+
+
+def sources() -> dict[str, Source]:
+    """Every source of the matrix (module notes), by name."""
+    from planner.parameters import load_aircraft
+
+    solo = load_aircraft(REPO / "aircraft/solo_survey.yaml")
+    return {
+        "m100": M100(),
+        "log171": Log("log171", "ardupilot_copter_quad_ac33dev_dronekit_log171.bin",
+                      "aircraft/solo_survey.yaml",
+                      rotors=inj.Rotors(4, solo.multirotor.rotor_diameter_m)),
+        # no aircraft file: the injection laws assume four 12-inch rotors (a 6-Ah 4S quad)
+        "ac313_2004": Log("ac313_2004", "ardupilot_copter_ac313_pixhawk_2014-10-18_20-04.bin",
+                          rotors=inj.Rotors(4, 0.305), carries=("clean", "payload", "offset",
+                                                                 "load")),
+        "ac313_2044": Log("ac313_2044", "ardupilot_copter_ac313_pixhawk_2014-10-18_20-44.bin",
+                          rotors=inj.Rotors(4, 0.305), carries=("clean", "payload", "offset",
+                                                                 "load")),
+        "mcgill_hover": Log("mcgill_hover", "px4_hexa_mcgill_2022-05-24_hover_to_critical.tlog",
+                            carries=("clean", "offset", "load", "cold_pack")),
+        "solar_surfer": SolarSurfer(),
+        "p42a": Cells("p42a"),
+        "q30": Cells("q30"),
+        "a123": Cells("a123"),
+    }
+
+
+# ============================================================================ injection
+
+@dataclass
+class Injected:
+    """A run's record and the truth of what was injected."""
+
+    record: pd.DataFrame
+    payload_kg: float
+    truth: dict            # parameter name → injected value (diagnose's units)
+    size: float            # the injected size in the detection limit's unit
+    fraction: float | None = None     # where in the flights a change falls (median)
+    cycle_spacing: float = 1.0        # mean cycles between consecutive discharges (fade)
+
+
+def _uniform(rng, lo, hi, scale=1.0):
+    return float(rng.uniform(lo, hi)) * scale
+
+
+def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> Injected:
+    """The draw's record with injection ``kind`` at ``size`` × realistic (module notes)."""
+    rec, r = d.record, d.pack_resistance_ohm
+    if kind == "clean":
+        return Injected(rec, d.payload_kg, {}, 0.0)
+    if kind == "payload":
+        scale = d.mass_kg / 2.955               # the M100 with its mid payload: 0.2-0.4 kg
+        dm = _uniform(rng, 0.2, 0.4, size * scale)
+        lo, hi = TIMINGS[timing]
+        fr = rng.uniform(lo, hi, len(d.flights)) if timing == "random" else \
+            np.full(len(d.flights), rng.uniform(lo, hi))
+        times = inj.change_times(rec, fr)
+        # carried from take-off, released at the change: the record before the change is
+        # flown dm heavier (the real flight is the state after the release)
+        out = _carry_until(rec, dm, times, d)
+        return Injected(out, d.payload_kg + dm, {"mass_step_kg": -dm}, dm,
+                        float(np.median(fr)))
+    if kind == "wind":
+        w = _uniform(rng, 3.0, 6.0, size)
+        frm = _uniform(rng, 0.0, 360.0)
+        law = _speed_law(d) if d.rotors is not None else None
+        out = inj.steady_wind(rec, w, frm, law=law, pack_resistance_ohm=r, power_logged=False)
+        return Injected(out, d.payload_kg, {"wind_speed_ms": w, "wind_from_deg": frm}, w)
+    if kind == "density":
+        ids = d.flights
+        half = set(rng.choice(len(ids), max(1, len(ids) // 2), replace=False).tolist())
+        deficit = (0.15, 0.25) if size == 1.0 else (0.30, 0.50)
+        ratios = {k: (1.0 - _uniform(rng, *deficit) if j in half else 1.0)
+                  for j, k in enumerate(ids)}
+        law = _speed_law(d) if d.rotors is not None else None
+        site_t = 15.0 - 0.0065 * d.site_altitude_m
+        site_p = d.rho * inj.R_AIR * (site_t + inj.T0_K)
+        out = inj.air_density(rec, ratios, site_pressure_pa=site_p, site_temperature_c=site_t,
+                              law=law, rng=rng, pack_resistance_ohm=r,
+                              avionics_w=d.aircraft.system_power_w if d.aircraft else 0.0,
+                              wing_split=None if law is not None else _wing_split(d))
+        return Injected(out, d.payload_kg, {"density_exponent": 1.0}, 1.0)
+    if kind == "load":
+        p_med = _median_airborne_power(rec)
+        watts = _uniform(rng, 0.033, 0.09, size) * p_med
+        out = inj.constant_load(rec, watts, pack_resistance_ohm=r)
+        return Injected(out, d.payload_kg, {"missing_w": watts}, watts)
+    if kind == "copper":
+        p_med = _median_airborne_power(rec)
+        i_med = float(np.nanmedian(rec["current_a"]))
+        share = _uniform(rng, 0.03, 0.08, size)
+        ohm = share * p_med / i_med**2
+        out = inj.copper_loss(rec, ohm, pack_resistance_ohm=r)
+        v_med = float(np.nanmedian(rec["voltage_v"]))
+        return Injected(out, d.payload_kg, {"copper_share": share,
+                                            "copper_x": ohm * p_med / v_med**2}, share)
+    if kind == "offset":
+        lo, hi = (0.05, 0.15) if d.cells_kind else (0.3, 0.8)
+        b = _uniform(rng, lo, hi, size)
+        out = inj.current_offset(rec, b, power_logged=d.cells_kind is None, rng=rng)
+        return Injected(out, d.payload_kg, {"current_offset_a": b}, b)
+    if kind == "cold_pack":
+        temps = {k: _uniform(rng, -5.0, 30.0) for k in d.flights}
+        ea = 19_000.0 * size
+        out = inj.cold_pack(rec, temps, r25_ohm=r, ea_j_per_mol=ea, pack_resistance_ohm=r,
+                            rng=rng)
+        return Injected(out, d.payload_kg, {"activation_energy_j_per_mol": ea}, ea)
+    if kind in ("fade", "cold_cells", "real_cold"):
+        return _cell_injection(kind, d, rng, size)
+    raise ValueError(kind)
+
+
+def _carry_until(rec, dm, times, d: Draw) -> pd.DataFrame:
+    """The record flown ``dm`` heavier before each flight's change time (the payload
+    carried from take-off and released then): :func:`testkit.injections.payload_step` of
+    +dm applied before the change, i.e. the step of −dm at the change on a flight that
+    was dm heavier all along."""
+    heavy_from_start = {k: -np.inf for k in times}
+    heavy = inj.payload_step(rec, dm, heavy_from_start, d.mass_kg, rho=d.rho,
+                             pack_resistance_ohm=0.0, rotors=d.rotors, wing=d.wing)
+    dp_all = heavy["power_w"].to_numpy(float) - rec["power_w"].to_numpy(float)
+    t = rec["time_s"].to_numpy(float)
+    before = np.zeros(len(rec), bool)
+    for key, idx in inj.experiments(rec):
+        if key in times:
+            pos = rec.index.get_indexer(idx)
+            before[pos] = t[pos] < times[key]
+    return inj.add_power(rec, np.where(before, dp_all, 0.0), d.pack_resistance_ohm)
+
+
+def _speed_law(d: Draw) -> inj.SpeedLaw:
+    return inj.fit_speed_law(d.record, d.mass_kg, d.rho, d.rotors)
+
+
+def _wing_split(d: Draw):
+    """Parasite and induced power of each sample of a fixed wing at its logged airspeed
+    (the aircraft's C_D0 and span, the law's propulsive efficiency). [W]"""
+    fw = d.aircraft.fixed_wing
+
+    def split(g):
+        v = np.maximum(inj.speed_of(g), 5.0)
+        q = 0.5 * d.rho * v**2
+        par = q * fw.wing_area_m2 * fw.cd0 * v / d.wing.propulsive_efficiency
+        ind = (d.mass_kg * inj.G) ** 2 / (q * math.pi * d.wing.oswald * d.wing.span_m**2) \
+            * v / d.wing.propulsive_efficiency
+        return par, ind
+
+    return split
+
+
+def _median_airborne_power(rec) -> float:
+    p = []
+    for _, idx in inj.experiments(rec):
+        g = rec.loc[idx]
+        p.append(g["power_w"].to_numpy(float)[inj.airborne(g)])
+    p = np.concatenate(p)
+    return float(np.nanmedian(p)) if p.size else float(np.nanmedian(rec["power_w"]))
+
+
+#: Realistic cell ageing: capacity fade and DC-resistance growth. [1/cycle]
+FADE_PER_CYCLE, R_GROWTH_PER_CYCLE = 0.0004, 0.0006
+
+
+def _cell_injection(kind, d: Draw, rng, size) -> Injected:
+    parts = [g.reset_index(drop=True) for _, g in d.record.groupby("experiment", sort=False)]
+    if kind == "real_cold":
+        # the truth: the energy each discharge gave against the 25 °C one, as the charge
+        # scale 1 + k h of the cut-off level (testkit.cells.charge_scale_equivalent)
+        ref = next(g for g in parts if g["temperature_c"].iloc[0] == 25.0)
+        pairs = [g for g in parts if g["temperature_c"].iloc[0] < 25.0]
+        f = np.array([cells.energy_wh(ref) / cells.energy_wh(g) - 1.0 for g in pairs])
+        dz = np.array([cells.mean_hinge(g) for g in pairs])
+        k = cells.charge_scale_equivalent(f, dz, np.zeros_like(dz))
+        return Injected(d.record, 0.0, {"temperature_coefficient_per_c": k}, k)
+    out, xs, z0, pairs = [], [], [], []
+    if kind == "fade":
+        for g in parts:
+            n = float(rng.uniform(0.0, 500.0))
+            a = cells.age(g, n, size * FADE_PER_CYCLE, size * R_GROWTH_PER_CYCLE,
+                          d.pack_resistance_ohm)
+            out.append(a)
+            xs.append(n)
+            z0.append(0.0)
+            pairs.append((g, a))
+        order = np.argsort(xs)                # logs listed by date: experiment order = cycles
+        out = [out[j] for j in order]
+        spacing = float(np.ptp(xs)) / max(len(xs) - 1, 1)
+        key = "fade_per_cycle"
+    else:
+        cold = set(rng.choice(len(parts), len(parts) // 2, replace=False).tolist())
+        for j, g in enumerate(parts):
+            if "temperature_c" not in g:
+                g = g.assign(temperature_c=22.0, ambient_temperature_c=22.0)
+            if j not in cold:
+                out.append(g)
+                continue
+            drop = float(g["ambient_temperature_c"].mean())
+            c = cells.chill(g, drop, size * 0.10, size * d.pack_resistance_ohm, 19_000.0)
+            out.append(c)
+            xs.append(cells.mean_hinge(c) - cells.mean_hinge(g))
+            z0.append(cells.mean_hinge(g))
+            pairs.append((g, c))
+        key = "temperature_coefficient_per_c"
+    if kind != "fade":
+        spacing = 1.0
+    full = np.array([float(g["voltage_v"].iloc[-1]) <= 3.5 for g, _ in pairs])
+    truth = float("nan")
+    if full.any():
+        f = np.array([cells.energy_wh(g) / cells.energy_wh(c) - 1.0
+                      for (g, c), ok in zip(pairs, full) if ok])
+        truth = cells.charge_scale_equivalent(f, np.asarray(xs)[full], np.asarray(z0)[full])
+    return Injected(pd.concat(out, ignore_index=True), 0.0, {key: truth}, truth,
+                    cycle_spacing=spacing)
+
+
+# ============================================================================ cells of the matrix
+
+@dataclass(frozen=True)
+class Cell:
+    source: str
+    injection: str
+    richness: str
+    timing: str | None
+    size: str
+
+    @property
+    def name(self) -> str:
+        t = f"/{self.timing}" if self.timing else ""
+        return f"{self.source}/{self.injection}{t}/{self.richness}/{self.size}"
+
+    @property
+    def expect(self) -> str | None:
+        return EXPECT[self.injection]
+
+
+def all_cells(source_names=None, sizes=("realistic", "2x")) -> list[Cell]:
+    """Every cell of the matrix (module notes) for the named sources."""
+    out = []
+    for name, src in sources().items():
+        if source_names and name not in source_names:
+            continue
+        for kind in src.carries:
+            timings = list(TIMINGS) if kind == "payload" else [None]
+            for rich in RICHNESS:
+                for timing in timings:
+                    for size in (("realistic",) if kind in ("clean", "real_cold") else sizes):
+                        out.append(Cell(name, kind, rich, timing, size))
+    return out
+
+
+def _seed(cell: Cell, run: int, seed: int) -> int:
+    return zlib.crc32(f"{cell.source}|{run}|{seed}".encode())
+
+
+def _detail_seed(cell: Cell, run: int, seed: int) -> int:
+    return zlib.crc32(f"{cell.name}|{run}|{seed}".encode())
+
+
+#: The parameter (diagnose's detection entries) each injection's size is given in.
+SIZE_KEY = {"payload": "mass_step_kg", "wind": "wind_speed_ms", "density": "density_exponent",
+            "load": "system_power_w", "copper": "efficiency_slope",
+            "offset": "current_offset_a", "cold_pack": "activation_energy_j_per_mol",
+            "fade": "fade_per_cycle", "cold_cells": "temperature_coefficient_per_c",
+            "real_cold": "temperature_coefficient_per_c"}
+
+
+def detection_of(res, effect: str, key: str | None) -> list[dict]:
+    """diagnose's detection entries for ``effect`` whose limit is in the parameter
+    ``key`` (any parameter when None)."""
+    return [d for d in getattr(res, "detection", []) or []
+            if d["effect"] == effect and (key is None or d.get("parameter") == key)]
+
+
+def limit_at(entry: dict | None, fraction: float | None) -> float:
+    """The detection limit of an entry (the one for the position ``fraction`` of a change
+    within the flights where the entry gives limits by position); inf when not
+    identifiable at any size."""
+    if entry is None or not entry.get("identifiable"):
+        return math.inf
+    by = entry.get("by_position")
+    if by and fraction is not None:
+        keys = np.array([float(k) for k in by])
+        vals = np.array([math.inf if by[k] is None else by[k] for k in by], float)
+        if not np.isfinite(vals).any():
+            return math.inf
+        return float(np.interp(fraction, keys, vals))
+    lim = entry.get("limit")
+    return math.inf if lim is None else float(lim)
+
+
+def within_2se(effect: str, params: dict, truth: dict) -> bool | None:
+    """Whether the finding's parameter lies within two standard errors of the injected
+    value (None where the injection has no value in diagnose's units)."""
+    key = {"payload_change": "mass_step_kg", "wind": "wind_speed_ms",
+           "air_density": "density_exponent", "system_power": "missing_w",
+           "current_offset": "current_offset_a", "capacity_fade": "fade_per_cycle",
+           "efficiency_curve": "efficiency_slope"}.get(effect)
+    if effect == "temperature":
+        for k in ("activation_energy_j_per_mol", "temperature_coefficient_per_c"):
+            if k in truth and k in params and math.isfinite(truth[k]):
+                return abs(params[k] - truth[k]) <= 2 * params.get(k + "_stderr", math.inf)
+        return None
+    if key is None or key not in truth or key not in params or not math.isfinite(truth[key]):
+        return None
+    if params.get("cycle_from_experiment_order"):      # per experiment, not per cycle
+        return None
+    se = params.get(key + "_stderr", params.get("system_power_w_stderr", math.inf))
+    return abs(params[key] - truth[key]) <= 2 * se
+
+
+def clean_parameters(d: Draw, richness: str, effect: str) -> dict | None:
+    """The parameters of ``effect`` fitted (named or not) on the draw's clean record at
+    ``richness``: what the real flights carry of it already (their own wind, load,
+    efficiency curve), added to the injected value for the truth."""
+    from planner.identify.diagnose import diagnose
+    from planner.identify.diagnose.effects import make_effects
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            res = diagnose(reduce(d.record, richness), d.pack, d.aircraft,
+                           payload_kg=d.payload_kg, site_altitude_m=d.site_altitude_m,
+                           effects=[effect])
+            lv = res.levels["power"].result.level
+            e = make_effects([effect])[0]
+            if e.skip_reason(lv):
+                return None
+            fit = lv.fit([e], np.ones(lv.n_rows, bool))
+            values, stderr = lv.physical(fit, [e])
+            return e.parameters(values, stderr, lv, fit.state)
+        except Exception:
+            return None
+
+
+def _truth(kind: str, injd: Injected, clean: dict | None, res) -> tuple[dict, float]:
+    """The truth in diagnose's units and the size in the detection entries' parameter,
+    with what the clean record carries already (:func:`clean_parameters`)."""
+    truth, size = dict(injd.truth), injd.size
+    if kind == "wind" and clean:
+        to = math.radians(truth["wind_from_deg"] + 180.0)
+        wn = clean["wind_n_ms"] + truth["wind_speed_ms"] * math.cos(to)
+        we = clean["wind_e_ms"] + truth["wind_speed_ms"] * math.sin(to)
+        truth["wind_speed_ms"] = math.hypot(wn, we)
+    if kind == "load" and clean:
+        truth["missing_w"] += clean["missing_w"]
+    if kind == "copper":
+        base = res.levels.get("power")
+        eta = base.base_values["efficiency"] if base else 0.5
+        x = truth["copper_x"]
+        slope = -eta * x / (1.0 + x)
+        size = abs(slope)
+        truth["efficiency_slope"] = slope + (clean["efficiency_slope"] if clean else 0.0)
+    return truth, size
+
+
+def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) -> dict:
+    """Run one cell ``runs`` times; the tallies of the module notes."""
+    from planner.identify.diagnose import diagnose
+
+    src = sources()[cell.source]
+    n = max(1, round(runs * src.runs_scale))
+    st = {"cell": cell.name, "source": cell.source, "injection": cell.injection,
+          "richness": cell.richness, "timing": cell.timing, "size": cell.size,
+          "expect": cell.expect, "runs": n, "named_first": 0, "named_any": 0,
+          "false_runs": 0, "false": Counter(), "silent": 0, "identifiable": 0,
+          "said_not_identifiable": 0, "within_2se": 0, "checked_2se": 0, "limits": [],
+          "sizes": [], "cpu_s": [], "errors": Counter()}
+    draws = {} if draws is None else draws
+    for run in range(n):
+        key = (cell.source, run, seed)
+        if key not in draws:
+            draws[key] = src.draw(np.random.default_rng(_seed(cell, run, seed)))
+        d = draws[key]
+        rng = np.random.default_rng(_detail_seed(cell, run, seed))
+        try:
+            injd = inject(cell.injection, d, rng, SIZES[cell.size], cell.timing)
+        except Exception as exc:            # a source that cannot carry this injection
+            st["errors"][f"inject: {type(exc).__name__}: {exc}"[:160]] += 1
+            continue
+        record = reduce(injd.record, cell.richness)
+        opts = {"payload_kg": injd.payload_kg, "site_altitude_m": d.site_altitude_m}
+        t0 = time.process_time()
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = diagnose(record, d.pack, d.aircraft, **opts)
+        except Exception as exc:
+            st["errors"][f"diagnose: {type(exc).__name__}: {exc}"[:160]] += 1
+            continue
+        st["cpu_s"].append(time.process_time() - t0)
+        names = [f["effect"] for f in res.findings]
+        expect = cell.expect
+        st["silent"] += not names
+        false = [x for x in names if x != expect and x not in src.real]
+        st["false_runs"] += bool(false)
+        st["false"].update(false)
+        if expect is None:
+            continue
+        clean = None
+        if cell.injection in ("wind", "load", "copper") and d.aircraft is not None:
+            ck = (key, cell.richness, expect)
+            if ck not in draws:
+                draws[ck] = clean_parameters(d, cell.richness, expect)
+            clean = draws[ck]
+        truth, size = _truth(cell.injection, injd, clean, res)
+        entries = detection_of(res, expect, SIZE_KEY.get(cell.injection))
+        if cell.injection == "fade" and any(e.get("per") == "experiment order"
+                                            for e in entries):
+            # without a cycle count the fade is per experiment (logs in date order)
+            size *= injd.cycle_spacing
+        limit = min([limit_at(e, injd.fraction) for e in entries], default=math.inf)
+        st["limits"].append(limit)
+        st["sizes"].append(size)
+        ident = math.isfinite(limit) and abs(size) >= limit
+        st["identifiable"] += ident
+        if names and names[0] == expect:
+            st["named_first"] += 1
+            ok = within_2se(expect, res.findings[0]["parameters"], truth)
+            if ok is not None:
+                st["checked_2se"] += 1
+                st["within_2se"] += bool(ok)
+        if expect in names:
+            st["named_any"] += 1
+        elif not ident:
+            st["said_not_identifiable"] += bool(entries)
+    return st
+
+
+def verdict(st: dict) -> tuple[str, bool | None]:
+    """The issue's criterion for one realistic-size cell: (kind, met). Kinds: ``clean``
+    (silent in ≥ 95 %), ``identifiable`` (the detection limit calls it so in most runs:
+    named first in ≥ 80 %, within 2 SE in most), ``not identifiable`` (said so where not
+    found, false causes in ≤ 5 %)."""
+    n = max(st["runs"] - sum(st["errors"].values()), 1)
+    if st["expect"] is None:
+        return "clean", st["silent"] / n >= 0.95
+    false_ok = st["false_runs"] / n <= 0.05
+    if st["identifiable"] / n >= 0.5:
+        two = st["within_2se"] >= 0.5 * st["checked_2se"] if st["checked_2se"] else True
+        return "identifiable", st["named_first"] / n >= 0.8 and two
+    missed = n - st["named_any"]
+    said = st["said_not_identifiable"] >= missed
+    return "not identifiable", said and false_ok
