@@ -30,7 +30,8 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "data"
 ELLIPSIS = {"...", "…"}
 #: Options whose value is a file the command writes.
-OUTPUT_OPTIONS = {"--out", "--json", "--plot", "--csv", "--params-out", "--sorties-out"}
+OUTPUT_OPTIONS = {"--out", "--json", "--plot", "--csv", "--params-out", "--sorties-out",
+                  "--map", "--kml"}
 _RUN = "import sys; from planner.cli.main import main; sys.exit(main(sys.argv[1:]))"
 
 

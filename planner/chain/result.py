@@ -55,6 +55,9 @@ class MissionResult:
         One row per leg (see :meth:`to_dict` for the columns and units).
     point_of_no_return : dict or None
         First point where a return home would not land with the reserve.
+    worst_return : dict or None
+        The return-home point with the smallest margin (``rtl_margin_mah``), where it is
+        (``east_m``, ``north_m``, ``altitude_m``, ``time_s``, ``leg``).
     rtl_min_margin_mah : float
         Smallest return-home margin along the mission. [mAh]
     peak_current_a, min_voltage_v : float
@@ -107,6 +110,7 @@ class MissionResult:
     binding: str | None = None
     cutoff_limited: bool = False
     unflyable_legs: list[int] = field(default_factory=list)
+    worst_return: dict | None = None
 
     @property
     def go(self) -> bool:
@@ -166,6 +170,7 @@ class MissionResult:
             "peak_current_a": _py(self.peak_current_a), "min_voltage_v": _py(self.min_voltage_v),
             "rtl_min_margin_mah": _py(self.rtl_min_margin_mah),
             "point_of_no_return": self.point_of_no_return,
+            "worst_return": self.worst_return,
             "circuit": self.circuit,
             "best_speeds": self.best_speeds,
             "binding": self.binding,

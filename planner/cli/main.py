@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
 #: files are not replaced) and against every file the command reads
 #: (:mod:`planner.io.files`). A command whose output option names a folder sets
 #: ``output_folders`` (the flags) in its parser's defaults.
-OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out")
+OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out", "map", "kml")
 
 
 #: Where each kind of file is given, by the option (``dest``) that takes it: the first of

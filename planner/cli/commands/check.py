@@ -8,6 +8,7 @@ import math
 from planner.io import files
 from planner.chain.mission_chain import MissionChain
 from planner.chain.result import MissionResult
+from planner.cli.commands.route import add_route_options, route_paths, write_route
 from planner.cli.commands.common import (
     flags_for,
     fmt,
@@ -53,6 +54,7 @@ def register(sub) -> None:
     p.add_argument("--payload", help="payload mass [kg] (overrides the mission's)")
     p.add_argument("--json", help="write the result as JSON to this file")
     p.add_argument("--plot", help="write a PNG of power and remaining charge")
+    add_route_options(p)
     p.add_argument("--failsafe", metavar="FIRMWARE",
                    help="derive the battery failsafe parameters of this firmware from the "
                         "mission's worst return home: ardupilot or px4")
@@ -105,6 +107,7 @@ def run(args) -> int:
     if wind is not None:
         check_speed(wind[0], "--wind", args.wind, aircraft, "wind")
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
+    map_out, kml_out = route_paths(args, mission)
     env = mission.environment
     if wind is not None:
         env = dataclasses.replace(env, wind_speed_ms=wind[0], wind_from_deg=wind[1])
@@ -161,6 +164,7 @@ def run(args) -> int:
             "" if unc is None else f"; {unc.verdict} with {100 * unc.confidence:.0f} % "
                                    f"confidence (P = {100 * unc.p_landing:.1f} %)")
         plots.save_mission_plot(result, plot_out, title=title, uncertainty=unc)
+    write_route(map_out, kml_out, result, mission, title=f"{mission.name}: {result.verdict}")
     if plan is not None and not plan.go:
         return 1
     if unc is not None:

@@ -24,6 +24,8 @@ from planner.cli.commands.common import (
     plot_path,
     write_json,
 )
+from planner.cli.commands.route import (add_route_options, route_paths, write_route,
+                                        write_sorties_route)
 from planner.errors import InputError
 from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
@@ -56,6 +58,7 @@ def register(sub) -> None:
     p.add_argument("--top", help="show only the best N packs in the table (JSON: all)")
     p.add_argument("--json", help="write the ranked packs as JSON to this file")
     p.add_argument("--plot", help="write a PNG of pack mass against landing margin")
+    add_route_options(p, "the chosen pack's route (or the sorties, each in its colour)")
     p.add_argument("--no-sorties", action="store_true",
                    help="when no pack is feasible, do not plan sorties")
     p.add_argument("--sorties-out", metavar="DIR",
@@ -118,6 +121,7 @@ def run_select(args) -> int:
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
+    map_out, kml_out = route_paths(args, mission)
     if payload is None:
         from planner.cli.commands.check import check_mission_payload
         check_mission_payload(mission, args.mission, aircraft)
@@ -158,6 +162,13 @@ def run_select(args) -> int:
             selection, plot_out,
             title=f"{mission.name}: {aircraft.name}, {len(e)} packs "
                   f"({int(e.feasible.sum())} feasible)", plan=plan)
+    if selection.best is not None:
+        best = e.mission_result(selection.best)
+        write_route(map_out, kml_out, best, mission,
+                    title=f"{mission.name}: {best.battery}, {best.verdict}")
+    elif plan is not None:
+        write_sorties_route(map_out, kml_out, plan, mission,
+                            title=f"{mission.name}: {plan.count} sorties with {plan.pack.name}")
     return 0 if selection.best is not None else 1
 
 
