@@ -66,7 +66,7 @@ def _point(name: str, lon: float, lat: float, alt: float, description: str = "",
 
 
 def route_kml(routes: list[tuple[str, dict]], home: tuple[float, float, float], name: str,
-              where: str = "--kml") -> str:
+              where: str = "KML") -> str:
     """The KML document of one or more checked routes (``routes``: (name, the check's
     :meth:`MissionResult.to_dict`) pairs, e.g. the sorties of a plan, each in its own
     folder) flown from ``home`` (latitude, longitude [deg], altitude above mean sea level

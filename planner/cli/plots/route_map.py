@@ -165,7 +165,13 @@ def _figure():
 
 
 def save_route_map(result, path, title=None, option: str = "--map"):
-    """The map of one pre-flight check (:class:`planner.chain.result.MissionResult`)."""
+    """Write :func:`route_map` to ``path``."""
+    save(route_map(result, title), path, option)
+
+
+def route_map(result, title=None):
+    """The map of one pre-flight check (:class:`planner.chain.result.MissionResult`):
+    the figure, its axes ``"map"``, ``"wind"`` and ``"bar"``."""
     fig, axes = _figure()
     ax = axes["map"]
     lc = draw_route(ax, result)
@@ -183,10 +189,15 @@ def save_route_map(result, path, title=None, option: str = "--map"):
     ax.set_title(title or f"{result.aircraft}, {result.battery}: {result.verdict}",
                  fontsize=10)
     _legend(ax)
-    save(fig, path, option)
+    return fig
 
 
 def save_sorties_map(plan, path, title=None, option: str = "--map"):
+    """Write :func:`sorties_map` to ``path``."""
+    save(sorties_map(plan, title), path, option)
+
+
+def sorties_map(plan, title=None):
     """The sorties of a plan (:class:`planner.chain.sizing.SortiePlan`), each in its own
     colour, the swap points marked."""
     fig, axes = _figure()
@@ -211,4 +222,4 @@ def save_sorties_map(plan, path, title=None, option: str = "--map"):
         draw_wind(axes["wind"], plan.sorties[0].result.environment)
     ax.set_title(title or f"{plan.count} sorties with {plan.pack.name}", fontsize=10)
     _legend(ax)
-    save(fig, path, option)
+    return fig
