@@ -438,6 +438,7 @@ class ChainResult:
             margin_time_s=float(self.margin_time_s[i]),
             hold_power_w=float(self.hold_power_w[i]), legs=legs,
             point_of_no_return=self.point_of_no_return(i), worst_return=self.worst_return(i),
+            endurance=self.endurance(i),
             rtl_min_margin_mah=float(self.rtl_min_margin_mah[i]),
             peak_current_a=(float(np.nanmax(cur)) if np.any(np.isfinite(cur))
                             else float("nan")),
@@ -472,6 +473,30 @@ class ChainResult:
                 "max_endurance_power_w": float(power(b.max_endurance)),
                 "max_range_airspeed_ms": float(b.max_range),
                 "max_range_power_w": float(power(b.max_range))}
+
+
+    def endurance(self, i: int) -> dict:
+        """Hold and least-power endurance of pack ``i`` at its take-off mass, from a full
+        pack to the landing limit (usable charge less the reserve), in still air:
+        ``hold_s`` at the mission's hover (multirotor) or loiter (fixed-wing) power
+        ``hold_power_w``, and ``least_power_s`` in level flight at the airspeed of least
+        power ``least_power_airspeed_ms`` (``least_power_w``). The integral model at
+        constant power, [UAV23] eq. 15 (:func:`integral.time_to_charge`). [s], [W], [m/s]"""
+        pa = steps.pack_arrays([self.packs[i]], self.environment.temperature_c)
+        limit = max(float(self.usable_mah[i] - self.reserve_mah[i]), 0.0) * AS_PER_MAH
+
+        def hold(power_w):
+            return float(integral.time_to_charge(0.0, power_w, limit / pa["scale"][0],
+                                                 pa["delta"][0], pa["eps"][0],
+                                                 pa["beta"][0]))
+
+        best = self.aircraft_best_speeds(i)
+        p_hold, p_least = float(self.hold_power_w[i]), best["max_endurance_power_w"]
+        return {"hold_power_w": p_hold, "hold_s": hold(p_hold),
+                "least_power_airspeed_ms": best["max_endurance_airspeed_ms"],
+                "least_power_w": p_least, "least_power_s": hold(p_least),
+                "takeoff_mass_kg": float(self.takeoff_mass_kg[i]),
+                "reserve_mah": float(self.reserve_mah[i])}
 
 
 def route_columns(table, home) -> dict[str, np.ndarray]:

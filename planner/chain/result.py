@@ -55,6 +55,9 @@ class MissionResult:
         One row per leg (see :meth:`to_dict` for the columns and units).
     point_of_no_return : dict or None
         First point where a return home would not land with the reserve.
+    endurance : dict or None
+        Hover (loiter) and least-power endurance with this pack at this mass to the
+        reserve (:meth:`planner.chain.mission_chain.ChainResult.endurance`). [s], [W]
     worst_return : dict or None
         The return-home point with the smallest margin (``rtl_margin_mah``), where it is
         (``east_m``, ``north_m``, ``altitude_m``, ``time_s``, ``leg``).
@@ -111,6 +114,7 @@ class MissionResult:
     cutoff_limited: bool = False
     unflyable_legs: list[int] = field(default_factory=list)
     worst_return: dict | None = None
+    endurance: dict | None = None
 
     @property
     def go(self) -> bool:
@@ -171,6 +175,7 @@ class MissionResult:
             "rtl_min_margin_mah": _py(self.rtl_min_margin_mah),
             "point_of_no_return": self.point_of_no_return,
             "worst_return": self.worst_return,
+            "endurance": self.endurance,
             "circuit": self.circuit,
             "best_speeds": self.best_speeds,
             "binding": self.binding,

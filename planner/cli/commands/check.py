@@ -9,6 +9,7 @@ from planner.io import files
 from planner.chain.mission_chain import MissionChain
 from planner.chain.result import MissionResult
 from planner.cli.commands.route import add_route_options, route_paths, write_route
+from planner.cli.commands.summary_lines import endurance_line
 from planner.cli.commands.common import (
     flags_for,
     fmt,
@@ -364,6 +365,8 @@ def render(r: MissionResult, name: str) -> str:
                      f"{b['max_endurance_airspeed_ms']:.1f} m/s ({b['max_endurance_power_w']:.0f} W), "
                      f"max range {b['max_range_airspeed_ms']:.1f} m/s "
                      f"({b['max_range_power_w']:.0f} W)")
+    if endurance_line(r):
+        lines.append(endurance_line(r))
     if r.circuit:
         c = r.circuit
         lines.append(f"Voltage   {c['model']}: pack {c['pack_temperature_c']:.0f} → "
