@@ -9,7 +9,7 @@ from planner.io import files
 
 
 def add_route_options(parser, what: str = "the route") -> None:
-    parser.add_argument("--map", metavar="F.png",
+    parser.add_argument("--map", metavar="F.png", dest="route_map",
                         help=f"write a map of {what} in metres east/north of home: legs "
                              "coloured by the charge left, point of no return, worst "
                              "return home, wind, scale")
@@ -21,7 +21,7 @@ def add_route_options(parser, what: str = "the route") -> None:
 def route_paths(args, mission) -> tuple[str | None, str | None]:
     """The checked ``--map`` and ``--kml`` paths (before any work: a KML of a mission
     without a home position is refused here)."""
-    map_out = plot_path(args.map, "--map")
+    map_out = plot_path(args.route_map, "--map")
     kml_out = output_path(args.kml, "--kml")
     if kml_out is not None and mission.home is None:
         raise InputError(f"--kml: {mission.source or mission.name} has no home position "
