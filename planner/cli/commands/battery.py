@@ -264,7 +264,12 @@ def run_fit(args) -> int:
             data["circuit_validation"] = circuit_scores
         write_json(data, json_out)
     if plot_out:
-        save_fit_plot(experiments, result, plot_out)
+        from planner.cli.plots.battery import save_fit_plot
+
+        written = save_fit_plot(experiments, result, plot_out)
+        if len(written) > 1:
+            print(f"wrote     {', '.join(map(str, written))} ({len(written)} pages of at "
+                  "most 8 experiments)")
     return 0
 
 
@@ -347,48 +352,6 @@ def render_fit(result: fit.IntegralFit) -> str:
     if result.poorly_determined:
         lines.append(f"POORLY DETERMINED: {', '.join(result.poorly_determined)}")
     return "\n".join(lines)
-
-
-def save_fit_plot(experiments, result: fit.IntegralFit, path) -> None:
-    """Measured vs predicted C^β and residual C − Ĉ per experiment ([UAV23] Fig. 8–11 kind)."""
-    from planner.cli.plots.common import item_grid, page_path, pages, save
-
-    by_name = {m.experiment: m for m in result.metrics}
-    params = result.parameters
-    chunks = pages(len(experiments))
-    for k, chunk in enumerate(chunks):
-        fig, cells = item_grid(len(chunk), 2, stack="horizontal")
-        _draw_fit_page(fig, [experiments[j] for j in chunk], cells, by_name, params)
-        more = f" (page {k + 1} of {len(chunks)})" if len(chunks) > 1 else ""
-        fig.suptitle(f"integral model δ = {params['delta']:.4g}, ε = {params['epsilon']:.4g}, "
-                     f"β = {params['beta']:.4g}{more}")
-        save(fig, page_path(path, k))
-
-
-def _draw_fit_page(fig, experiments, cells, by_name, params) -> None:
-    for row, e in zip(cells, experiments):
-        m = by_name[e.name]
-        c_hat = integral.charge(e.time_s, e.power_w, **params)
-        t_min = e.time_s / 60.0
-        b = params["beta"]
-        row[0].plot(t_min, integral.stress_from_charge(e.charge_as, b), color="k", lw=1.6,
-                    label="measured $C^\\beta$")
-        row[0].plot(t_min, integral.stress_from_charge(c_hat, b), color="C3", lw=1.2, ls="--",
-                    label="model $\\hat C^\\beta$")
-        row[0].set_title(f"{e.name} ({m.split}, mean {m.mean_power_w:.0f} W)")
-        row[0].set_xlabel("time [min]")
-        row[0].set_ylabel("$C^\\beta$ [(A·s)$^\\beta$]")
-        row[0].legend(loc="upper left", fontsize=8)
-        row[0].grid(alpha=0.3)
-        row[1].plot(t_min, (e.charge_as - c_hat) / AS_PER_MAH, color="C0", lw=1.2,
-                    label=f"$r = C - \\hat C$ (RMSE {m.rmse_mah:.1f} mAh, "
-                          f"final {m.final_error_pct:+.2f} %)")
-        row[1].axhline(0.0, color="0.5", lw=0.8)
-        row[1].set_title(f"{e.name}: residual")
-        row[1].set_xlabel("time [min]")
-        row[1].set_ylabel("residual [mAh]")
-        row[1].legend(loc="upper left", fontsize=8)
-        row[1].grid(alpha=0.3)
 
 
 # --------------------------------------------------------------------------- design

@@ -80,7 +80,10 @@ def run(args) -> int:
                      option="--csv")
     if plot_out:
         from planner.cli.plots import common as plots
-        plots.save_replay_plot(result, plot_out)
+        written = plots.save_replay_plot(result, plot_out)
+        if len(written) > 1:
+            print(f"wrote     {', '.join(map(str, written))} ({len(written)} pages of at "
+                  f"most {plots.PER_PAGE} logs)")
     if failed:
         print(f"error: {len(failed)} of {len(args.logs)} files could not be read (named "
               "above); the others were replayed", file=sys.stderr)
