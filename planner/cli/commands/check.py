@@ -336,7 +336,7 @@ def render(r: MissionResult, name: str) -> str:
              + f", site {env.site_altitude_m:.0f} m AMSL", ""]
     head = (f"{'#':>3} {'leg':<8} {'time s':>7} {'dist m':>7} {'TAS m/s':>7} {'GS m/s':>6} "
             f"{'vz m/s':>6} {'power W':>8} {'curr A':>7} {'volt V':>7} {'mAh':>7} "
-            f"{'left %':>6} {'RTL mAh':>8}")
+            f"{'left %':>6} {'RTL margin mAh':>14}")
     lines += [head, "-" * len(head)]
     unflyable = set(r.unflyable_legs)
     for i, row in enumerate(r.legs.itertuples(index=False), 1):
@@ -352,7 +352,7 @@ def render(r: MissionResult, name: str) -> str:
             f"{fmt(row.climb_rate_ms, 1, 6)} {fmt(row.power_w, 1, 8)} "
             f"{fmt(row.current_a, 1, 7)} {fmt(row.voltage_v, 2, 7)} "
             f"{fmt(row.charge_mah, 0, 7)} {left:>6} "
-            f"{fmt(row.rtl_margin_mah, 0, 8)}")
+            f"{fmt(row.rtl_margin_mah, 0, 14)}")
     lines.append("-" * len(head))
     lines.append(f"Total     {r.duration_s / 60:.1f} min, {r.energy_wh:.1f} Wh, "
                  f"{r.charge_used_mah:.0f} mAh drawn; peak {r.peak_current_a:.1f} A, "
