@@ -3,6 +3,8 @@ sweeps naming the limit a row exceeds, the check's return-home column named as t
 it is."""
 
 import json
+
+import pytest
 from pathlib import Path
 
 from planner.cli.main import main
@@ -44,3 +46,56 @@ def test_check_names_the_return_home_column_as_a_margin(capsys):
     main(["check", SURVEY, "--aircraft", SOLO])
     out = capsys.readouterr().out
     assert "RTL margin mAh" in out and "RTL mAh" not in out
+
+
+# --------------------------------------------------------------------------- replay
+
+def _battery(measured, predicted, **kw):
+    from planner.identify.replay import BatteryReplay
+
+    base = dict(model="fitted", rmse_mah=1.0,
+                final_error_pct=100.0 * (measured - predicted) / measured if measured else
+                float("nan"), rmse_vs_integrated_mah=1.0, final_error_vs_integrated_pct=0.0,
+                measured_final_mah=measured, predicted_final_mah=predicted, time_error_s={},
+                reserve_reached_s=None, reserve_predicted_s=None)
+    base.update(kw)
+    return BatteryReplay(**base)
+
+
+def _experiment(name, duration, battery):
+    from planner.identify.replay import ExperimentReplay
+
+    return ExperimentReplay(experiment=name, duration_s=duration, samples=10,
+                            battery=battery, power=None, notes=[])
+
+
+def test_overall_final_error_is_weighted_by_the_charge_drawn():
+    """Two short logs with large relative errors and one whole flight: the overall figure
+    is sum(measured − predicted) / sum(measured), not the mean of the three percentages;
+    a log whose counter ran below zero carries no weight."""
+    from planner.identify.replay import _overall
+
+    exps = [_experiment("short", 6, _battery(10.0, 6.0)),        # +40 %
+            _experiment("shortish", 20, _battery(40.0, 30.0)),   # +25 %
+            _experiment("flight", 900, _battery(4000.0, 3960.0)),  # +1 %
+            _experiment("negative", 200, _battery(-6.0, 50.0))]
+    o = _overall(exps)["battery"]
+    assert o["final_error_pct"] == pytest.approx(100 * (4 + 10 + 40) / 4050)
+    assert o["logs_weighted"] == 3
+    assert o["unweighted_final_error_pct"] > 10 * o["final_error_pct"]
+
+
+def test_replay_explains_a_time_error_longer_than_the_flight_and_a_negative_charge():
+    from planner.cli.commands.replay import render
+    from planner.identify.replay import ReplayResult, _overall
+
+    b = _battery(1000.0, 950.0, time_error_s={"25pct": 5132.0, "50pct": 12.0},
+                 time_error_power_w={"25pct": 9.0, "50pct": 310.0}, mean_power_w=305.0)
+    exps = [_experiment("log171", 243, b),
+            _experiment("m100_211", 120, _battery(-6.0, 40.0))]
+    text = render(ReplayResult(exps, _overall(exps)))
+    assert "from 25 % +5132 s" in text
+    assert "from 25 % the power assumed was 9 W against 305 W" in text
+    assert "from 50 % the power assumed" not in text       # 12 s is within the flight
+    assert "ends at -6 mAh, below zero" in text
+    assert "measured − predicted throughout" in text
