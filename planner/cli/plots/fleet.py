@@ -53,9 +53,12 @@ def plot_drift(ok: pd.DataFrame, order: np.ndarray):
     and annotated with their value."""
     fig, ax = figure(figsize=(11, 4.2))
     series = []
-    for col, label, colour in (("charge_error_pct", "charge (measured − predicted)", "C0"),
-                               ("energy_error_pct", "energy (predicted − measured)", "C3")):
-        y = pd.to_numeric(ok[col], errors="coerce").to_numpy(float)
+    # one sign for both: measured − predicted (the table's energy error is predicted −
+    # measured, so it is turned round here)
+    for col, sign, label, colour in (
+            ("charge_error_pct", 1.0, "charge (measured − predicted)", "C0"),
+            ("energy_error_pct", -1.0, "energy (measured − predicted)", "C3")):
+        y = sign * pd.to_numeric(ok[col], errors="coerce").to_numpy(float)
         series.append((y, label, colour))
     lo, hi = outlier_limits(np.concatenate([y for y, _, _ in series]) if series
                             else np.array([]))

@@ -99,3 +99,39 @@ def test_replay_explains_a_time_error_longer_than_the_flight_and_a_negative_char
     assert "from 50 % the power assumed" not in text       # 12 s is within the flight
     assert "ends at -6 mAh, below zero" in text
     assert "measured − predicted throughout" in text
+
+
+# --------------------------------------------------------------------------- fleet
+
+def _health(**kw):
+    from types import SimpleNamespace
+
+    base = dict(pack_id="A", flights=12, last_cycle=40.0, soh=0.78, soh_se=0.01,
+                fade_per_cycle=0.007, fade_per_cycle_se=0.001, flights_to_retire=-8.0,
+                resistance_ohm=float("nan"), resistance_se_ohm=float("nan"))
+    base.update(kw)
+    h = SimpleNamespace(**base)
+    h.retires_within = lambda n: h.flights_to_retire <= n
+    return h
+
+
+def test_pack_health_table_has_no_negative_flights_and_no_empty_plus_minus():
+    from types import SimpleNamespace
+
+    from planner.fleet.report import _pack_health
+
+    packs = [_health(),
+             _health(pack_id="B", fade_per_cycle=-0.001, flights_to_retire=float("inf"),
+                     soh=float("nan"), soh_se=float("nan"), resistance_ohm=0.021,
+                     resistance_se_ohm=float("nan")),
+             _health(pack_id="C", flights_to_retire=37.4, resistance_ohm=0.02,
+                     resistance_se_ohm=0.001)]
+    text = "\n".join(_pack_health(SimpleNamespace(health=packs, pack_files={}), 0.8, 10,
+                                  False))
+    rows = {line.split("|")[1].strip(): line for line in text.splitlines()
+            if line.startswith("| ") and line.split("|")[1].strip() in "ABC"}
+    assert "– ± –" not in text and "± –" not in text and "-8" not in text
+    assert "past it now" in rows["A"] and "RETIRE" in rows["A"]
+    assert "too few flights with current steps" in rows["A"]
+    assert "no fade seen" in rows["B"] and "21.0" in rows["B"]
+    assert "| 37 |" in rows["C"] and "20.0 ± 1.0" in rows["C"]
