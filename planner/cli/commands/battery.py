@@ -17,6 +17,7 @@ from planner.io import files
 from planner.identify import protocols as design, battery_fit as fit, pulse_resistance as vda
 from planner.physics.battery import integral
 from planner.physics.battery.cells import series_cells
+from planner.cli.commands.pack_scale import describe, parse_cells, scale_model
 from planner.cli.commands.common import (
     fmt,
     name_width,
@@ -53,7 +54,10 @@ def _register_fit(sub) -> None:
     p.add_argument("--battery", help="pack YAML whose other keys are kept (name, mass, ...)")
     p.add_argument("--name", help="pack name (required without --battery)")
     p.add_argument("--cells", help="cells in series (without --battery; default: detected "
-                                   "as max voltage / 4.25 V, rounded up)")
+                                   "as max voltage / 4.25 V, rounded up); S×P (e.g. 4x2): "
+                                   "the data are one cell's, and the pack file written is "
+                                   "that of S in series × P in parallel (δ and the charge "
+                                   "scaled from the cell)")
     p.add_argument("--mass-kg", help="pack mass [kg] (required without --battery)")
     p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
     p.add_argument("--train", help="comma-separated experiment ids to fit on")
@@ -219,20 +223,28 @@ def run_fit(args) -> int:
               + (f"; beta held at {beta:g}" if beta is not None else ""))
     model = IntegralModel(result.delta, result.epsilon, result.beta,
                           covariance=fit_covariance(result))
-    dropped = []
+    dropped, scale_note = [], None
     if base_raw is not None:
         mapping = base_raw
         old = mapping.get("model") or {}
         dropped = [k for k in old if k not in ("delta", "epsilon", "beta", "source")]
         mapping["model"] = model.to_mapping()
     else:
-        cells = (parse_int(args.cells, "--cells", 1, 40) if args.cells
-                 else _cells_from_voltage(experiments))
+        cells, parallel = parse_cells(args.cells)
+        cells = cells or _cells_from_voltage(experiments)
         capacity = max(m.final_charge_mah for m in result.metrics)
+        model_map = model.to_mapping()
+        if parallel is not None:
+            scaled = scale_model(model_map, cells, parallel)
+            scale_note = describe(cells, parallel, model.delta, scaled["delta"], capacity)
+            model_map, capacity = scaled, capacity * parallel
+            source += "; " + scale_note
         check_pack_mass(mass_kg, args.mass_kg, cells, capacity)
         mapping = {"name": args.name, "cells_series": cells,
                    "capacity_mah": float(round(capacity)), "mass_kg": mass_kg,
-                   "model": model.to_mapping()}
+                   "model": model_map}
+        if parallel is not None:
+            mapping["cells_parallel"] = parallel
     mapping["source"] = source
     if args.circuit and args.circuit_rates:
         raise InputError("give --circuit (a pulse test) or --circuit-rates (discharges at "
@@ -251,6 +263,8 @@ def run_fit(args) -> int:
                      "--out")
 
     print(render_fit(result))
+    if scale_note:
+        print(f"pack      {scale_note}")
     if dropped:
         print(f"note: model keys {', '.join(dropped)} of {args.battery} were dropped: they "
               "belong to the old δ, ε, β")
