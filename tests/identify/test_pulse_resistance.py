@@ -104,3 +104,35 @@ def test_spikes_are_not_pulses():
     i = np.zeros_like(t)
     i[100] = 5.0  # one-sample spike
     assert len(vda.current_off_instants(t, i)) == 0
+
+
+def test_bench_set_points_that_wander_are_one_level():
+    """0.27, 0.30 and 0.33 A pulses (a bench's set point wandering by 10 %) are one 0.30 A
+    level; [UAV23] Table 2's 2, 4, 6, 8 A stay four."""
+    wander = vda.pulse_profile(currents_a=(0.27, 0.30, 0.33), resistance_ohm=0.05)
+    res = vda.pulse_resistance(wander["time_s"], wander["voltage_v"], wander["current_a"])
+    assert len(res.levels_a) == 1 and res.levels_a[0] == pytest.approx(0.30, rel=1e-6)
+    table2 = vda.pulse_profile()
+    res = vda.pulse_resistance(table2["time_s"], table2["voltage_v"], table2["current_a"])
+    assert_allclose(res.levels_a, [2.0, 4.0, 6.0, 8.0], rtol=1e-6)
+
+
+def test_a_file_of_several_experiments_needs_one_named(tmp_path, capsys):
+    """'time must increase' was all a multi-experiment file got: now the message says a
+    pulse test is one experiment and lists them, and --experiment picks one."""
+    import pandas as pd
+
+    from planner.cli.main import main
+
+    a = vda.pulse_profile().assign(experiment="bench_a")
+    b = vda.pulse_profile(resistance_ohm=0.03).assign(experiment="bench_b")
+    path = tmp_path / "two.csv"
+    pd.concat([a, b]).to_csv(path, index=False)
+    assert main(["pulse-resistance", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "2 experiments" in err and "bench_a, bench_b" in err and "--experiment" in err
+    assert len(err.strip().splitlines()) == 1
+    assert main(["pulse-resistance", str(path), "--experiment", "bench_b"]) == 0
+    assert "R = 30.00 mΩ" in capsys.readouterr().out
+    assert main(["pulse-resistance", str(path), "--experiment", "bench_c"]) == 2
+    assert "not in" in capsys.readouterr().err

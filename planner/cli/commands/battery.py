@@ -515,7 +515,30 @@ def _register_pulse(sub) -> None:
     p.add_argument("--battery", help="pack YAML to update with internal_resistance_ohm")
     p.add_argument("--out", help="write the updated pack YAML here (needs --battery)")
     p.add_argument("--json", help="write the result as JSON to this file")
+    p.add_argument("--experiment", metavar="ID",
+                   help="the pulse test to read when the file holds several experiments")
     p.set_defaults(func=run_pulse)
+
+
+def one_experiment(df, path, chosen: str | None):
+    """The samples of one experiment: a pulse test is one time series. A file of several
+    experiments needs ``--experiment``, and the message lists them."""
+    if "experiment" not in df.columns:
+        if chosen is not None:
+            raise InputError(f"--experiment {chosen}: {path} has no 'experiment' column "
+                             "(it holds one test)")
+        return df
+    ids = list(dict.fromkeys(df["experiment"].astype(str)))
+    if chosen is None:
+        if len(ids) == 1:
+            return df
+        shown = ", ".join(ids[:12]) + (f", … ({len(ids)} in all)" if len(ids) > 12 else "")
+        raise InputError(f"{path}: {len(ids)} experiments: pulse-resistance reads one pulse "
+                         f"test; give --experiment ID, one of {shown}")
+    if chosen not in ids:
+        raise InputError(f"--experiment {chosen}: not in {path} (its experiments: "
+                         f"{', '.join(ids[:12])}{', …' if len(ids) > 12 else ''})")
+    return df[df["experiment"].astype(str) == chosen].reset_index(drop=True)
 
 
 def run_pulse(args) -> int:
@@ -526,7 +549,8 @@ def run_pulse(args) -> int:
     if out and not args.battery:
         raise InputError("--out needs --battery (the pack whose resistance to update)")
     threshold = parse_float(args.threshold, "--threshold", 1e-6, 1e4)
-    df = rec.read_record(args.data, derive=False)
+    df = one_experiment(rec.read_record(args.data, derive=False), args.data,
+                        args.experiment)
     missing = [c for c in ("voltage_v", "current_a") if c not in df.columns]
     if missing:
         raise InputError(f"{args.data}: missing column '{missing[0]}' (a pulse test needs "
