@@ -304,7 +304,9 @@ def _experiment(name: str, source: str | None, sub: pd.DataFrame) -> Experiment:
 
 
 def prepare_experiments(record, source: str | None = None,
-                        only: Collection[str] | None = None) -> list[Experiment]:
+                        only: Collection[str] | None = None,
+                        short: list[str] | None = None,
+                        named: Collection[str] = ()) -> list[Experiment]:
     """Split a flight record into checked :class:`Experiment` objects.
 
     Parameters
@@ -316,6 +318,12 @@ def prepare_experiments(record, source: str | None = None,
     only : collection of str, optional
         Keep only these experiment ids; the others are neither checked nor
         returned (e.g. short tests that neither train nor validate).
+    short : list, optional
+        Given, an experiment too short to fit that is not in ``named`` is left out and
+        the reason appended to it, instead of raising (a stress test of a few samples
+        beside the discharges of a default split).
+    named : collection of str
+        Experiments the user chose (training, validation): never left out.
 
     Raises
     ------
@@ -344,7 +352,14 @@ def prepare_experiments(record, source: str | None = None,
                                  "expected unique experiment ids")
             seen[name] = src
             if only is None or name in only:
-                out.append(_experiment(name, src, sub))
+                try:
+                    out.append(_experiment(name, src, sub))
+                except InputError as exc:
+                    if short is None or name in named or "too short to fit" not in str(exc):
+                        raise
+                    short.append(str(exc))
+    if not out and short:
+        raise InputError(short[0])
     if not out and only is not None and seen:
         raise InputError(f"{source or next(iter(seen.values())) or '<DataFrame>'}: no experiment "
                          f"named {', '.join(map(repr, sorted(only)))}; the data hold "

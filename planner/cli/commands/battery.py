@@ -91,6 +91,20 @@ def _ids(text: str | None, option: str) -> list[str] | None:
     return ids
 
 
+def check_split_names(records, train, validate) -> None:
+    """``--train`` and ``--validate`` name experiments of the data: checked against every
+    experiment of every file before any is prepared, so that a typo is named as such
+    (not hidden behind another experiment's problem), with the full list."""
+    ids = list(dict.fromkeys(str(x) for _, df in records for x in df["experiment"]))
+    for option, names in (("--train", train), ("--validate", validate)):
+        unknown = [n for n in (names or ()) if n not in ids]
+        if unknown:
+            shown = ", ".join(ids[:20]) + (f", … ({len(ids)} in all)" if len(ids) > 20 else "")
+            raise InputError(f"{option}: no experiment named {', '.join(map(repr, unknown))} "
+                             f"in {', '.join(src for src, _ in records)} (its experiments: "
+                             f"{shown})")
+
+
 def _cells_from_voltage(experiments) -> int:
     """Cells in series from the experiments' voltage
     (:func:`planner.physics.battery.cells.series_cells`)."""
@@ -214,7 +228,13 @@ def run_fit(args) -> int:
                              "(the pack YAML needs name and mass_kg)")
     # with both lists given, the experiments in neither are left out unchecked
     chosen = set(train) | set(validate) if train and validate else None
-    experiments = fit.prepare_experiments(fit.load_records(args.data), only=chosen)
+    records = fit.load_records(args.data)
+    check_split_names(records, train, validate)
+    short: list[str] = []
+    experiments = fit.prepare_experiments(records, only=chosen, short=short,
+                                          named=set(train or ()) | set(validate or ()))
+    for why in short:
+        print(f"note: left out of the fit: {why}")
     result = fit.fit_integral(experiments, beta=beta, train=train, validate=validate)
 
     data_names = ", ".join(str(d) for d in args.data)
