@@ -251,8 +251,21 @@ def _finite(values: np.ndarray, column: str, where: str, sub: pd.DataFrame,
                          f"expected a finite number, got {float(values[i]):g}")
 
 
+def _measured_from_first(sub: pd.DataFrame) -> pd.DataFrame:
+    """The experiment from its first row with every battery reading: a logger's first
+    sample left unmeasured (a cycler's overflow value read as missing) is dropped; a gap
+    later on is still an error (missing samples are seen, not bridged)."""
+    cols = [c for c in ("voltage_v", "current_a", "power_w") if c in sub.columns]
+    if not cols or len(sub) == 0:
+        return sub
+    ok = sub[cols].notna().all(axis=1).to_numpy()
+    first = int(np.argmax(ok)) if ok.any() else 0
+    return sub.iloc[first:] if first > 0 else sub
+
+
 def _experiment(name: str, source: str | None, sub: pd.DataFrame) -> Experiment:
     where = f"{source}: experiment '{name}'" if source else f"experiment '{name}'"
+    sub = _measured_from_first(sub)
     t = sub["time_s"].to_numpy(dtype=float)
     _finite(t, "time_s", where, sub, source)
     if len(t) < MIN_SAMPLES or t[-1] - t[0] < MIN_DURATION_S:
