@@ -59,6 +59,11 @@ def _register_fit(sub) -> None:
                                    "that of S in series × P in parallel (δ and the charge "
                                    "scaled from the cell)")
     p.add_argument("--mass-kg", help="pack mass [kg] (required without --battery)")
+    p.add_argument("--capacity-mah", help="nominal capacity to write [mAh] (the datasheet's; "
+                                          "default: the charge measured to the cut-off at "
+                                          "the lowest power, said so)")
+    p.add_argument("--chemistry", help="cell chemistry to write (lipo, liion, …; default "
+                                       "lipo)")
     p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
     p.add_argument("--train", help="comma-separated experiment ids to fit on")
     p.add_argument("--validate", help="comma-separated experiment ids to score only")
@@ -89,6 +94,35 @@ def _ids(text: str | None, option: str) -> list[str] | None:
     if not ids:
         raise InputError(f"{option}: expected comma-separated experiment ids, got {text!r}")
     return ids
+
+
+def capacity_and_cutoff(args, experiments, result, cells: int):
+    """The capacity the pack file carries and what it is: ``--capacity-mah`` (nominal,
+    given) or the charge measured to the end of the lowest-power experiment (its
+    cut-off); the cut-off per cell [V] the experiments end at (their lowest loaded cell
+    voltage at the end), None without voltage. Returns (mAh, note, V)."""
+    from planner.physics import limits as L
+
+    by = {e.name: e for e in experiments}
+    most = max(result.metrics, key=lambda m: m.final_charge_mah)
+    measured = most.final_charge_mah
+    e = by.get(most.experiment)
+    cutoff = None
+    if e is not None and e.voltage_v is not None:
+        v = e.voltage_v[np.isfinite(e.voltage_v)] / cells
+        # a cut-off only where the discharge ran down to it: the last voltage is the
+        # lowest and well below the first
+        if len(v) > 1 and v[-1] <= v.min() + 1e-9 and v[-1] < 0.85 * v[0] \
+                and L.CELL_CUTOFF_MIN_V <= v[-1] <= L.CELL_CUTOFF_MAX_V:
+            cutoff = round(float(v[-1]), 3)
+    to = f"to the cut-off {cutoff:.2f} V/cell" if cutoff is not None else "to its end"
+    found = (f"{measured:.0f} mAh measured {to}, the most any experiment drew "
+             f"({most.experiment}, {most.mean_power_w:.1f} W)")
+    if args.capacity_mah is not None:
+        nominal = parse_float(args.capacity_mah, "--capacity-mah", 1.0, 1e7, "mAh")
+        return nominal, f"{nominal:.0f} mAh nominal (given); {found}", cutoff
+    return measured, (f"{found}, written as the capacity (give --capacity-mah for the "
+                      "nominal)"), cutoff
 
 
 def check_split_names(records, train, validate) -> None:
@@ -252,7 +286,8 @@ def run_fit(args) -> int:
     else:
         cells, parallel = parse_cells(args.cells)
         cells = cells or _cells_from_voltage(experiments)
-        capacity = max(m.final_charge_mah for m in result.metrics)
+        capacity, capacity_note, cutoff = capacity_and_cutoff(args, experiments, result,
+                                                              cells)
         model_map = model.to_mapping()
         if parallel is not None:
             scaled = scale_model(model_map, cells, parallel)
@@ -265,6 +300,11 @@ def run_fit(args) -> int:
                    "model": model_map}
         if parallel is not None:
             mapping["cells_parallel"] = parallel
+        if cutoff is not None:
+            mapping["cell_voltage_empty_v"] = cutoff
+        if args.chemistry is not None:
+            mapping["chemistry"] = args.chemistry
+        source += "; " + capacity_note
     mapping["source"] = source
     if args.circuit and args.circuit_rates:
         raise InputError("give --circuit (a pulse test) or --circuit-rates (discharges at "
@@ -283,6 +323,8 @@ def run_fit(args) -> int:
                      "--out")
 
     print(render_fit(result))
+    if base_raw is None:
+        print(f"capacity  {capacity_note}")
     if scale_note:
         print(f"pack      {scale_note}")
     if dropped:

@@ -31,14 +31,23 @@ def test_p42a_cell_fit_scaled_to_4s2p_predicts_the_pack_of_its_cells(tmp_path, s
               "--validate", ",".join(VALIDATE)]
     cell_yaml, pack_yaml = tmp_path / "cell.yaml", tmp_path / "pack.yaml"
     assert main(["fit-battery", str(record), "--out", str(cell_yaml), "--name", "P42A cell",
-                 "--mass-kg", "0.07", "--cells", "1", *common]) == 0
+                 "--mass-kg", "0.07", "--cells", "1", "--capacity-mah", "4200",
+                 "--chemistry", "liion", *common]) == 0
+    out = capsys.readouterr().out
+    # the datasheet's nominal is written; what was measured, and to which cut-off, is said
+    assert "4200 mAh nominal (given)" in out and "to the cut-off 2.50 V/cell" in out
     assert main(["fit-battery", str(record), "--out", str(pack_yaml), "--name", "P42A 4S2P",
                  "--mass-kg", "0.62", "--cells", "4x2", *common]) == 0
     out = capsys.readouterr().out
     assert "scaled from one cell to 4S2P" in out
+    assert "written as the capacity (give --capacity-mah for the nominal)" in out
     cell, pack = load_battery(cell_yaml), load_battery(pack_yaml)
+    assert cell.capacity_mah == 4200 and cell.chemistry == "liion"
+    assert cell.cell_voltage_empty_v == pytest.approx(2.5, abs=0.02)
+    cell = load_battery(cell_yaml)
     assert (pack.cells_series, pack.cells_parallel) == (4, 2)
-    assert pack.capacity_mah == pytest.approx(2 * cell.capacity_mah, abs=1.0)
+    # the pack's charge: twice the most a cell drew (3.9–4.0 Ah at 1C, PROVENANCE.md)
+    assert 2 * 3900 < pack.capacity_mah < 2 * 4050
     assert (pack.model.epsilon, pack.model.beta) == (cell.model.epsilon, cell.model.beta)
     # δ (S·P)^−ε P^−β: about 8^0.98 / 2^0.96 ≈ 4 times the cell's
     assert 3.5 < pack.model.delta / cell.model.delta < 4.5
