@@ -325,3 +325,42 @@ def pulse_profile(currents_a=(2.0, 4.0, 6.0, 8.0), resistance_ohm=0.02068, *,
         voltage = voltage + g.normal(0.0, noise_v, voltage.size) if noise_v else voltage
         current = current + g.normal(0.0, noise_a, current.size) if noise_a else current
     return pd.DataFrame({"time_s": t, "voltage_v": voltage, "current_a": current})
+
+
+def resistance_by_charge(result: PulseResistance, time_s, current_a, *,
+                         capacity_mah: float | None = None,
+                         block_fraction: float = 0.05) -> list[dict]:
+    """R against the charge drawn before the pulses (and the state of charge, with the
+    capacity): a pulse test run at several states of charge ([UAV23] Table 1 blocks
+    between discharges) gives one R per block.
+
+    The charge drawn is the trapezoid integral of the current from the first sample
+    (discharge positive); pulses whose charge drawn lies within ``block_fraction`` of the
+    total drawn of the one before share a block.
+
+    Returns
+    -------
+    list of dict
+        Per block: ``drawn_mah`` (mean over its pulses) [mAh], ``soc`` [unitless] (None
+        without ``capacity_mah``), ``resistance_ohm`` (mean) [Ω], ``pulses``.
+    """
+    t = np.asarray(time_s, float)
+    i = np.asarray(current_a, float)
+    q = np.concatenate(([0.0], np.cumsum(0.5 * (i[1:] + i[:-1]) * np.diff(t)))) / 3.6
+    at = np.interp([p.time_s for p in result.pulses], t, q)
+    r = np.array([p.resistance_ohm for p in result.pulses])
+    if at.size == 0:
+        return []
+    span = max(float(np.nanmax(q) - np.nanmin(q)), 1e-9)
+    order = np.argsort(at, kind="stable")
+    new = np.r_[True, np.diff(at[order]) > block_fraction * span]
+    block = np.empty(at.size, int)
+    block[order] = np.cumsum(new) - 1
+    out = []
+    for b in range(block.max() + 1):
+        sel = block == b
+        drawn = float(at[sel].mean())
+        out.append({"drawn_mah": drawn,
+                    "soc": None if not capacity_mah else 1.0 - drawn / capacity_mah,
+                    "resistance_ohm": float(r[sel].mean()), "pulses": int(sel.sum())})
+    return out

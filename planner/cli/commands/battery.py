@@ -631,6 +631,17 @@ def run_pulse(args) -> int:
           f"{1e3 * res.ci_high_ohm:.2f} mΩ" if res.n > 1 else "no CI from one value")
     print(f"R = {1e3 * res.mean_ohm:.2f} mΩ ({ci}, n = {res.n} {unit}), "
           f"RMSE {1e3 * res.rmse_ohm:.2f} mΩ")
+    capacity = load_battery(args.battery).capacity_mah if args.battery else None
+    blocks = vda.resistance_by_charge(res, df["time_s"], df["current_a"],
+                                      capacity_mah=capacity)
+    if len(blocks) > 1:
+        print("R against the charge drawn before the pulses"
+              + (" and the state of charge:" if capacity else
+                 " (--battery gives the state of charge):"))
+        for b in blocks:
+            soc = f"  SoC {100 * b['soc']:5.1f} %" if b["soc"] is not None else ""
+            print(f"  {b['drawn_mah']:8.0f} mAh drawn{soc}: R = "
+                  f"{1e3 * b['resistance_ohm']:.2f} mΩ ({b['pulses']} pulses)")
     if json_out:
         write_json(res.to_dict() | {"data": str(args.data)}, json_out)
     if out:
