@@ -30,7 +30,10 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "data"
 ELLIPSIS = {"...", "…"}
 #: Options whose value is a file the command writes.
-OUTPUT_OPTIONS = {"--out", "--json", "--plot", "--csv", "--params-out", "--sorties-out"}
+OUTPUT_OPTIONS = {"--out", "--json", "--plot", "--csv", "--params-out", "--sorties-out",
+                  "--kml"}
+#: ``--map`` writes a figure in check and select, and reads a column map elsewhere.
+FIGURE_SUFFIXES = (".png", ".svg", ".pdf", ".jpg")
 _RUN = "import sys; from planner.cli.main import main; sys.exit(main(sys.argv[1:]))"
 
 
@@ -103,7 +106,8 @@ def run(t: Transcript, timeout: float = 600.0) -> tuple[str, list[str]]:
     env = dict(os.environ, COLUMNS="200")
     with tempfile.TemporaryDirectory(prefix="figures-") as tmp:
         # what the command writes goes to a scratch folder, never into the repository
-        args = [str(Path(tmp) / Path(a).name) if prev in OUTPUT_OPTIONS else a
+        args = [str(Path(tmp) / Path(a).name) if prev in OUTPUT_OPTIONS or (
+                    prev == "--map" and a.lower().endswith(FIGURE_SUFFIXES)) else a
                 for prev, a in zip([""] + args[:-1], args)]
         p = subprocess.run([sys.executable, "-c", _RUN, *args], cwd=REPO,
                            capture_output=True, text=True, timeout=timeout, env=env,

@@ -660,10 +660,17 @@ def _px4_fraction(name, need_mah, cap_fw, release, text, version_label, reasons)
                        f"of {cap_fw:.0f} mAh) but {rng} allows at most {hi:g} "
                        f"({release.source}): no value of it lands with the reserve; "
                        "shorten the farthest leg, carry a larger pack or fly a newer release")
-        return f, derivation + f", above {rng}: NO-GO"
+        return f, derivation + f"; {f:.2f} is above {_allowed(name, lo, hi, version_label)}: NO-GO"
     if f < lo:
-        return lo, derivation + f", below {rng}: set to {lo:g} (earlier, the safe side)"
-    return f, derivation + f", within {rng}"
+        return lo, derivation + (f"; {f:.2f} is below {_allowed(name, lo, hi, version_label)}:"
+                                 f" set to {lo:g} (earlier, the safe side)")
+    return f, derivation + f"; {f:.2f} is within {_allowed(name, lo, hi, version_label)}"
+
+
+def _allowed(name, lo, hi, version_label) -> str:
+    """The range a PX4 release allows a threshold, named so that it reads apart from the
+    figures of the derivation before it."""
+    return f"the {lo:g}–{hi:g} PX4 {version_label} allows {name}"
 
 
 def _px4_parameters(inp: _Inputs, version) -> FailsafePlan:
@@ -732,16 +739,24 @@ def _px4_low(inp, release, label, cap_fw, f_c, point, reasons) -> FailsafeParame
     rng = f"PX4's [{lo:g}, {hi:g}] ({label})"
     if f < lo:
         return FailsafeParameter("BAT_LOW_THR", lo, "norm", "float",
-                                 f"{text}, below {rng}: set to {lo:g} (an earlier warning)")
+                                 f"{text}; {f:.2f} is below "
+                                 f"{_allowed('BAT_LOW_THR', lo, hi, label)}: set to {lo:g} "
+                                 "(an earlier warning)")
     if f <= hi:
-        return FailsafeParameter("BAT_LOW_THR", f, "norm", "float", f"{text}, within {rng}")
+        return FailsafeParameter("BAT_LOW_THR", f, "norm", "float",
+                                 f"{text}; {f:.2f} is within "
+                                 f"{_allowed('BAT_LOW_THR', lo, hi, label)}")
     if hi > f_c:
         return FailsafeParameter("BAT_LOW_THR", hi, "norm", "float",
-                                 f"{text}, above {rng}: set to its maximum {hi:g}, so the "
-                                 "warning comes less than a minute before the return")
+                                 f"{text}; {f:.2f} is above "
+                                 f"{_allowed('BAT_LOW_THR', lo, hi, label)}: set to its "
+                                 f"maximum {hi:g}, so the warning comes less than a minute "
+                                 "before the return")
     reasons.append(f"BAT_LOW_THR must lie above BAT_CRIT_THR {f_c:.2f} but {rng} allows at "
                    f"most {hi:g}")
-    return FailsafeParameter("BAT_LOW_THR", f, "norm", "float", f"{text}, above {rng}: NO-GO")
+    return FailsafeParameter("BAT_LOW_THR", f, "norm", "float",
+                             f"{text}; {f:.2f} is above "
+                             f"{_allowed('BAT_LOW_THR', lo, hi, label)}: NO-GO")
 
 
 def _px4_pack_parameters(inp: _Inputs, cap_fw: float) -> list[FailsafeParameter]:

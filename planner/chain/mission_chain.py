@@ -59,6 +59,7 @@ from planner.parameters import Aircraft, BatteryPack, IntegralModel, load_aircra
 from planner.physics.atmosphere import RHO0
 from planner.physics.battery import integral
 from planner.physics.battery.thermal import T_RANGE_C
+from planner.physics.geo import aeqd_to_latlon
 from planner.physics.mission import Environment, Mission
 from planner.physics.units import AS_PER_MAH
 
@@ -261,6 +262,25 @@ class ChainResult:
             out["rtl_margin_mah"] = m if np.isfinite(m) else None
         return out
 
+    def worst_return(self, i: int) -> dict | None:
+        """The return-home point of pack ``i`` with the smallest margin (the charge left
+        over the reserve after flying home from there), as :meth:`point_of_no_return`
+        reports a point; None when the run kept no per-point margins."""
+        if self.detail is None or "rtl_point_margin_mah" not in self.detail:
+            return None
+        m = np.asarray(self.detail["rtl_point_margin_mah"][i], float)
+        if m.size == 0 or np.isnan(m).all():
+            return None
+        j = int(np.argmin(np.where(np.isnan(m), np.inf, m)))  # -inf: home out of reach
+        r = self.rtl_points
+        leg = int(r["leg"][j])
+        return {"time_s": float(r["time_s"][j]), "leg": leg + 1,
+                "leg_origin": _leg_name(self.table, leg),
+                "east_m": float(r["east_m"][j]), "north_m": float(r["north_m"][j]),
+                "altitude_m": float(r["altitude_m"][j]),
+                "distance_home_m": float(r["distance_m"][j]),
+                "rtl_margin_mah": float(m[j]) if np.isfinite(m[j]) else None}
+
     def reasons(self, i: int) -> list[str]:
         """Why pack ``i`` is grounded, one message per violated constraint.
 
@@ -416,6 +436,8 @@ class ChainResult:
             "charge_mah": d["charge_mah"][i],
             "remaining_fraction": 1.0 - d["charge_end_mah"][i] / cap,
             "rtl_margin_mah": d["rtl_margin_mah"][i]}
+        for col, values in route_columns(table, self.mission.home).items():
+            legs[col] = values
         circuit = None
         if self.battery_models[i] == "circuit":
             c = {k: v[i] for k, v in self.circuit.items()}
@@ -447,7 +469,8 @@ class ChainResult:
             reserve_fraction=self.reserve_fraction, margin_mah=float(self.margin_mah[i]),
             margin_time_s=float(self.margin_time_s[i]),
             hold_power_w=float(self.hold_power_w[i]), leg_columns=legs,
-            point_of_no_return=self.point_of_no_return(i),
+            point_of_no_return=self.point_of_no_return(i), worst_return=self.worst_return(i),
+            endurance=self.endurance(i),
             rtl_min_margin_mah=float(self.rtl_min_margin_mah[i]),
             peak_current_a=(float(np.nanmax(cur)) if np.any(np.isfinite(cur))
                             else float("nan")),
@@ -482,6 +505,50 @@ class ChainResult:
                 "max_endurance_power_w": float(power(b.max_endurance)),
                 "max_range_airspeed_ms": float(b.max_range),
                 "max_range_power_w": float(power(b.max_range))}
+
+
+    def endurance(self, i: int) -> dict:
+        """Hold and least-power endurance of pack ``i`` at its take-off mass, from a full
+        pack to the landing limit (usable charge less the reserve), in still air:
+        ``hold_s`` at the mission's hover (multirotor) or loiter (fixed-wing) power
+        ``hold_power_w``, and ``least_power_s`` in level flight at the airspeed of least
+        power ``least_power_airspeed_ms`` (``least_power_w``). The integral model at
+        constant power, [UAV23] eq. 15 (:func:`integral.time_to_charge`). [s], [W], [m/s]"""
+        pa = steps.pack_arrays([self.packs[i]], self.environment.temperature_c)
+        limit = max(float(self.usable_mah[i] - self.reserve_mah[i]), 0.0) * AS_PER_MAH
+
+        def hold(power_w):
+            return float(integral.time_to_charge(0.0, power_w, limit / pa["scale"][0],
+                                                 pa["delta"][0], pa["eps"][0],
+                                                 pa["beta"][0]))
+
+        best = self.aircraft_best_speeds(i)
+        p_hold, p_least = float(self.hold_power_w[i]), best["max_endurance_power_w"]
+        return {"hold_power_w": p_hold, "hold_s": hold(p_hold),
+                "least_power_airspeed_ms": best["max_endurance_airspeed_ms"],
+                "least_power_w": p_least, "least_power_s": hold(p_least),
+                "takeoff_mass_kg": float(self.takeoff_mass_kg[i]),
+                "reserve_mah": float(self.reserve_mah[i])}
+
+
+def route_columns(table, home) -> dict[str, np.ndarray]:
+    """Where each leg starts and ends: east/north of home and altitude above home [m],
+    and, when the mission's home is known, latitude, longitude [deg] (WGS-84, the legs'
+    frame: :func:`planner.physics.geo.aeqd_to_latlon`) and altitude above mean sea level
+    [m]."""
+    out = {}
+    for end in ("start", "end"):
+        en = np.asarray(getattr(table, f"{end}_en_m"), float).reshape(-1, 2)
+        alt = np.asarray(getattr(table, f"{end}_alt_m"), float)
+        out[f"{end}_east_m"], out[f"{end}_north_m"] = en[:, 0], en[:, 1]
+        out[f"{end}_alt_m"] = alt
+        if home is not None:
+            lat, lon = aeqd_to_latlon(en[:, 0], en[:, 1], home[0], home[1])
+            out[f"{end}_lat_deg"] = np.atleast_1d(lat)
+            out[f"{end}_lon_deg"] = np.atleast_1d(lon)
+            if len(home) > 2 and home[2] is not None:
+                out[f"{end}_alt_amsl_m"] = alt + float(home[2])
+    return out
 
 
 def _is_circuit_reason(text: str) -> bool:

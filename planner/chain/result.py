@@ -60,6 +60,12 @@ class MissionResult:
         units); :attr:`legs` is the same table as a DataFrame, :meth:`leg_rows` its rows.
     point_of_no_return : dict or None
         First point where a return home would not land with the reserve.
+    endurance : dict or None
+        Hover (loiter) and least-power endurance with this pack at this mass to the
+        reserve (:meth:`planner.chain.mission_chain.ChainResult.endurance`). [s], [W]
+    worst_return : dict or None
+        The return-home point with the smallest margin (``rtl_margin_mah``), where it is
+        (``east_m``, ``north_m``, ``altitude_m``, ``time_s``, ``leg``).
     rtl_min_margin_mah : float
         Smallest return-home margin along the mission. [mAh]
     peak_current_a, min_voltage_v : float
@@ -112,6 +118,8 @@ class MissionResult:
     binding: str | None = None
     cutoff_limited: bool = False
     unflyable_legs: list[int] = field(default_factory=list)
+    worst_return: dict | None = None
+    endurance: dict | None = None
 
     @functools.cached_property
     def legs(self) -> pd.DataFrame:
@@ -184,6 +192,8 @@ class MissionResult:
             "peak_current_a": _py(self.peak_current_a), "min_voltage_v": _py(self.min_voltage_v),
             "rtl_min_margin_mah": _py(self.rtl_min_margin_mah),
             "point_of_no_return": self.point_of_no_return,
+            "worst_return": self.worst_return,
+            "endurance": self.endurance,
             "circuit": self.circuit,
             "best_speeds": self.best_speeds,
             "binding": self.binding,

@@ -80,7 +80,10 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 #: files are not replaced) and against every file the command reads
 #: (:mod:`planner.io.files`). A command whose output option names a folder sets
 #: ``output_folders`` (the flags) in its parser's defaults.
-OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out")
+OUTPUT_ARGS = ("out", "json", "plot", "csv", "params_out", "sorties_out", "route_map", "kml")
+#: Output options whose flag is not their ``dest`` spelled with dashes (``--map`` of
+#: check and select is ``route_map``: elsewhere ``--map`` reads a column map).
+OUTPUT_FLAGS = {"route_map": "--map"}
 
 
 #: Where each kind of file is given, by the option (``dest``) that takes it: the first of
@@ -111,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
-    outputs = {f"--{name.replace('_', '-')}": getattr(args, name, None)
+    outputs = {OUTPUT_FLAGS.get(name, f"--{name.replace('_', '-')}"): getattr(args, name, None)
                for name in OUTPUT_ARGS}
     to_stdout = "-" in outputs.values()
     saved = sys.stdout

@@ -59,6 +59,32 @@ def _fmt(x, digits=1, unit=""):
     return f"{x:.{digits}f}{unit}"
 
 
+def _pm(x, se, digits=1, unit="", why="–"):
+    """``x ± se unit``; ``x unit`` without a finite standard error; ``why`` (a dash, or
+    the reason) without a value: never ``– ± –``."""
+    if not _finite(x):
+        return why
+    if not _finite(se):
+        return f"{x:.{digits}f}{unit}"
+    return f"{x:.{digits}f} ± {se:.{digits}f}{unit}"
+
+
+def _finite(x) -> bool:
+    return x is not None and x is not pd.NA and math.isfinite(float(x))
+
+
+def _to_retire(h) -> str:
+    """Flights to retirement: ``past`` when the pack is already below the threshold, ``no
+    fade`` when it does not fade, else the count."""
+    n = h.flights_to_retire
+    if _finite(n) and n <= 0:
+        return "past it now"
+    if not _finite(n):
+        return "no fade seen" if (h.fade_per_cycle is not None and _finite(h.fade_per_cycle)
+                                  and h.fade_per_cycle <= 0) else "–"
+    return f"{n:.0f}"
+
+
 def _cell(text, width: int = 160) -> str:
     """Text for a Markdown table cell: one line, no column bars, shortened."""
     if text is None or text is pd.NA or (isinstance(text, float) and math.isnan(text)):
@@ -125,11 +151,11 @@ def _accuracy(ok: pd.DataFrame, with_figures: bool) -> list[str]:
              "|---|---:|---:|---:|---:|",
              _row("charge (battery model on measured power; measured − predicted)", ch["n"],
                   _fmt(ch["bias_pct"], 2, " %"), _fmt(ch["p95_abs_pct"], 2, " %"),
-                  f"{_fmt(d_ch, 3, ' %')} ± {_fmt(d_ch_se, 3, ' %')}"),
+                  _pm(d_ch, d_ch_se, 3, " %", why="too few flights")),
              _row("airborne energy (power model on measured flight state; predicted − "
                   "measured)", en["n"], _fmt(en["bias_pct"], 2, " %"),
                   _fmt(en["p95_abs_pct"], 2, " %"),
-                  f"{_fmt(d_en, 3, ' %')} ± {_fmt(d_en_se, 3, ' %')}"), "",
+                  _pm(d_en, d_en_se, 3, " %", why="too few flights")), "",
              "Errors are in per cent of the measured value. Drift is the least-squares slope "
              "of the error against the flight's order, with its standard error.", ""]
     if with_figures:
@@ -171,10 +197,11 @@ def _pack_health(result, retire: float, within: float, with_figures: bool) -> li
         f = result.pack_files.get(h.pack_id)
         lines.append(_row(
             h.pack_id, h.flights, _fmt(h.last_cycle, 0),
-            f"{_fmt(100 * h.soh, 1)} ± {_fmt(100 * h.soh_se, 1)}",
-            f"{_fmt(h.fade_per_cycle * 1e3, 3)} ± {_fmt(h.fade_per_cycle_se * 1e3, 3)} ‰",
-            _fmt(h.flights_to_retire, 0),
-            f"{_fmt(h.resistance_ohm * 1e3, 1)} ± {_fmt(h.resistance_se_ohm * 1e3, 1)}",
+            _pm(100 * h.soh, 100 * h.soh_se, 1),
+            _pm(h.fade_per_cycle * 1e3, h.fade_per_cycle_se * 1e3, 3, " ‰"),
+            _to_retire(h),
+            _pm(h.resistance_ohm * 1e3, h.resistance_se_ohm * 1e3, 1,
+                why="too few flights with current steps"),
             "packs/" + f.name if f else "–", "RETIRE" if h.retires_within(within) else ""))
     lines.append("")
     if with_figures:

@@ -269,8 +269,21 @@ def _finite(values: np.ndarray, column: str, where: str, sub: pd.DataFrame,
                          f"expected a finite number, got {float(values[i]):g}")
 
 
+def _measured_from_first(sub: pd.DataFrame) -> pd.DataFrame:
+    """The experiment from its first row with every battery reading: a logger's first
+    sample left unmeasured (a cycler's overflow value read as missing) is dropped; a gap
+    later on is still an error (missing samples are seen, not bridged)."""
+    cols = [c for c in ("voltage_v", "current_a", "power_w") if c in sub.columns]
+    if not cols or len(sub) == 0:
+        return sub
+    ok = sub[cols].notna().all(axis=1).to_numpy()
+    first = int(np.argmax(ok)) if ok.any() else 0
+    return sub.iloc[first:] if first > 0 else sub
+
+
 def _experiment(name: str, source: str | None, sub: pd.DataFrame) -> Experiment:
     where = f"{source}: experiment '{name}'" if source else f"experiment '{name}'"
+    sub = _measured_from_first(sub)
     t = sub["time_s"].to_numpy(dtype=float)
     _finite(t, "time_s", where, sub, source)
     if len(t) < MIN_SAMPLES or t[-1] - t[0] < MIN_DURATION_S:
@@ -322,7 +335,9 @@ def _experiment(name: str, source: str | None, sub: pd.DataFrame) -> Experiment:
 
 
 def prepare_experiments(record, source: str | None = None,
-                        only: Collection[str] | None = None) -> list[Experiment]:
+                        only: Collection[str] | None = None,
+                        short: list[str] | None = None,
+                        named: Collection[str] = ()) -> list[Experiment]:
     """Split a flight record into checked :class:`Experiment` objects.
 
     Parameters
@@ -334,6 +349,12 @@ def prepare_experiments(record, source: str | None = None,
     only : collection of str, optional
         Keep only these experiment ids; the others are neither checked nor
         returned (e.g. short tests that neither train nor validate).
+    short : list, optional
+        Given, an experiment too short to fit that is not in ``named`` is left out and
+        the reason appended to it, instead of raising (a stress test of a few samples
+        beside the discharges of a default split).
+    named : collection of str
+        Experiments the user chose (training, validation): never left out.
 
     Raises
     ------
@@ -362,7 +383,14 @@ def prepare_experiments(record, source: str | None = None,
                                  "expected unique experiment ids")
             seen[name] = src
             if only is None or name in only:
-                out.append(_experiment(name, src, sub))
+                try:
+                    out.append(_experiment(name, src, sub))
+                except InputError as exc:
+                    if short is None or name in named or "too short to fit" not in str(exc):
+                        raise
+                    short.append(str(exc))
+    if not out and short:
+        raise InputError(short[0])
     if not out and only is not None and seen:
         raise InputError(f"{source or next(iter(seen.values())) or '<DataFrame>'}: no experiment "
                          f"named {', '.join(map(repr, sorted(only)))}; the data hold "

@@ -66,6 +66,11 @@ class BatteryReplay:
     time_error_s : dict
         Predicted minus real time to reach the final charge, from the
         prediction made at 25/50/75 % of the flight. [s]
+    time_error_power_w : dict
+        The power each of those predictions assumes for the rest of the flight: the
+        mean of the 60 s before the point. [W]
+    mean_power_w : float
+        Mean power of the whole log, against which those powers read. [W]
     reserve_reached_s, reserve_predicted_s : float or None
         When the landing reserve was reached in the log and when the model
         (at the 50 % point) said it would be. [s]
@@ -81,6 +86,8 @@ class BatteryReplay:
     time_error_s: dict[str, float]
     reserve_reached_s: float | None
     reserve_predicted_s: float | None
+    time_error_power_w: dict[str, float] = field(default_factory=dict)
+    mean_power_w: float = float("nan")
 
 
 @dataclass
@@ -255,7 +262,7 @@ def battery_replay(exp: pd.DataFrame, chain: MissionChain, label: str,
 
     p_avg = _rolling_mean(t, np.nan_to_num(p), 60.0)
     c_final = measured[np.isfinite(measured)][-1] if np.isfinite(measured).any() else np.nan
-    time_errors = {}
+    time_errors, time_error_power = {}, {}
     for frac in (0.25, 0.5, 0.75):
         k = int(np.searchsorted(t, t[0] + frac * (t[-1] - t[0])))
         k = min(k, len(t) - 1)
@@ -263,6 +270,7 @@ def battery_replay(exp: pd.DataFrame, chain: MissionChain, label: str,
             dt = integral.time_to_charge(stress[k], p_avg[k], base_target(k, c_final * AS_PER_MAH),
                                          model.delta, model.epsilon, model.beta)
             time_errors[f"{int(frac * 100)}pct"] = float(t[k] + dt - t[-1])
+            time_error_power[f"{int(frac * 100)}pct"] = float(p_avg[k])
     reached = predicted_at = None
     to_reserve = np.full_like(t, np.nan)
     if capacity_mah:
@@ -281,7 +289,9 @@ def battery_replay(exp: pd.DataFrame, chain: MissionChain, label: str,
                            measured_final_mah=float(c_final),
                            predicted_final_mah=float(predicted[-1]),
                            time_error_s=time_errors, reserve_reached_s=reached,
-                           reserve_predicted_s=predicted_at)
+                           reserve_predicted_s=predicted_at,
+                           time_error_power_w=time_error_power,
+                           mean_power_w=_mean_power(t, p))
     series = {"measured_mah": measured, "predicted_mah": predicted,
               "integrated_mah": integrated, "time_to_reserve_s": to_reserve}
     return result, series
@@ -434,13 +444,34 @@ def _meta_for(exp_id, metas):
     return metas[0] if len(metas) == 1 else {}
 
 
+def _mean_power(t, p) -> float:
+    """Time-weighted mean of the finite power samples (trapezoids). [W]"""
+    ok = np.isfinite(p)
+    if ok.sum() < 2 or t[ok][-1] <= t[ok][0]:
+        return float("nan")
+    tt, pp = t[ok], p[ok]
+    return float(np.sum(0.5 * (pp[1:] + pp[:-1]) * np.diff(tt)) / (tt[-1] - tt[0]))
+
+
 def _overall(exps: list[ExperimentReplay]) -> dict[str, Any]:
     bats = [e.battery for e in exps if e.battery is not None]
     pows = [e.power for e in exps if e.power is not None and np.isfinite(e.power.rmse_w)]
     overall: dict[str, Any] = {"experiments": len(exps)}
     if bats:
+        # weighted by the charge each log drew: sum(measured - predicted) / sum(measured),
+        # so that a log of a few seconds cannot outweigh whole flights; logs whose counter
+        # drew no charge (or ran below zero) carry no weight
+        m = np.array([b.measured_final_mah for b in bats], float)
+        pr = np.array([b.predicted_final_mah for b in bats], float)
+        use = np.isfinite(m) & np.isfinite(pr) & (m > 0)
+        weighted = (float(100.0 * np.sum(m[use] - pr[use]) / np.sum(m[use])) if use.any()
+                    else float("nan"))
         overall["battery"] = {
-            "final_error_pct": float(np.nanmean([b.final_error_pct for b in bats])),
+            "final_error_pct": weighted,
+            "final_error_weighting": "charge drawn",
+            "logs_weighted": int(use.sum()),
+            "unweighted_final_error_pct": float(np.nanmean([b.final_error_pct
+                                                            for b in bats])),
             "abs_final_error_pct": float(np.nanmean([abs(b.final_error_pct) for b in bats])),
             "rmse_mah": float(np.sqrt(np.nanmean([b.rmse_mah**2 for b in bats]))),
         }

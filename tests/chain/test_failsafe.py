@@ -448,14 +448,16 @@ def test_px4_hold_is_counted_only_where_the_release_has_one():
     assert crit["1.12"] < crit["1.17"] < crit["1.13"]        # 0 s, 5 s, 10 s of hold
 
 
-WITHIN = re.compile(r"= (\d+\.\d+), within PX4's \[(\d+(?:\.\d+)?), (\d+(?:\.\d+)?)\] "
-                    r"\(v(\d+)\.(\d+)\)")
+WITHIN = re.compile(r"; (\d+\.\d+) is within the (\d+(?:\.\d+)?)–(\d+(?:\.\d+)?) PX4 "
+                    r"v(\d+)\.(\d+) allows (\w+)")
 
 
 @pytest.mark.parametrize("battery", [None, "p42a"])
 def test_px4_text_says_within_only_what_is_within_the_release_range(battery):
-    """Every "= f, within PX4's [a, b] (vX.Y)" of the derivations is true, names the release
-    used, and the parameter's value is that f."""
+    """Every "f is within the a–b PX4 vX.Y allows NAME" of the derivations is true, names
+    the release used and the parameter itself, and the parameter's value is that f (the
+    value said to be within the range is the one set, not an earlier figure of the
+    derivation)."""
     aircraft = load_aircraft(SOLO)
     pack = _catalog_pack("Molicel P42A 4S2P") if battery else load_aircraft_and_battery(
         SOLO)[1]
@@ -469,6 +471,7 @@ def test_px4_text_says_within_only_what_is_within_the_release_range(battery):
             assert lo <= f <= hi, p.derivation
             assert (int(m.group(4)), int(m.group(5))) == PX4_STABLE_VERSION[:2]
             assert p.value == pytest.approx(f)
+            assert m.group(6) == p.name
             said += 1
     assert said >= 1
 

@@ -104,3 +104,66 @@ def test_spikes_are_not_pulses():
     i = np.zeros_like(t)
     i[100] = 5.0  # one-sample spike
     assert len(vda.current_off_instants(t, i)) == 0
+
+
+def test_bench_set_points_that_wander_are_one_level():
+    """0.27, 0.30 and 0.33 A pulses (a bench's set point wandering by 10 %) are one 0.30 A
+    level; [UAV23] Table 2's 2, 4, 6, 8 A stay four."""
+    wander = vda.pulse_profile(currents_a=(0.27, 0.30, 0.33), resistance_ohm=0.05)
+    res = vda.pulse_resistance(wander["time_s"], wander["voltage_v"], wander["current_a"])
+    assert len(res.levels_a) == 1 and res.levels_a[0] == pytest.approx(0.30, rel=1e-6)
+    table2 = vda.pulse_profile()
+    res = vda.pulse_resistance(table2["time_s"], table2["voltage_v"], table2["current_a"])
+    assert_allclose(res.levels_a, [2.0, 4.0, 6.0, 8.0], rtol=1e-6)
+
+
+def test_a_file_of_several_experiments_needs_one_named(tmp_path, capsys):
+    """'time must increase' was all a multi-experiment file got: now the message says a
+    pulse test is one experiment and lists them, and --experiment picks one."""
+    import pandas as pd
+
+    from planner.cli.main import main
+
+    a = vda.pulse_profile().assign(experiment="bench_a")
+    b = vda.pulse_profile(resistance_ohm=0.03).assign(experiment="bench_b")
+    path = tmp_path / "two.csv"
+    pd.concat([a, b]).to_csv(path, index=False)
+    assert main(["pulse-resistance", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "2 experiments" in err and "bench_a, bench_b" in err and "--experiment" in err
+    assert len(err.strip().splitlines()) == 1
+    assert main(["pulse-resistance", str(path), "--experiment", "bench_b"]) == 0
+    assert "R = 30.00 mΩ" in capsys.readouterr().out
+    assert main(["pulse-resistance", str(path), "--experiment", "bench_c"]) == 2
+    assert "not in" in capsys.readouterr().err
+
+
+def test_r_against_state_of_charge_of_a_test_at_several_levels(tmp_path, capsys):
+    """[UAV23] Table 1 blocks at 80, 50 and 20 % of a 5 Ah pack: three blocks, at the
+    charge drawn before each (1.0, 2.5, 4.0 Ah) and, with the pack's capacity, at those
+    states of charge."""
+    import pandas as pd
+
+    from planner.cli.main import main
+    from planner.identify.protocols import pulse_test_profile
+    from planner.physics.battery.circuit import CircuitParameters, simulate
+
+    truth = CircuitParameters(capacity_ah=5.0, r0_ohm=0.006, r1_ohm=0.004, c1_f=7500.0,
+                              cells_series=4)
+    prof = pulse_test_profile(5.0, dt_s=0.5, soc_levels=(0.8, 0.5, 0.2))
+    sim = simulate(truth, prof.time_s, current_a=prof.current_a)
+    path = tmp_path / "pulses.csv"
+    pd.DataFrame({"time_s": prof.time_s, "voltage_v": sim.voltage_v,
+                  "current_a": prof.current_a}).to_csv(path, index=False)
+    res = vda.pulse_resistance(prof.time_s, sim.voltage_v, prof.current_a)
+    blocks = vda.resistance_by_charge(res, prof.time_s, prof.current_a, capacity_mah=5000)
+    assert [b["drawn_mah"] for b in blocks] == pytest.approx([1000, 2500, 4000], abs=15)
+    assert [b["soc"] for b in blocks] == pytest.approx([0.8, 0.5, 0.2], abs=0.005)
+    assert sum(b["pulses"] for b in blocks) == len(res.pulses)
+    pack = tmp_path / "pack.yaml"
+    pack.write_text("name: p\ncells_series: 4\ncapacity_mah: 5000\nmass_kg: 0.5\n")
+    assert main(["pulse-resistance", str(path), "--battery", str(pack)]) == 0
+    out = capsys.readouterr().out
+    import re
+    socs = [float(x) for x in re.findall(r"SoC\s+([\d.]+) %", out)]
+    assert socs == pytest.approx([80.0, 50.0, 20.0], abs=0.5)

@@ -17,6 +17,7 @@ from planner.io import files
 from planner.identify import protocols as design, battery_fit as fit, pulse_resistance as vda
 from planner.physics.battery import integral
 from planner.physics.battery.cells import series_cells
+from planner.cli.commands.pack_scale import describe, parse_cells, scale_model
 from planner.cli.commands.common import (add_options, fmt, name_width, output_path, outputs,
                                          parse_float, parse_int, plot_path, write_json)
 from planner.errors import InputError
@@ -51,8 +52,16 @@ def _register_fit(sub) -> None:
                 battery="pack YAML whose other keys are kept (name, mass, ...)")
     p.add_argument("--name", help="pack name (required without --battery)")
     p.add_argument("--cells", help="cells in series (without --battery; default: detected "
-                                   "as max voltage / 4.25 V, rounded up)")
+                                   "as max voltage / 4.25 V, rounded up); S×P (e.g. 4x2): "
+                                   "the data are one cell's, and the pack file written is "
+                                   "that of S in series × P in parallel (δ and the charge "
+                                   "scaled from the cell)")
     p.add_argument("--mass-kg", help="pack mass [kg] (required without --battery)")
+    p.add_argument("--capacity-mah", help="nominal capacity to write [mAh] (the datasheet's; "
+                                          "default: the charge measured to the cut-off at "
+                                          "the lowest power, said so)")
+    p.add_argument("--chemistry", help="cell chemistry to write (lipo, liion, …; default "
+                                       "lipo)")
     p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
     p.add_argument("--train", help="comma-separated experiment ids to fit on")
     p.add_argument("--validate", help="comma-separated experiment ids to score only")
@@ -83,6 +92,49 @@ def _ids(text: str | None, option: str) -> list[str] | None:
     if not ids:
         raise InputError(f"{option}: expected comma-separated experiment ids, got {text!r}")
     return ids
+
+
+def capacity_and_cutoff(args, experiments, result, cells: int):
+    """The capacity the pack file carries and what it is: ``--capacity-mah`` (nominal,
+    given) or the charge measured to the end of the lowest-power experiment (its
+    cut-off); the cut-off per cell [V] the experiments end at (their lowest loaded cell
+    voltage at the end), None without voltage. Returns (mAh, note, V)."""
+    from planner.physics import limits as L
+
+    by = {e.name: e for e in experiments}
+    most = max(result.metrics, key=lambda m: m.final_charge_mah)
+    measured = most.final_charge_mah
+    e = by.get(most.experiment)
+    cutoff = None
+    if e is not None and e.voltage_v is not None:
+        v = e.voltage_v[np.isfinite(e.voltage_v)] / cells
+        # a cut-off only where the discharge ran down to it: the last voltage is the
+        # lowest and well below the first
+        if len(v) > 1 and v[-1] <= v.min() + 1e-9 and v[-1] < 0.85 * v[0] \
+                and L.CELL_CUTOFF_MIN_V <= v[-1] <= L.CELL_CUTOFF_MAX_V:
+            cutoff = round(float(v[-1]), 3)
+    to = f"to the cut-off {cutoff:.2f} V/cell" if cutoff is not None else "to its end"
+    found = (f"{measured:.0f} mAh measured {to}, the most any experiment drew "
+             f"({most.experiment}, {most.mean_power_w:.1f} W)")
+    if args.capacity_mah is not None:
+        nominal = parse_float(args.capacity_mah, "--capacity-mah", 1.0, 1e7, "mAh")
+        return nominal, f"{nominal:.0f} mAh nominal (given); {found}", cutoff
+    return measured, (f"{found}, written as the capacity (give --capacity-mah for the "
+                      "nominal)"), cutoff
+
+
+def check_split_names(records, train, validate) -> None:
+    """``--train`` and ``--validate`` name experiments of the data: checked against every
+    experiment of every file before any is prepared, so that a typo is named as such
+    (not hidden behind another experiment's problem), with the full list."""
+    ids = list(dict.fromkeys(str(x) for _, df in records for x in df["experiment"]))
+    for option, names in (("--train", train), ("--validate", validate)):
+        unknown = [n for n in (names or ()) if n not in ids]
+        if unknown:
+            shown = ", ".join(ids[:20]) + (f", … ({len(ids)} in all)" if len(ids) > 20 else "")
+            raise InputError(f"{option}: no experiment named {', '.join(map(repr, unknown))} "
+                             f"in {', '.join(src for src, _ in records)} (its experiments: "
+                             f"{shown})")
 
 
 def _cells_from_voltage(experiments) -> int:
@@ -206,7 +258,13 @@ def run_fit(args) -> int:
                              "(the pack YAML needs name and mass_kg)")
     # with both lists given, the experiments in neither are left out unchecked
     chosen = set(train) | set(validate) if train and validate else None
-    experiments = fit.prepare_experiments(fit.load_records(args.data), only=chosen)
+    records = fit.load_records(args.data)
+    check_split_names(records, train, validate)
+    short: list[str] = []
+    experiments = fit.prepare_experiments(records, only=chosen, short=short,
+                                          named=set(train or ()) | set(validate or ()))
+    for why in short:
+        print(f"note: left out of the fit: {why}")
     result = fit.fit_integral(experiments, beta=beta, train=train, validate=validate)
 
     data_names = ", ".join(str(d) for d in args.data)
@@ -215,20 +273,34 @@ def run_fit(args) -> int:
               + (f"; beta held at {beta:g}" if beta is not None else ""))
     model = IntegralModel(result.delta, result.epsilon, result.beta,
                           covariance=fit_covariance(result))
-    dropped = []
+    dropped, scale_note = [], None
     if base_raw is not None:
         mapping = base_raw
         old = mapping.get("model") or {}
         dropped = [k for k in old if k not in ("delta", "epsilon", "beta", "source")]
         mapping["model"] = model.to_mapping()
     else:
-        cells = (parse_int(args.cells, "--cells", 1, 40) if args.cells
-                 else _cells_from_voltage(experiments))
-        capacity = max(m.final_charge_mah for m in result.metrics)
+        cells, parallel = parse_cells(args.cells)
+        cells = cells or _cells_from_voltage(experiments)
+        capacity, capacity_note, cutoff = capacity_and_cutoff(args, experiments, result,
+                                                              cells)
+        model_map = model.to_mapping()
+        if parallel is not None:
+            scaled = scale_model(model_map, cells, parallel)
+            scale_note = describe(cells, parallel, model.delta, scaled["delta"], capacity)
+            model_map, capacity = scaled, capacity * parallel
+            source += "; " + scale_note
         check_pack_mass(mass_kg, args.mass_kg, cells, capacity)
         mapping = {"name": args.name, "cells_series": cells,
                    "capacity_mah": float(round(capacity)), "mass_kg": mass_kg,
-                   "model": model.to_mapping()}
+                   "model": model_map}
+        if parallel is not None:
+            mapping["cells_parallel"] = parallel
+        if cutoff is not None:
+            mapping["cell_voltage_empty_v"] = cutoff
+        if args.chemistry is not None:
+            mapping["chemistry"] = args.chemistry
+        source += "; " + capacity_note
     mapping["source"] = source
     mapping["fit_status"] = result.fit_status
     if args.circuit and args.circuit_rates:
@@ -248,6 +320,10 @@ def run_fit(args) -> int:
                      "--out")
 
     print(render_fit(result))
+    if base_raw is None:
+        print(f"capacity  {capacity_note}")
+    if scale_note:
+        print(f"pack      {scale_note}")
     print(f"fit_status: {result.fit_status}")
     if dropped:
         print(f"note: model keys {', '.join(dropped)} of {args.battery} were dropped: they "
@@ -262,7 +338,12 @@ def run_fit(args) -> int:
             data["circuit_validation"] = circuit_scores
         write_json(data, json_out)
     if plot_out:
-        save_fit_plot(experiments, result, plot_out)
+        from planner.cli.plots.battery import save_fit_plot
+
+        written = save_fit_plot(experiments, result, plot_out)
+        if len(written) > 1:
+            print(f"wrote     {', '.join(map(str, written))} ({len(written)} pages of at "
+                  "most 8 experiments)")
     # a parameter on its bound or outside its physical range: written as such, exit 1
     return 0 if result.fit_status == "ok" else 1
 
@@ -346,48 +427,6 @@ def render_fit(result: fit.IntegralFit) -> str:
     if result.poorly_determined:
         lines.append(f"POORLY DETERMINED: {', '.join(result.poorly_determined)}")
     return "\n".join(lines)
-
-
-def save_fit_plot(experiments, result: fit.IntegralFit, path) -> None:
-    """Measured vs predicted C^β and residual C − Ĉ per experiment ([UAV23] Fig. 8–11 kind)."""
-    from planner.cli.plots.common import item_grid, page_path, pages, save
-
-    by_name = {m.experiment: m for m in result.metrics}
-    params = result.parameters
-    chunks = pages(len(experiments))
-    for k, chunk in enumerate(chunks):
-        fig, cells = item_grid(len(chunk), 2, stack="horizontal")
-        _draw_fit_page(fig, [experiments[j] for j in chunk], cells, by_name, params)
-        more = f" (page {k + 1} of {len(chunks)})" if len(chunks) > 1 else ""
-        fig.suptitle(f"integral model δ = {params['delta']:.4g}, ε = {params['epsilon']:.4g}, "
-                     f"β = {params['beta']:.4g}{more}")
-        save(fig, page_path(path, k))
-
-
-def _draw_fit_page(fig, experiments, cells, by_name, params) -> None:
-    for row, e in zip(cells, experiments):
-        m = by_name[e.name]
-        c_hat = integral.charge(e.time_s, e.power_w, **params)
-        t_min = e.time_s / 60.0
-        b = params["beta"]
-        row[0].plot(t_min, integral.stress_from_charge(e.charge_as, b), color="k", lw=1.6,
-                    label="measured $C^\\beta$")
-        row[0].plot(t_min, integral.stress_from_charge(c_hat, b), color="C3", lw=1.2, ls="--",
-                    label="model $\\hat C^\\beta$")
-        row[0].set_title(f"{e.name} ({m.split}, mean {m.mean_power_w:.0f} W)")
-        row[0].set_xlabel("time [min]")
-        row[0].set_ylabel("$C^\\beta$ [(A·s)$^\\beta$]")
-        row[0].legend(loc="upper left", fontsize=8)
-        row[0].grid(alpha=0.3)
-        row[1].plot(t_min, (e.charge_as - c_hat) / AS_PER_MAH, color="C0", lw=1.2,
-                    label=f"$r = C - \\hat C$ (RMSE {m.rmse_mah:.1f} mAh, "
-                          f"final {m.final_error_pct:+.2f} %)")
-        row[1].axhline(0.0, color="0.5", lw=0.8)
-        row[1].set_title(f"{e.name}: residual")
-        row[1].set_xlabel("time [min]")
-        row[1].set_ylabel("residual [mAh]")
-        row[1].legend(loc="upper left", fontsize=8)
-        row[1].grid(alpha=0.3)
 
 
 # --------------------------------------------------------------------------- design
@@ -536,7 +575,30 @@ def _register_pulse(sub) -> None:
                    help="statistics over pulse currents (default) or every pulse")
     add_options(p, battery="pack YAML to update with internal_resistance_ohm",
                 out="write the updated pack YAML here (needs --battery)", json=True)
+    p.add_argument("--experiment", metavar="ID",
+                   help="the pulse test to read when the file holds several experiments")
     p.set_defaults(func=run_pulse)
+
+
+def one_experiment(df, path, chosen: str | None):
+    """The samples of one experiment: a pulse test is one time series. A file of several
+    experiments needs ``--experiment``, and the message lists them."""
+    if "experiment" not in df.columns:
+        if chosen is not None:
+            raise InputError(f"--experiment {chosen}: {path} has no 'experiment' column "
+                             "(it holds one test)")
+        return df
+    ids = list(dict.fromkeys(df["experiment"].astype(str)))
+    if chosen is None:
+        if len(ids) == 1:
+            return df
+        shown = ", ".join(ids[:12]) + (f", … ({len(ids)} in all)" if len(ids) > 12 else "")
+        raise InputError(f"{path}: {len(ids)} experiments: pulse-resistance reads one pulse "
+                         f"test; give --experiment ID, one of {shown}")
+    if chosen not in ids:
+        raise InputError(f"--experiment {chosen}: not in {path} (its experiments: "
+                         f"{', '.join(ids[:12])}{', …' if len(ids) > 12 else ''})")
+    return df[df["experiment"].astype(str) == chosen].reset_index(drop=True)
 
 
 def run_pulse(args) -> int:
@@ -547,7 +609,8 @@ def run_pulse(args) -> int:
     if out and not args.battery:
         raise InputError("--out needs --battery (the pack whose resistance to update)")
     threshold = parse_float(args.threshold, "--threshold", 1e-6, 1e4)
-    df = rec.read_record(args.data, derive=False)
+    df = one_experiment(rec.read_record(args.data, derive=False), args.data,
+                        args.experiment)
     missing = [c for c in ("voltage_v", "current_a") if c not in df.columns]
     if missing:
         raise InputError(f"{args.data}: missing column '{missing[0]}' (a pulse test needs "
@@ -566,6 +629,17 @@ def run_pulse(args) -> int:
           f"{1e3 * res.ci_high_ohm:.2f} mΩ" if res.n > 1 else "no CI from one value")
     print(f"R = {1e3 * res.mean_ohm:.2f} mΩ ({ci}, n = {res.n} {unit}), "
           f"RMSE {1e3 * res.rmse_ohm:.2f} mΩ")
+    capacity = load_battery(args.battery).capacity_mah if args.battery else None
+    blocks = vda.resistance_by_charge(res, df["time_s"], df["current_a"],
+                                      capacity_mah=capacity)
+    if len(blocks) > 1:
+        print("R against the charge drawn before the pulses"
+              + (" and the state of charge:" if capacity else
+                 " (--battery gives the state of charge):"))
+        for b in blocks:
+            soc = f"  SoC {100 * b['soc']:5.1f} %" if b["soc"] is not None else ""
+            print(f"  {b['drawn_mah']:8.0f} mAh drawn{soc}: R = "
+                  f"{1e3 * b['resistance_ohm']:.2f} mΩ ({b['pulses']} pulses)")
     if json_out:
         write_json(res.to_dict() | {"data": str(args.data)}, json_out)
     if out:

@@ -8,6 +8,8 @@ import math
 from planner.io import files
 from planner.chain.mission_chain import MissionChain
 from planner.chain.result import MissionResult
+from planner.cli.commands.route import add_route_options, route_paths, write_route
+from planner.cli.commands.summary_lines import endurance_line
 from planner.cli.commands.common import (
     add_options,
     flags_for,
@@ -57,6 +59,7 @@ def register(sub) -> None:
                 reserve="landing reserve as a fraction of nominal capacity (default 0.2 = "
                         "20%%)",
                 payload=True, json=True, plot="write a PNG of power and remaining charge")
+    add_route_options(p)
     p.add_argument("--failsafe", metavar="FIRMWARE",
                    help="derive the battery failsafe parameters of this firmware from the "
                         "mission's worst return home: ardupilot or px4")
@@ -123,6 +126,7 @@ def run(args) -> int:
     if wind is not None:
         check_speed(wind[0], "--wind", args.wind, aircraft, "wind")
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
+    map_out, kml_out = route_paths(args, mission)
     env = mission.environment
     if wind is not None:
         env = dataclasses.replace(env, wind_speed_ms=wind[0], wind_from_deg=wind[1])
@@ -180,6 +184,7 @@ def run(args) -> int:
             "" if unc is None else f"; {unc.verdict} with {100 * unc.confidence:.0f} % "
                                    f"confidence (P = {100 * unc.p_landing:.1f} %)")
         plots.save_mission_plot(result, plot_out, title=title, uncertainty=unc)
+    write_route(map_out, kml_out, result, mission, title=f"{mission.name}: {result.verdict}")
     if plan is not None and not plan.go:
         return 1
     if unc is not None:
@@ -378,7 +383,7 @@ def render(r: MissionResult, name: str) -> str:
              + f", site {env.site_altitude_m:.0f} m AMSL", ""]
     head = (f"{'#':>3} {'leg':<8} {'time s':>7} {'dist m':>7} {'TAS m/s':>7} {'GS m/s':>6} "
             f"{'vz m/s':>6} {'power W':>8} {'curr A':>7} {'volt V':>7} {'mAh':>7} "
-            f"{'left %':>6} {'RTL mAh':>8}")
+            f"{'left %':>6} {'RTL margin mAh':>14}")
     lines += [head, "-" * len(head)]
     unflyable = set(r.unflyable_legs)
     for i, row in enumerate(r.leg_rows(), 1):
@@ -394,7 +399,7 @@ def render(r: MissionResult, name: str) -> str:
             f"{fmt(row.climb_rate_ms, 1, 6)} {fmt(row.power_w, 1, 8)} "
             f"{fmt(row.current_a, 1, 7)} {fmt(row.voltage_v, 2, 7)} "
             f"{fmt(row.charge_mah, 0, 7)} {left:>6} "
-            f"{fmt(row.rtl_margin_mah, 0, 8)}")
+            f"{fmt(row.rtl_margin_mah, 0, 14)}")
     lines.append("-" * len(head))
     lines.append(f"Total     {r.duration_s / 60:.1f} min, {r.energy_wh:.1f} Wh, "
                  f"{r.charge_used_mah:.0f} mAh drawn; peak {r.peak_current_a:.1f} A, "
@@ -407,6 +412,8 @@ def render(r: MissionResult, name: str) -> str:
                      f"{b['max_endurance_airspeed_ms']:.1f} m/s ({b['max_endurance_power_w']:.0f} W), "
                      f"max range {b['max_range_airspeed_ms']:.1f} m/s "
                      f"({b['max_range_power_w']:.0f} W)")
+    if endurance_line(r):
+        lines.append(endurance_line(r))
     if r.circuit:
         c = r.circuit
         lines.append(f"Voltage   {c['model']}: pack {c['pack_temperature_c']:.0f} → "

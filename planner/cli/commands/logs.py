@@ -41,7 +41,9 @@ def export(log: str | Path, csv: str | Path, *, map: str | Path | None = None,
         duration = float(df["time_s"].iloc[-1] - df["time_s"].iloc[0])
     summary = (f"{log}: {len(df)} samples, {duration:.1f} s"
                + (f" in {n_exp} experiments" if n_exp > 1 else "")
-               + f", {len(channels)} channels ({', '.join(channels)}) -> {csv}")
+               + f", {len(channels)} channels ({', '.join(channels)}) -> {csv}"
+               + (f"\ncolumn map {meta['column_map']} (matched: {meta['column_map_match']})"
+                  if meta.get("column_map") else ""))
     return summary, meta
 
 
@@ -65,7 +67,9 @@ def register(subparsers) -> None:
                                               "a folder or zip of PX4 topic CSV files")
     p.add_argument("--csv", required=True, metavar="F", help="flight-record CSV to write")
     p.add_argument("--map", metavar="MAP.yaml", default=None,
-                   help="column map for a CSV input (e.g. planner/io/logs/maps/dji_m100.yaml)")
+                   help="column map for a CSV input (e.g. planner/io/logs/maps/dji_m100.yaml, "
+                        "or a shipped map's name); 'auto': the shipped map that reads the "
+                        "file's columns, named in the output")
     p.add_argument("--allow-no-battery", action="store_true",
                    help="export a log without battery voltage/current (kinematics only)")
     from planner.cli.commands.common import add_battery_instance

@@ -74,7 +74,10 @@ def run(args) -> int:
                      option="--csv")
     if plot_out:
         from planner.cli.plots import common as plots
-        plots.save_replay_plot(result, plot_out)
+        written = plots.save_replay_plot(result, plot_out)
+        if len(written) > 1:
+            print(f"wrote     {', '.join(map(str, written))} ({len(written)} pages of at "
+                  f"most {plots.PER_PAGE} logs)")
     if failed:
         print(f"error: {len(failed)} of {len(args.logs)} files could not be read (named "
               "above); the others were replayed", file=sys.stderr)
@@ -82,10 +85,34 @@ def run(args) -> int:
     return 0
 
 
+def time_error_lines(e) -> list[str]:
+    """The pilot's check of one log: had the model been asked at 25/50/75 % of the flight
+    when the log's final charge would be drawn (at the mean power of the 60 s before),
+    how far off the real end it was; a miss longer than the flight is explained by the
+    power it assumed."""
+    b = e.battery
+    te = b.time_error_s
+    if not te:
+        return []
+    out = ["  time to draw the log's final charge at the power of the 60 s before each "
+           "point, predicted − real: " + ", ".join(f"from {k.replace('pct', ' %')} "
+                                                  f"{v:+.0f} s" for k, v in te.items())]
+    far = [k for k, v in te.items() if abs(v) > e.duration_s]
+    if far:
+        pw = b.time_error_power_w
+        out.append("  note: " + ", ".join(
+            f"from {k.replace('pct', ' %')} the power assumed was {pw.get(k, math.nan):.0f} W"
+            for k in far) + f" against {b.mean_power_w:.0f} W over the whole log: a "
+            "prediction from a stretch unlike the rest of the flight misses by more than the "
+            f"{e.duration_s:.0f} s flight")
+    return out
+
+
 def render(result) -> str:
     from planner.io.record import NO_CURRENT
 
-    lines = []
+    lines = ["Errors    measured − predicted throughout, in % of measured: final = charge "
+             "drawn at the end ([UAV23] eq. 30), E = airborne energy"]
     w = name_width([e.experiment for e in result.experiments], "experiment")
     head = (f"{'experiment':<{w}} {'dur s':>6} {'meas mAh':>9} {'pred mAh':>9} "
             f"{'RMSE mAh':>9} {'final %':>8} {'P RMSE W':>9} {'E err %':>8}")
@@ -102,18 +129,19 @@ def render(result) -> str:
             f"{fmt(b.rmse_mah if b else math.nan, 1, 9)} "
             f"{fmt(b.final_error_pct if b else math.nan, 2, 8)} "
             f"{fmt(p.rmse_w if p else math.nan, 1, 9)} "
-            f"{fmt(p.energy_error_pct if p else math.nan, 1, 8)}")
+            f"{fmt(-p.energy_error_pct if p else math.nan, 1, 8)}")
     lines.append("-" * len(head))
     for e in result.experiments:
         if not e.battery and e.notes:
             lines.append(f"{e.experiment}:")
         if e.battery:
             lines.append(f"{e.experiment}: battery model {e.battery.model}")
-            te = e.battery.time_error_s
-            if te:
-                lines.append("  time to reach the final charge, predicted − real, from the "
-                             "prediction at " + ", ".join(
-                                 f"{k.replace('pct', ' %')}: {v:+.0f} s" for k, v in te.items()))
+            lines += time_error_lines(e)
+            if e.battery.measured_final_mah < 0:
+                lines.append(f"  note: the log's consumed-charge counter ends at "
+                             f"{e.battery.measured_final_mah:.0f} mAh, below zero: a current "
+                             "sensor offset or a counter reset; its battery errors mean "
+                             "little and it carries no weight in the overall figure")
             if e.battery.reserve_reached_s is not None:
                 lines.append(f"  reserve reached at {e.battery.reserve_reached_s:.0f} s")
         if e.power:
@@ -122,15 +150,19 @@ def render(result) -> str:
             for name, ph in e.power.phases.items():
                 lines.append(f"    {name:<8} {ph['duration_s']:6.0f} s  measured "
                              f"{ph['measured_w']:7.1f} W  predicted {ph['predicted_w']:7.1f} W "
-                             f" ({ph['error_pct']:+.1f} %)")
+                             f" ({-ph['error_pct']:+.1f} %)")
         for note in e.notes:
             lines.append(f"  note: {note}")
     o = result.overall
     if "battery" in o:
-        lines.append(f"Overall battery: RMSE {o['battery']['rmse_mah']:.1f} mAh, mean final "
-                     f"error {o['battery']['final_error_pct']:+.2f} % "
-                     "(measured − predicted, of measured)")
+        ob = o["battery"]
+        lines.append(f"Overall battery: RMSE {ob['rmse_mah']:.1f} mAh, final error "
+                     f"{ob['final_error_pct']:+.2f} % (measured − predicted, of measured; "
+                     f"weighted by the charge each log drew, {ob['logs_weighted']} log"
+                     f"{'s' if ob['logs_weighted'] != 1 else ''}; unweighted mean "
+                     f"{ob['unweighted_final_error_pct']:+.2f} %)")
     if "power" in o:
         lines.append(f"Overall power: RMSE {o['power']['rmse_w']:.1f} W, energy error "
-                     f"{o['power']['energy_error_pct']:+.1f} % (predicted − measured)")
+                     f"{-o['power']['energy_error_pct']:+.1f} % (measured − predicted, of "
+                     "measured)")
     return "\n".join(lines)

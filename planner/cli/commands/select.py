@@ -26,7 +26,10 @@ from planner.cli.commands.common import (
     write_json,
 )
 from planner.chain.sizing import sortie_margin
+from planner.cli.commands.route import (add_route_options, route_paths, write_route,
+                                        write_sorties_route)
 from planner.errors import InputError
+from planner.physics.atmosphere import G
 from planner.io.mission import NavDefaults, load_mission
 from planner.parameters import default_battery_path, load_aircraft, load_battery, load_catalog
 
@@ -55,6 +58,7 @@ def register(sub) -> None:
     p.add_argument("--top", help="show only the best N packs in the table (JSON: all)")
     add_options(p, json="write the ranked packs as JSON to this file",
                 plot="write a PNG of pack mass against landing margin")
+    add_route_options(p, "the chosen pack's route (or the sorties, each in its colour)")
     p.add_argument("--no-sorties", action="store_true",
                    help="when no pack is feasible, do not plan sorties")
     p.add_argument("--sorties-out", metavar="DIR",
@@ -115,6 +119,7 @@ def run_select(args) -> int:
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
+    map_out, kml_out = route_paths(args, mission)
     if payload is None:
         from planner.cli.commands.check import check_mission_payload
         check_mission_payload(mission, args.mission, aircraft)
@@ -155,6 +160,13 @@ def run_select(args) -> int:
             selection, plot_out,
             title=f"{mission.name}: {aircraft.name}, {len(e)} packs "
                   f"({int(e.feasible.sum())} feasible)", plan=plan)
+    if selection.best is not None:
+        best = e.mission_result(selection.best)
+        write_route(map_out, kml_out, best, mission,
+                    title=f"{mission.name}: {best.battery}, {best.verdict}")
+    elif plan is not None:
+        write_sorties_route(map_out, kml_out, plan, mission,
+                            title=f"{mission.name}: {plan.count} sorties with {plan.pack.name}")
     return 0 if selection.best is not None else 1
 
 
@@ -188,8 +200,6 @@ def render_selection(selection, catalog, env, top=None) -> str:
         else:
             reasons = e.reasons(i)
             status = f"{e.binding(i)}: {reasons[0] if reasons else ''}"
-            if len(status) > 70:
-                status = status[:67] + "..."
         lines.append(
             f"{r:>3} {name:<{w}} {p.cells_series:>2} {fmt(e.capacity_mah[i], 0, 6)} "
             f"{fmt(e.pack_mass_kg[i], 3, 7)} {fmt(e.takeoff_mass_kg[i], 2, 6)} "
@@ -362,7 +372,7 @@ def run_sweep(args) -> int:
                 usable_fraction=pack.usable_fraction if pack is not None else 1.0,
                 payload_kg=payload, reserve=reserve, environment=env, altitude_m=altitude,
                 temperature_c=temperature)
-        print(render_endurance(sweep, source))
+        print(render_endurance(sweep, source, aircraft))
         if csv_out:
             _write_csv(sweep.to_frame(), csv_out)
         if plot_out:
@@ -386,7 +396,7 @@ def run_sweep(args) -> int:
         sweep = sizing.range_sweep(aircraft, pack, np.linspace(lo, hi, n), reserve=reserve,
                                    environment=env, altitude_m=altitude,
                                    temperature_c=temperature)
-    print(render_range(sweep))
+    print(render_range(sweep, aircraft))
     if csv_out:
         _write_csv(sweep.to_frame(), csv_out)
     if plot_out:
@@ -403,7 +413,25 @@ def _rows(n, shown=15):
     return np.unique(np.linspace(0, n - 1, min(n, shown)).round().astype(int))
 
 
-def render_endurance(sweep, source) -> str:
+def _limits(aircraft, row, min_thrust_to_weight: float = 1.5) -> str:
+    """``ok``, or the aircraft limits a row of a sweep exceeds, named with their values
+    (the sweeps' defaults: maximum take-off mass, least thrust-to-weight 1.5)."""
+    if row.feasible:
+        return "ok"
+    out = []
+    mtow = getattr(aircraft, "max_takeoff_mass_kg", None)
+    if mtow is not None and row.takeoff_mass_kg > mtow:
+        out.append(f"take-off mass over the {mtow:.2f} kg maximum")
+    thrust = (aircraft.multirotor.max_thrust_n
+              if aircraft is not None and aircraft.is_multirotor else None)
+    if thrust is not None:
+        tw = thrust / (row.takeoff_mass_kg * G)
+        if tw < min_thrust_to_weight:
+            out.append(f"thrust/weight {tw:.2f} below {min_thrust_to_weight:g}")
+    return "; ".join(out) or "exceeds the take-off mass or thrust limit"
+
+
+def render_endurance(sweep, source, aircraft=None) -> str:
     o = sweep.optimum
     lines = [f"Aircraft  {sweep.aircraft}, payload {sweep.payload_kg:g} kg",
              (f"Battery   {sweep.cells_series}S at {sweep.cell_voltage_v:g} V/cell, "
@@ -417,7 +445,7 @@ def render_endurance(sweep, source) -> str:
         r = f.iloc[i]
         lines.append(f"{r.battery_mass_kg:>10.3f} {r.mass_fraction:>8.2f} "
                      f"{r.takeoff_mass_kg:>7.2f} {r.capacity_mah:>7.0f} {r.hold_power_w:>8.1f} "
-                     f"{r.endurance_min:>11.1f}  {'ok' if r.feasible else 'exceeded'}")
+                     f"{r.endurance_min:>11.1f}  {_limits(aircraft, r)}")
     lines.append("-" * len(head))
     free = (f"{o['battery_mass_kg']:.3f} kg of battery (mass fraction "
             f"{o['mass_fraction']:.2f}): {o['endurance_s'] / 60:.1f} min of {sweep.hold}")
@@ -439,7 +467,7 @@ def render_endurance(sweep, source) -> str:
     return "\n".join(lines)
 
 
-def render_range(sweep) -> str:
+def render_range(sweep, aircraft=None) -> str:
     lines = [(f"Aircraft  {sweep.aircraft} with {sweep.pack}; reserve "
               f"{100 * sweep.reserve_fraction:.0f} %"), ""]
     head = (f"{'payload kg':>10} {'TOW kg':>7} {'power W':>8} {'range km':>9} "
@@ -451,7 +479,7 @@ def render_range(sweep) -> str:
         lines.append(f"{r.payload_kg:>10.3f} {r.takeoff_mass_kg:>7.2f} "
                      f"{r.cruise_power_w:>8.1f} {r.range_km:>9.2f} "
                      f"{r.best_range_speed_ms:>10.1f} {r.best_range_km:>8.2f} "
-                     f"{r.hold_endurance_s / 60:>8.1f}  {'ok' if r.feasible else 'exceeded'}")
+                     f"{r.hold_endurance_s / 60:>8.1f}  {_limits(aircraft, r)}")
     lines.append("-" * len(head))
     for note in sweep.notes:
         lines.append(f"Note      {note}")

@@ -16,9 +16,31 @@ _LEG_COLOURS = {"climb": "#fde0c5", "cruise": "#e5f0fa", "hover": "#e8f5e0",
 
 def figure(nrows=1, ncols=1, *, figsize=None, **kwargs):
     """A new figure and its axes (``Figure.subplots``), outside pyplot: no global state,
-    no backend to choose; :func:`save` writes it."""
-    fig = Figure(figsize=figsize)
+    no backend to choose; :func:`save` writes it. Constrained layout keeps titles, tick
+    labels and the legends placed outside the axes (:func:`legend_outside`) in the
+    figure."""
+    fig = Figure(figsize=figsize, layout="constrained")
     return fig, fig.subplots(nrows, ncols, **kwargs)
+
+
+def legend_outside(ax, *, fontsize=8, **kwargs):
+    """The legend of ``ax`` to the right of its data area, where it covers no data."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                     fontsize=fontsize, **kwargs)
+
+
+def figure_legend(fig, axes, *, ncol=4, fontsize=8):
+    """One legend for a grid of panels that show the same things (each label once, from
+    whichever panel has it), below the panels, where it covers no data."""
+    handles, labels = {}, []
+    for ax in axes:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            if label not in handles:
+                handles[label] = h
+                labels.append(label)
+    if labels:
+        fig.legend([handles[k] for k in labels], labels, loc="outside lower center",
+                   ncol=min(ncol, len(labels)), fontsize=fontsize)
 
 
 #: Most logs or experiments drawn on one page; more go to further pages
@@ -93,10 +115,13 @@ def plot_power(result, ax=None):
 def plot_remaining(result, ax=None):
     """Remaining charge (% of nominal) against time, with the landing limit that decides
     the verdict (the reserve above the charge the pack cannot give) and the point of no
-    return."""
+    return. The line stops where the pack is empty; where the usable charge runs out is
+    marked."""
     ax = ax or new_axes()
     s = result.series
-    ax.plot(s["time_s"] / 60.0, 100 * s["remaining_fraction"], color="C0", lw=1.8,
+    t_min = np.asarray(s["time_s"], float) / 60.0
+    left = 100 * np.asarray(s["remaining_fraction"], float)
+    ax.plot(t_min, np.where(left >= 0, left, np.nan), color="C0", lw=1.8,
             label="remaining charge (integral model)")
     # the limit the landing is judged against: the reserve above the charge the pack
     # cannot give (its usable fraction, or the circuit model's voltage cut-off)
@@ -110,11 +135,16 @@ def plot_remaining(result, ax=None):
     ax.axhline(limit, color="k", ls="--", lw=1.2,
                label=f"landing limit: reserve {result.reserve_mah:.0f} mAh above that"
                if unusable > 0 else f"landing reserve {100 * result.reserve_fraction:.0f} %")
+    out = np.flatnonzero(left <= unusable)
+    if out.size:
+        j = int(out[0])
+        ax.plot(t_min[j], max(left[j], 0.0), "X", ms=10, color="C3", mec="k", ls="none",
+                zorder=5, label=f"usable charge runs out at {t_min[j]:.1f} min")
     if result.point_of_no_return:
         t = result.point_of_no_return["time_s"] / 60.0
         ax.axvline(t, color="C3", ls="-.", lw=1.2, label="point of no return")
     _shade_legs(ax, result)
-    ax.set_ylim(min(0, 100 * np.nanmin(s["remaining_fraction"]) - 5), 105)
+    ax.set_ylim(-3, 105)
     ax.set_ylabel("remaining charge [% of nominal]")
     ax.set_xlabel("time [min]")
     ax.grid(alpha=0.3)
@@ -154,16 +184,22 @@ def plot_landing_band(result, uncertainty, ax):
 def save_mission_plot(result, path, title=None, uncertainty=None):
     """Two panels: power and remaining charge against time; legs marked; with a Monte
     Carlo result, the band of the charge left on landing."""
-    fig, (ax1, ax2) = figure(2, 1, figsize=(10, 7), sharex=True)
+    save(mission_figure(result, title, uncertainty), path)
+
+
+def mission_figure(result, title=None, uncertainty=None):
+    """The figure of :func:`save_mission_plot`: both panels keep their time tick labels;
+    the legends sit beside the panels."""
+    fig, (ax1, ax2) = figure(2, 1, figsize=(12, 7), sharex=True)
     plot_power(result, ax1)
     plot_remaining(result, ax2)
     if uncertainty is not None:
         plot_landing_band(result, uncertainty, ax2)
+    ax1.tick_params(labelbottom=True)
     ax1.set_title(title or f"{result.aircraft}: {result.verdict}")
-    ax1.legend(loc="upper right", fontsize=8, ncol=3)
-    ax2.legend(loc="lower left", fontsize=8)
-    fig.tight_layout()
-    save(fig, path)
+    legend_outside(ax1)
+    legend_outside(ax2)
+    return fig
 
 
 def save(fig, path, option: str = "--plot"):
@@ -210,13 +246,11 @@ def plot_replay_experiment(exp, axes):
     _shade_phases(ax1, t, s.get("phase"))
     ax1.set_ylabel("power [W]")
     ax1.set_title(f"{exp.experiment}: power")
-    ax1.legend(loc="upper right", fontsize=7, ncol=2)
     if "predicted_mah" in s:
         ax2.plot(t, s["measured_mah"], color="k", lw=1.2, label="logged consumed charge")
         ax2.plot(t, s["integrated_mah"], color="0.5", ls=":", lw=1.2,
                  label="∫ measured current")
         ax2.plot(t, s["predicted_mah"], color="C0", lw=1.2, label="integral model")
-        ax2.legend(loc="upper left", fontsize=7)
     _shade_phases(ax2, t, s.get("phase"))
     ax2.set_ylabel("charge drawn [mAh]")
     ax2.set_xlabel("time [s]")
@@ -228,15 +262,24 @@ def plot_replay_experiment(exp, axes):
 def save_replay_plot(result, path) -> list[str]:
     """Measured vs predicted power and charge, one grid cell per log, at most
     :data:`PER_PAGE` logs a page. Returns the files written."""
+    written = []
+    for k, fig in enumerate(replay_figures(result)):
+        written.append(page_path(path, k))
+        save(fig, written[-1])
+    return written
+
+
+def replay_figures(result) -> list:
+    """The pages of :func:`save_replay_plot`: one legend per page, below the panels."""
     exps = result.experiments
     chunks = pages(len(exps))
-    written = []
+    figs = []
     for k, chunk in enumerate(chunks):
         fig, cells = item_grid(len(chunk), 2)
         for j, axes in zip(chunk, cells):
             plot_replay_experiment(exps[j], axes)
         more = f" (page {k + 1} of {len(chunks)})" if len(chunks) > 1 else ""
         fig.suptitle(f"Replay: measured vs predicted{more}")
-        written.append(page_path(path, k))
-        save(fig, written[-1])
-    return written
+        figure_legend(fig, [ax for cell in cells for ax in cell])
+        figs.append(fig)
+    return figs

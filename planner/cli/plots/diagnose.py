@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from planner.cli.plots.common import figure, new_axes, save
+from planner.cli.plots.common import figure, figure_legend, new_axes, save
 from planner.physics.units import AS_PER_MAH
 
 BEFORE = {"color": "0.55", "label": "before: calibrated baseline"}
@@ -41,7 +41,6 @@ def plot_residual_time(report, ax=None):
         ax.set_title("cut-off level: held-out error of the energy to the cut-off, one point "
                      "per discharge", fontsize=9)
         ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=7)
         return ax
     for score, style in scores:
         if level.name == "capacity":
@@ -66,7 +65,6 @@ def plot_residual_time(report, ax=None):
         f"{level.bin_s:.1f}-s means"
     ax.set_title(f"{level.name} level: held-out residual against time ({what})", fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=7)
     return ax
 
 
@@ -123,7 +121,6 @@ def plot_residual_driver(report, effect, ax=None, after=True):
     ax.set_title(f"{effect.name} ({'found' if found else 'not significant'}): residual against "
                  "its driver", fontsize=9)
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=7)
     return ax
 
 
@@ -153,7 +150,7 @@ def diagnose_figure(result):
         ax.set_axis_off()
     names = ", ".join(f["effect"] for f in result.findings) or "no significant effect"
     fig.suptitle(f"diagnose: {names}", fontsize=11)
-    fig.tight_layout()
+    figure_legend(fig, list(axes.flat)[:len(panels)])
     return fig
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planner.cli.plots.common import figure
+from planner.cli.plots.common import figure, figure_legend
 from planner.io import files
 
 
@@ -55,7 +55,7 @@ def save_fixed_wing_plot(samples, curves, path, *, references=(), title=None,
     ax_d.set_xlim(0, 2.0)
     for ax in (ax_p, ax_d):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper left" if ax is ax_d else "upper right")
+    figure_legend(fig, (ax_p, ax_d), ncol=3)
     if title:
         fig.suptitle(title, fontsize=10)
     files.save_figure(fig, path, dpi=120)

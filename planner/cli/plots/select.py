@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planner.cli.plots.common import figure, new_axes, save
+from planner.cli.plots.common import figure, legend_outside, new_axes, save
 
 #: The binding constraint of a rejected pack, in the legend's words.
 REJECT_WORDS = {
@@ -101,6 +101,7 @@ def plot_pareto(selection, ax=None):
                    zorder=5, label=f"chosen ({selection.objective}): "
                                    f"{e.packs[b].name}")
     ax.axhline(0.0, color="k", lw=0.8, ls="--", label="landing reserve reached")
+    label_packs(ax, selection, mass, shown)
     ax.set_xlabel("pack mass (× count) [kg]")
     ax.set_ylabel(f"landing margin beyond the {100 * e.reserve_fraction:.0f} % reserve "
                   f"[min of {what}]")
@@ -108,19 +109,37 @@ def plot_pareto(selection, ax=None):
     return ax
 
 
+#: Most packs named beside their point on the Pareto plot (the best-ranked first).
+MAX_LABELS = 12
+
+
+def label_packs(ax, selection, mass, shown):
+    """Name the packs beside their points: the feasible ones in ranking order, then the
+    rejected ones, at most :data:`MAX_LABELS`."""
+    e = selection.evaluation
+    order = [int(i) for i in selection.order]
+    ranked = [i for i in order if e.feasible[i]] + [i for i in order if not e.feasible[i]]
+    for i in ranked[:MAX_LABELS]:
+        p = e.packs[i]
+        name = p.name + (f" ×{p.count}" if p.count > 1 else "")
+        ax.annotate(name if len(name) <= 28 else name[:27] + "…", (mass[i], shown[i]),
+                    xytext=(4, 3), textcoords="offset points", fontsize=6.5,
+                    color="0.2" if e.feasible[i] else "0.5")
+
+
 def save_pareto_plot(selection, path, title=None, plan=None):
     """The Pareto plot; beside it the sortie plan when there is one (no pack suffices)."""
     if plan is None:
-        fig, ax = figure(figsize=(9, 6))
+        fig, ax = figure(figsize=(11, 6))
     else:
-        fig, (ax, ax2) = figure(1, 2, figsize=(16, 6))
+        fig, (ax, ax2) = figure(1, 2, figsize=(18, 6))
         plot_sorties(plan, ax2)
-        ax2.legend(loc="lower left", fontsize=8)
+        legend_outside(ax2)
     plot_pareto(selection, ax)
     e = selection.evaluation
-    ax.set_title(title or f"{e.mission_name}: {e.aircraft_name}, {len(e)} packs")
-    ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    ax.set_title(title or f"{e.mission_name}: {e.aircraft_name}, {len(e)} packs",
+                 fontsize=10, wrap=True)
+    legend_outside(ax)
     save(fig, path)
 
 
@@ -148,12 +167,12 @@ def plot_endurance_sweep(sweep, ax=None):
 
 
 def save_endurance_plot(sweep, path, title=None):
-    fig, ax = figure(figsize=(9, 5.5))
+    fig, ax = figure(figsize=(11, 5.5))
     plot_endurance_sweep(sweep, ax)
-    ax.set_title(title or f"{sweep.aircraft}: {sweep.specific_energy_wh_per_kg:.0f} Wh/kg, "
-                          f"{sweep.cells_series}S, payload {sweep.payload_kg:g} kg")
-    ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    ax.set_title(title or f"{sweep.aircraft}:\n{sweep.specific_energy_wh_per_kg:.0f} Wh/kg, "
+                          f"{sweep.cells_series}S, payload {sweep.payload_kg:g} kg",
+                 fontsize=10)
+    legend_outside(ax)
     save(fig, path)
 
 
@@ -175,9 +194,9 @@ def plot_range_sweep(sweep, ax=None):
 
 
 def save_range_plot(sweep, path, title=None):
-    fig, ax = figure(figsize=(9, 5.5))
+    fig, ax = figure(figsize=(11, 5.5))
     plot_range_sweep(sweep, ax)
-    ax.set_title(title or f"{sweep.aircraft} with {sweep.pack}: range against payload")
-    ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    ax.set_title(title or f"{sweep.aircraft} with {sweep.pack}:\nrange against payload",
+                 fontsize=10)
+    legend_outside(ax)
     save(fig, path)

@@ -22,7 +22,8 @@ from planner.io.record import COLUMNS
 from planner.physics.limits import CAPACITY_MAX_MAH, CAPACITY_MIN_MAH, CELLS_SERIES_MAX
 
 __all__ = ["COLUMN_KEYS", "DERIVED_KEYS", "FLIGHTS_KEYS", "MAPS_DIR", "META_KEYS",
-           "PER_FLIGHT", "ROTATE_OPS", "TIME_KEYS", "TOP_KEYS", "load_map"]
+           "PER_FLIGHT", "ROTATE_OPS", "TIME_KEYS", "TOP_KEYS", "load_map", "map_columns",
+           "match_map"]
 
 
 #: Where the maps shipped with the planner live.
@@ -52,6 +53,9 @@ TOP_KEYS = {
                        "flight carried or was commanded (payload, speed, altitude)"),
     "license": S.text("licence of the data"),
     "notes": _NOTE,
+    "header": S.Key(S.LIST, meaning=(
+        "the names of the columns, in order, of a file that has no header row (its first "
+        "row is data); the map's other keys use these names")),
 }
 
 TIME_KEYS = {
@@ -137,13 +141,91 @@ def load_map(source: str | os.PathLike | dict) -> dict:
            "derived": _entries(top["derived"], DERIVED_KEYS, "derived", MAPPABLE, problems),
            "extra": _entries(top["extra"], EXTRA_KEYS, "extra", None, problems),
            "meta": _meta(top["meta"], where, problems),
-           "flights": _flights(top["flights"], problems)}
+           "flights": _flights(top["flights"], problems),
+           "header": _header(top.get("header"), problems)}
     problems.done()
     if not out["columns"] and not out["derived"]:
         raise InputError(f"{where}: the map has no 'columns'")
     for spec in out["extra"].values():
         spec.update(relative=False, missing=[])
     return out
+
+
+def _header(value, problems: S.Problems) -> list[str] | None:
+    """``header``: distinct column names."""
+    if value is None:
+        return None
+    names = [str(v).strip() for v in value]
+    if not names or len(set(names)) != len(names) or not all(names):
+        problems.add(f"header must list distinct, non-empty column names, got {value!r}")
+        return None
+    return names
+
+
+def map_columns(cmap: dict) -> set[str]:
+    """The CSV columns a loaded map reads (the time, the experiment, every mapped,
+    derived and extra column)."""
+    need = {cmap["time"]["column"]} if cmap.get("time") else set()
+    if cmap.get("experiment"):
+        need.add(cmap["experiment"])
+    for block in ("columns", "extra"):
+        need |= {spec["column"] for spec in cmap[block].values()}
+    for spec in cmap["derived"].values():
+        need |= set(spec["of"] or ())
+    return need
+
+
+def match_map(header: list[str], first_row: list[str]) -> tuple[str, dict, str]:
+    """The shipped map (:data:`MAPS_DIR`) that reads a CSV file: one with a header whose
+    names hold every column the map reads, or, for a map of a file without a header, a
+    first row of as many numbers as the map's ``header`` names. The most specific match
+    (most columns read) wins.
+
+    Parameters
+    ----------
+    header : list of str
+        The file's first row as column names (stripped, byte-order mark removed).
+    first_row : list of str
+        The same row as values (for files without a header).
+
+    Returns
+    -------
+    (name, map, why)
+        The map's file name without ``.yaml``, the loaded map and how it matched.
+
+    Raises
+    ------
+    InputError
+        No shipped map reads the file (the message lists them).
+    """
+    found = []
+    for path in sorted(MAPS_DIR.glob("*.yaml")):
+        cmap = load_map(path)
+        need = map_columns(cmap)
+        if cmap["header"] is not None:
+            numeric = all(_is_number(v) for v in first_row)
+            if numeric and len(first_row) == len(cmap["header"]):
+                found.append((len(need), path.stem, cmap,
+                              f"no header row, {len(first_row)} numeric columns"))
+        elif need <= set(header):
+            found.append((len(need), path.stem, cmap,
+                          f"columns {', '.join(sorted(need))}"))
+    if not found:
+        names = ", ".join(p.stem for p in sorted(MAPS_DIR.glob("*.yaml")))
+        raise InputError(f"no shipped column map reads a file with the columns "
+                         f"{', '.join(header[:12])}{' …' if len(header) > 12 else ''} "
+                         f"(maps: {names}); write one (docs/formats.md, column maps)")
+    found.sort(key=lambda f: -f[0])
+    _, name, cmap, why = found[0]
+    return name, cmap, why
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
 
 
 def _read(source) -> tuple[Any, str]:

@@ -56,7 +56,7 @@ import pandas as pd
 from planner.errors import InputError
 from planner.io import files
 from planner.io.logs._common import Meta, course_deg
-from planner.io.logs.columnmap import MAPS_DIR, ROTATE_OPS, load_map
+from planner.io.logs.columnmap import MAPS_DIR, ROTATE_OPS, load_map, match_map
 from planner.io.record import (
     COLUMNS,
     add_consumed,
@@ -129,8 +129,13 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     """
     path = Path(path)
     meta = Meta(str(path), "csv")
-    cmap = load_map(map) if map is not None else None
-    raw = _read_raw(path)
+    if map is not None and str(map) == "auto":
+        name, cmap, why = match_map(*_first_row(path))
+        meta["column_map"] = name
+        meta["column_map_match"] = why
+    else:
+        cmap = load_map(map) if map is not None else None
+    raw = _read_raw(path, cmap["header"] if cmap is not None else None)
     if cmap is None:
         df = complete_record(validate_record(raw, path, require_power=require_battery,
                                              csv_lines=True))
@@ -150,11 +155,27 @@ def read_csv_log(path: str | os.PathLike, *, map: str | os.PathLike | dict | Non
     return df, meta.values
 
 
-def _read_raw(path: Path) -> pd.DataFrame:
-    """The CSV file as pandas reads it, its header names stripped, a cut last line
+def _first_row(path: Path) -> tuple[list[str], list[str]]:
+    """The file's first row, as names (stripped) and as values, a byte-order mark
+    removed: what :func:`match_map` matches the shipped maps against."""
+    try:
+        head = pd.read_csv(files.input_path(path, "log", "CSV log"), header=None, nrows=1,
+                           dtype=str, encoding="utf-8-sig")
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError,
+            OSError, EOFError) as exc:
+        raise InputError(f"{path}: not a readable CSV file ({type(exc).__name__})") from None
+    row = [str(v).strip() for v in head.iloc[0].tolist()]
+    return row, row
+
+
+def _read_raw(path: Path, header: list[str] | None = None) -> pd.DataFrame:
+    """The CSV file as pandas reads it (a byte-order mark removed; ``header``: the names
+    of a file without a header row), its header names stripped, a cut last line
     dropped."""
     try:
-        raw = pd.read_csv(files.input_path(path, "log", "CSV log"), low_memory=False)
+        kw = {"header": None, "names": header} if header else {}
+        raw = pd.read_csv(files.input_path(path, "log", "CSV log"), low_memory=False,
+                          encoding="utf-8-sig", **kw)
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except pd.errors.EmptyDataError:

@@ -58,6 +58,37 @@ def literature_epsilon(cells_series):
     return out if out.ndim else float(out)
 
 
+def scale_to_pack(delta, epsilon, beta, cells_series, cells_parallel=1):
+    r"""δ of a pack of ``cells_series`` × ``cells_parallel`` identical cells, from the
+    integral model of one cell (ε and β are the cell's).
+
+    Every cell of the pack carries :math:`P_c = P / (S P_n)` and gives
+    :math:`C_c = C / P_n` of the pack's charge, so the cell's law
+    :math:`t = \delta_c P_c^\varepsilon C_c^\beta` ([UAV23] eq. 15) is, for the pack,
+
+    .. math:: t = \delta_c (S P_n)^{-\varepsilon} P_n^{-\beta}\; P^\varepsilon C^\beta,
+              \qquad \delta = \delta_c (S P_n)^{-\varepsilon} P_n^{-\beta}
+
+    and the same holds for the integral form (eq. 14) at any power profile. Cell-to-cell
+    spread and the wiring's losses are neglected. With ε ≈ −1.04 this makes δ grow
+    about as :math:`S^{1.04}`, as the literature start values of eq. 16 do
+    (δ₀(4)/δ₀(2) = 2.17 against 2^1.04 = 2.06): δ depends on the number of cells, which
+    editing ``cells_series`` of a pack file does not change.
+
+    Parameters
+    ----------
+    delta, epsilon, beta : float
+        The cell's model. [s W^-ε (A s)^-β], [unitless], [unitless]
+    cells_series, cells_parallel : int
+        The pack's arrangement (S, P_n ≥ 1).
+    """
+    if cells_series < 1 or cells_parallel < 1:
+        raise ModelError(f"a pack needs at least one cell in series and in parallel, got "
+                         f"{cells_series}S{cells_parallel}P")
+    return float(delta * (cells_series * cells_parallel) ** (-epsilon)
+                 * cells_parallel ** (-beta))
+
+
 def _check(delta, beta):
     if np.any(np.asarray(delta) <= 0):
         raise ModelError(f"integral model: delta must be > 0, got {delta}")
