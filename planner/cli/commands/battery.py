@@ -19,7 +19,7 @@ from planner.physics.battery import integral
 from planner.physics.battery.cells import series_cells
 from planner.cli.commands.pack_scale import describe, parse_cells, scale_model
 from planner.cli.commands.common import (add_options, fmt, name_width, output_path, outputs,
-                                         parse_float, parse_int, plot_path, write_json)
+                                         parse_float, parse_int, write_json)
 from planner.errors import InputError
 from planner.parameters import IntegralModel, battery_from_mapping, load_battery, read_definition
 from planner.identify.schedule import write_schedule
