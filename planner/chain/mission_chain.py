@@ -336,41 +336,13 @@ class ChainResult:
                        f"the battery model's range [{T_RANGE_C[0]:g} °C, "
                        f"{T_RANGE_C[1]:g} °C]: no prediction can be trusted")
         elif code == "voltage":
-            if np.isfinite(c["cutoff_time_s"]) and c["cutoff_time_s"] <= self.duration_s:
-                j = int(c["cutoff_leg"])
-                v_cut = p.cells_series * p.cell_voltage_empty_v
-                out.append(f"{_leg_name(table, j)}: loaded voltage reaches the cut-off "
-                           f"{p.cell_voltage_empty_v:g} V/cell ({v_cut:.1f} V) at "
-                           f"t = {c['cutoff_time_s']:.0f} s (pack at "
-                           f"{c['pack_temperature_c']:.0f} °C)")
-            if np.isfinite(c["collapse_time_s"]):
-                j = int(c["collapse_leg"])
-                out.append(f"{_leg_name(table, j)}: the pack cannot deliver "
-                           f"{c['collapse_power_w']:.0f} W at "
-                           f"{c['pack_temperature_c']:.0f} °C (voltage collapses)")
+            out.extend(self._voltage_reasons(i, c))
         elif code == "runs_out":
             out.append(f"needs {self.charge_used_mah[i]:.0f} mAh, more than the "
                        f"{self.usable_mah[i]:.0f} mAh the pack can give: it runs out "
                        "before landing")
         elif code == "landing_reserve":
-            if self.cutoff_limited(i) and self.battery_models[i] == "integral":
-                out.append(f"with the pack at {c['pack_temperature_c']:.0f} °C it gives "
-                           f"{self.usable_mah[i]:.0f} mAh of the "
-                           f"{p.usable_as / AS_PER_MAH:.0f} mAh usable at 25 °C (the "
-                           f"{p.chemistry} cold laws): the mission ends "
-                           f"{-self.margin_mah[i]:.0f} mAh short of the reserve")
-            elif self.cutoff_limited(i):
-                out.append(f"the loaded cell voltage reaches the "
-                           f"{p.cell_voltage_empty_v:g} V cut-off after "
-                           f"{self.usable_mah[i]:.0f} mAh with the pack at "
-                           f"{c['pack_temperature_c']:.0f} °C (of "
-                           f"{p.usable_as / AS_PER_MAH:.0f} mAh usable when warm): the "
-                           f"mission ends {-self.margin_mah[i]:.0f} mAh short of the "
-                           "reserve")
-            else:
-                out.append(f"lands with {100 * self.remaining_fraction[i]:.1f} % of "
-                           f"nominal charge, below the {100 * self.reserve_fraction:.0f} "
-                           f"% reserve (short by {-self.margin_mah[i]:.0f} mAh)")
+            out.append(self._landing_reason(i, c))
         elif code == "return_home":
             pnr = self.point_of_no_return(i)
             out.append(f"cannot return home with the reserve from t = "
@@ -378,6 +350,44 @@ class ChainResult:
                        f"{pnr['distance_home_m']:.0f} m from home): point of no return "
                        "passed")
         return out
+
+    def _voltage_reasons(self, i: int, c: dict) -> list[str]:
+        """The circuit model's cut-off and voltage collapse, in words, for pack ``i``."""
+        p, table, out = self.packs[i], self.table, []
+        if np.isfinite(c["cutoff_time_s"]) and c["cutoff_time_s"] <= self.duration_s:
+            j = int(c["cutoff_leg"])
+            v_cut = p.cells_series * p.cell_voltage_empty_v
+            out.append(f"{_leg_name(table, j)}: loaded voltage reaches the cut-off "
+                       f"{p.cell_voltage_empty_v:g} V/cell ({v_cut:.1f} V) at "
+                       f"t = {c['cutoff_time_s']:.0f} s (pack at "
+                       f"{c['pack_temperature_c']:.0f} °C)")
+        if np.isfinite(c["collapse_time_s"]):
+            j = int(c["collapse_leg"])
+            out.append(f"{_leg_name(table, j)}: the pack cannot deliver "
+                       f"{c['collapse_power_w']:.0f} W at "
+                       f"{c['pack_temperature_c']:.0f} °C (voltage collapses)")
+        return out
+
+    def _landing_reason(self, i: int, c: dict) -> str:
+        """Why pack ``i`` lands below the reserve: the cold, the cut-off or the charge."""
+        p = self.packs[i]
+        if self.cutoff_limited(i) and self.battery_models[i] == "integral":
+            return (f"with the pack at {c['pack_temperature_c']:.0f} °C it gives "
+                    f"{self.usable_mah[i]:.0f} mAh of the "
+                    f"{p.usable_as / AS_PER_MAH:.0f} mAh usable at 25 °C (the "
+                    f"{p.chemistry} cold laws): the mission ends "
+                    f"{-self.margin_mah[i]:.0f} mAh short of the reserve")
+        if self.cutoff_limited(i):
+            return (f"the loaded cell voltage reaches the "
+                    f"{p.cell_voltage_empty_v:g} V cut-off after "
+                    f"{self.usable_mah[i]:.0f} mAh with the pack at "
+                    f"{c['pack_temperature_c']:.0f} °C (of "
+                    f"{p.usable_as / AS_PER_MAH:.0f} mAh usable when warm): the "
+                    f"mission ends {-self.margin_mah[i]:.0f} mAh short of the "
+                    "reserve")
+        return (f"lands with {100 * self.remaining_fraction[i]:.1f} % of "
+                f"nominal charge, below the {100 * self.reserve_fraction:.0f} "
+                f"% reserve (short by {-self.margin_mah[i]:.0f} mAh)")
 
     def cutoff_limited(self, i: int) -> bool:
         """Whether the circuit model's cut-off, not the nominal charge, limits pack ``i``."""

@@ -3,6 +3,7 @@ logs."""
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -127,26 +128,63 @@ def read_weather(path: str) -> dict[str, dict[str, float]]:
 
 
 def run(args) -> int:
-    from planner.identify.backtest import BacktestOptions, run_backtest, summarise
-    from planner.io.flightdata import load_flight_data
+    from planner.identify.backtest import run_backtest, summarise
+
+    aircraft, pack, path = _definitions(args)
+    options = _options(args)
+    t0 = time.perf_counter()
+    data, payload = _data(args, aircraft, options)
+    with _dask(parse_int(args.workers, "--workers", 1, 1024)) as client:
+        table = run_backtest(data, aircraft, pack, options, payload_kg=payload, client=client)
+    summary = summarise(table)
+    summary.update(elapsed_s=time.perf_counter() - t0, aircraft=args.aircraft,
+                   battery=str(path), data=[str(d) for d in args.data],
+                   calibration=(f"held out {len(options.held_out)} flights, calibrated on the "
+                                "others" if options.held_out else
+                                f"{options.folds}-fold by {args.by}"),
+                   kinematics=_KINEMATICS[args.kinematics])
+    text = render(summary)
+    print(text)
+    _write(Path(args.out), table, summary, text)
+    return 0
+
+
+def _definitions(args):
+    """The aircraft, the pack and the pack's file."""
     from planner.parameters import default_battery_path, load_aircraft, load_battery
 
-    folds = parse_int(args.folds, "--folds", 2, 1000)
-    workers = parse_int(args.workers, "--workers", 1, 1024)
-    site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0, "m")
-    reserve = parse_fraction(args.reserve, "--reserve")
     aircraft = load_aircraft(args.aircraft)
     path = args.battery or default_battery_path(aircraft)
     if path is None:
         raise InputError(f"{args.aircraft}: no pack known: give --battery")
-    pack = load_battery(path)
-    if args.payload is not None:
+    if args.payload is not None:            # checked before the data are read
         flight_payloads(None, args.payload, "--payload", aircraft)
+    return aircraft, load_battery(path), path
+
+
+def _options(args):
+    """The backtest's options from the command line."""
+    from planner.identify.backtest import BacktestOptions
+
     missions = Path(args.missions) if args.missions else None
     if missions is not None and not missions.is_dir():
         raise InputError(f"--missions {args.missions}: not a folder")
-    weather = read_weather(args.weather) if args.weather else None
-    t0 = time.perf_counter()
+    return BacktestOptions(
+        folds=parse_int(args.folds, "--folds", 2, 1000), by=args.by,
+        held_out=tuple(_ids(args.held_out) or ()) or None,
+        site_altitude_m=parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0,
+                                    "m"),
+        reserve=parse_fraction(args.reserve, "--reserve"), missions_dir=missions,
+        weather=read_weather(args.weather) if args.weather else None,
+        kinematics=args.kinematics,
+        uncertainty_samples=(parse_int(args.uncertainty, "--uncertainty", 20, 100_000)
+                             if args.uncertainty else 0))
+
+
+def _data(args, aircraft, options):
+    """The flight data (the ``--flights`` subset) and the payload given for every flight."""
+    from planner.io.flightdata import load_flight_data
+
     failed: list[str] = []
     data, _ = load_flight_data(args.data, column_map=args.map, failed=failed)
     for message in failed:
@@ -159,45 +197,37 @@ def run(args) -> int:
         data = data[data["experiment"].astype(str).isin(subset)].reset_index(drop=True)
     payload = (flight_payloads(data, args.payload, "--payload", aircraft)
                if args.payload is not None else None)
-    if weather is not None:
-        extra = sorted(set(weather) - set(data["experiment"].astype(str)))
+    if options.weather is not None:
+        extra = sorted(set(options.weather) - set(data["experiment"].astype(str)))
         if extra:
             print(f"note: the weather table names {len(extra)} flight(s) the data lack "
                   f"({', '.join(extra[:5])}{' …' if len(extra) > 5 else ''})")
-    options = BacktestOptions(folds=folds, by=args.by, held_out=tuple(_ids(args.held_out) or ())
-                              or None, site_altitude_m=site, reserve=reserve,
-                              missions_dir=missions, weather=weather,
-                              kinematics=args.kinematics,
-                              uncertainty_samples=(parse_int(args.uncertainty, "--uncertainty",
-                                                             20, 100_000)
-                                                   if args.uncertainty else 0))
-    client = cluster = None
-    if workers > 1:
-        import warnings
+    return data, payload
 
-        from dask.distributed import Client, LocalCluster
-        with warnings.catch_warnings():     # no dashboard: its port is of no use here
-            warnings.simplefilter("ignore")
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
-            client = Client(cluster)
+
+@contextlib.contextmanager
+def _dask(workers: int):
+    """A local Dask client of ``workers`` process workers, or None for one."""
+    if workers <= 1:
+        yield None
+        return
+    import warnings
+
+    from dask.distributed import Client, LocalCluster
+    with warnings.catch_warnings():     # no dashboard: its port is of no use here
+        warnings.simplefilter("ignore")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
     try:
-        table = run_backtest(data, aircraft, pack, options, payload_kg=payload, client=client)
+        yield client
     finally:
-        if client is not None:
-            client.close()
-            cluster.close()
-    elapsed = time.perf_counter() - t0
-    summary = summarise(table)
-    summary.update(elapsed_s=elapsed, aircraft=args.aircraft, battery=str(path),
-                   data=[str(d) for d in args.data],
-                   calibration=(f"held out {len(options.held_out)} flights, calibrated on the "
-                                "others" if options.held_out else
-                                f"{folds}-fold by {args.by}"),
-                   kinematics=_KINEMATICS[args.kinematics])
-    text = render(summary)
-    print(text)
-    out = Path(args.out)
+        client.close()
+        cluster.close()
+
+
+def _write(out: Path, table: pd.DataFrame, summary: dict, text: str) -> None:
+    """The per-flight table (Parquet, CSV), the report (text, JSON) and the plot."""
     out.mkdir(exist_ok=True)
     with files.output_file(out / OUTPUTS[0], "--out") as tmp:
         table.astype({"date": "string"}).to_parquet(tmp, index=False)
@@ -209,7 +239,6 @@ def run(args) -> int:
     save_backtest_plot(table, out / OUTPUTS[4], "--out")
     print(f"per-flight table: {out / OUTPUTS[0]} and {OUTPUTS[1]}; report: {OUTPUTS[2]}, "
           f"{OUTPUTS[3]}; plot: {OUTPUTS[4]}")
-    return 0
 
 
 def _records(table: pd.DataFrame):

@@ -273,34 +273,16 @@ def run_fit(args) -> int:
               + (f"; beta held at {beta:g}" if beta is not None else ""))
     model = IntegralModel(result.delta, result.epsilon, result.beta,
                           covariance=fit_covariance(result))
-    dropped, scale_note = [], None
+    dropped, scale_note, capacity_note = [], None, None
     if base_raw is not None:
         mapping = base_raw
         old = mapping.get("model") or {}
         dropped = [k for k in old if k not in ("delta", "epsilon", "beta", "source")]
         mapping["model"] = model.to_mapping()
     else:
-        cells, parallel = parse_cells(args.cells)
-        cells = cells or _cells_from_voltage(experiments)
-        capacity, capacity_note, cutoff = capacity_and_cutoff(args, experiments, result,
-                                                              cells)
-        model_map = model.to_mapping()
-        if parallel is not None:
-            scaled = scale_model(model_map, cells, parallel)
-            scale_note = describe(cells, parallel, model.delta, scaled["delta"], capacity)
-            model_map, capacity = scaled, capacity * parallel
-            source += "; " + scale_note
-        check_pack_mass(mass_kg, args.mass_kg, cells, capacity)
-        mapping = {"name": args.name, "cells_series": cells,
-                   "capacity_mah": float(round(capacity)), "mass_kg": mass_kg,
-                   "model": model_map}
-        if parallel is not None:
-            mapping["cells_parallel"] = parallel
-        if cutoff is not None:
-            mapping["cell_voltage_empty_v"] = cutoff
-        if args.chemistry is not None:
-            mapping["chemistry"] = args.chemistry
-        source += "; " + capacity_note
+        mapping, capacity_note, scale_note = _new_pack(args, experiments, result, model,
+                                                       mass_kg)
+        source += "".join(f"; {n}" for n in (scale_note, capacity_note) if n)
     mapping["source"] = source
     mapping["fit_status"] = result.fit_status
     if args.circuit and args.circuit_rates:
@@ -320,15 +302,46 @@ def run_fit(args) -> int:
                      "--out")
 
     print(render_fit(result))
-    if base_raw is None:
-        print(f"capacity  {capacity_note}")
-    if scale_note:
-        print(f"pack      {scale_note}")
+    for label, note in (("capacity ", capacity_note), ("pack     ", scale_note)):
+        if note:
+            print(f"{label} {note}")
     print(f"fit_status: {result.fit_status}")
     if dropped:
         print(f"note: model keys {', '.join(dropped)} of {args.battery} were dropped: they "
               "belong to the old δ, ε, β")
     print(f"wrote {out}")
+    _fit_outputs(args, result, experiments, mapping, circuit_scores, json_out, plot_out)
+    # a parameter on its bound or outside its physical range: written as such, exit 1
+    return 0 if result.fit_status == "ok" else 1
+
+
+def _new_pack(args, experiments, result, model, mass_kg):
+    """The pack file written without ``--battery``: cells (given, else from the voltage),
+    the capacity and cut-off, the model scaled from a cell to ``S×P`` when asked; and the
+    notes on the capacity and the scaling."""
+    cells, parallel = parse_cells(args.cells)
+    cells = cells or _cells_from_voltage(experiments)
+    capacity, capacity_note, cutoff = capacity_and_cutoff(args, experiments, result, cells)
+    model_map, scale_note = model.to_mapping(), None
+    if parallel is not None:
+        scaled = scale_model(model_map, cells, parallel)
+        scale_note = describe(cells, parallel, model.delta, scaled["delta"], capacity)
+        model_map, capacity = scaled, capacity * parallel
+    check_pack_mass(mass_kg, args.mass_kg, cells, capacity)
+    mapping = {"name": args.name, "cells_series": cells,
+               "capacity_mah": float(round(capacity)), "mass_kg": mass_kg,
+               "model": model_map}
+    if parallel is not None:
+        mapping["cells_parallel"] = parallel
+    if cutoff is not None:
+        mapping["cell_voltage_empty_v"] = cutoff
+    if args.chemistry is not None:
+        mapping["chemistry"] = args.chemistry
+    return mapping, capacity_note, scale_note
+
+
+def _fit_outputs(args, result, experiments, mapping, circuit_scores, json_out, plot_out):
+    """``--json`` (the fit, its metrics and the pack written) and ``--plot`` (its pages)."""
     if json_out:
         data = result.to_dict()
         data["metrics"] = [m.to_dict() for m in result.metrics]
@@ -344,8 +357,6 @@ def run_fit(args) -> int:
         if len(written) > 1:
             print(f"wrote     {', '.join(map(str, written))} ({len(written)} pages of at "
                   "most 8 experiments)")
-    # a parameter on its bound or outside its physical range: written as such, exit 1
-    return 0 if result.fit_status == "ok" else 1
 
 
 #: Nominal cell voltage of the specific-energy check of ``--mass-kg`` (LiPo 3.7 V,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from planner.cli.plots.common import figure, save
+from planner.cli.plots.common import figure, figure_legend, save
 
 
 def save_backtest_plot(table: pd.DataFrame, path, option: str = "--out") -> None:
@@ -38,6 +38,5 @@ def save_backtest_plot(table: pd.DataFrame, path, option: str = "--out") -> None
         ax.set_ylabel(f"predicted before take-off [{unit}]")
         ax.set_title(f"{what}: pre-flight prediction vs the log")
         ax.grid(alpha=0.3)
-        ax.legend(loc="upper left", fontsize=8)
-    fig.tight_layout()
+    figure_legend(fig, axes, ncol=3)
     save(fig, path, option)
