@@ -352,7 +352,13 @@ class InflightEstimator:
         self.k_y_var = 0.1**2
         self._k_out = None
         self.c = _Scalar(0.0, CHARGE_SCALE_SD, CHARGE_WALK_PER_S)
-        # common random numbers: the same draws every prediction (smooth, reproducible)
+        self._draw_common_numbers(settings)
+        self._clear_vehicle(mission)
+
+    # ------------------------------------------------------------------ state resets
+
+    def _draw_common_numbers(self, settings: WatchSettings) -> None:
+        """Common random numbers: the same draws every prediction (smooth, reproducible)."""
         rng = np.random.default_rng(settings.seed)
         k = settings.samples
         u = (np.argsort(rng.random((8, k)), axis=1) + rng.random((8, k))) / k
@@ -364,7 +370,9 @@ class InflightEstimator:
         self.zw = ndtri(np.clip(uw, 1e-9, 1 - 1e-9))        # (2, W)
         self.group = np.repeat(np.arange(w), np.diff(np.linspace(0, k, w + 1).round()
                                                      .astype(int)))
-        # vehicle state
+
+    def _clear_vehicle(self, mission: Mission | None) -> None:
+        """The vehicle's state before any message: unknown, on the ground, no flight."""
         self.t = None                  # stream time of the last event
         self.t_battery = None
         self.armed = False
@@ -398,7 +406,6 @@ class InflightEstimator:
         self.k_window_t = None
         self.t_tick = None
 
-    # ------------------------------------------------------------------ state resets
     def reset_battery(self) -> None:
         """A new pack: forget the battery's state (not the learnt scales)."""
         g0 = 1.0 / self.c0_mah
