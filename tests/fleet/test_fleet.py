@@ -240,7 +240,9 @@ def test_report_has_bias_p95_drift_and_figures(first, fleet):
 def test_fleet_calibration_recovers_each_true_aircraft_on_held_out_flights(first, fleet):
     """Each aircraft is flown as a true airframe that differs from its file
     (testkit.fleet.TRUTH); the calibration on about four fifths of its flights finds the
-    true values within two standard errors and cuts the held-out flights' energy error."""
+    true values within three standard errors (a test over every parameter of three
+    aircraft: two would fail one in twenty of them by chance) and cuts the held-out
+    flights' energy error."""
     from planner.identify.aircraft_fit import get_param
     from planner.fleet.calibrate import held_out
     from testkit.fleet import TRUTH, true_aircraft
@@ -256,7 +258,7 @@ def test_fleet_calibration_recovers_each_true_aircraft_on_held_out_flights(first
         assert cal.validation_flights == sum(held_out(h) for h in flights["sha256"]) > 0
         for name in TRUTH[key]:
             value, se = cal.parameters[name], cal.stderr[name]
-            assert abs(value - get_param(truth, name)) <= 2 * se, (key, name, value, se)
+            assert abs(value - get_param(truth, name)) <= 3 * se, (key, name, value, se)
         before, after = cal.flight_error_pct["before"], cal.flight_error_pct["after"]
         assert after < 1.0 < before, (key, before, after)
         fitted = load_aircraft(out / "aircraft" / f"{key}.yaml")

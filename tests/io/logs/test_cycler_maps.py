@@ -62,8 +62,14 @@ def test_samsung_30q_rate_file_without_header_and_with_bom(shared_data, tmp_path
     assert np.isnan(df["current_a"].iloc[0])                 # the overflow, as missing
     assert df["current_a"].iloc[1:].median() == pytest.approx(3.0, abs=0.05)  # 1C, discharge +
     assert df["voltage_v"].iloc[-1] < 2.6
+    # one 1C discharge excites no power dependence: fitted and written, the exponent a misfit
+    # (exit 1), never refused for the file's form
+    capsys.readouterr()
     assert main(["fit-battery", str(rec), "--out", str(tmp_path / "q30.yaml"), "--name",
-                 "30Q", "--cells", "1", "--mass-kg", "0.048", "--fix-beta", "0.9648"]) == 0
+                 "30Q", "--cells", "1", "--mass-kg", "0.048", "--fix-beta", "0.9648"]) == 1
+    out = capsys.readouterr().out
+    assert "fit_status: misfit: epsilon" in out and "too little excitation" in out
+    assert (tmp_path / "q30.yaml").is_file()
 
 
 def test_the_p42a_segments_match_their_own_map(shared_data):

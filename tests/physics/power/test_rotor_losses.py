@@ -185,7 +185,10 @@ def test_m100_rotor_losses_beat_todays_model_below_10_percent(m100_split):
     assert mape_new < 10.0
     assert mape_new <= mape_today - 1.0
     assert 0.0 <= new["stopped_power"]["value_w"] < 15.0
-    assert today["parameters"]["system_power_w"] > 50.0
+    # today's model puts the rotors' losses into a constant load above anything drawn on
+    # the ground: a misfit, and the fit written holds the file's load instead
+    assert today["free_fit"]["parameters"]["system_power_w"] > 50.0
+    assert "system_power_w" in today["fit_status"]
     assert new["lead_s"] in (0.0, 0.15, 0.3)
     # the fit's recombined terms and the aircraft's own power call agree
     assert new["train"]["after"]["rmse_w"] == pytest.approx(
@@ -235,9 +238,13 @@ def test_fit_aircraft_writes_a_rotor_losses_file_check_accepts(tmp_path, shared_
                  "--mass", "2.605", "--site-altitude", "300", "--airborne-height", "7",
                  "--train", "1,3,12,14", "--validate", "4", "--out", str(out)])
     text = capsys.readouterr().out
-    assert code == 0, text
+    # four training flights leave the figure of merit on its bound: written with the
+    # misfit named in the file, exit 1
+    assert code == 1, text
     assert "rotors stopped" in text and "cluster-robust" in text
+    assert "fit_status: misfit: figure_of_merit" in text
     fitted = load_aircraft(out)
+    assert "figure_of_merit" in yaml.safe_load(out.read_text())["fit_status"]
     m = fitted.multirotor
     assert m.power_model == "rotor_losses" and m.reference_mass_kg == pytest.approx(2.605)
     assert m.power_lead_s in (0.0, 0.15, 0.3)
@@ -313,6 +320,6 @@ def test_a_loss_the_data_do_not_have_ends_on_its_bound_and_is_not_a_value(capsys
                  "--site-altitude", "300", "--airborne-height", "3", "--out",
                  str(tmp_path / "fitted.yaml")])
     out = capsys.readouterr().out
-    assert code == 0
+    assert code == 1            # a parameter on its bound: a misfit, exit 1
     line = next(x for x in out.splitlines() if x.startswith("no_load_power_w"))
     assert "ended on its bound" in line and "misfit of the model's form" in line
