@@ -31,11 +31,14 @@ Every input passes :func:`planner.io.files.input_path`; every output goes throug
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
 import os
+import signal
 import sys
+import threading
 import time
 import uuid
 from dataclasses import dataclass, field, replace
@@ -62,6 +65,7 @@ __all__ = [
     "LOG_SUFFIXES",
     "SAMPLES_NAME",
     "TABLE_NAME",
+    "FleetInterrupted",
     "FleetResult",
     "PackEntry",
     "batch_size",
@@ -119,6 +123,10 @@ class FleetResult:
         Each aircraft calibrated on the fleet, scored on held-out flights.
     not_replayable : list of (str, str)
         This run's logs that were read but cannot be replayed (no current sensor).
+    left_out : list of (str, str, str)
+        This run's logs that were read but left out of the accuracy and the calibration:
+        (log, status, reason) with status ``mismatch`` (the log's vehicle type, cells or
+        mass class are not the aircraft's or pack's it is flown with) or ``not airborne``.
     """
 
     table: pd.DataFrame
@@ -133,6 +141,20 @@ class FleetResult:
     diagnoses: dict[str, str] = field(default_factory=dict)
     calibrations: list = field(default_factory=list)
     not_replayable: list[tuple[str, str]] = field(default_factory=list)
+    left_out: list[tuple[str, str, str]] = field(default_factory=list)
+
+    def count(self, status: str) -> int:
+        """This run's rows of ``status`` among :attr:`left_out`."""
+        return sum(st == status for _, st, _ in self.left_out)
+
+
+class FleetInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a fleet run, after the table was written: ``kept`` flights (status
+    ``ok``) are in ``table``; a rerun of the same command reads only the other logs."""
+
+    def __init__(self, kept: int, table: Path):
+        super().__init__(f"{kept} flights kept in {table}")
+        self.kept, self.table = kept, table
 
 
 def collect_logs(paths) -> list[Path]:
@@ -309,9 +331,44 @@ def _client(workers: int | None, scheduler: str | None):
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"{scheduler}: cannot connect to the Dask scheduler ({exc})") \
                 from None
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                           processes=True, dashboard_address=None)
+    # the worker processes ignore Ctrl-C (they inherit the ignored SIGINT): the terminal
+    # sends it to the whole process group, and the run stops them itself when it ends
+    with _sigint_ignored():
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
+                               threads_per_worker=1, processes=True, dashboard_address=None)
     return Client(cluster), cluster
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """SIGINT ignored in this block (in the main thread; elsewhere nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def _close_quietly(client, cluster) -> None:
+    """Close the client and the local cluster without Dask's log lines (an interrupted
+    run's workers are stopped mid-task: that is expected, not news)."""
+    import logging
+
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        with _sigint_ignored():
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
 
 
 def _summarise_batch(items, models, samples=False):
@@ -545,17 +602,27 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
         client, cluster = _client(workers, scheduler)
     if progress is True:
         progress = _Progress(len(logs))
+    quiet = False
     try:
         result, rows = _summarise_and_diagnose(
             logs, models, pack_map, store, client, progress,
             CHECKPOINT_S if checkpoint_s is None else checkpoint_s)
+    except KeyboardInterrupt:
+        quiet = True
+        raise
     finally:
         if own:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    if calibrate:
-        _calibrate_aircraft(result, models, store, rows, out)
+            if quiet:
+                _close_quietly(client, cluster)
+            else:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+    try:
+        if calibrate:
+            _calibrate_aircraft(result, models, store, rows, out)
+    except KeyboardInterrupt:
+        raise _interrupted(store, rows) from None
     _write_table(store.table_path, result.table)
     _pack_health(result, models, out, retire)
     from planner.fleet.report import write_report
@@ -615,22 +682,37 @@ def _summarise_and_diagnose(logs, models, pack_map, store: _Store, client, progr
             logs, models=models, pack_map=pack_map, skip=store.skip, client=client,
             progress=progress or None, on_batch=save, samples=store.calibrate)
     except KeyboardInterrupt:
-        save(so_far, every=0.0)
-        raise
+        raise _interrupted(store, so_far) from None
     elapsed = time.perf_counter() - t0
     failed = [(r["log"], r["error"]) for r in rows if r["status"] == "failed"]
     not_replayable = [(r["log"], r["error"]) for r in rows
                       if r["status"] == "not replayable"]
+    left_out = [(r["log"], r["status"], r["error"]) for r in rows
+                if r["status"] in ("mismatch", "not airborne")]
     if rows and len(failed) == len(rows) and not skipped:
         listed = "; ".join(f"{err}" for _, err in failed[:5])
         raise InputError(f"all {len(failed)} logs failed: {listed}"
                          + (" …" if len(failed) > 5 else ""))
     table = _merge(store.old, to_frame(rows))
-    diagnoses = diagnose_worst(table, client, models=models)
+    try:
+        diagnoses = diagnose_worst(table, client, models=models)
+    except KeyboardInterrupt:
+        raise _interrupted(store, rows) from None
     result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
                          health=[], outputs=[store.table_path], elapsed_s=elapsed,
-                         diagnoses=diagnoses, not_replayable=not_replayable)
+                         diagnoses=diagnoses, not_replayable=not_replayable,
+                         left_out=left_out)
     return result, rows
+
+
+def _interrupted(store: _Store, rows: list[dict]) -> FleetInterrupted:
+    """Write the table with this run's ``rows`` (Ctrl-C): the exception that says so."""
+    with _sigint_ignored():                 # a second Ctrl-C does not cut the table short
+        if rows:
+            store.save(rows)
+        kept = _read_table(store.table_path)
+    return FleetInterrupted(0 if kept is None else int((kept["status"] == "ok").sum()),
+                            store.table_path)
 
 
 def _calibrate_aircraft(result: FleetResult, models: dict, store: _Store, rows, out: Path
