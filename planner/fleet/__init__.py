@@ -352,23 +352,42 @@ def _sigint_ignored():
         signal.signal(signal.SIGINT, old)
 
 
-def _close_quietly(client, cluster) -> None:
-    """Close the client and the local cluster without Dask's log lines (an interrupted
-    run's workers are stopped mid-task: that is expected, not news)."""
+#: Loggers silenced while an interrupted run's own cluster is closed.
+_QUIET_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def _silence_logs() -> list[int]:
+    """Silence :data:`_QUIET_LOGGERS` in this process: their former levels."""
     import logging
 
-    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    loggers = [logging.getLogger(n) for n in _QUIET_LOGGERS]
     levels = [lg.level for lg in loggers]
     for lg in loggers:
         lg.setLevel(logging.CRITICAL + 1)
-    try:
-        with _sigint_ignored():
+    return levels
+
+
+def _close_quietly(client, cluster) -> None:
+    """Close the client and the local cluster without Dask's log lines: the workers and
+    their nannies stop mid-task and lose the scheduler, which is expected after Ctrl-C,
+    so their loggers are silenced first (in their own processes), then this one's."""
+    import logging
+
+    with _sigint_ignored():
+        if cluster is not None:
+            for nanny in (False, True):
+                try:
+                    client.run(_silence_logs, nanny=nanny)
+                except Exception:  # noqa: BLE001 - a worker already gone has nothing to say
+                    pass
+        levels = _silence_logs()
+        try:
             client.close()
             if cluster is not None:
                 cluster.close()
-    finally:
-        for lg, level in zip(loggers, levels):
-            lg.setLevel(level)
+        finally:
+            for name, level in zip(_QUIET_LOGGERS, levels):
+                logging.getLogger(name).setLevel(level)
 
 
 def _summarise_batch(items, models, samples=False):

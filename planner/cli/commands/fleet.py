@@ -84,9 +84,11 @@ def run(args) -> int:
                            retire=retire, within=within, calibrate=not args.no_calibration,
                            figures=write_figures)
     except FleetInterrupted as stop:
-        print(f"\ninterrupted: {stop.kept} flights kept in {stop.table}; run the same "
-              "command again to finish (the flights in the table are not read again)",
-              file=sys.stderr)
+        # after a progress line rewritten in place, on a line of its own
+        print(("\n" if sys.stderr.isatty() else "")
+              + f"interrupted: {stop.kept} flight{'' if stop.kept == 1 else 's'} kept in "
+              f"{stop.table}; run the same command again to finish (the flights in the "
+              "table are not read again)", file=sys.stderr)
         return 130
     ok = int((result.table["status"] == "ok").sum())
     counts = [f"{len(result.failed)} failed"]
