@@ -386,7 +386,10 @@ def check_match(df: pd.DataFrame, meta: dict, aircraft: Aircraft | None,
                 pack: BatteryPack | None, path: str, state=None) -> list[str]:
     """Check a log against the aircraft and pack it is flown with: the log's vehicle type
     (its metadata), its cells in series (the metadata's ``battery_cells``, else
-    :func:`planner.physics.battery.cells.series_cells` of its voltage) and its mass class
+    :func:`planner.physics.battery.cells.series_cells` of its voltage: the fewest cells
+    that voltage allows, so a pack of more cells is accepted as long as its highest
+    voltage is above :data:`CELL_EMPTY_V` a cell) against the aircraft's
+    ``cells_series_allowed`` and the pack file's ``cells_series``, and its mass class
     (a multirotor's hover power against the aircraft's own power model). Raises
     :class:`Mismatch` naming the first mismatch and its evidence; returns the checks that
     passed (the evidence used)."""
@@ -403,20 +406,31 @@ def check_match(df: pd.DataFrame, meta: dict, aircraft: Aircraft | None,
         used.append(what)
     voltage = df["voltage_v"].to_numpy(float) if "voltage_v" in df else None
     cells, source = _cell_evidence(meta, voltage)
-    allowed = tuple(aircraft.cells_series_allowed or ())
     if cells is not None:
         vmax = (float(np.nanmax(voltage)) if voltage is not None
                 and np.isfinite(voltage).any() else math.nan)
-        if vmax < cells * CELL_EMPTY_V:
-            source += (f"; {cells}S would be {vmax / cells:.2f} V a cell at most, below "
-                       f"{CELL_EMPTY_V:.1f} V")
-            raise Mismatch(f"mismatch: not a {cells}S pack ({source})")
-        if allowed and cells not in allowed:
+        logged = bool(meta.get("battery_cells"))
+        sets = []
+        if aircraft.cells_series_allowed:
+            sets.append((tuple(aircraft.cells_series_allowed), "the aircraft allows"))
+        if pack is not None:
+            sets.append(((pack.cells_series,), "the pack file is"))
+        for allowed, whose in sets:
+            if cells in allowed:
+                continue
+            # series_cells is the fewest cells the voltage allows: a pack of more cells
+            # that starts the log part-discharged reads fewer, down to its empty voltage
+            fuller = [n for n in allowed if n > cells and vmax >= n * CELL_EMPTY_V]
+            if fuller and not logged:
+                source += "" if "not charged" in source else (f"; {fuller[0]}S at {vmax / fuller[0]:.2f} V a cell at most, "
+                           "not charged when the log starts")
+                continue
             names = ", ".join(f"{n}S" for n in allowed)
-            raise Mismatch(f"mismatch: {cells}S pack, the aircraft allows {names} ({source})")
-        if pack is not None and cells != pack.cells_series:
-            raise Mismatch(f"mismatch: {cells}S pack, the pack file is "
-                           f"{pack.cells_series}S ({source})")
+            lower = [n for n in allowed if n > cells]
+            why = (f"; {lower[0]}S would be {vmax / lower[0]:.2f} V a cell at most, below "
+                   f"{CELL_EMPTY_V:.1f} V" if lower and not logged and np.isfinite(vmax)
+                   else "")
+            raise Mismatch(f"mismatch: {cells}S pack, {whose} {names} ({source}{why})")
         used.append(f"{cells}S ({source})")
     used += _check_mass(df, aircraft, pack, state)
     return used
