@@ -501,3 +501,40 @@ def test_an_aircraft_the_run_does_not_have_is_a_failed_row_that_names_it(fleet):
                         aircraft_key="hexa")
     assert row["status"] == "failed"
     assert "names aircraft 'hexa', none of the aircraft given (solo_survey)" in row["error"]
+
+
+def test_ctrl_c_says_how_many_flights_were_kept_and_how_to_resume(fleet_dir, tmp_path):
+    """Ctrl-C from a terminal reaches the whole process group (the command and its Dask
+    workers): one line saying what was kept and how to resume, no worker tracebacks, and
+    the table it names holds that many flights."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "fleet"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "planner.cli.main", "fleet", str(fleet_dir / "logs"),
+         "--aircraft", str(AIRCRAFT), str(REPO / "aircraft/quad_7in.yaml"),
+         str(REPO / "aircraft/x8_mapper.yaml"), "--packs", str(fleet_dir / "packs.csv"),
+         "--out", str(out), "--workers", "1"],
+        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        start_new_session=True)
+    try:
+        first = proc.stderr.readline()          # the first progress line: some logs done
+        assert first.startswith("fleet: "), first
+        os.killpg(proc.pid, signal.SIGINT)
+        rest, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    lines = [s for s in err.splitlines() if not s.startswith("fleet: ")]
+    assert proc.returncode == 130
+    assert "Traceback" not in err and rest == ""
+    assert len(lines) == 1, lines
+    kept = int((pd.read_parquet(out / "flights.parquet")["status"] == "ok").sum())
+    assert kept >= 1
+    flights = "flight" if kept == 1 else "flights"
+    assert lines[0] == (f"interrupted: {kept} {flights} kept in {out / 'flights.parquet'}; "
+                        "run the same command again to finish (the flights in the table are "
+                        "not read again)")
