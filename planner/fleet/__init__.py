@@ -7,7 +7,10 @@
    process workers (one thread each) by default, or the scheduler at ``scheduler`` —
    by :func:`planner.fleet.summary.summarise_log`; a log whose content hash is already
    in ``DIR/flights.parquet`` with ``status = ok`` is not read again; a log that fails
-   is a ``failed`` row with its reason;
+   is a ``failed`` row with its reason, a log that is not of the aircraft or pack it is
+   flown with a ``mismatch`` row (:func:`planner.fleet.summary.check_match`), a log
+   without airborne samples a ``not airborne`` row — neither counts in the accuracy,
+   the pack health or the calibration;
 2. the table is written to ``DIR/flights.parquet`` (one row per flight,
    :data:`planner.fleet.summary.COLUMNS`);
 3. each identified pack's health (:mod:`planner.fleet.health`), and a pack file per pack in
@@ -41,6 +44,7 @@ import sys
 import threading
 import time
 import uuid
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
@@ -333,7 +337,10 @@ def _client(workers: int | None, scheduler: str | None):
                 from None
     # the worker processes ignore Ctrl-C (they inherit the ignored SIGINT): the terminal
     # sends it to the whole process group, and the run stops them itself when it ends
-    with _sigint_ignored():
+    # without a dashboard the scheduler still serves its health routes, on port 8787 or,
+    # taken by another cluster, any free port: that is no news to the user either
+    with _sigint_ignored(), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Port 8787 is already in use")
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
                                threads_per_worker=1, processes=True, dashboard_address=None)
     return Client(cluster), cluster
@@ -608,6 +615,10 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     InputError
         No logs, ``out_dir`` among the inputs or unusable, or every log failed (naming
         each with its reason).
+    FleetInterrupted
+        Ctrl-C (a KeyboardInterrupt): the table is written first, and the exception says
+        how many flights it holds; the run's own cluster is closed without its workers'
+        log lines.
     """
     models = fleet_models(aircraft, pack)
     logs = collect_logs(paths)
@@ -637,16 +648,17 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
                 client.close()
                 if cluster is not None:
                     cluster.close()
+    from planner.fleet.report import write_report
+
     try:
         if calibrate:
             _calibrate_aircraft(result, models, store, rows, out)
+        _write_table(store.table_path, result.table)
+        _pack_health(result, models, out, retire)
+        result.outputs += write_report(result, out, retire=retire, within=within,
+                                       figures=figures)
     except KeyboardInterrupt:
         raise _interrupted(store, rows) from None
-    _write_table(store.table_path, result.table)
-    _pack_health(result, models, out, retire)
-    from planner.fleet.report import write_report
-
-    result.outputs += write_report(result, out, retire=retire, within=within, figures=figures)
     return result
 
 

@@ -335,12 +335,15 @@ def test_an_interrupted_run_keeps_what_it_finished_and_its_rerun_reads_only_the_
             if done >= 20:
                 raise KeyboardInterrupt
 
-    with pytest.raises(KeyboardInterrupt):
+    from planner.fleet import FleetInterrupted
+
+    with pytest.raises(FleetInterrupted) as stop:
         _run([fleet_dir / "logs", damaged], out, client, packs=fleet_dir / "packs.csv",
              progress=Interrupt(), checkpoint_s=3600.0)
     kept = pd.read_parquet(out / "flights.parquet")
     finished = int((kept["status"] == "ok").sum())
     assert 20 <= finished < 12 * FLIGHTS_PER_PACK
+    assert (stop.value.kept, stop.value.table) == (finished, out / "flights.parquet")
     again = _run([fleet_dir / "logs", damaged], out, client, packs=fleet_dir / "packs.csv")
     assert again.skipped == finished
     assert again.processed == 12 * FLIGHTS_PER_PACK - finished + 2
