@@ -383,10 +383,9 @@ def _close_quietly(client, cluster) -> None:
     with _sigint_ignored():
         if cluster is not None:
             for nanny in (False, True):
-                try:
+                # a worker already gone has nothing to say
+                with contextlib.suppress(Exception):
                     client.run(_silence_logs, nanny=nanny)
-                except Exception:  # noqa: BLE001 - a worker already gone has nothing to say
-                    pass
         levels = _silence_logs()
         try:
             client.close()

@@ -126,9 +126,9 @@ def render(result, *, retire: float, within: float, with_figures: bool = True) -
     left_out = getattr(result, "left_out", []) or []
     if left_out:
         lines += ["## Logs left out (this run)", "",
-                  "Read, but not counted in the accuracy or the calibration: the log is not "
-                  "of the aircraft or pack it was flown with (mismatch, with the evidence), "
-                  "or it has no airborne sample.", ""]
+                  ("Read, but not counted in the accuracy or the calibration: the log is not "
+                   "of the aircraft or pack it was flown with (mismatch, with the evidence), "
+                   "or it has no airborne sample."), ""]
         lines += [f"- {_cell(Path(log).name, 120)}: {_cell(reason, 400)}"
                   for log, _, reason in left_out]
         lines.append("")
