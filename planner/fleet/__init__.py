@@ -335,15 +335,21 @@ def _client(workers: int | None, scheduler: str | None):
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"{scheduler}: cannot connect to the Dask scheduler ({exc})") \
                 from None
-    # the worker processes ignore Ctrl-C (they inherit the ignored SIGINT): the terminal
-    # sends it to the whole process group, and the run stops them itself when it ends
+    # the worker processes ignore Ctrl-C: SIGINT is ignored while they start, and an
+    # ignored signal stays ignored in the processes started then (fork and exec keep it);
+    # the terminal sends Ctrl-C to the whole process group, and the run stops its workers
+    # itself. A Ctrl-C in the seconds the cluster takes to start is therefore not seen.
     # without a dashboard the scheduler still serves its health routes, on port 8787 or,
     # taken by another cluster, any free port: that is no news to the user either
     with _sigint_ignored(), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Port 8787 is already in use")
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
                                threads_per_worker=1, processes=True, dashboard_address=None)
-    return Client(cluster), cluster
+    try:
+        return Client(cluster), cluster
+    except KeyboardInterrupt:
+        _close_quietly(None, cluster)
+        raise
 
 
 @contextlib.contextmanager
@@ -381,14 +387,15 @@ def _close_quietly(client, cluster) -> None:
     import logging
 
     with _sigint_ignored():
-        if cluster is not None:
+        if client is not None and cluster is not None:
             for nanny in (False, True):
                 # a worker already gone has nothing to say
                 with contextlib.suppress(Exception):
                     client.run(_silence_logs, nanny=nanny)
         levels = _silence_logs()
         try:
-            client.close()
+            if client is not None:
+                client.close()
             if cluster is not None:
                 cluster.close()
         finally:
@@ -628,7 +635,10 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     own = client is None
     cluster = None
     if own:
-        client, cluster = _client(workers, scheduler)
+        try:
+            client, cluster = _client(workers, scheduler)
+        except KeyboardInterrupt:
+            raise _interrupted(store, []) from None
     if progress is True:
         progress = _Progress(len(logs))
     quiet = False

@@ -85,10 +85,11 @@ def run(args) -> int:
                            figures=write_figures)
     except FleetInterrupted as stop:
         # after a progress line rewritten in place, on a line of its own
+        kept = (f"{stop.kept} flight{'' if stop.kept == 1 else 's'} kept in {stop.table}"
+                if stop.table.exists() else "no flight finished yet, nothing kept")
         print(("\n" if sys.stderr.isatty() else "")
-              + f"interrupted: {stop.kept} flight{'' if stop.kept == 1 else 's'} kept in "
-              f"{stop.table}; run the same command again to finish (the flights in the "
-              "table are not read again)", file=sys.stderr)
+              + f"interrupted: {kept}; run the same command again to finish (the flights "
+              "in the table are not read again)", file=sys.stderr)
         return 130
     ok = int((result.table["status"] == "ok").sum())
     counts = [f"{len(result.failed)} failed"]
