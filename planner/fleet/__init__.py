@@ -7,7 +7,10 @@
    process workers (one thread each) by default, or the scheduler at ``scheduler`` —
    by :func:`planner.fleet.summary.summarise_log`; a log whose content hash is already
    in ``DIR/flights.parquet`` with ``status = ok`` is not read again; a log that fails
-   is a ``failed`` row with its reason;
+   is a ``failed`` row with its reason, a log that is not of the aircraft or pack it is
+   flown with a ``mismatch`` row (:func:`planner.fleet.summary.check_match`), a log
+   without airborne samples a ``not airborne`` row — neither counts in the accuracy,
+   the pack health or the calibration;
 2. the table is written to ``DIR/flights.parquet`` (one row per flight,
    :data:`planner.fleet.summary.COLUMNS`);
 3. each identified pack's health (:mod:`planner.fleet.health`), and a pack file per pack in
@@ -31,13 +34,17 @@ Every input passes :func:`planner.io.files.input_path`; every output goes throug
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import math
 import os
+import signal
 import sys
+import threading
 import time
 import uuid
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
@@ -62,6 +69,7 @@ __all__ = [
     "LOG_SUFFIXES",
     "SAMPLES_NAME",
     "TABLE_NAME",
+    "FleetInterrupted",
     "FleetResult",
     "PackEntry",
     "batch_size",
@@ -119,6 +127,10 @@ class FleetResult:
         Each aircraft calibrated on the fleet, scored on held-out flights.
     not_replayable : list of (str, str)
         This run's logs that were read but cannot be replayed (no current sensor).
+    left_out : list of (str, str, str)
+        This run's logs that were read but left out of the accuracy and the calibration:
+        (log, status, reason) with status ``mismatch`` (the log's vehicle type, cells or
+        mass class are not the aircraft's or pack's it is flown with) or ``not airborne``.
     """
 
     table: pd.DataFrame
@@ -133,6 +145,20 @@ class FleetResult:
     diagnoses: dict[str, str] = field(default_factory=dict)
     calibrations: list = field(default_factory=list)
     not_replayable: list[tuple[str, str]] = field(default_factory=list)
+    left_out: list[tuple[str, str, str]] = field(default_factory=list)
+
+    def count(self, status: str) -> int:
+        """This run's rows of ``status`` among :attr:`left_out`."""
+        return sum(st == status for _, st, _ in self.left_out)
+
+
+class FleetInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a fleet run, after the table was written: ``kept`` flights (status
+    ``ok``) are in ``table``; a rerun of the same command reads only the other logs."""
+
+    def __init__(self, kept: int, table: Path):
+        super().__init__(f"{kept} flights kept in {table}")
+        self.kept, self.table = kept, table
 
 
 def collect_logs(paths) -> list[Path]:
@@ -309,9 +335,72 @@ def _client(workers: int | None, scheduler: str | None):
         except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(f"{scheduler}: cannot connect to the Dask scheduler ({exc})") \
                 from None
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                           processes=True, dashboard_address=None)
-    return Client(cluster), cluster
+    # the worker processes ignore Ctrl-C: SIGINT is ignored while they start, and an
+    # ignored signal stays ignored in the processes started then (fork and exec keep it);
+    # the terminal sends Ctrl-C to the whole process group, and the run stops its workers
+    # itself. A Ctrl-C in the seconds the cluster takes to start is therefore not seen.
+    # without a dashboard the scheduler still serves its health routes, on port 8787 or,
+    # taken by another cluster, any free port: that is no news to the user either
+    with _sigint_ignored(), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Port 8787 is already in use")
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
+                               threads_per_worker=1, processes=True, dashboard_address=None)
+    try:
+        return Client(cluster), cluster
+    except KeyboardInterrupt:
+        _close_quietly(None, cluster)
+        raise
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """SIGINT ignored in this block (in the main thread; elsewhere nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+#: Loggers silenced while an interrupted run's own cluster is closed.
+_QUIET_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def _silence_logs() -> list[int]:
+    """Silence :data:`_QUIET_LOGGERS` in this process: their former levels."""
+    import logging
+
+    loggers = [logging.getLogger(n) for n in _QUIET_LOGGERS]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    return levels
+
+
+def _close_quietly(client, cluster) -> None:
+    """Close the client and the local cluster without Dask's log lines: the workers and
+    their nannies stop mid-task and lose the scheduler, which is expected after Ctrl-C,
+    so their loggers are silenced first (in their own processes), then this one's."""
+    import logging
+
+    with _sigint_ignored():
+        if client is not None and cluster is not None:
+            for nanny in (False, True):
+                # a worker already gone has nothing to say
+                with contextlib.suppress(Exception):
+                    client.run(_silence_logs, nanny=nanny)
+        levels = _silence_logs()
+        try:
+            if client is not None:
+                client.close()
+            if cluster is not None:
+                cluster.close()
+        finally:
+            for name, level in zip(_QUIET_LOGGERS, levels):
+                logging.getLogger(name).setLevel(level)
 
 
 def _summarise_batch(items, models, samples=False):
@@ -532,6 +621,10 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     InputError
         No logs, ``out_dir`` among the inputs or unusable, or every log failed (naming
         each with its reason).
+    FleetInterrupted
+        Ctrl-C (a KeyboardInterrupt): the table is written first, and the exception says
+        how many flights it holds; the run's own cluster is closed without its workers'
+        log lines.
     """
     models = fleet_models(aircraft, pack)
     logs = collect_logs(paths)
@@ -542,25 +635,39 @@ def run_fleet(paths, *, out_dir: str | os.PathLike, aircraft=None, pack=None,
     own = client is None
     cluster = None
     if own:
-        client, cluster = _client(workers, scheduler)
+        try:
+            client, cluster = _client(workers, scheduler)
+        except KeyboardInterrupt:
+            raise _interrupted(store, []) from None
     if progress is True:
         progress = _Progress(len(logs))
+    quiet = False
     try:
         result, rows = _summarise_and_diagnose(
             logs, models, pack_map, store, client, progress,
             CHECKPOINT_S if checkpoint_s is None else checkpoint_s)
+    except KeyboardInterrupt:
+        quiet = True
+        raise
     finally:
         if own:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    if calibrate:
-        _calibrate_aircraft(result, models, store, rows, out)
-    _write_table(store.table_path, result.table)
-    _pack_health(result, models, out, retire)
+            if quiet:
+                _close_quietly(client, cluster)
+            else:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
     from planner.fleet.report import write_report
 
-    result.outputs += write_report(result, out, retire=retire, within=within, figures=figures)
+    try:
+        if calibrate:
+            _calibrate_aircraft(result, models, store, rows, out)
+        _write_table(store.table_path, result.table)
+        _pack_health(result, models, out, retire)
+        result.outputs += write_report(result, out, retire=retire, within=within,
+                                       figures=figures)
+    except KeyboardInterrupt:
+        raise _interrupted(store, rows) from None
     return result
 
 
@@ -615,22 +722,37 @@ def _summarise_and_diagnose(logs, models, pack_map, store: _Store, client, progr
             logs, models=models, pack_map=pack_map, skip=store.skip, client=client,
             progress=progress or None, on_batch=save, samples=store.calibrate)
     except KeyboardInterrupt:
-        save(so_far, every=0.0)
-        raise
+        raise _interrupted(store, so_far) from None
     elapsed = time.perf_counter() - t0
     failed = [(r["log"], r["error"]) for r in rows if r["status"] == "failed"]
     not_replayable = [(r["log"], r["error"]) for r in rows
                       if r["status"] == "not replayable"]
+    left_out = [(r["log"], r["status"], r["error"]) for r in rows
+                if r["status"] in ("mismatch", "not airborne")]
     if rows and len(failed) == len(rows) and not skipped:
         listed = "; ".join(f"{err}" for _, err in failed[:5])
         raise InputError(f"all {len(failed)} logs failed: {listed}"
                          + (" …" if len(failed) > 5 else ""))
     table = _merge(store.old, to_frame(rows))
-    diagnoses = diagnose_worst(table, client, models=models)
+    try:
+        diagnoses = diagnose_worst(table, client, models=models)
+    except KeyboardInterrupt:
+        raise _interrupted(store, rows) from None
     result = FleetResult(table=table, processed=len(rows), skipped=skipped, failed=failed,
                          health=[], outputs=[store.table_path], elapsed_s=elapsed,
-                         diagnoses=diagnoses, not_replayable=not_replayable)
+                         diagnoses=diagnoses, not_replayable=not_replayable,
+                         left_out=left_out)
     return result, rows
+
+
+def _interrupted(store: _Store, rows: list[dict]) -> FleetInterrupted:
+    """Write the table with this run's ``rows`` (Ctrl-C): the exception that says so."""
+    with _sigint_ignored():                 # a second Ctrl-C does not cut the table short
+        if rows:
+            store.save(rows)
+        kept = _read_table(store.table_path)
+    return FleetInterrupted(0 if kept is None else int((kept["status"] == "ok").sum()),
+                            store.table_path)
 
 
 def _calibrate_aircraft(result: FleetResult, models: dict, store: _Store, rows, out: Path

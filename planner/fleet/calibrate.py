@@ -5,6 +5,11 @@ Each worker returns, beside its flight's row, the flight record thinned to at mo
 ``DIR/samples.parquet`` (keyed by the log's content hash, so a rerun adds only the new
 flights). For each aircraft of the run:
 
+* **flights** — the aircraft's ``ok`` flights with airborne samples
+  (:func:`planner.identify.aircraft_fit.airborne_samples`) among their calibration samples;
+  a flight without (a ground test, a hop of a few seconds: the fleet's ``not airborne``
+  rows, or a flight whose thinned samples miss its few airborne ones) is left out before
+  the split, so that it is never a held-out flight the fit cannot score;
 * **split** — a flight is held out when the first 32 bits of its content hash are
   divisible by :data:`HOLDOUT_EVERY` (about one flight in five, the same flights on every
   rerun and whatever order the logs come in); with no such flight, the flight of the
@@ -34,7 +39,7 @@ import pandas as pd
 from planner.io import files
 from planner.io import record
 from planner.errors import PlannerError
-from planner.identify.aircraft_fit import fit_aircraft
+from planner.identify.aircraft_fit import airborne_samples, fit_aircraft
 from planner.fleet.summary import safe_stem
 
 #: One flight in about this many is held out (by content hash).
@@ -94,17 +99,22 @@ def calibrate_aircraft(key: str, samples: pd.DataFrame, table: pd.DataFrame, air
     out = AircraftCalibration(key)
     ok = table[(table["status"] == "ok") & (table["aircraft"] == key)]
     shas = sorted(set(ok["sha256"]) & set(samples["sha256"]))
-    if len(shas) < MIN_FLIGHTS:
-        out.note = (f"{len(shas)} flight(s) with flight state: too few to calibrate "
-                    f"(expected at least {MIN_FLIGHTS})")
-        return out
-    val = [h for h in shas if held_out(h)] or shas[:1]
-    trn = [h for h in shas if h not in set(val)]
     data = samples[samples["sha256"].isin(shas)].rename(columns={"sha256": "experiment"})
     data = data.sort_values(["experiment", "time_s"], kind="stable").reset_index(drop=True)
     for c in data.columns:
         if data[c].dtype == np.float32:
             data[c] = data[c].astype(float)
+    flying = _airborne_flights(data)
+    grounded = len(shas) - len(flying)
+    shas = [h for h in shas if h in flying]
+    if len(shas) < MIN_FLIGHTS:
+        out.note = (f"{len(shas)} flight(s) with airborne flight state: too few to calibrate "
+                    f"(expected at least {MIN_FLIGHTS})"
+                    + (f"; {grounded} without airborne samples left out" if grounded else ""))
+        return out
+    val = [h for h in shas if held_out(h)] or shas[:1]
+    trn = [h for h in shas if h not in set(val)]
+    data = data[data["experiment"].isin(shas)].reset_index(drop=True)
     mass = aircraft.empty_mass_kg + (pack.total_mass_kg if pack is not None else 0.0)
     own = record.experiment_payloads(data)      # each flight's payload where logged
     if own is not None:
@@ -127,7 +137,22 @@ def calibrate_aircraft(key: str, samples: pd.DataFrame, table: pd.DataFrame, air
     out.flight_error_pct = {k: float(np.mean(np.abs(list(v.values())))) if v else math.nan
                             for k, v in per.items()}
     out.aircraft = res["aircraft"]
+    if grounded:
+        out.note = f"{grounded} flight(s) without airborne samples left out"
     return out
+
+
+def _airborne_flights(data: pd.DataFrame) -> set[str]:
+    """The flights (``experiment``) of ``data`` with at least one airborne sample."""
+    if data.empty:
+        return set()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            s = airborne_samples(data)
+    except PlannerError:
+        return set()
+    return set(map(str, s.experiment))
 
 
 def write_aircraft_file(cal: AircraftCalibration, folder: Path) -> Path | None:

@@ -8,6 +8,7 @@
   and drifts as it ages shows here;
 * the worst flights by charge error, with their data-quality warnings;
 * per pack: flights, state of health, fade per cycle, flights to retirement, resistance;
+* the logs left out (a mismatch with the aircraft or pack, no airborne sample) and why;
 * per aircraft: the model calibrated on the whole fleet (:mod:`planner.fleet.calibrate`),
   its parameters with standard errors, and its error on held-out flights against the
   aircraft file as given.
@@ -122,6 +123,15 @@ def render(result, *, retire: float, within: float, with_figures: bool = True) -
         lines += ["## Logs read but not replayable (this run)", ""]
         lines += [f"- {_cell(err, 400)}" for _, err in result.not_replayable]
         lines.append("")
+    left_out = getattr(result, "left_out", []) or []
+    if left_out:
+        lines += ["## Logs left out (this run)", "",
+                  ("Read, but not counted in the accuracy or the calibration: the log is not "
+                   "of the aircraft or pack it was flown with (mismatch, with the evidence), "
+                   "or it has no airborne sample."), ""]
+        lines += [f"- {_cell(Path(log).name, 120)}: {_cell(reason, 400)}"
+                  for log, _, reason in left_out]
+        lines.append("")
     if result.notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in result.notes] + [""]
     return "\n".join(lines) + "\n"
@@ -130,10 +140,11 @@ def render(result, *, retire: float, within: float, with_figures: bool = True) -
 def _counts(result, table: pd.DataFrame, ok: pd.DataFrame) -> list[str]:
     """Title and the flights in the table, failed and not replayable."""
     bad = table[table["status"] == "failed"]
-    unusable = table[table["status"] == "not replayable"]
+    others = [f"{n} {status}" for status in ("not replayable", "mismatch", "not airborne")
+              if (n := int((table["status"] == status).sum()))]
     return ["# Fleet report", "",
             f"{len(ok)} flights in the table ({len(bad)} failed logs"
-            + (f", {len(unusable)} not replayable" if len(unusable) else "")
+            + "".join(f", {o}" for o in others)
             + "); this run summarised "
             f"{result.processed} logs ({len(result.failed)} failed) and found "
             f"{result.skipped} already in the table.", ""]

@@ -69,6 +69,20 @@ CALIBRATION_COLUMNS = ("time_s", "power_w", "altitude_m", "climb_rate_ms", "grou
                        "wind_n_ms", "wind_e_ms", "specific_force_ms2", "throttle", "mode",
                        "payload_kg")
 
+#: Lowest voltage of a lithium cell in use (Battery University BU-501 "Basics about
+#: Discharging": cut-off 3.0 V a cell): a pack whose highest voltage is below N × this
+#: is not N cells in series. [V]
+CELL_EMPTY_V = 3.0
+#: A log's hover mass (the mass at which the aircraft's own power model draws the log's
+#: hover power) beyond this factor of the aircraft's heaviest take-off, or below its empty
+#: mass with the pack over this factor, is another class of aircraft. [unitless]
+MASS_CLASS_FACTOR = 2.0
+#: Hover samples: airborne, airspeed and climb rate below these. [m/s]
+HOVER_SPEED_MS = 1.0
+HOVER_CLIMB_MS = 0.3
+#: Fewest hover samples for the mass check.
+HOVER_MIN_SAMPLES = 10
+
 #: Columns of the fleet table, in order, with their pandas/Arrow types.
 COLUMNS: dict[str, str] = {
     "sha256": "string", "log": "string", "status": "string", "error": "string",
@@ -172,8 +186,31 @@ def choose_aircraft(models: dict, key: str | None, meta: dict, path: str
                        "packs CSV (column aircraft)")
 
 
-class NotReplayable(PlannerError):
+class RowReason(PlannerError):
+    """A log that is read but left out of the fleet's accuracy and calibration: the row's
+    ``status`` (:attr:`status`) and its one-line reason; the row keeps what was measured."""
+
+    status = "not used"
+
+
+class NotReplayable(RowReason):
     """A log that is read but cannot be replayed (no current sensor): the row's reason."""
+
+    status = "not replayable"
+
+
+class Mismatch(RowReason):
+    """A log whose vehicle type, cell count or mass class is not the aircraft's or the
+    pack's it is flown with (:func:`check_match`): the row's reason."""
+
+    status = "mismatch"
+
+
+class NotAirborne(RowReason):
+    """A log with no airborne sample (a ground test, a hop of a few seconds): its battery
+    is replayed, but it is left out of the accuracy and the aircraft calibration."""
+
+    status = "not airborne"
 
 
 def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "unknown",
@@ -230,8 +267,8 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
         notes = list(dict.fromkeys(str(w.message).replace("\n", " ") for w in caught))
         row["warnings"] = "; ".join(filter(None, [row.get("warnings") or ""] + notes)) or None
         row["status"] = "ok"
-    except NotReplayable as exc:
-        row.update(status="not replayable", error=str(exc))
+    except RowReason as exc:
+        row.update(status=exc.status, error=str(exc))
     except PlannerError as exc:
         row.update(status="failed", error=str(exc).splitlines()[0] if str(exc) else
                    type(exc).__name__)
@@ -277,6 +314,12 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
                energy_wh=float(record.cumulative_trapezoid(np.nan_to_num(power), t)[-1]) / 3600.0,
                charge_mah=float(consumed[ok_c][-1] - consumed[ok_c][0]) if ok_c.any()
                else None)
+    state = None
+    if aircraft is not None and {"climb_rate_ms", "groundspeed_ms"} & set(df.columns):
+        from planner.chain import flightstate
+
+        state = flightstate.from_record(df)
+    check_match(df, meta, aircraft, pack, path, state)
     flown, label = flown_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
     notes = []
     if flown is not None:
@@ -317,6 +360,119 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
     if row["charge_mah"] is not None and row["charge_mah"] <= 0:
         row["warnings"] = "; ".join(filter(None, [row["warnings"],
                                                   "the logged charge does not rise"]))
+    if state is not None:
+        from planner.identify.aircraft_fit import airborne_mask
+
+        if not airborne_mask(df, state, None).any():
+            row.pop("_samples", None)
+            raise NotAirborne(f"not airborne: no airborne sample in {row['duration_s']:.1f} s "
+                              "(flight phases ground and take-off only); left out of the "
+                              "accuracy and the aircraft calibration")
+
+
+def _cell_evidence(meta: dict, voltage) -> tuple[int | None, str]:
+    """The log's cells in series and where they come from."""
+    logged = meta.get("battery_cells")
+    if logged:
+        return int(logged), "battery_cells in the log's metadata"
+    cells = series_cells(voltage) if voltage is not None else None
+    if cells is None:
+        return None, ""
+    vmax = float(np.nanmax(np.asarray(voltage, float)))
+    return cells, f"from its highest voltage {vmax:.2f} V, series_cells"
+
+
+def check_match(df: pd.DataFrame, meta: dict, aircraft: Aircraft | None,
+                pack: BatteryPack | None, path: str, state=None) -> list[str]:
+    """Check a log against the aircraft and pack it is flown with: the log's vehicle type
+    (its metadata), its cells in series (the metadata's ``battery_cells``, else
+    :func:`planner.physics.battery.cells.series_cells` of its voltage: the fewest cells
+    that voltage allows, so a pack of more cells is accepted as long as its highest
+    voltage is above :data:`CELL_EMPTY_V` a cell) against the aircraft's
+    ``cells_series_allowed`` and the pack file's ``cells_series``, and its mass class
+    (a multirotor's hover power against the aircraft's own power model). Raises
+    :class:`Mismatch` naming the first mismatch and its evidence; returns the checks that
+    passed (the evidence used)."""
+    used: list[str] = []
+    if aircraft is None:
+        return used
+    kind = meta.get("vehicle_type")
+    if kind:
+        what = f"vehicle type {kind} from the log's metadata" + (
+            f": {meta['vehicle']}" if meta.get("vehicle") else "")
+        if kind != aircraft.type:
+            raise Mismatch(f"mismatch: a {kind} log, the aircraft is a {aircraft.type} "
+                           f"({what})")
+        used.append(what)
+    voltage = df["voltage_v"].to_numpy(float) if "voltage_v" in df else None
+    cells, source = _cell_evidence(meta, voltage)
+    if cells is not None:
+        vmax = (float(np.nanmax(voltage)) if voltage is not None
+                and np.isfinite(voltage).any() else math.nan)
+        logged = bool(meta.get("battery_cells"))
+        sets = []
+        if aircraft.cells_series_allowed:
+            sets.append((tuple(aircraft.cells_series_allowed), "the aircraft allows"))
+        if pack is not None:
+            sets.append(((pack.cells_series,), "the pack file is"))
+        for allowed, whose in sets:
+            if cells in allowed:
+                continue
+            # series_cells is the fewest cells the voltage allows: a pack of more cells
+            # that starts the log part-discharged reads fewer, down to its empty voltage
+            fuller = [n for n in allowed if n > cells and vmax >= n * CELL_EMPTY_V]
+            if fuller and not logged:
+                source += "" if "not charged" in source else (f"; {fuller[0]}S at {vmax / fuller[0]:.2f} V a cell at most, "
+                           "not charged when the log starts")
+                continue
+            names = ", ".join(f"{n}S" for n in allowed)
+            lower = [n for n in allowed if n > cells]
+            why = (f"; {lower[0]}S would be {vmax / lower[0]:.2f} V a cell at most, below "
+                   f"{CELL_EMPTY_V:.1f} V" if lower and not logged and np.isfinite(vmax)
+                   else "")
+            raise Mismatch(f"mismatch: {cells}S pack, {whose} {names} ({source}{why})")
+        used.append(f"{cells}S ({source})")
+    used += _check_mass(df, aircraft, pack, state)
+    return used
+
+
+def _check_mass(df, aircraft: Aircraft, pack, state) -> list[str]:
+    """The mass class of a multirotor log: the mass at which the aircraft's power model
+    (:meth:`planner.chain.mission_chain.MissionChain.power_at`, the momentum or
+    rotor-losses model of the aircraft file) draws the log's median hover power, against
+    the aircraft's heaviest take-off and its empty mass with the pack (module constants)."""
+    if not aircraft.is_multirotor or state is None or "power_w" not in df:
+        return []
+    from planner.identify.aircraft_fit import airborne_mask
+
+    v, climb = state.rotor_velocities()
+    p = df["power_w"].to_numpy(float)
+    with np.errstate(invalid="ignore"):
+        hover = (airborne_mask(df, state, None) & np.isfinite(p) & (p > 0)
+                 & (np.abs(v) < HOVER_SPEED_MS) & (np.abs(climb) < HOVER_CLIMB_MS))
+    n = int(hover.sum())
+    if n < HOVER_MIN_SAMPLES:
+        return []
+    p_hover = float(np.median(p[hover]))
+    rho = float(np.nanmedian(state.air_density[hover]))
+    top, _ = aircraft.heaviest_takeoff()
+    light = aircraft.empty_mass_kg + (pack.total_mass_kg if pack is not None else 0.0)
+    masses = np.geomspace(light / (2 * MASS_CLASS_FACTOR), top * 2 * MASS_CLASS_FACTOR, 200)
+    chain = MissionChain(aircraft, None)
+    curve = chain.power_at(np.zeros_like(masses), np.zeros_like(masses),
+                           np.full_like(masses, rho), masses)
+    if not np.all(np.diff(curve) > 0):
+        return []
+    mass = float(np.interp(p_hover, curve, masses, left=masses[0], right=masses[-1]))
+    what = (f"hover power {p_hover:.0f} W, median of {n} samples below "
+            f"{HOVER_SPEED_MS:g} m/s: {mass:.2f} kg under the aircraft's power model")
+    if mass > MASS_CLASS_FACTOR * top:
+        raise Mismatch(f"mismatch: a {mass:.1f} kg class aircraft, this one takes off at "
+                       f"{top:.1f} kg at most ({what})")
+    if mass < light / MASS_CLASS_FACTOR:
+        raise Mismatch(f"mismatch: a {mass:.2f} kg class aircraft, this one weighs "
+                       f"{light:.2f} kg with its pack ({what})")
+    return [what]
 
 
 def calibration_samples(df: pd.DataFrame) -> pd.DataFrame:

@@ -337,12 +337,15 @@ def test_an_interrupted_run_keeps_what_it_finished_and_its_rerun_reads_only_the_
             if done >= 20:
                 raise KeyboardInterrupt
 
-    with pytest.raises(KeyboardInterrupt):
+    from planner.fleet import FleetInterrupted
+
+    with pytest.raises(FleetInterrupted) as stop:
         _run([fleet_dir / "logs", damaged], out, client, packs=fleet_dir / "packs.csv",
              progress=Interrupt(), checkpoint_s=3600.0)
     kept = pd.read_parquet(out / "flights.parquet")
     finished = int((kept["status"] == "ok").sum())
     assert 20 <= finished < 12 * FLIGHTS_PER_PACK
+    assert (stop.value.kept, stop.value.table) == (finished, out / "flights.parquet")
     again = _run([fleet_dir / "logs", damaged], out, client, packs=fleet_dir / "packs.csv")
     assert again.skipped == finished
     assert again.processed == 12 * FLIGHTS_PER_PACK - finished + 2
@@ -503,3 +506,40 @@ def test_an_aircraft_the_run_does_not_have_is_a_failed_row_that_names_it(fleet):
                         aircraft_key="hexa")
     assert row["status"] == "failed"
     assert "names aircraft 'hexa', none of the aircraft given (solo_survey)" in row["error"]
+
+
+def test_ctrl_c_says_how_many_flights_were_kept_and_how_to_resume(fleet_dir, tmp_path):
+    """Ctrl-C from a terminal reaches the whole process group (the command and its Dask
+    workers): one line saying what was kept and how to resume, no worker tracebacks, and
+    the table it names holds that many flights."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "fleet"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "planner.cli.main", "fleet", str(fleet_dir / "logs"),
+         "--aircraft", str(AIRCRAFT), str(REPO / "aircraft/quad_7in.yaml"),
+         str(REPO / "aircraft/x8_mapper.yaml"), "--packs", str(fleet_dir / "packs.csv"),
+         "--out", str(out), "--workers", "1"],
+        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        start_new_session=True)
+    try:
+        first = proc.stderr.readline()          # the first progress line: some logs done
+        assert first.startswith("fleet: "), first
+        os.killpg(proc.pid, signal.SIGINT)
+        rest, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    lines = [s for s in err.splitlines() if not s.startswith("fleet: ")]
+    assert proc.returncode == 130
+    assert "Traceback" not in err and rest == ""
+    assert len(lines) == 1, lines
+    kept = int((pd.read_parquet(out / "flights.parquet")["status"] == "ok").sum())
+    assert kept >= 1
+    flights = "flight" if kept == 1 else "flights"
+    assert lines[0] == (f"interrupted: {kept} {flights} kept in {out / 'flights.parquet'}; "
+                        "run the same command again to finish (the flights in the table are "
+                        "not read again)")

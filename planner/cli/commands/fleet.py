@@ -51,7 +51,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from planner.fleet import read_pack_map, run_fleet
+    from planner.fleet import FleetInterrupted, read_pack_map, run_fleet
 
     if args.workers is not None and args.scheduler:
         raise InputError("--workers applies to the local cluster; with --scheduler the "
@@ -78,20 +78,35 @@ def run(args) -> int:
             load_battery(default_battery_path(aircraft[key])) if aircraft[key].battery_path
             else None)
     pack_map = read_pack_map(args.packs, aircraft) if args.packs else None
-    result = run_fleet(args.logs, out_dir=args.out, aircraft=aircraft, pack=packs,
-                       pack_map=pack_map, workers=workers, scheduler=args.scheduler,
-                       retire=retire, within=within, calibrate=not args.no_calibration,
-                       figures=write_figures)
+    try:
+        result = run_fleet(args.logs, out_dir=args.out, aircraft=aircraft, pack=packs,
+                           pack_map=pack_map, workers=workers, scheduler=args.scheduler,
+                           retire=retire, within=within, calibrate=not args.no_calibration,
+                           figures=write_figures)
+    except FleetInterrupted as stop:
+        # after a progress line rewritten in place, on a line of its own
+        kept = (f"{stop.kept} flight{'' if stop.kept == 1 else 's'} kept in {stop.table}"
+                if stop.table.exists() else "no flight finished yet, nothing kept")
+        print(("\n" if sys.stderr.isatty() else "")
+              + f"interrupted: {kept}; run the same command again to finish (the flights "
+              "in the table are not read again)", file=sys.stderr)
+        return 130
     ok = int((result.table["status"] == "ok").sum())
+    counts = [f"{len(result.failed)} failed"]
+    if result.not_replayable:
+        counts.append(f"{len(result.not_replayable)} not replayable")
+    for status in ("mismatch", "not airborne"):
+        if result.count(status):
+            counts.append(f"{result.count(status)} {status}")
     print(f"{result.processed} logs summarised in {result.elapsed_s:.1f} s "
-          f"({len(result.failed)} failed"
-          + (f", {len(result.not_replayable)} not replayable" if result.not_replayable else "")
-          + f"), {result.skipped} already in the table; "
+          f"({', '.join(counts)}), {result.skipped} already in the table; "
           f"{ok} flights in {result.outputs[0]}")
     for log, err in result.failed:
         print(f"failed: {err}", file=sys.stderr)
     for log, err in result.not_replayable:
         print(f"not replayed: {err}", file=sys.stderr)
+    for log, _, reason in result.left_out:
+        print(f"{Path(log).name}: {reason}", file=sys.stderr)
     for h in result.health:
         if h.retires_within(within):
             print(f"pack {h.pack_id}: state of health {100 * h.soh:.1f} %, reaches "
