@@ -154,7 +154,11 @@ def render(result) -> str:
         for note in e.notes:
             lines.append(f"  note: {note}")
     o = result.overall
-    if "battery" in o:
+    if "battery" in o and not (ob := o["battery"])["logs_weighted"] and not math.isfinite(
+            ob["rmse_mah"]):
+        lines.append("Overall battery: no log has a measured charge to compare with (no "
+                     "usable consumed_mah or current_a)")
+    elif "battery" in o:
         ob = o["battery"]
         lines.append(f"Overall battery: RMSE {ob['rmse_mah']:.1f} mAh, final error "
                      f"{ob['final_error_pct']:+.2f} % (measured − predicted, of measured; "

@@ -1,0 +1,29 @@
+"""``endurance replay``: what it prints when the data give nothing to compare with."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+from battery_generators import constant
+
+from planner.cli.main import main
+
+REPO = Path(__file__).resolve().parents[3]
+MULTISTAR = REPO / "aircraft" / "batteries" / "multistar_10ah_4s.yaml"
+
+
+def test_no_measured_charge_prints_no_nan(tmp_path, capsys):
+    """A consumed-charge column with nothing after its first sample (as a column in the
+    wrong unit is read: its implausible values as missing) leaves no log with a measured
+    charge: the overall line says so, instead of ``RMSE nan mAh, final error +nan %``."""
+    rng = np.random.default_rng(5)
+    df = constant("p100", 100.0, 3000, rng=rng).iloc[::5].copy()
+    df["consumed_mah"] = np.nan
+    df.iloc[0, df.columns.get_loc("consumed_mah")] = 0.0
+    path = tmp_path / "consumed_missing.csv"
+    df.to_csv(path, index=False)
+    rc = main(["replay", str(path), "--battery", str(MULTISTAR)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "Overall battery: no log has a measured charge to compare with" in out
+    assert not re.search(r"(?<![\w.])[+-]?nan(?!\w)", out, re.I), out
