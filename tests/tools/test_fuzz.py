@@ -61,8 +61,8 @@ def test_records_outputs_and_options_sample_has_no_failure(tmp_path):
     Besides the failures above, a read-only target replaced, a valid value refused, a
     verdict printed with ``nan`` or an unusable record given a verdict fails it."""
     rng = random.Random(20261126)
-    cases = (fuzz.record_cases(130, rng, tmp_path) + fuzz.output_cases(50, rng, tmp_path)
-             + fuzz.option_cases(40, rng, tmp_path))
+    cases = (fuzz.record_cases(250, rng, tmp_path) + fuzz.output_cases(100, rng, tmp_path)
+             + fuzz.option_cases(60, rng, tmp_path))
     rng.shuffle(cases)
     assert {c.argv[0] for c in cases if c.kind == "records"} == {
         "replay", "fit-aircraft", "fit-battery", "diagnose"}
