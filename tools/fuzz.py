@@ -492,10 +492,12 @@ def _rec_dup_different(h, rows, rng):
     name = _pick(h, rng)
     j = h.index(name)
     h.append(name)
+    differ = False
     for r in rows:
         v = _num(r[j]) if j < len(r) else None
         r.append(r[j] if v is None else repr(v * 1.25 + 0.5))
-    return "invalid", (name,)
+        differ = differ or (v is not None and v == v and r[-1] != r[j])
+    return ("invalid", (name,)) if differ else ("maybe", ())   # NaN twice: the same
 
 
 def _rec_dup_same(h, rows, rng):
@@ -553,13 +555,16 @@ def _rec_sentinel(h, rows, rng):
     for r in rows:
         if j < len(r) and (everywhere or rng.random() < 0.05):
             r[j] = value
-    invalid = everywhere and name in _CORE_COLS
+    # a float no-data value in every row leaves the column unusable; an integer one
+    # (65535, -9999) may be a plausible reading
+    invalid = everywhere and name in _CORE_COLS and abs(float(value)) > 1e30
     return ("invalid" if invalid else "maybe"), ((name,) if invalid else ())
 
 
 def _rec_all_nan(h, rows, rng):
     group = rng.choice([["time_s"], list(_BATTERY_COLS), [_pick(h, rng, _BATTERY_COLS)],
                         ["voltage_v", "power_w"]])
+    _NOTE[:] = list(group)
     cols = [h.index(c) for c in group if c in h]
     for r in rows:
         for j in cols:
@@ -711,7 +716,7 @@ def record_cases(n: int, rng: random.Random, work: Path) -> list[Case]:
         header = lines[0].split(",")
         rows = [line.split(",") for line in lines[1:]]
         names = []
-        verdict, blame = "maybe", ()
+        verdict, blame, columns = "maybe", (), set()
         for _ in range(1 if rng.random() < 0.8 else 2):
             if not rows:
                 break
@@ -719,8 +724,14 @@ def record_cases(n: int, rng: random.Random, work: Path) -> list[Case]:
             _NOTE.clear()
             kind, b = RECORD_MUTATORS[name](header, rows, rng)
             names.append("_".join([name] + _NOTE))
+            touched = {c for c in _NOTE if c in header} | set(_NOTE) & set(_CORE_COLS)
+            if touched & columns:
+                # a second mutation of the same column decides alone (all NaN after a
+                # unit mistake is all NaN)
+                verdict, blame = "maybe", ()
             if kind == "invalid":
-                verdict, blame = kind, blame or b
+                verdict, blame = kind, b
+            columns |= touched
         text = "\n".join([",".join(header)] + [",".join(r) for r in rows]) + "\n"
         data = text.encode("utf-8", "surrogateescape")
         case_dir = work / f"rec{k:05d}"
@@ -732,6 +743,9 @@ def record_cases(n: int, rng: random.Random, work: Path) -> list[Case]:
             suffix = ".csv.gz"
             if unusable:
                 verdict = "invalid"
+            elif how == "cut_short" and any(n.startswith(("ragged_rows", "text_cells",
+                                                          "sentinel")) for n in names):
+                verdict = "maybe"                   # the damaged rows may be cut away
         path = case_dir / f"{'+'.join(names)}{suffix}".replace("/", "_")
         path.write_bytes(data)
         outputs: list[str] = []

@@ -154,10 +154,10 @@ def render(result) -> str:
         for note in e.notes:
             lines.append(f"  note: {note}")
     o = result.overall
-    if "battery" in o and not (ob := o["battery"])["logs_weighted"] and not math.isfinite(
-            ob["rmse_mah"]):
-        lines.append("Overall battery: no log has a measured charge to compare with (no "
-                     "usable consumed_mah or current_a)")
+    if "battery" in o and not (ob := o["battery"])["logs_weighted"]:
+        rmse = (f"RMSE {ob['rmse_mah']:.1f} mAh; " if math.isfinite(ob["rmse_mah"]) else "")
+        lines.append(f"Overall battery: {rmse}no log has a measured charge to compare with "
+                     "(no usable consumed_mah or current_a)")
     elif "battery" in o:
         ob = o["battery"]
         lines.append(f"Overall battery: RMSE {ob['rmse_mah']:.1f} mAh, final error "
