@@ -7,9 +7,20 @@ messages, DataFlash FMT records, MAVLink frame lengths and ids, CSV rows) and ho
 copies of the definition and mission files (wrong types, extremes, NaN/inf, huge
 numbers, YAML alias bombs, deep nesting, non-UTF-8 bytes, empty files, special files,
 oversized files, thousands of legs and waypoints, waypoints at the pole or across the
-antimeridian, ``.plan`` items with extreme parameters, hostile option values). Every case
+antimeridian, ``.plan`` items with extreme parameters, hostile option values); damaged
+flight-record CSVs (``records``: duplicated columns with different values, renamed and
+dropped columns, units off by 10³ and 10⁶ or 10⁻³, time in microseconds, time jumps,
+no-data sentinels such as −3.4e38, all-NaN columns, 1e308 and denormal magnitudes, rows
+with extra or missing fields, shuffled rows, text in numeric cells, a header alone,
+``.csv.gz`` whole, cut short, bit-flipped, with trailing bytes or two members) through
+``replay``, ``fit-aircraft``, ``fit-battery`` and ``diagnose``; every command's output
+options pointed at a read-only file or folder, a folder, ``/dev/null``, ``/dev/full``, a
+link (to a writable or a read-only file, or dangling), a path in a missing folder, or
+one of its inputs (``outputs``); numeric options typed in a wrong unit — grams for kg,
+km/h for m/s, per cent for a fraction, °F for °C, feet for m, Ah for mAh — and the same
+options in the right unit (``options``). Every case
 runs one command (``export``, ``replay``, ``diagnose``, ``check``, ``select``,
-``sweep``, ``hybrid``) in a forked worker with a CPU-time limit (and a wall-time limit
+``sweep``, ``hybrid``, ``fit-aircraft``, ``fit-battery``, ``bench``) in a forked worker with a CPU-time limit (and a wall-time limit
 for runs blocked without working) and an address-space limit, and the fuzzer records the
 exit status, any traceback, the CPU time, the peak memory
 above the worker's start, whether any input changed, and whether a file was written
@@ -18,15 +29,21 @@ that the command was not asked to write.
 A case **fails** when: the exit status is 3 (an internal error) or the worker died; it
 ran past the time limit; its peak memory exceeded 3 × the input's size + 300 MB; an
 input changed; a stray file appeared; an exit 2 did not print exactly one line naming
-the file (or the option) it blames; or input that is invalid by construction was given
-a verdict (exit 0 or 1).
+the file (or the option) it blames; input that is invalid by construction was given
+a verdict (exit 0 or 1); input that is valid by construction was refused (exit 2); a
+protected path (a read-only target, a link) was replaced or changed; or a verdict was
+printed with ``nan`` or ``inf`` in it.
 
 Run::
 
-    python tools/fuzz.py [--cases N] [--seed S] [--jobs J] [--full] [--only logs|defs]
+    python tools/fuzz.py [--cases N] [--seed S] [--jobs J] [--full]
+                         [--only logs|defs|records|outputs|options ...]
 
-``--full`` runs the full campaign (10 000 log cases and 5 000 definition cases). The last
-line printed is the summary.
+``--full`` runs the full campaign (:data:`FULL`: 10 000 log cases, 5 000 definition
+cases, 2 000 records, 600 output targets, 300 option values); ``--only`` (repeatable)
+keeps the kinds named. A table of cases, failures and exit codes per kind and class, and
+the slowest case and the one of largest memory with their commands, precede the summary,
+the last line printed.
 """
 
 from __future__ import annotations
