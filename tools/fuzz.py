@@ -746,6 +746,12 @@ def record_cases(n: int, rng: random.Random, work: Path) -> list[Case]:
                 # a second mutation of the same column decides alone (all NaN after a
                 # unit mistake is all NaN)
                 verdict, blame = "maybe", ()
+            both = touched | columns
+            if "power_w" in both and both & {"voltage_v", "current_a"} \
+                    and not touched & columns:
+                # power in another unit is told by V × I: with V or I damaged too, it
+                # cannot be (a power of 100 kW beside 0 V is not refused by rule)
+                verdict, blame, kind = "maybe", (), "maybe"
             if kind == "invalid":
                 verdict, blame = kind, b
             columns |= touched
