@@ -519,9 +519,10 @@ def _rec_dup_different(h, rows, rng):
 
 def _rec_dup_same(h, rows, rng):
     name = rng.choice(h)
+    _NOTE.append(name)
     j = h.index(name)
-    h.insert(rng.randrange(len(h) + 1), name)
-    k = h.index(name)  # the copy goes before or after: values identical either way
+    k = rng.randrange(len(h) + 1)             # where the copy goes, in the header and rows
+    h.insert(k, name)
     for r in rows:
         r.insert(k, r[j] if j < len(r) else "")
     return "maybe", ()
