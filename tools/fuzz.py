@@ -641,6 +641,7 @@ def _rec_shuffle(h, rows, rng):
 
 def _rec_drop_column(h, rows, rng):
     name = rng.choice(h)
+    _NOTE.append(name)
     j = h.index(name)
     del h[j]
     for r in rows:

@@ -148,9 +148,12 @@ def render(result) -> str:
             lines.append(f"  power model driven by {e.power.airspeed_source}; density from "
                          f"{e.power.density_source}")
             for name, ph in e.power.phases.items():
+                # no error where the measured power gives none to divide by
+                err = (f"{-ph['error_pct']:+.1f} %" if math.isfinite(ph["error_pct"])
+                       else "– %")
                 lines.append(f"    {name:<8} {ph['duration_s']:6.0f} s  measured "
                              f"{ph['measured_w']:7.1f} W  predicted {ph['predicted_w']:7.1f} W "
-                             f" ({-ph['error_pct']:+.1f} %)")
+                             f" ({err})")
         for note in e.notes:
             lines.append(f"  note: {note}")
     o = result.overall

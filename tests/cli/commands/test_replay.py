@@ -27,3 +27,21 @@ def test_no_measured_charge_prints_no_nan(tmp_path, capsys):
     assert rc == 0
     assert "Overall battery: no log has a measured charge to compare with" in out
     assert not re.search(r"(?<![\w.])[+-]?nan(?!\w)", out, re.I), out
+
+
+def test_a_phase_without_a_usable_measured_power_prints_no_nan(tmp_path, capsys):
+    """A no-data value (-9999 W) in every power sample of the ground phase leaves that
+    phase no measured energy to divide by: its error is shown as "–", not "+nan %"."""
+    import pandas as pd
+
+    record = tmp_path / "calm.csv"
+    assert main(["export", str(REPO / "logs/sim_solo_calm.bin"), "--csv", str(record)]) == 0
+    df = pd.read_csv(record)
+    ground = df["time_s"] < 19.0
+    df.loc[ground, "power_w"] = -9999.0
+    df.to_csv(record, index=False)
+    capsys.readouterr()
+    rc = main(["replay", str(record), "--aircraft", str(REPO / "aircraft/solo_survey.yaml")])
+    out = capsys.readouterr().out
+    assert rc in (0, 1)
+    assert not re.search(r"(?<![\w.])[+-]?nan(?!\w)", out, re.I), out
