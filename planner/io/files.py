@@ -141,6 +141,10 @@ def check_target(path: str | os.PathLike | None, option: str = "output", *,
     if folder:
         if real.exists() and not real.is_dir():
             raise InputError(f"{option} {path}: not a folder (expected a folder to write into)")
+        if real.is_dir() and read_only(real):
+            raise InputError(f"{option} {path}: read-only folder; nothing written into it (a "
+                             "read-only folder is protected: make it writable or give another "
+                             "folder)")
         if not real.parent.is_dir():
             raise InputError(f"{option} {path}: folder {real.parent} does not exist")
         return

@@ -330,7 +330,8 @@ def _implausible_as_missing(out: pd.DataFrame, df: pd.DataFrame, where: str,
         if name in _BATTERY:  # an infinite battery reading is reported where it is used
             odd &= np.isfinite(values)
         finite = np.isfinite(values)
-        if strict and odd.sum() >= min(2, len(values)) and not (finite & ~odd).any():
+        if strict and odd.any() and odd.sum() >= min(2, len(values)) \
+                and not (finite & ~odd).any():
             first = int(np.flatnonzero(odd)[0])
             raise InputError(
                 f"{where}: column '{name}' {_row_label(df, first, csv_lines)}: "
@@ -925,6 +926,9 @@ def read_record(path: str | os.PathLike, *, derive: bool = True,
         warnings.warn(f"{path}: the last line is incomplete (fewer fields than the header; "
                       "file truncated?): skipped", stacklevel=2)
         df = df.iloc[:-1]
+    if not len(df):
+        raise InputError(f"{path}: no data rows (a header line of {len(names)} column(s) "
+                         "and nothing after it); expected a flight record with samples")
     out = validate_record(df, path, require_power=require_power, csv_lines=True, strict=True)
     out = _time_axis(out, str(path)).reset_index(drop=True)
     if derive:

@@ -156,9 +156,13 @@ def refuse_other_kind(data: Any, expected: str, where: str) -> None:
     for kind, keys in KIND_MARKERS.items():
         has = [k for k in keys if k in data]
         if kind != expected and has:
-            article = "an" if expected[0] in "aeiou" else "a"
-            raise WrongFileError(f"{where}: this is a {kind} file (it has {', '.join(has)}), "
-                                 f"not {article} {expected} file", kind)
+            raise WrongFileError(f"{where}: this is {_article(kind)} {kind} file (it has "
+                                 f"{', '.join(has)}), not {_article(expected)} {expected} "
+                                 "file", kind)
+
+
+def _article(noun: str) -> str:
+    return "an" if noun[0] in "aeiou" else "a"
 
 
 class Problems:

@@ -42,3 +42,21 @@ def test_check_imports_no_table_signal_statistics_or_plot_library():
                          text=True, check=True).stdout
     code, loaded = json.loads(out.strip().splitlines()[-1])
     assert code == 0 and loaded == []
+
+
+def test_swapped_aircraft_and_pack_files_say_where_to_give_each(capsys):
+    """``--aircraft pack.yaml`` says it is a pack file and to give it as --battery; the
+    reverse says to give the aircraft as --aircraft (one line each, exit 2)."""
+    from planner.cli.main import main
+
+    solo = str(REPO / "aircraft/solo_survey.yaml")
+    pack = str(REPO / "aircraft/batteries/solo_5200_4s.yaml")
+    mission = str(REPO / "missions/survey_quad.yaml")
+    assert main(["check", mission, "--aircraft", pack]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"error: {pack}: this is a battery pack file (it has cells_series, "
+                   "capacity_mah), not an aircraft file: give it as --battery")
+    assert main(["check", mission, "--aircraft", solo, "--battery", solo]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"error: {solo}: this is an aircraft file (it has empty_mass_kg, "
+                   "multirotor), not a battery pack file: give it as --aircraft")

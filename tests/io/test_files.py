@@ -94,8 +94,7 @@ def commands(w):
                          {"--out": ".yaml", "--json": ".json"}, ["log", "aircraft", "pack"]),
         "diagnose": (["diagnose", str(w["data"]), "--battery", pk],
                      {"--json": ".json", "--out": ".yaml"}, ["data", "pack", "ocv"]),
-        "fit-battery": (["fit-battery", str(w["data"]), "--battery", pk, "--name", "p",
-                         "--cells", "4", "--mass-kg", "0.5"],
+        "fit-battery": (["fit-battery", str(w["data"]), "--battery", pk],
                         {"--out": ".yaml", "--json": ".json", "--plot": ".png"},
                         ["data", "pack"]),
         "design": (["design", "two-step", "--p1", "60", "--p2", "90", "--k", "1",
@@ -210,3 +209,34 @@ def test_outputs_get_normal_permissions_and_links_and_devices_survive(tmp_path):
         assert st.S_ISCHR(os.stat("/dev/null").st_mode)
     finally:
         os.umask(umask)
+
+
+def test_read_only_outputs_are_refused_before_any_work(tmp_path):
+    """A read-only file given as an output is not replaced (a rename over it would
+    succeed where a write would not, even for the superuser), and nothing is written into
+    a read-only folder given as an output folder, directly or through a symbolic link:
+    each is refused when the outputs are declared, naming the option and the path."""
+    import stat as st
+
+    locked = tmp_path / "locked.json"
+    locked.write_text("keep")
+    locked.chmod(0o444)
+    folder = tmp_path / "locked_dir"
+    folder.mkdir()
+    folder.chmod(0o555)
+    link = tmp_path / "link_dir"
+    link.symlink_to(folder)
+    try:
+        with pytest.raises(files.InputError, match=r"--json .*locked\.json: read-only; not "
+                                                    r"replaced"):
+            files.reset({"--json": str(locked)})
+        for given in (folder, link):
+            with pytest.raises(files.InputError, match=rf"--sorties-out {given}: read-only "
+                                                        r"folder; nothing written into it"):
+                files.reset({"--sorties-out": str(given)}, folders=("--sorties-out",))
+        files.reset({"--sorties-out": str(tmp_path / "new_dir")}, folders=("--sorties-out",))
+        assert locked.read_text() == "keep" and not st.S_IMODE(locked.stat().st_mode) & 0o222
+    finally:
+        files.reset()
+        folder.chmod(0o755)
+        locked.chmod(0o644)

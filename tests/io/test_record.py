@@ -318,3 +318,24 @@ def test_experiments_without_duration_are_skipped_or_refused(tmp_path):
     pd.DataFrame({"time_s": [5.0, 5.0], "power_w": [1.0, 2.0]}).to_csv(same, index=False)
     with pytest.raises(InputError, match="no experiment spans more than one instant"):
         load_flight_data(same)
+
+
+@pytest.mark.parametrize("compressed", [False, True])
+def test_a_record_of_a_header_and_no_rows_is_refused_naming_the_file(tmp_path, compressed):
+    """A header line and nothing after it (or a .csv.gz cut short before its first row)
+    has no sample to use: one error naming the file, not an index error in the
+    plausibility check of an empty column."""
+    import gzip
+
+    header = b"experiment,time_s,voltage_v,current_a,power_w\n"
+    path = tmp_path / ("header.csv.gz" if compressed else "header.csv")
+    path.write_bytes(gzip.compress(header) if compressed else header)
+    with pytest.raises(InputError, match=r"header\.csv(\.gz)?: no data rows"):
+        read_record(path)
+
+
+def test_strict_plausibility_check_of_an_empty_table_does_not_fail():
+    """The strict check (a column of no plausible value is a unit mistake) needs a value
+    to call implausible: an empty table has none, and is returned empty."""
+    empty = pd.DataFrame({"time_s": [], "voltage_v": [], "current_a": [], "power_w": []})
+    assert len(validate_record(empty, "empty.csv", require_power=False, strict=True)) == 0

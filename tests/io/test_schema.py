@@ -92,3 +92,25 @@ def test_objects_are_built_from_the_checked_values():
     d = S.check_mapping({"name": "x", "mass_kg": 2}, SPEC, "f.yaml")
     assert Thing(**S.fields_from(Thing, d, cells=4)) == Thing("x", 2, 4)
     assert S.field_defaults(Thing) == {"cells": 1}
+
+
+@pytest.mark.parametrize("data, expected, message", [
+    ({"name": "p", "cells_series": 4, "capacity_mah": 5200, "mass_kg": 0.5}, "aircraft",
+     "pack.yaml: this is a battery pack file (it has cells_series, capacity_mah), not an "
+     "aircraft file"),
+    ({"name": "a", "empty_mass_kg": 1.0, "multirotor": {}}, "battery pack",
+     "pack.yaml: this is an aircraft file (it has empty_mass_kg, multirotor), not a battery "
+     "pack file"),
+])
+def test_a_file_of_another_kind_is_named_with_its_keys(data, expected, message):
+    """A pack given as the aircraft (or the reverse) is named as what it is, with the keys
+    that say so, in one short line, not as a list of every unknown key."""
+    from planner.errors import WrongFileError
+
+    with pytest.raises(WrongFileError) as info:
+        S.refuse_other_kind(data, expected, "pack.yaml")
+    assert str(info.value) == message
+
+
+def test_a_file_with_its_own_kind_keys_is_not_refused():
+    S.refuse_other_kind({"empty_mass_kg": 1.0, "cells_series": 4}, "aircraft", "a.yaml")

@@ -51,3 +51,53 @@ def test_fuzzer_flags_an_internal_error_and_a_changed_input(tmp_path):
     ok = fuzz._judge(fuzz.Case("ok", "defs", ["check"], [str(victim)], invalid=True), 0, 0.1,
                      0, "", fuzz._digest([str(victim)]), fuzz._listing(tmp_path))
     assert ok == ["invalid input given a verdict (exit 0)"]
+
+
+def test_records_outputs_and_options_sample_has_no_failure(tmp_path):
+    """A seeded sample of the campaign's other doors, in under a minute: damaged
+    flight-record CSVs (and .csv.gz) through replay, fit-aircraft, fit-battery and
+    diagnose; every command's output options pointed at read-only files and folders,
+    devices, links, missing folders and inputs; numeric options typed in a wrong unit.
+    Besides the failures above, a read-only target replaced, a valid value refused, a
+    verdict printed with ``nan`` or an unusable record given a verdict fails it."""
+    rng = random.Random(20261126)
+    cases = (fuzz.record_cases(250, rng, tmp_path) + fuzz.output_cases(100, rng, tmp_path)
+             + fuzz.option_cases(60, rng, tmp_path))
+    rng.shuffle(cases)
+    assert {c.argv[0] for c in cases if c.kind == "records"} == {
+        "replay", "fit-aircraft", "fit-battery", "diagnose"}
+    assert any(c.invalid for c in cases if c.kind == "records")
+    assert any(c.protected for c in cases if c.kind == "outputs")
+    results = fuzz.run_cases(cases, tmp_path, jobs=2)
+    fuzz._writable(tmp_path)
+    failing = [f"{r.case.name}: {'; '.join(r.failures)} :: {' '.join(r.case.argv)}"
+               for r in results if r.failures]
+    print(fuzz.summary(results))
+    assert not failing, "\n".join(failing[:30])
+    # refusals and verdicts both occur in each kind
+    for kind in ("records", "outputs", "options"):
+        codes = {r.status for r in results if r.case.kind == kind}
+        assert 2 in codes and 0 in codes, (kind, codes)
+
+
+def test_judge_flags_a_replaced_read_only_file_a_refused_valid_value_and_nan(tmp_path):
+    """The judge of the new kinds: a protected (read-only) target replaced, a valid
+    option value refused with exit 2, and a verdict printed with nan are failures."""
+    locked = tmp_path / "locked.json"
+    locked.write_text("keep")
+    locked.chmod(0o444)
+    case = fuzz.Case("probe", "outputs", ["check"], [], protected=[str(locked)],
+                     valid=True, folder=str(tmp_path))
+    before = ({}, fuzz._state(case.protected))
+    locked.unlink()
+    locked.write_text("keep")                           # replaced by a writable file
+    failures = fuzz._judge(case, 2, 0.1, 0, "error: --payload 0.35: refused\n", before,
+                           fuzz._listing(tmp_path))
+    assert any(f.startswith("protected path replaced") for f in failures)
+    assert any(f.startswith("valid input refused") for f in failures)
+    nan = fuzz._judge(fuzz.Case("v", "options", ["check"], []), 0, 0.1, 0, "", ({}, {}),
+                      set(), stdout="Total 3.1 min; peak nan A\n")
+    assert nan == ["nan or inf printed: Total 3.1 min; peak nan A"]
+    clean = fuzz._judge(fuzz.Case("v", "options", ["check"], []), 0, 0.1, 0, "", ({}, {}),
+                        set(), stdout="Financial note: 5 nano-things, information\n")
+    assert clean == []

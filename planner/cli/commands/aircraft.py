@@ -96,9 +96,15 @@ def run(args) -> int:
         fit, opts = fit_fixed_wing, {"aspect_ratio": aspect_ratio_of(args.aircraft)}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = fit(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
-                     train=_list(args.train), validate=_list(args.validate),
-                     site_altitude_m=site, **opts)
+        try:
+            result = fit(data, aircraft, mass_kg=mass, parameters=_list(args.parameters),
+                         train=_list(args.train), validate=_list(args.validate),
+                         site_altitude_m=site, **opts)
+        except InputError as exc:
+            if not str(exc).startswith("no airborne samples"):
+                raise
+            # the data as a whole have none: name the files they came from
+            raise InputError(f"{', '.join(str(d) for d in args.data)}: {exc}") from None
     for w in caught:
         print(f"warning: {w.message}")
     if fixed_wing:

@@ -118,6 +118,11 @@ def capacity_and_cutoff(args, experiments, result, cells: int):
              f"({most.experiment}, {most.mean_power_w:.1f} W)")
     if args.capacity_mah is not None:
         nominal = parse_float(args.capacity_mah, "--capacity-mah", 1.0, 1e7, "mAh")
+        if measured > 2.0 * nominal:
+            # a pack gives no more than its charge: twice the nominal drawn is another unit
+            raise InputError(f"--capacity-mah {args.capacity_mah}: {nominal:g} mAh is less than "
+                             f"half the {measured:.0f} mAh {most.experiment} drew: Ah? "
+                             f"({nominal:g} Ah = {nominal * 1000:.0f} mAh)")
         return nominal, f"{nominal:.0f} mAh nominal (given); {found}", cutoff
     return measured, (f"{found}, written as the capacity (give --capacity-mah for the "
                       "nominal)"), cutoff
@@ -249,6 +254,18 @@ def run_fit(args) -> int:
     train, validate = _ids(args.train, "--train"), _ids(args.validate, "--validate")
     base_raw = None
     if args.battery:
+        # the fitted model goes into a copy of the pack file, which keeps its own name,
+        # cells, capacity, mass and chemistry: those options would be silently dropped
+        given = [(o, v, k) for o, v, k in (
+            ("--name", args.name, "name"), ("--cells", args.cells, "cells_series"),
+            ("--mass-kg", args.mass_kg, "mass_kg"),
+            ("--capacity-mah", args.capacity_mah, "capacity_mah"),
+            ("--chemistry", args.chemistry, "chemistry")) if v is not None]
+        if given:
+            option, value, key = given[0]
+            raise InputError(f"{option} {value}: not used with --battery {args.battery} (the "
+                             "fitted model is written into a copy of that pack file, which "
+                             f"keeps its own {key}): leave out {option} or --battery")
         load_battery(args.battery)  # validate first: bad base file -> one-line error
         base_raw = dict(read_definition(args.battery, to_folder=Path(out).parent))
     else:

@@ -136,7 +136,14 @@ def run(args) -> int:
         check_mission_payload(mission, args.mission, aircraft)
     if not mission.legs:
         raise InputError(f"{args.mission}: the mission has no legs")
-    spreads, mc = (parse_spreads(args), parse_mc(args)) if args.uncertainty else (None, None)
+    if not args.uncertainty:
+        alone = [f for d, f in _SPREAD_FLAGS.items() if getattr(args, _SPREAD_DEST.get(d, d),
+                                                                None) is not None]
+        if alone:
+            raise InputError(f"{alone[0]}: a spread of the --uncertainty run, which was not "
+                             f"asked for: give --uncertainty with it, or leave it out")
+    spreads, mc = ((parse_spreads(args, aircraft), parse_mc(args)) if args.uncertainty
+                   else (None, None))
     chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature)
     unc = None
     if args.uncertainty:
@@ -203,7 +210,7 @@ def check_mission_payload(mission, path, aircraft) -> None:
                          f"{bound:.3g} kg{in_grams(mission.payload_kg, bound) or '; expected kg'}")
 
 
-def parse_spreads(args) -> Spreads:
+def parse_spreads(args, aircraft=None) -> Spreads:
     """The ``--wind-sd``, ``--gust``, ``--temperature-sd``, ``--soh`` and ``--payload-sd``
     flags → :class:`~planner.chain.uncertainty.Spreads`."""
     wind_sd, dir_sd = (None, None)    # None: the default forecast spread
@@ -238,8 +245,12 @@ def parse_spreads(args) -> Spreads:
                 and soh_sd >= 0):
             raise InputError(f"--soh: expected a state of health in (0, 1.5] and a spread "
                              f"≥ 0, got {args.soh!r}")
-    pay_sd = (parse_float(args.payload_sd, "--payload-sd", 0.0, 100.0)
-              if args.payload_sd is not None else 0.0)
+    if args.payload_sd is None:
+        pay_sd = 0.0
+    elif aircraft is not None:      # a spread beyond the heaviest take-off: grams?
+        pay_sd = parse_mass(args.payload_sd, "--payload-sd", aircraft, "payload spread")
+    else:
+        pay_sd = parse_float(args.payload_sd, "--payload-sd", 0.0, 100.0, "kg")
     model_sd = (parse_fraction(args.model_error_sd, "--model-error-sd")
                 if args.model_error_sd is not None else None)
     return Spreads(wind_sd_ms=wind_sd, wind_direction_sd_deg=dir_sd, gust_factor=gust,
@@ -439,6 +450,12 @@ _SPREAD_FLAGS = {"wind_sd_ms": "--wind-sd", "wind_direction_sd_deg": "--wind-sd"
                  "gust_factor": "--gust", "temperature_sd_c": "--temperature-sd",
                  "soh": "--soh", "payload_sd_kg": "--payload-sd",
                  "model_error_sd": "--model-error-sd"}
+
+
+#: The ``args`` attribute of a spread setting, where it is not the setting's own name.
+_SPREAD_DEST = {"wind_sd_ms": "wind_sd", "wind_direction_sd_deg": "wind_sd",
+                "gust_factor": "gust", "temperature_sd_c": "temperature_sd",
+                "payload_sd_kg": "payload_sd"}
 
 
 def _origin_flag(origin: str) -> str:

@@ -148,13 +148,20 @@ def render(result) -> str:
             lines.append(f"  power model driven by {e.power.airspeed_source}; density from "
                          f"{e.power.density_source}")
             for name, ph in e.power.phases.items():
+                # no error where the measured power gives none to divide by
+                err = (f"{-ph['error_pct']:+.1f} %" if math.isfinite(ph["error_pct"])
+                       else "– %")
                 lines.append(f"    {name:<8} {ph['duration_s']:6.0f} s  measured "
                              f"{ph['measured_w']:7.1f} W  predicted {ph['predicted_w']:7.1f} W "
-                             f" ({-ph['error_pct']:+.1f} %)")
+                             f" ({err})")
         for note in e.notes:
             lines.append(f"  note: {note}")
     o = result.overall
-    if "battery" in o:
+    if "battery" in o and not (ob := o["battery"])["logs_weighted"]:
+        rmse = (f"RMSE {ob['rmse_mah']:.1f} mAh; " if math.isfinite(ob["rmse_mah"]) else "")
+        lines.append(f"Overall battery: {rmse}no log has a measured charge to compare with "
+                     "(no usable consumed_mah or current_a)")
+    elif "battery" in o:
         ob = o["battery"]
         lines.append(f"Overall battery: RMSE {ob['rmse_mah']:.1f} mAh, final error "
                      f"{ob['final_error_pct']:+.2f} % (measured − predicted, of measured; "

@@ -180,7 +180,9 @@ def render_selection(selection, catalog, env, top=None) -> str:
              f"Aircraft  {e.aircraft_name}, payload {e.payload_kg:.2f} kg"
              + (f", max take-off {e.max_takeoff_mass_kg:.2f} kg"
                 if e.max_takeoff_mass_kg is not None else ""),
-             (f"Catalog   {catalog}: {len(e)} packs, {int(e.feasible.sum())} feasible; "
+             (f"Catalog   {catalog}: "
+              + (f"{len(e)} packs" if len(e) != 1 else "1 pack (a catalog of one)")
+              + f", {int(e.feasible.sum())} feasible; "
               f"objective: {objective}"),
              f"Weather   wind {env.wind_speed_ms:.1f} m/s from {env.wind_from_deg:.0f}°"
              + (f", {env.temperature_c:.0f} °C" if env.temperature_c is not None else ", ISA")

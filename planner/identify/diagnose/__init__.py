@@ -514,8 +514,10 @@ def _literature_pack(df: pd.DataFrame, metas: list[dict], notes: list[str]) -> B
                None)
     pack, _ = literature_pack(cells, cap, df["voltage_v"] if "voltage_v" in df else None)
     if pack is None:
-        raise InputError("no battery given and no pack voltage to find the cell count from: "
-                         "give the battery-pack file flown")
+        where = ", ".join(dict.fromkeys(str(m["source"]) for m in metas if m.get("source")))
+        raise InputError(f"{where + ': ' if where else ''}no battery given and no pack "
+                         "voltage (voltage_v) to find the cell count from: give the "
+                         "battery-pack file flown")
     n = pack.cells_series
     if cap:
         notes.append(f"no battery file: literature start values δ₀({n}), ε₀({n}) and "

@@ -126,3 +126,16 @@ def test_two_logs_are_counted_and_their_constant_load_refused(shared_data, tmp_p
     assert "system_power_w" in status and "lowest airborne power" in status
     assert load_aircraft(out).system_power_w == pytest.approx(
         load_aircraft(SOLO).system_power_w)
+
+
+def test_data_without_airborne_samples_are_refused_naming_the_files(tmp_path, capsys):
+    """Flights that never rise above the airborne height (ground runs, or a record whose
+    altitude or time is in the wrong unit) leave nothing to fit: the refusal names the
+    data file(s), as every bad-input line does."""
+    data = _flights(tmp_path)
+    rc = main(["fit-aircraft", str(data), "--aircraft", str(_quad_file(tmp_path, 0.6)),
+               "--mass", "2.8", "--out", str(tmp_path / "fitted.yaml"),
+               "--airborne-height", "900"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and err == f"error: {data}: no airborne samples in the data (ground tests only?)"
+    assert not (tmp_path / "fitted.yaml").exists()

@@ -178,6 +178,37 @@ def test_fit_battery_bad_options_exit_2(tmp_path, capsys, bench, extra, message)
     assert message in err
 
 
+@pytest.mark.parametrize("option,value,key", [("--cells", "400", "cells_series"),
+                                              ("--capacity-mah", "10", "capacity_mah"),
+                                              ("--mass-kg", "800", "mass_kg"),
+                                              ("--name", "other", "name")])
+def test_fit_battery_refuses_pack_options_that_battery_would_drop(tmp_path, capsys, bench,
+                                                                  option, value, key):
+    """With --battery the pack file's own keys are kept: a --cells 400 (or any pack
+    option) given beside it was silently ignored; it is refused, naming the option."""
+    const_path, _, _ = bench
+    rc, _, err = run(capsys, "fit-battery", const_path, "--out", tmp_path / "p.yaml",
+                     "--battery", MULTISTAR, option, value)
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert f"{option} {value}: not used with --battery" in err and f"own {key}" in err
+    assert not (tmp_path / "p.yaml").exists()
+
+
+def test_fit_battery_capacity_in_ah_is_refused_with_the_unit(tmp_path, capsys, bench):
+    """--capacity-mah 10 meant 10 Ah: the data drew far more than 10 mAh (a pack gives
+    no more than its charge), so the value is refused as the wrong unit; the datasheet's
+    figure in mAh is accepted."""
+    const_path, _, _ = bench
+    base = ["fit-battery", const_path, "--out", tmp_path / "p.yaml", "--name", "x",
+            "--mass-kg", "0.8", "--cells", "4"]
+    rc, _, err = run(capsys, *base, "--capacity-mah", "10")
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert "--capacity-mah 10: 10 mAh is less than half" in err and "Ah?" in err
+    rc, _, err = run(capsys, *base, "--capacity-mah", "10000")
+    assert rc == 0, err
+    assert load_battery(tmp_path / "p.yaml").capacity_mah == 10000
+
+
 def test_fit_battery_missing_file_via_python_m(tmp_path):
     """As a user runs it: ``python -m planner``, a missing file, exit 2, one line, no traceback."""
     proc = subprocess.run([sys.executable, "-m", "planner", "fit-battery",

@@ -131,3 +131,26 @@ def test_an_output_path_that_names_an_input_is_refused(tmp_path):
         assert "input files are never overwritten" in p.stderr
         assert len(p.stderr.strip().splitlines()) == 1
     assert {p: p.read_bytes() for p in (mission, log)} == before
+
+
+def test_payload_spread_in_grams_is_refused_with_the_unit(capsys):
+    """``--payload-sd 50`` meant 50 g: a 50 kg spread for a 2 kg aircraft is refused,
+    saying grams; 0.05 (kg) runs."""
+    quad = str(REPO / "missions/survey_quad.yaml")
+    base = ["check", quad, "--aircraft", SOLO, "--uncertainty", "--samples", "50"]
+    assert main(base + ["--payload-sd", "50"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("error: --payload-sd 50: 50 kg of payload spread is more than the "
+                   "aircraft's maximum take-off mass 2 kg: grams? (50 g = 0.05 kg)")
+    assert main(base + ["--payload-sd", "0.05"]) in (0, 1)
+
+
+@pytest.mark.parametrize("flag, value", [("--payload-sd", "0.05"), ("--gust", "1.4"),
+                                         ("--soh", "0.9±0.05"), ("--wind-sd", "2@30")])
+def test_a_spread_without_uncertainty_is_refused_not_ignored(capsys, flag, value):
+    """A spread is drawn only by the --uncertainty run: given without it, it was silently
+    ignored (and never checked); it is refused naming the flag."""
+    quad = str(REPO / "missions/survey_quad.yaml")
+    assert main(["check", quad, "--aircraft", SOLO, flag, value]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {flag}: a spread of the --uncertainty run")

@@ -144,3 +144,29 @@ def test_sweep_payload_table_csv_and_plot(tmp_path):
     assert len(table) == 13 and table.range_km.is_monotonic_decreasing
     assert {"payload_kg", "range_km", "best_range_km", "feasible"} <= set(table.columns)
     assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("kind, text, what", [("battery-mass", "200:1500", "battery"),
+                                              ("payload", "100:900", "payload")])
+def test_sweep_range_in_grams_is_refused_with_the_unit(capsys, kind, text, what):
+    """``--range 200:1500`` meant grams: 1500 kg of battery is beyond the aircraft's
+    maximum take-off mass, refused in one line saying grams; the range in kg runs."""
+    assert main(["sweep", kind, "--aircraft", SOLO, "--range", text]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    hi = text.split(":")[1]
+    assert f"--range {text}: {hi} kg of {what} is more than the aircraft's maximum take-off" \
+           in err and f"grams? ({hi} g = {float(hi) / 1000:g} kg)" in err
+    lo, hi = (float(v) / 1000 for v in text.split(":"))
+    assert main(["sweep", kind, "--aircraft", SOLO, "--range", f"{lo:g}:{hi:g}",
+                 "--points", "5"]) == 0
+
+
+def test_select_takes_one_pack_file_as_a_catalog_of_one(capsys):
+    """``--packs pack.yaml`` (a single pack, not a catalog) is flown as a catalog of one,
+    and the report says so."""
+    pack = str(REPO / "aircraft/batteries/solo_5200_4s.yaml")
+    assert main(["select", SURVEY, "--aircraft", SOLO, "--packs", pack, "--no-sorties"]) == 0
+    out = capsys.readouterr().out
+    assert f"Catalog   {pack}: 1 pack (a catalog of one), 1 feasible" in out
+    assert "3DR Solo Smart Battery 5200 mAh 4S" in out

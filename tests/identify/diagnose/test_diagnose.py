@@ -379,3 +379,14 @@ def test_a_payload_change_above_its_limit_is_found_and_the_limit_says_so():
                  and e["level"] == "power")
     assert entry["found"] and entry["identifiable"]
     assert entry["limit"] < 0.5
+
+
+def test_no_pack_and_no_voltage_names_the_data_file(tmp_path):
+    """Without a pack file the cell count comes from the voltage: a record without
+    voltage_v (a renamed column) is refused naming the file it came from."""
+    df, _ = capacity_dataset(None, n_experiments=2, duration_s=600, seed=0)
+    path = tmp_path / "no_voltage.csv"
+    df.drop(columns=[c for c in df.columns if c == "voltage_v"]).to_csv(path, index=False)
+    with pytest.raises(InputError, match=r"no_voltage\.csv: no battery given and no pack "
+                                         r"voltage \(voltage_v\)"):
+        diagnose([path])
