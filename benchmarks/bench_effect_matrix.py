@@ -1,4 +1,4 @@
-"""The effect matrix of ``diagnose`` on real data (issue 27): every effect of its vocabulary
+"""The effect matrix of ``diagnose`` on real data: every effect of its vocabulary
 × every real source that can carry it × record richness × timing × size.
 
 Sources, injection laws, richness, timings, sizes and what is scored: the module notes of

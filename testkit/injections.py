@@ -4,7 +4,7 @@ Every function takes a real flight record (one or more experiments, the columns 
 docs/record.md) and returns a copy changed by one physical law. The laws are written in
 this module from textbook physics and the data's own measurements; none calls the
 planner's power or battery models, so that ``diagnose`` is examined on data it did not
-make (the examiner's rule of issue 27). The laws and their sources:
+make. The laws and their sources:
 
 Pack (every injection that changes the electric power)
     The pack is a voltage source behind a resistance :math:`R_p`: an added electric power

@@ -7,7 +7,7 @@ import pytest
 
 
 def test_fit_aircraft_and_diagnose_calibrate_the_m100_alike(shared_data):
-    """Issue 27: η 0.5625 (fit-aircraft) against 0.387 (diagnose) on the same M100
+    """Before: η 0.5625 (fit-aircraft) against 0.387 (diagnose) on the same M100
     flights. Both now hold the constant load the rotors' model cannot follow at the
     file's value and fit η and the drag area: the same η within 5 %."""
     from testkit import matrix as M

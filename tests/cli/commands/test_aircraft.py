@@ -3,7 +3,7 @@
 A parameter that ends on its bound or outside its physical range is a misfit: the
 written file says so (``fit_status``), the command exits 1 and names the parameter and
 the likely cause (planner.identify.aircraft_fit, module notes "Fit status"). On the
-real logs of issue 27 (log 171, the two ArduCopter 3.1.3 flights) the free fit puts
+real logs (log 171, the two ArduCopter 3.1.3 flights) the free fit puts
 η on 1.0, the drag area on 0 and a constant load of 90–204 W that the aircraft never
 draws with its rotors stopped.
 """
@@ -94,7 +94,7 @@ def test_an_efficiency_on_its_bound_is_a_misfit_exit_1_named_in_the_file(tmp_pat
 
 
 def test_log171_fit_is_a_misfit_naming_parameters_and_cause(shared_data, tmp_path, capsys):
-    """Issue 27: log 171 gave η 1.0000 ± 0.78 and a drag area of 0.0000 with exit 0."""
+    """Before: log 171 gave η 1.0000 ± 0.78 and a drag area of 0.0000 with exit 0."""
     out = tmp_path / "solo.yaml"
     rc = main(["fit-aircraft", str(shared_data / "logs" / LOG171), "--aircraft", str(SOLO),
                "--out", str(out)])
@@ -114,7 +114,7 @@ def test_log171_fit_is_a_misfit_naming_parameters_and_cause(shared_data, tmp_pat
 
 
 def test_two_logs_are_counted_and_their_constant_load_refused(shared_data, tmp_path, capsys):
-    """Issue 27: the two AC 3.1.3 logs gave a 204 W system load and "Fit on 1
+    """Before: the two AC 3.1.3 logs gave a 204 W system load and "Fit on 1
     experiment(s)" for two logs."""
     out = tmp_path / "ac313.yaml"
     rc = main(["fit-aircraft", *(str(shared_data / "logs" / n) for n in AC313),

@@ -458,7 +458,7 @@ def test_fit_battery_counts_the_cells_of_the_real_8s_log(tmp_path, capsys, share
 
 
 def test_fit_battery_on_one_constant_power_is_a_misfit_exit_1(tmp_path, capsys):
-    """Issue 27: ``--train const_050W --validate const_125W`` on the seed campaign wrote
+    """Before: ``--train const_050W --validate const_125W`` on the seed campaign wrote
     ε = +0.5 (its bound) with a 76 % validation error and exit 0. A parameter on its bound
     is a misfit: the file says so, the command exits 1 naming it and the likely cause."""
     from planner.identify import campaign

@@ -1,4 +1,4 @@
-"""The effect matrix of ``diagnose`` on real data, a seeded small sample (issue 27).
+"""The effect matrix of ``diagnose`` on real data, a seeded small sample.
 
 The full matrix is ``python benchmarks/bench_effect_matrix.py`` (every effect × every real
 source that can carry it × record richness × timing × size; figures in

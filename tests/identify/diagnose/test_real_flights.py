@@ -301,7 +301,7 @@ def test_the_power_level_flies_each_m100_flight_at_its_own_payload(shared_data):
                       column_map="dji_m100", effects=[])
     assert "payload per flight from the data: 0, 0.25 kg" in result.notes
 def test_log171_step_is_reported_with_its_evidence_and_the_mode_change(shared_data):
-    """Issue 27: on log 171 the output said ``Payload pick-up of 0.43 kg in flight`` as
+    """Before: on log 171 the output said ``Payload pick-up of 0.43 kg in flight`` as
     fact, where the log switches LOITER → ACRO shortly before and the aircraft then sits
     low. The step is reported as what was measured (a step of the power at a time), as
     consistent with a mass increase *or anything else that raises the power*, with the
@@ -329,7 +329,7 @@ def test_log171_step_is_reported_with_its_evidence_and_the_mode_change(shared_da
 
 
 def test_solo_without_its_payload_lists_mass_and_load_beside_the_calibration(tmp_path):
-    """Issue 27: on the shipped simulated Solo log flown with 0.35 kg, diagnose without
+    """Before: on the shipped simulated Solo log flown with 0.35 kg, diagnose without
     the payload said "Constant load 46 W (file 8 W)" alone. The power level's
     recalibration is now listed with what else it is consistent with: a heavier aircraft
     (a payload not given) or a constant load, sized on the flight."""
