@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import signal
 import socket
@@ -60,7 +59,7 @@ from planner.io.mavlink_stream import (  # noqa: E402
     TlogSource,
 )
 from planner.parameters import BatteryPack, load_aircraft_and_battery  # noqa: E402
-from tools.play_tlog import play  # noqa: E402
+from tools.play_tlog import free_port, play  # noqa: E402
 
 MCGILL = "logs/px4_hexa_mcgill_2022-05-24_hover_to_critical.tlog"
 MCGILL_HOVERS = "logs/px4_hexa_mcgill_2022-06-02_three_hovers.tlog"
@@ -86,14 +85,6 @@ MIN_FLIGHT_S = 30.0
 
 
 # --------------------------------------------------------------------------- helpers
-
-def free_port() -> int:
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
 
 def tlog_events(path):
     dec = MavlinkDecoder()

@@ -20,36 +20,41 @@ import sys
 import time
 from pathlib import Path
 
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:          # run as a script from anywhere
+    sys.path.insert(0, str(REPO))
+
+from planner.io.mavlink_stream import tlog_frame  # noqa: E402
+
 #: The only address the player sends to.
 HOST = "127.0.0.1"
 #: Bounds of one run.
 MAX_MESSAGES = 5_000_000
 MAX_SECONDS = 3600.0
-_LO, _HI = int(946684800e6), int(4102444800e6)     # receive times 2000 … 2100 [µs]
 
 
 def frames(data: bytes):
-    """(receive time [s], frame bytes) of every MAVLink frame of a tlog, in order.
-
-    A frame is an 8-byte big-endian receive time (µs since 1970) then a MAVLink 1
-    (``FE``) or 2 (``FD``) frame; bytes that start no frame are stepped over.
-    """
+    """(receive time [s], frame bytes) of every MAVLink frame of a tlog, in order
+    (:func:`planner.io.mavlink_stream.tlog_frame`); bytes that start no frame are stepped
+    over."""
     n, ofs = len(data), 0
     while ofs + 14 <= n:
-        marker = data[ofs + 8]
-        if marker == 0xFE:
-            end = ofs + 16 + data[ofs + 9]
-        elif marker == 0xFD and ofs + 18 <= n:
-            end = ofs + 20 + data[ofs + 9] + (13 if data[ofs + 10] & 0x01 else 0)
-        else:
+        frame = tlog_frame(data, ofs)
+        if frame is None:
             ofs += 1
             continue
-        t_us = int.from_bytes(data[ofs:ofs + 8], "big")
-        if not _LO <= t_us <= _HI or end > n:
-            ofs += 1
-            continue
+        end, t_us = frame
         yield t_us * 1e-6, bytes(data[ofs + 8:end])
         ofs = end
+
+
+def free_port() -> int:
+    """A UDP port of 127.0.0.1 free at the time of the call."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind((HOST, 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
 
 
 def play(path: str | Path, port: int, *, speed: float = 1.0,

@@ -811,6 +811,32 @@ def statustext_chunks(text: str, severity: int, chunk_id: int = 1) -> list:
             for k, p in enumerate(parts)]
 
 
+#: Receive times a tlog frame may carry: 2000 … 2100 [µs since 1970].
+TLOG_TIME_US = (int(946684800e6), int(4102444800e6))
+
+
+def tlog_frame(data, ofs: int) -> tuple[int, int] | None:
+    """The tlog frame starting at byte ``ofs`` of ``data``: (its end offset, its receive
+    time [µs]), or None when no frame starts there. A frame is an 8-byte big-endian
+    receive time then a MAVLink 1 (``FE``) or 2 (``FD``, signed when its flag says so)
+    frame, the time within :data:`TLOG_TIME_US` and the frame whole."""
+    n = len(data)
+    if ofs + 14 > n:
+        return None
+    marker = data[ofs + 8]
+    if marker == 0xFE:
+        end = ofs + 16 + data[ofs + 9]
+    elif marker == 0xFD and ofs + 18 <= n:
+        end = ofs + 20 + data[ofs + 9] + (13 if data[ofs + 10] & 0x01 else 0)
+    else:
+        return None
+    t_us = int.from_bytes(data[ofs:ofs + 8], "big")
+    lo, hi = TLOG_TIME_US
+    if not lo <= t_us <= hi or end > n:
+        return None
+    return end, t_us
+
+
 class TlogSource:
     """A ``.tlog`` replayed: its frames decoded by pymavlink's parser (CRC checked), each
     with its recorded receive time, paced at ``rate`` × real time (0: no pacing).
@@ -833,21 +859,13 @@ class TlogSource:
     def messages(self) -> Iterator:
         """Yield every intact message with ``_recv`` = its recorded receive time [s]."""
         data, n, ofs = self.data, len(self.data), 0
-        lo, hi = int(946684800e6), int(4102444800e6)
         start_file = start_wall = None
         while ofs + 14 <= n:
-            marker = data[ofs + 8]
-            if marker == 0xFE:
-                end = ofs + 16 + data[ofs + 9]
-            elif marker == 0xFD and ofs + 18 <= n:
-                end = ofs + 20 + data[ofs + 9] + (13 if data[ofs + 10] & 0x01 else 0)
-            else:
+            frame = tlog_frame(data, ofs)
+            if frame is None:
                 ofs += 1
                 continue
-            t_us = int.from_bytes(data[ofs:ofs + 8], "big")
-            if not lo <= t_us <= hi or end > n:
-                ofs += 1
-                continue
+            end, t_us = frame
             try:
                 msg = self.link.decode(bytearray(data[ofs + 8:end]))
             except Exception:          # noqa: BLE001 - pymavlink raises several kinds

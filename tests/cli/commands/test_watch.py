@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from testkit.mavlink_vehicle import Faults, FakeVehicle, waypoint_items
-from tools.play_tlog import play
+from tools.play_tlog import free_port, play
 
 REPO = Path(__file__).resolve().parents[3]
 SOLO = str(REPO / "aircraft/solo_survey.yaml")
@@ -46,14 +46,6 @@ def finish(w, vehicle, settle=2.0):
     time.sleep(settle)
     w.send_signal(signal.SIGINT)
     return w.communicate(timeout=60)
-
-
-def free_port() -> int:
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def start_watch(port, jsonl, *extra, duration=40):
