@@ -147,10 +147,8 @@ def run(args) -> int:
     chain = MissionChain(aircraft, pack, reserve=reserve, temperature_c=temperature)
     unc = None
     if args.uncertainty:
-        with flags_for(soh="--soh", gust_factor="--gust", samples="--samples",
-                       confidence="--confidence", wind_sd_ms="--wind-sd",
-                       temperature_sd_c="--temperature-sd", payload_sd_kg="--payload-sd",
-                       model_error_sd="--model-error-sd", weather_draws="--weather-samples"):
+        with flags_for(**_SPREAD_FLAGS, samples="--samples", confidence="--confidence",
+                       weather_draws="--weather-samples"):
             unc = monte_carlo(chain, mission, env, spreads, **mc)
         run_result = unc.nominal
     else:
