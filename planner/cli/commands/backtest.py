@@ -12,12 +12,7 @@ import numpy as np
 import pandas as pd
 
 from planner.cli.commands.common import (
-    flight_payloads,
-    parse_float,
-    parse_fraction,
-    parse_int,
-    write_json,
-)
+    add_options, flight_payloads, parse_float, parse_fraction, parse_int, write_json)
 from planner.errors import InputError
 from planner.io import files
 from planner.io.tables import cell_error, row_label
@@ -41,13 +36,11 @@ def register(sub) -> None:
                     "DIR/predicted_vs_measured.png.")
     p.add_argument("data", nargs="+", metavar="DATA",
                    help="logs or CSV files (with --map: e.g. the M100 flights)")
-    p.add_argument("--aircraft", required=True, help="aircraft YAML (start values of the "
-                                                     "per-fold calibration)")
-    p.add_argument("--battery", help="pack flown (default: the aircraft's)")
-    p.add_argument("--map", help="column map for CSV data that is not a flight record "
-                                 "(e.g. dji_m100: joins each flight's payload, commanded "
-                                 "speed and altitude)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created)")
+    add_options(p, aircraft="aircraft YAML (start values of the per-fold calibration)",
+                battery="pack flown (default: the aircraft's)",
+                map="column map for CSV data that is not a flight record (e.g. dji_m100: "
+                    "joins each flight's payload, commanded speed and altitude)",
+                out={"required": True, "metavar": "DIR", "help": "output folder (created)"})
     p.add_argument("--folds", default="5", help="calibration folds (default 5): each flight "
                                                 "predicted by an aircraft fitted on the others")
     p.add_argument("--by", choices=("flight", "day"), default="flight",
@@ -64,11 +57,10 @@ def register(sub) -> None:
                    help="per-flight forecast: columns experiment, wind_speed_ms, "
                         "wind_from_deg[, temperature_c] (default: the log's samples before "
                         "take-off)")
-    p.add_argument("--payload", help="payload [kg] of every flight (default: each flight's "
-                                     "payload_kg in the data, else 0)")
-    p.add_argument("--site-altitude", default="0", help="site altitude AMSL [m] for ISA "
-                                                        "density (default 0)")
-    p.add_argument("--reserve", default="0.2", help="landing reserve fraction (default 0.2)")
+    add_options(p, payload="payload [kg] of every flight (default: each flight's payload_kg "
+                           "in the data, else 0)",
+                site_altitude="site altitude AMSL [m] for ISA density (default 0)",
+                reserve=True)
     p.add_argument("--uncertainty", nargs="?", const="400", default=None, metavar="N",
                    help="also run check --uncertainty's Monte Carlo for each flight (N samples, "
                         "default 400; its default spreads: the forecast's error and the "

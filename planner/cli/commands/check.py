@@ -11,19 +11,8 @@ from planner.chain.result import MissionResult
 from planner.cli.commands.route import add_route_options, route_paths, write_route
 from planner.cli.commands.summary_lines import endurance_line
 from planner.cli.commands.common import (
-    add_options,
-    flags_for,
-    fmt,
-    output_path,
-    parse_float,
-    parse_fraction,
-    parse_int,
-    parse_mass,
-    parse_wind,
-    check_speed,
-    plot_path,
-    write_json,
-)
+    add_options, flags_for, fmt, output_path, parse_float, parse_fraction, parse_int,
+    parse_mass, parse_payload, parse_temperature, parse_wind_option, plot_path, write_json)
 from planner.errors import InputError
 from planner.chain.failsafe import (
     FIRMWARES,
@@ -117,14 +106,10 @@ def run(args) -> int:
     version = parse_version(args.firmware_version, firmware)
     plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
-    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0, "°C")
-                   if args.temperature is not None else None)
     aircraft, pack = load_aircraft_and_battery(args.aircraft, args.battery)
-    payload = (parse_mass(args.payload, "--payload", aircraft)
-               if args.payload is not None else None)
-    wind = parse_wind(args.wind) if args.wind is not None else None
-    if wind is not None:
-        check_speed(wind[0], "--wind", args.wind, aircraft, "wind")
+    temperature = parse_temperature(args)
+    payload = parse_payload(args, aircraft)
+    wind = parse_wind_option(args, aircraft)
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     map_out, kml_out = route_paths(args, mission)
     env = mission.environment

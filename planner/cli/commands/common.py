@@ -157,6 +157,35 @@ def check_speed(value: float, option: str, text: str, aircraft, what: str) -> No
                      f"aircraft's maximum airspeed {top:g} m/s; expected m/s")
 
 
+#: Outside air temperatures the commands accept [°C]: the coldest and hottest air a small
+#: electric aircraft is flown in, and the span of the battery models' temperature laws.
+AIR_TEMPERATURE_C = (-60.0, 60.0)
+
+
+def parse_temperature(args) -> float | None:
+    """``--temperature``, the outside air temperature [°C] (None when not given)."""
+    text = getattr(args, "temperature", None)
+    return (None if text is None
+            else parse_float(text, "--temperature", *AIR_TEMPERATURE_C, "°C"))
+
+
+def parse_payload(args, aircraft) -> float | None:
+    """``--payload`` [kg] for ``aircraft`` (:func:`parse_mass`; None when not given)."""
+    text = getattr(args, "payload", None)
+    return None if text is None else parse_mass(text, "--payload", aircraft)
+
+
+def parse_wind_option(args, aircraft) -> tuple[float, float] | None:
+    """``--wind`` SPEED@FROM_DEG: (speed [m/s], direction it blows from [deg]), a speed
+    in another unit named (:func:`check_speed`); None when not given."""
+    text = getattr(args, "wind", None)
+    if text is None:
+        return None
+    wind = parse_wind(text)
+    check_speed(wind[0], "--wind", text, aircraft, "wind")
+    return wind
+
+
 def parse_float(text: str, option: str, low: float | None = None,
                 high: float | None = None, unit: str = "") -> float:
     """A number in [low, high] (``unit`` named in the message; ``°C`` and ``m`` also say

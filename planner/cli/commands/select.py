@@ -11,20 +11,9 @@ import numpy as np
 
 from planner.io import files
 from planner.cli.commands.common import (
-    add_options,
-    flags_for,
-    fmt,
-    name_width,
-    output_path,
-    parse_float,
-    parse_fraction,
-    parse_int,
-    parse_mass,
-    parse_wind,
-    check_speed,
-    plot_path,
-    write_json,
-)
+    add_options, flags_for, fmt, name_width, output_path, parse_float, parse_fraction,
+    parse_int, parse_mass, parse_payload, parse_temperature, parse_wind_option, plot_path,
+    write_json)
 from planner.chain.sizing import sortie_margin
 from planner.cli.commands.route import (add_route_options, route_paths, write_route,
                                         write_sorties_route)
@@ -107,14 +96,10 @@ def run_select(args) -> int:
     reserve = parse_fraction(args.reserve, "--reserve")
     top = None if args.top is None else parse_int(args.top, "--top", 1, 10**9)
     min_tw = parse_float(args.min_thrust_to_weight, "--min-thrust-to-weight", 0.0, 20.0)
-    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0, "°C")
-                   if args.temperature is not None else None)
     aircraft = load_aircraft(args.aircraft)
-    payload = (parse_mass(args.payload, "--payload", aircraft)
-               if args.payload is not None else None)
-    wind = parse_wind(args.wind) if args.wind is not None else None
-    if wind is not None:
-        check_speed(wind[0], "--wind", args.wind, aircraft, "wind")
+    temperature = parse_temperature(args)
+    payload = parse_payload(args, aircraft)
+    wind = parse_wind_option(args, aircraft)
     packs = load_catalog(args.packs)
     mission = load_mission(args.mission, defaults=NavDefaults.of(aircraft))
     if not mission.legs:
@@ -319,15 +304,13 @@ def run_sweep(args) -> int:
     csv_out = output_path(args.csv, "--csv")
     plot_out = plot_path(args.plot)
     reserve = parse_fraction(args.reserve, "--reserve")
-    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0, "°C")
-                   if args.temperature is not None else None)
     site = parse_float(args.site_altitude, "--site-altitude", -500.0, 9000.0, "m")
-    env = Environment(temperature_c=temperature, site_altitude_m=site)
     aircraft = load_aircraft(args.aircraft)
-    if args.wind is not None:
-        speed, direction = parse_wind(args.wind)
-        check_speed(speed, "--wind", args.wind, aircraft, "wind")
-        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
+    temperature = parse_temperature(args)
+    env = Environment(temperature_c=temperature, site_altitude_m=site)
+    wind = parse_wind_option(args, aircraft)
+    if wind is not None:
+        env = dataclasses.replace(env, wind_speed_ms=wind[0], wind_from_deg=wind[1])
     battery_path = args.battery or default_battery_path(aircraft)
     pack = load_battery(battery_path) if battery_path else None
 
@@ -415,6 +398,21 @@ def _rows(n, shown=15):
     return np.unique(np.linspace(0, n - 1, min(n, shown)).round().astype(int))
 
 
+def _sweep_table(sweep, aircraft, columns) -> list[str]:
+    """Up to 15 evenly spread rows of a sweep (:func:`_rows`) as a fixed-width table:
+    ``columns`` (title with its unit, width, decimals, the frame's column or a function of
+    the row), then the aircraft limits the row exceeds (:func:`_limits`)."""
+    head = " ".join(f"{title:>{w}}" for title, w, _, _ in columns) + "  limits"
+    lines = [head, "-" * len(head)]
+    f = sweep.to_frame()
+    for i in _rows(len(f)):
+        r = f.iloc[i]
+        cells = " ".join(f"{(v(r) if callable(v) else r[v]):>{w}.{d}f}"
+                         for _, w, d, v in columns)
+        lines.append(f"{cells}  {_limits(aircraft, r)}")
+    return lines + ["-" * len(head)]
+
+
 def _limits(aircraft, row, min_thrust_to_weight: float = 1.5) -> str:
     """``ok``, or the aircraft limits a row of a sweep exceeds, named with their values
     (the sweeps' defaults: maximum take-off mass, least thrust-to-weight 1.5)."""
@@ -439,16 +437,10 @@ def render_endurance(sweep, source, aircraft=None) -> str:
              (f"Battery   {sweep.cells_series}S at {sweep.cell_voltage_v:g} V/cell, "
               f"{sweep.specific_energy_wh_per_kg:.0f} Wh/kg ({source}); reserve "
               f"{100 * sweep.reserve_fraction:.0f} %"), ""]
-    head = (f"{'battery kg':>10} {'fraction':>8} {'TOW kg':>7} {'mAh':>7} "
-            f"{'power W':>8} {sweep.hold + ' min':>11}  limits")
-    lines += [head, "-" * len(head)]
-    f = sweep.to_frame()
-    for i in _rows(len(f)):
-        r = f.iloc[i]
-        lines.append(f"{r.battery_mass_kg:>10.3f} {r.mass_fraction:>8.2f} "
-                     f"{r.takeoff_mass_kg:>7.2f} {r.capacity_mah:>7.0f} {r.hold_power_w:>8.1f} "
-                     f"{r.endurance_min:>11.1f}  {_limits(aircraft, r)}")
-    lines.append("-" * len(head))
+    lines += _sweep_table(sweep, aircraft, [
+        ("battery kg", 10, 3, "battery_mass_kg"), ("fraction", 8, 2, "mass_fraction"),
+        ("TOW kg", 7, 2, "takeoff_mass_kg"), ("mAh", 7, 0, "capacity_mah"),
+        ("power W", 8, 1, "hold_power_w"), (sweep.hold + " min", 11, 1, "endurance_min")])
     free = (f"{o['battery_mass_kg']:.3f} kg of battery (mass fraction "
             f"{o['mass_fraction']:.2f}): {o['endurance_s'] / 60:.1f} min of {sweep.hold}")
     if o.get("constrained_battery_mass_kg") is None:
@@ -472,17 +464,11 @@ def render_endurance(sweep, source, aircraft=None) -> str:
 def render_range(sweep, aircraft=None) -> str:
     lines = [(f"Aircraft  {sweep.aircraft} with {sweep.pack}; reserve "
               f"{100 * sweep.reserve_fraction:.0f} %"), ""]
-    head = (f"{'payload kg':>10} {'TOW kg':>7} {'power W':>8} {'range km':>9} "
-            f"{'best V m/s':>10} {'best km':>8} {'hold min':>8}  limits")
-    lines += [head, "-" * len(head)]
-    f = sweep.to_frame()
-    for i in _rows(len(f)):
-        r = f.iloc[i]
-        lines.append(f"{r.payload_kg:>10.3f} {r.takeoff_mass_kg:>7.2f} "
-                     f"{r.cruise_power_w:>8.1f} {r.range_km:>9.2f} "
-                     f"{r.best_range_speed_ms:>10.1f} {r.best_range_km:>8.2f} "
-                     f"{r.hold_endurance_s / 60:>8.1f}  {_limits(aircraft, r)}")
-    lines.append("-" * len(head))
+    lines += _sweep_table(sweep, aircraft, [
+        ("payload kg", 10, 3, "payload_kg"), ("TOW kg", 7, 2, "takeoff_mass_kg"),
+        ("power W", 8, 1, "cruise_power_w"), ("range km", 9, 2, "range_km"),
+        ("best V m/s", 10, 1, "best_range_speed_ms"), ("best km", 8, 2, "best_range_km"),
+        ("hold min", 8, 1, lambda r: r.hold_endurance_s / 60)])
     for note in sweep.notes:
         lines.append(f"Note      {note}")
     return "\n".join(lines)

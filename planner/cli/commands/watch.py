@@ -19,12 +19,8 @@ import time
 from pathlib import Path
 
 from planner.cli.commands.common import (
-    flags_for,
-    parse_float,
-    parse_fraction,
-    parse_int,
-    parse_wind,
-)
+    add_options, flags_for, parse_float, parse_fraction, parse_int, parse_payload,
+    parse_temperature, parse_wind_option)
 from planner.errors import InputError
 from planner.io import files
 from planner.io.mavlink_stream import (
@@ -54,8 +50,7 @@ def register(sub) -> None:
                    help="udpin:HOST:PORT (default udpin:127.0.0.1:14550), udpout:HOST:PORT, "
                         "tcp:HOST:PORT, a serial DEVICE:BAUD, or a log file (.tlog, .bin, "
                         ".ulg, .csv) replayed as a stream")
-    p.add_argument("--aircraft", required=True, help="aircraft YAML")
-    p.add_argument("--battery", help="battery-pack YAML (default: the aircraft's)")
+    add_options(p, aircraft=True, battery=True)
     p.add_argument("--mission", help="mission file (.waypoints, .plan or .yaml); default: "
                                      "downloaded from the vehicle")
     p.add_argument("--reserve", default="0.2",
@@ -65,10 +60,9 @@ def register(sub) -> None:
     p.add_argument("--capacity", metavar="MAH|unknown",
                    help="the pack's capacity [mAh], or 'unknown': learnt from the voltage "
                         "(default: the pack file's, as a label)")
-    p.add_argument("--payload", help="payload mass [kg] (default: the mission's, else 0)")
-    p.add_argument("--wind", help="forecast wind SPEED@FROM_DEG until the vehicle reports "
-                                  "its own estimate")
-    p.add_argument("--temperature", help="outside air temperature [°C] (default ISA)")
+    add_options(p, payload="payload mass [kg] (default: the mission's, else 0)",
+                wind="forecast wind SPEED@FROM_DEG until the vehicle reports its own estimate",
+                temperature="outside air temperature [°C] (default ISA)")
     p.add_argument("--jsonl", metavar="F", help="write one JSON object per update to F "
                                                 "('-': standard output)")
     p.add_argument("--send-warnings", action="store_true",
@@ -83,7 +77,7 @@ def register(sub) -> None:
     p.add_argument("--rate", default="1",
                    help="replay speed of a log file: 1 = its recorded timing, 20 = 20 times "
                         "faster, 0 = as fast as it can be read (default 1)")
-    p.add_argument("--map", help="column map of a CSV flight record (e.g. dji_m100)")
+    add_options(p, map="column map of a CSV flight record (e.g. dji_m100)")
     p.add_argument("--flight", help="replay only this flight (experiment) of a record")
     p.add_argument("--every", default="1", help="seconds of flight between predictions "
                                                 "(default 1, at least 1)")
@@ -137,10 +131,8 @@ def load_inputs(args):
                      if pack.model.literature else pack.model)
             pack = dataclasses.replace(pack, capacity_mah=cap, model=model)
     reserve, reserve_v, reserve_fw = parse_reserve(args.reserve)
-    temperature = (parse_float(args.temperature, "--temperature", -60.0, 60.0)
-                   if args.temperature is not None else None)
-    payload = (parse_float(args.payload, "--payload", 0.0, 1000.0)
-               if args.payload is not None else None)
+    temperature = parse_temperature(args)
+    payload = parse_payload(args, aircraft)
     mission = items = None
     env = Environment()
     if args.mission:
@@ -149,9 +141,9 @@ def load_inputs(args):
         items = mavlink_mission.items_from_file(args.mission)
         if items is not None:
             mission = None       # followed by item number (MISSION_CURRENT)
-    if args.wind is not None:
-        speed, direction = parse_wind(args.wind)
-        env = dataclasses.replace(env, wind_speed_ms=speed, wind_from_deg=direction)
+    wind = parse_wind_option(args, aircraft)
+    if wind is not None:
+        env = dataclasses.replace(env, wind_speed_ms=wind[0], wind_from_deg=wind[1])
     settings = WatchSettings(
         reserve=reserve, reserve_cell_v=reserve_v, reserve_firmware=reserve_fw,
         capacity_known=known, samples=parse_int(args.samples, "--samples", 20, 100_000),

@@ -527,22 +527,13 @@ class CapacityLevel:
 
     # ---------------------------------------------------------------- reporting
     def covariance(self, fit: Fit, effects) -> tuple[np.ndarray, np.ndarray]:
-        """Covariance of [nl…, coef…] of an all-data fit."""
+        """Covariance of [nl…, coef…] of an all-data fit (the Jacobian of
+        :meth:`jacobian` on its training rows)."""
         rows = np.flatnonzero(fit.train)
         X0 = self.design(fit.nl, effects)
-        wt = self.weights[rows]
-        Xw = (X0[self.w1[rows]] - X0[self.w0[rows]]) * wt[:, None]
-        r0 = self.y[rows] * wt - Xw @ fit.coef
-        jac = [-Xw[:, j] for j in range(Xw.shape[1])]
-        jnl = []
-        for j in range(len(fit.nl)):
-            h = 1e-5
-            x = fit.nl.copy()
-            x[j] += h
-            X = self.design(x, effects)
-            r = self.y[rows] * wt - ((X[self.w1[rows]] - X[self.w0[rows]]) * wt[:, None]) @ fit.coef
-            jnl.append((r - r0) / h)
-        J = np.column_stack(jnl + jac)
+        r0 = (self.y[rows] - (X0[self.w1[rows]] - X0[self.w0[rows]]) @ fit.coef) \
+            * self.weights[rows]
+        J = self.jacobian(fit, effects)[rows]
         return stats.covariance(J, r0, self.row_group[rows]).matrix, np.r_[fit.nl, fit.coef]
 
     def jacobian(self, fit: Fit, effects) -> np.ndarray:

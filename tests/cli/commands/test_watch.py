@@ -139,6 +139,9 @@ def test_a_record_is_played_by_the_record_player(capsys, monkeypatch):
     ([str(SIM_TLOG), "--aircraft", SOLO, "--capacity", "-5"], "--capacity"),
     ([str(SIM_TLOG), "--aircraft", SOLO, "--jsonl", "/no/such/folder/x.jsonl"], "--jsonl"),
     ([str(SIM_TLOG), "--aircraft", SOLO, "--map", "dji_m100"], "--map"),
+    # the payload and wind rules of check and select: a value in grams or km/h says so
+    ([str(SIM_TLOG), "--aircraft", SOLO, "--payload", "350"], "grams?"),
+    ([str(SIM_TLOG), "--aircraft", SOLO, "--wind", "60@270"], "km/h?"),
 ])
 def test_bad_input_exits_2_with_one_line(args, says, capsys, monkeypatch):
     code, out, err = run_here(capsys, monkeypatch, *args)
