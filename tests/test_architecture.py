@@ -293,6 +293,36 @@ def test_docstrings_have_no_control_characters():
                                  [hex(ord(c)) for c in bad])
 
 
+def _public_without_docstring(tree) -> list[str]:
+    """Public functions, classes and methods of a module without a docstring."""
+    out = []
+
+    def walk(node, prefix):
+        for n in ast.iter_child_nodes(node):
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                if n.name.startswith("_"):
+                    continue
+                if not ast.get_docstring(n):
+                    out.append(f"{prefix}{n.name} (line {n.lineno})")
+                if isinstance(n, ast.ClassDef):
+                    walk(n, f"{prefix}{n.name}.")
+    walk(tree, "")
+    return out
+
+
+def test_every_public_definition_has_a_docstring():
+    """Every public function, class and method of the package says what it does."""
+    missing = {str(path.relative_to(REPO)): names for path in SOURCES
+               if (names := _public_without_docstring(ast.parse(path.read_text("utf-8"))))}
+    assert not missing, missing
+
+
+def test_the_docstring_test_catches_a_bare_method():
+    tree = ast.parse("class A:\n    \"\"\"A.\"\"\"\n    def f(self):\n        return 1\n"
+                     "    def _g(self):\n        return 2\n")
+    assert _public_without_docstring(tree) == ["A.f (line 3)"]
+
+
 def test_every_citation_key_resolves():
     """``[UAV23] eq. 14``, ``[HESS] eq. 11``: each key used in the package is one of
     planner.physics.references, so no citation is ambiguous between the two seed papers."""

@@ -116,6 +116,7 @@ class Px4Release:
     source: str
 
     def label(self) -> str:
+        """The releases this row covers in words, e.g. ``v1.14–v1.15`` or ``v1.16 and later``."""
         a = f"v{self.first[0]}.{self.first[1]}"
         if self.last is None:
             return f"{a} and later"
@@ -246,6 +247,8 @@ class FailsafeParameter:
     derivation: str
 
     def text_value(self) -> str:
+        """The value as the firmware's parameter file writes it: an integer for integer
+        parameters, else the shortest decimal form (in the parameter's own unit)."""
         return str(int(self.value)) if self.kind == "int" else f"{self.value:g}"
 
 
@@ -293,12 +296,17 @@ class FailsafePlan:
     warnings: list[str] = field(default_factory=list)
 
     def value(self, name: str) -> float:
+        """The value of parameter ``name`` (in the firmware's unit for it)."""
         return next(p.value for p in self.parameters if p.name == name)
 
     def parameter(self, name: str) -> FailsafeParameter:
+        """The parameter ``name`` of the plan (StopIteration when the plan has none)."""
         return next(p for p in self.parameters if p.name == name)
 
     def to_dict(self) -> dict:
+        """JSON-ready: the firmware and version, verdict and reasons, the worst return point,
+        its charges [mAh], every parameter with its value, unit and derivation, and the
+        warnings."""
         return {"firmware": self.firmware, "firmware_version": self.firmware_version,
                 "go": self.go, "reasons": list(self.reasons),
                 "worst_point": self.worst_point,

@@ -136,6 +136,7 @@ class MissionResult:
 
     @property
     def go(self) -> bool:
+        """True when the verdict is GO."""
         return self.verdict == "GO"
 
     @property

@@ -77,26 +77,32 @@ class PackEvaluation:
 
     @property
     def aircraft_name(self) -> str:
+        """The aircraft's name from its file."""
         return self.result.aircraft.name
 
     @property
     def aircraft_type(self) -> str:
+        """``multirotor`` or ``fixed_wing``."""
         return self.result.aircraft.type
 
     @property
     def mission_name(self) -> str:
+        """The mission's name from its file."""
         return self.result.mission.name
 
     @property
     def max_takeoff_mass_kg(self) -> float | None:
+        """The aircraft's maximum take-off mass [kg] (None: not given)."""
         return self.result.aircraft.max_takeoff_mass_kg
 
     @property
     def cells_allowed(self) -> tuple[int, ...] | None:
+        """The cell counts in series the aircraft flies (None: any)."""
         return self.result.aircraft.cells_series_allowed
 
     @property
     def method(self) -> str:
+        """How the power was computed (the chain's power method, e.g. ``momentum``)."""
         return self.result.power_method
 
     @property
@@ -300,6 +306,7 @@ class Selection:
 
     @property
     def best_pack(self) -> BatteryPack | None:
+        """The pack ranked first among those that fly the mission (None: none does)."""
         return None if self.best is None else self.evaluation.packs[self.best]
 
     def to_dict(self, top: int | None = None) -> dict[str, Any]:

@@ -115,6 +115,8 @@ class EnduranceSweep:
     notes: list[str] = field(default_factory=list)
 
     def to_frame(self) -> pd.DataFrame:
+        """One row per swept battery mass: masses [kg], mass fraction, capacity [mAh], hold
+        power [W], endurance [s, min] and whether the row is within the aircraft's limits."""
         return pd.DataFrame({
             "battery_mass_kg": self.battery_mass_kg, "takeoff_mass_kg": self.takeoff_mass_kg,
             "mass_fraction": self.battery_mass_kg / self.takeoff_mass_kg,
@@ -287,6 +289,9 @@ class RangeSweep:
     notes: list[str] = field(default_factory=list)
 
     def to_frame(self) -> pd.DataFrame:
+        """One row per swept payload: masses [kg], cruise power [W] and endurance [s], range
+        [km], best-range speed [m/s] and range [km], hold endurance [s] and whether the row
+        is within the aircraft's limits."""
         return pd.DataFrame({
             "payload_kg": self.payload_kg, "takeoff_mass_kg": self.takeoff_mass_kg,
             "cruise_power_w": self.cruise_power_w, "cruise_endurance_s": self.cruise_endurance_s,
@@ -474,6 +479,8 @@ class SplitPoint:
     origin: str
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: the leg (1-based) and its origin, the fraction of the leg flown, the
+        time [s] and the position east and north of home [m]."""
         return {"leg": self.leg + 1, "leg_origin": self.origin,
                 "fraction": round(self.fraction, 6), "time_s": round(self.time_s, 3),
                 "east_m": round(self.east_m, 3), "north_m": round(self.north_m, 3),
@@ -515,6 +522,7 @@ class SortiePlan:
 
     @property
     def count(self) -> int:
+        """Number of sorties."""
         return len(self.sorties)
 
     @property
@@ -523,6 +531,9 @@ class SortiePlan:
         return self.count == self.lower_bound
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: the pack and its mass [kg], the count, its lower bound and whether it
+        is the fewest, the split points, each sortie's legs, duration [s], charge drawn,
+        margin and required margin [mAh], and the notes."""
         return {"pack": self.pack.name + (f" x{self.pack.count}" if self.pack.count > 1
                                           else ""),
                 "pack_mass_kg": round(self.pack.total_mass_kg, 6),

@@ -245,10 +245,13 @@ class UncertaintyResult:
 
     @property
     def go(self) -> bool:
+        """True when the probability of landing with the reserve is at least the confidence
+        asked."""
         return self.p_landing >= self.confidence
 
     @property
     def verdict(self) -> str:
+        """``GO`` or ``NO-GO`` at the confidence asked."""
         return "GO" if self.go else "NO-GO"
 
     @property
@@ -258,6 +261,10 @@ class UncertaintyResult:
         return self.p_resolution > 0.1 * (1.0 - self.confidence)
 
     def to_dict(self) -> dict:
+        """JSON-ready: the verdict and its settings (confidence, samples, seed), the
+        probabilities of landing with the reserve, the reserve, landing charge and
+        return-home margin [mAh], and the split of the landing charge's variance among the
+        drawn inputs (units in the key names)."""
         return {"verdict": self.verdict, "confidence": self.confidence,
                 "samples": self.samples, "weather_draws": self.weather_draws,
                 "seed": self.seed, "p_landing_with_reserve": self.p_landing,
@@ -401,6 +408,7 @@ class Draws:
 
     @property
     def weather_draws(self) -> int:
+        """Number of distinct weather draws (wind and temperature) among the samples."""
         return len(self.wind)
 
 

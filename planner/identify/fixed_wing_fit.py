@@ -182,6 +182,8 @@ class EnergyRateSamples:
     sources: dict
 
     def subset(self, mask) -> EnergyRateSamples:
+        """The samples where ``mask`` is true (a boolean or index array over the samples), the
+        sources kept."""
         return EnergyRateSamples(*(getattr(self, f)[mask] for f in (
             "experiment", "time_s", "power_w", "raw_power_w", "airspeed", "acceleration",
             "climb_rate", "air_density", "dt", "glide")), self.sources)

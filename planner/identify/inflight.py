@@ -211,9 +211,12 @@ class OcvCurve:
         self.top, self.bottom = float(v[-1]), float(v[0])
 
     def soc(self, cell_v):
+        """State of charge [0..1] at the open-circuit cell voltage ``cell_v`` [V], linear
+        between the curve's points and held at its ends."""
         return np.interp(cell_v, self.v, self.s)
 
     def slope(self, soc):
+        """dV/dsoc of the curve at ``soc`` [V per unit state of charge]."""
         return np.interp(soc, self.s, self.dv_ds)
 
 

@@ -142,6 +142,7 @@ class ConnectionSpec:
 
     @property
     def is_file(self) -> bool:
+        """True when the connection is a log replayed as a stream, not a live link."""
         return self.kind in ("tlog", "log")
 
 
@@ -329,9 +330,12 @@ class MissionCapture:
         self.max_items = max_items
 
     def reset(self) -> None:
+        """Forget a partly captured mission."""
         self.count, self.items = None, {}
 
     def feed(self, msg) -> list[MavItem] | None:
+        """Take one MAVLink message of the mission protocol; the mission's items once all have
+        been seen, else None."""
         mtype = msg.get_type()
         if getattr(msg, "mission_type", 0) not in (0, None):
             return None
@@ -783,6 +787,8 @@ class LiveLink:
                 states.clear()
 
     def send(self, msg) -> None:
+        """Send ``msg`` on the link; dropped silently while there is no peer or the link is
+        down."""
         try:
             self.conn.mav.send(msg)
             self.sent += 1
@@ -790,6 +796,7 @@ class LiveLink:
             pass                        # no peer yet (udpin before any datagram), link down
 
     def close(self) -> None:
+        """Close the link (errors on closing ignored)."""
         try:
             self.conn.close()
         except Exception:   # noqa: BLE001
@@ -914,6 +921,7 @@ class RecordSource:
         self.path = str(path)
 
     def events(self) -> Iterator[Event]:
+        """The record's samples as stream events, in time order (paced by the replay rate)."""
         df = self.record
 
         def col(name):

@@ -17,6 +17,7 @@ from planner.parameters import default_battery_path, load_aircraft, load_battery
 
 
 def register(sub) -> None:
+    """Add the ``fit-aircraft`` command with its options to the subcommand parsers ``sub``."""
     p = sub.add_parser("fit-aircraft", help="fit efficiency, drag and system load to flights",
                        description="Fit the aircraft's power parameters (multirotor: η, drag "
                                    "area, P_S; multirotor with power_model rotor_losses: "
@@ -55,6 +56,8 @@ def _list(text):
 
 
 def run(args) -> int:
+    """``endurance fit-aircraft``: fit the aircraft's power model to flight records and write
+    the aircraft file; returns 0, or 1 when the fit is a misfit (``fit_status``)."""
     from planner.identify.aircraft_fit import fit_aircraft
 
     json_out = output_path(args.json, "--json")
@@ -137,6 +140,9 @@ def run(args) -> int:
 
 
 def render(r, mass) -> str:
+    """The aircraft fit's report: experiments used and held out, each parameter with its
+    standard error and unit, the fit's status and the errors on the held-out flights at
+    take-off mass ``mass`` [kg]."""
     n_all = len(r.get("experiments", r["train_experiments"]))
     held = ", ".join(r["validation_experiments"][:5]) or "none"
     lines = [f"Fit on {len(r['train_experiments'])} of {n_all} experiment(s) "

@@ -25,6 +25,7 @@ WEATHER_COLUMNS = {"wind_speed_ms": "m/s", "wind_from_deg": "deg", "temperature_
 
 
 def register(sub) -> None:
+    """Add the ``backtest`` command with its options to the subcommand parsers ``sub``."""
     p = sub.add_parser(
         "backtest", help="predict many flights as before take-off; score against the logs",
         description="Predict each flight as its operator would have before take-off (the plan "
@@ -120,6 +121,8 @@ def read_weather(path: str) -> dict[str, dict[str, float]]:
 
 
 def run(args) -> int:
+    """``endurance backtest``: predict each flight as before take-off, score it against the log
+    and write the tables, report and plot; returns 0."""
     from planner.identify.backtest import run_backtest, summarise
 
     aircraft, pack, path = _definitions(args)

@@ -26,6 +26,8 @@ from planner.identify.schedule import write_schedule
 from planner.physics.units import AS_PER_MAH
 
 def register(sub) -> None:
+    """Add the battery commands (``fit-battery``, ``design``, ``pulse-resistance``,
+    ``bench``) with their options to the subcommand parsers ``sub``."""
     _register_fit(sub)
     _register_design(sub)
     _register_pulse(sub)
@@ -247,6 +249,9 @@ def _fit_circuit_rates(mapping: dict, experiments, result: fit.IntegralFit,
 
 
 def run_fit(args) -> int:
+    """``endurance fit-battery``: fit the integral model (δ, ε, β) to the training discharges,
+    validate it on the others and write the pack file; returns 0, or 1 when the fit is a
+    misfit (``fit_status``)."""
     out, plot_out, json_out = outputs(args, "out", "plot", "json")
     beta = parse_float(args.fix_beta, "--fix-beta", 0.5, 1.5) if args.fix_beta else None
     mass_kg = (parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0, "kg")
@@ -519,6 +524,9 @@ def _model_for(args) -> tuple[IntegralModel, str]:
 
 
 def run_two_step(args) -> int:
+    """``endurance design two-step``: the step durations t1, t2 [s] of a two-step
+    constant-power test that draws the charge C0 [mAh] under the integral model
+    ([UAV23] eq. 25–28), and its power schedule (time [s], power [W]) if asked; returns 0."""
     out = output_path(args.out, "--out")
     p1 = parse_float(args.p1, "--p1", 1e-3, 1e6)
     p2 = parse_float(args.p2, "--p2", 1e-3, 1e6)
@@ -545,6 +553,8 @@ MAX_APRBS_STEPS = 100_000
 
 
 def run_aprbs(args) -> int:
+    """``endurance design aprbs``: an APRBS power schedule (random levels [W], each held a
+    random time [s]) for a programmable load, written as CSV; returns 0."""
     out = output_path(args.out, "--out")
     levels = _floats(args.levels, "--levels")
     if len(set(levels)) < 2 or min(levels) <= 0:
@@ -630,6 +640,8 @@ def one_experiment(df, path, chosen: str | None):
 
 
 def run_pulse(args) -> int:
+    """``endurance pulse-resistance``: the internal resistance [Ω] of a pulse test, per pulse
+    and state of charge; returns 0."""
     from planner.io import record as rec
 
     out = output_path(args.out, "--out")
@@ -720,6 +732,9 @@ def _register_bench(sub) -> None:
 
 
 def run_bench(args) -> int:
+    """``endurance bench``: run a named discharge campaign on the virtual bench and write it
+    as a flight record (with ``--report``, the cross-validation of the integral models);
+    returns 0."""
     from planner.io import record
     from planner.identify import bench, campaign
     from planner.physics.battery.thermal import T_RANGE_C

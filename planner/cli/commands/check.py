@@ -36,6 +36,7 @@ from planner.chain.uncertainty import (
 
 
 def register(sub) -> None:
+    """Add the ``check`` command with its options to the subcommand parsers ``sub``."""
     p = sub.add_parser("check", help="pre-flight endurance check: GO / NO-GO with margins",
                        description="Predict power and charge leg by leg and check the landing "
                                    "and return-home reserves. Exit 0 = GO, 1 = NO-GO, "
@@ -100,6 +101,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """``endurance check``: fly the mission through the chain and print the verdict leg by leg
+    (and the failsafe parameters, the Monte Carlo verdict, the map, if asked); returns 0 for
+    GO, 1 for NO-GO."""
     json_out = output_path(args.json, "--json")
     params_out = output_path(args.params_out, "--params-out")
     firmware = parse_firmware(args.failsafe, params_out)
@@ -255,6 +259,8 @@ def parse_mc(args) -> dict:
 
 
 def uncertainty_verdict_line(u: UncertaintyResult) -> str:
+    """The Monte Carlo verdict in one line: GO or NO-GO at the confidence asked, the
+    probability [%] of landing with the reserve, samples and seed."""
     return (f"{u.verdict} with {100 * u.confidence:.0f} % confidence: P(landing with the "
             f"reserve) = {100 * u.p_landing:.1f} % "
             f"{'≥' if u.go else '<'} {100 * u.confidence:.0f} % ({u.samples} samples, seed "

@@ -281,6 +281,8 @@ def outputs(args, *names: str) -> tuple[str | None, ...]:
 
 
 def fmt(value: float, digits: int = 1, width: int = 0) -> str:
+    """``value`` with ``digits`` decimals right-aligned in ``width`` characters; ``-`` for a
+    missing or non-finite value (units are the caller's)."""
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-".rjust(width)
     return f"{value:{width}.{digits}f}"

@@ -18,6 +18,7 @@ from planner.parameters import aircraft_from_mapping, battery_from_mapping
 
 
 def register(sub) -> None:
+    """Add the ``diagnose`` command with its options to the subcommand parsers ``sub``."""
     from planner.identify.diagnose.effects import EFFECTS
 
     p = sub.add_parser(
@@ -53,6 +54,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """``endurance diagnose``: search the records for what the models miss and print the
+    findings, their evidence and the detection limits; returns 0."""
     from planner.identify.diagnose import diagnose, load_definitions
 
     json_out = output_path(args.json, "--json")

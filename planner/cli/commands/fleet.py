@@ -25,6 +25,7 @@ RUN_OPTIONS = {
 
 
 def register(sub) -> None:
+    """Add the ``fleet`` command with its options to the subcommand parsers ``sub``."""
     p = sub.add_parser("fleet", help="many logs on Dask: per-flight table, pack health, "
                                      "fleet accuracy",
                        description="Read every log, replay it through the planner's models, "
@@ -51,6 +52,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """``endurance fleet``: replay a folder of logs on Dask workers and write the accuracy,
+    pack health and calibration tables; returns 0 (130 when interrupted)."""
     from planner.fleet import FleetInterrupted, read_pack_map, run_fleet
 
     if args.workers is not None and args.scheduler:

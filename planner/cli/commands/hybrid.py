@@ -14,6 +14,7 @@ from planner.parameters import load_aircraft_and_battery
 
 
 def register(sub) -> None:
+    """Add the ``hybrid`` command with its options to the subcommand parsers ``sub``."""
     p = sub.add_parser("hybrid", help="battery + supercapacitor: peak current, J1, J2, sag",
                        description="Fly the mission's power profile on the pack alone and on "
                                    "the pack with a passive Maxwell BCAP1500 supercapacitor "
@@ -31,6 +32,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """``endurance hybrid``: simulate the battery–supercapacitor pack on a load profile and
+    print its figures of merit; returns 0."""
     from planner.physics.battery.hybrid import BCAP1500, matched_bank, simulate_hybrid
     from planner.chain.mission_chain import MissionChain
 

@@ -57,6 +57,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def register(subparsers) -> None:
+    """Add the ``export`` command with its options to the subcommand parsers ``subparsers``."""
     p = subparsers.add_parser(
         "export", help="any supported log -> flight record CSV",
         description="Read an ArduPilot .bin, PX4 .px4log/.ulg, MAVLink .tlog, a PX4 topic "

@@ -56,6 +56,8 @@ def scale_model(model_mapping: dict, series: int, parallel: int) -> dict:
 
 def describe(series: int, parallel: int, cell_delta: float, pack_delta: float,
              cell_mah: float) -> str:
+    """How a one-cell fit was scaled to the pack, in words: δ of the cell and of the
+    ``series``S``parallel``P pack, and the capacity [mAh]."""
     return (f"scaled from one cell to {series}S{parallel}P: δ {cell_delta:.4g} → "
             f"{pack_delta:.4g} (δ·(S·P)^−ε·P^−β, identical cells), ε and β kept; capacity "
             f"{cell_mah:.0f} mAh × {parallel} = {cell_mah * parallel:.0f} mAh")

@@ -14,6 +14,7 @@ from planner.parameters import load_aircraft, load_battery
 
 
 def register(sub) -> None:
+    """Add the ``replay`` command with its options to the subcommand parsers ``sub``."""
     p = sub.add_parser("replay", help="predicted vs measured power and charge for real logs",
                        description="Drive the battery model with the measured power (and, "
                                    "with --aircraft, the power model with the measured "
@@ -41,6 +42,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """``endurance replay``: predict each logged flight's charge, energy and voltage from its
+    own power and compare with the log; returns 0 (2 when no flight can be replayed)."""
     from planner.identify.replay import replay
 
     json_out = output_path(args.json, "--json")
@@ -109,6 +112,9 @@ def time_error_lines(e) -> list[str]:
 
 
 def render(result) -> str:
+    """The replay report: per flight its duration [s], the charge measured and predicted
+    [mAh], the charge RMSE [mAh], the final charge error and the airborne energy error [%
+    of measured] and the power RMSE [W], then the notes of each flight."""
     from planner.io.record import NO_CURRENT
 
     lines = ["Errors    measured − predicted throughout, in % of measured: final = charge "

@@ -9,6 +9,8 @@ from planner.io import files
 
 
 def add_route_options(parser, what: str = "the route") -> None:
+    """Add ``--map`` (a PNG of ``what``) and ``--kml`` (the same for Google Earth and GIS) to
+    ``parser``."""
     parser.add_argument("--map", metavar="F.png", dest="route_map",
                         help=f"write a map of {what} in metres east/north of home: legs "
                              "coloured by the charge left, point of no return, worst "

@@ -24,6 +24,8 @@ from planner.parameters import default_battery_path, load_aircraft, load_battery
 
 
 def register(sub) -> None:
+    """Add the ``select`` and ``sweep`` commands with their options to the subcommand parsers
+    ``sub``."""
     p = sub.add_parser("select", help="rank a battery-pack catalog for a mission",
                        description="Fly the mission with every pack of a catalog (pack mass "
                                    "included in the take-off mass), check the landing and "
@@ -87,6 +89,8 @@ def register(sub) -> None:
 # --------------------------------------------------------------------------- select
 
 def run_select(args) -> int:
+    """``endurance select``: rank the catalog's packs on the mission and plan sorties when none
+    suffices; returns 0 when a pack flies it, else 1."""
     from planner.chain import selection as sel
     from planner.chain.sizing import plan_long_mission
 
@@ -253,6 +257,8 @@ def write_sorties(plan, mission_path: str, folder: Path, defaults) -> list[Path]
 
 
 def render_plan(plan) -> str:
+    """The sortie plan in words: the fewest sorties, the pack, the margin policy and each
+    sortie's legs, split points and charge [mAh]."""
     p = plan.pack
     lines = ["", f"Sorties   fewest: {plan.count} flight(s) with {p.name}"
              + (f" x{p.count}" if p.count > 1 else "")
@@ -298,6 +304,8 @@ def _parse_range(text, default, aircraft=None, what="payload"):
 
 
 def run_sweep(args) -> int:
+    """``endurance sweep battery-mass|payload``: the endurance against battery mass, or the
+    range against payload, as a table (and CSV, PNG); returns 0."""
     from planner.chain import sizing
     from planner.physics.mission import Environment
 
@@ -432,6 +440,8 @@ def _limits(aircraft, row, min_thrust_to_weight: float = 1.5) -> str:
 
 
 def render_endurance(sweep, source, aircraft=None) -> str:
+    """The endurance–battery-mass sweep as a table with its optimum (within and beyond the
+    aircraft's limits) and notes."""
     o = sweep.optimum
     lines = [f"Aircraft  {sweep.aircraft}, payload {sweep.payload_kg:g} kg",
              (f"Battery   {sweep.cells_series}S at {sweep.cell_voltage_v:g} V/cell, "
@@ -462,6 +472,7 @@ def render_endurance(sweep, source, aircraft=None) -> str:
 
 
 def render_range(sweep, aircraft=None) -> str:
+    """The range–payload sweep as a table with its notes."""
     lines = [(f"Aircraft  {sweep.aircraft} with {sweep.pack}; reserve "
               f"{100 * sweep.reserve_fraction:.0f} %"), ""]
     lines += _sweep_table(sweep, aircraft, [

@@ -37,6 +37,7 @@ WARNING_REARM_S = 60.0
 
 
 def register(sub) -> None:
+    """Add the ``watch`` command with its options to the subcommand parsers ``sub``."""
     p = sub.add_parser(
         "watch", help="in flight: time to the reserve along the rest of the mission, live "
                       "from MAVLink",
@@ -263,6 +264,9 @@ class Display:
         self.last_flags = None
 
     def show(self, p: dict) -> None:
+        """Show the prediction ``p``: redraw the block in place on a terminal, else print one
+        line every ``print_every`` seconds of flight and whenever the link's state, the
+        return's being due or the mission item changes."""
         if self.tty:
             block = render_block(p, self.source)
             up = f"\x1b[{self.lines}F\x1b[J" if self.lines else ""
@@ -280,6 +284,8 @@ class Display:
         self.stream.flush()
 
     def final(self, p: dict | None) -> None:
+        """The last estimate when the watch ends (``no telemetry received`` when there was
+        none)."""
         if p is None:
             self.stream.write("no telemetry received\n")
         else:
@@ -315,11 +321,13 @@ class JsonLines:
                     from None
 
     def write(self, p: dict) -> None:
+        """Append the prediction ``p`` as one JSON line (non-finite numbers as null) and flush."""
         if self.fh is not None:
             self.fh.write(json.dumps(_clean(p), separators=(",", ":")) + "\n")
             self.fh.flush()
 
     def close(self) -> None:
+        """Close the file (standard output is left open)."""
         if self.fh is not None and self.own:
             self.fh.close()
 
@@ -327,6 +335,8 @@ class JsonLines:
 # --------------------------------------------------------------------------- the loop
 
 def run(args) -> int:
+    """``endurance watch``: follow the link or replayed log and print the predictions until it
+    ends or Ctrl-C; returns 0."""
     from planner.identify.inflight import InflightEstimator
 
     jsonl = args.jsonl
@@ -402,6 +412,9 @@ class Warner:
         self.count = 0
 
     def update(self, p: dict, t: float) -> None:
+        """Send the return-home warning (STATUSTEXT) once when the prediction ``p`` says the
+        return is due at flight time ``t`` [s], and re-arm it after the return has not been
+        due for :data:`WARNING_REARM_S`."""
         if self.link is None:
             return
         if p.get("return_due"):

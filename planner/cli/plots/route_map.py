@@ -104,6 +104,7 @@ def draw_route(ax, result, *, colour=None, label=None, marks=True, cmap=CHARGE_C
 
 
 def draw_home(ax):
+    """Mark home (the take-off point, the map's origin at 0 m east, 0 m north) on ``ax``."""
     ax.plot(0.0, 0.0, "^", ms=11, color="k", ls="none", zorder=7, label="home (take-off)")
 
 

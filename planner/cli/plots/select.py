@@ -167,6 +167,8 @@ def plot_endurance_sweep(sweep, ax=None):
 
 
 def save_endurance_plot(sweep, path, title=None):
+    """Write the endurance–battery-mass sweep ``sweep`` as a PNG to ``path`` (title: the
+    aircraft, specific energy [Wh/kg], cells and payload [kg], unless ``title``)."""
     fig, ax = figure(figsize=(11, 5.5))
     plot_endurance_sweep(sweep, ax)
     ax.set_title(title or f"{sweep.aircraft}:\n{sweep.specific_energy_wh_per_kg:.0f} Wh/kg, "
@@ -194,6 +196,8 @@ def plot_range_sweep(sweep, ax=None):
 
 
 def save_range_plot(sweep, path, title=None):
+    """Write the range–payload sweep ``sweep`` as a PNG to ``path`` (title: the aircraft and
+    pack, unless ``title``)."""
     fig, ax = figure(figsize=(11, 5.5))
     plot_range_sweep(sweep, ax)
     ax.set_title(title or f"{sweep.aircraft} with {sweep.pack}:\nrange against payload",

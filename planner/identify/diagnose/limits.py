@@ -192,6 +192,9 @@ def largest_physical(effect: str, level) -> float:
 
 
 def beyond_physics(effect: str, level_name: str, limit: float, top: float) -> str:
+    """Why an effect is not identifiable at any physical size: the largest physical one,
+    ``top``, is below the detection limit ``limit`` (both in the effect's unit at
+    ``level_name``), in words."""
     return (f"even the largest physical one ({_fmt(level_name, effect, top)}) is below the "
             f"smallest these data could reveal ({_fmt(level_name, effect, limit)})")
 

@@ -846,6 +846,7 @@ class MissionFile:
 
 
 def cmd_name(command: int) -> str:
+    """A MAVLink command number in words, e.g. ``MAV_CMD_NAV_WAYPOINT (16)``."""
     name = MAV_CMD_NAMES.get(command)
     return f"MAV_CMD_{name} ({command})" if name else f"MAV_CMD {command}"
 
