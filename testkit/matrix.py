@@ -60,8 +60,9 @@ The record's own findings
 Some real records carry an effect of diagnose's vocabulary themselves. Each source
 declares them (:class:`RealEffect`, ``Source.real``) with the evidence beside it:
 
-* ``log171``: the log switches LOITER → ACRO at 217 s and the aircraft then sits at
-  1.2 m drawing 333 W, against 225 W in the hover before. On the ``plain`` record (no
+* ``log171``: the log switches LOITER → ACRO at 206 s (from its first sample), and
+  from 228 s the aircraft sits at 1.2 m drawing 333 W, against 225 W in the hover
+  before. On the ``plain`` record (no
   ``mode`` channel) diagnose reports it, as the project requires, as a +103 W step of the
   power at 228 s consistent with a 0.43 ± 0.03 kg mass increase or anything else that
   raises the power (``payload_change``, with its alternatives); with the ``mode`` channel
@@ -372,11 +373,12 @@ def sources() -> dict[str, Source]:
     solo = load_aircraft(REPO / "aircraft/solo_survey.yaml")
     return {
         "m100": M100(),
-        # The log switches LOITER → ACRO at 217 s and the aircraft then sits at 1.2 m
-        # drawing 333 W against 225 W in the hover before (the mean of 230–243 s against
-        # 100–200 s): without the ``mode`` channel diagnose reports it as a +103 W step of
-        # the power at 228 s (a 0.43 ± 0.03 kg mass increase or anything else that raises
-        # the power), with the mode channel it withholds it as a step at a mode change.
+        # The log switches LOITER → ACRO at 206 s (from its first sample), comes down from
+        # 8.6 m to 1.2 m by 228 s and sits there drawing 333 W against 225 W in the hover
+        # before (the means of 230–243 s and 100–200 s): without the ``mode`` channel
+        # diagnose reports it as a +103 W step of the power at 228 s (a 0.43 ± 0.03 kg
+        # mass increase or anything else that raises the power), with the mode channel it
+        # withholds it as a step at a mode change.
         "log171": Log("log171", "ardupilot_copter_quad_ac33dev_dronekit_log171.bin",
                       "aircraft/solo_survey.yaml",
                       rotors=inj.Rotors(4, solo.multirotor.rotor_diameter_m),
