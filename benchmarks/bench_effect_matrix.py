@@ -6,14 +6,16 @@ Sources, injection laws, richness, timings, sizes and what is scored: the module
 planner's own models). Data: ``../shared/data`` (PROVENANCE.md in each folder).
 
 Per cell it prints and writes (``--json``): the runs, how often the injected effect is
-named first and anywhere, the runs with a false cause (and which), how often diagnose's
-detection limit calls the injected size identifiable, how often the output says the
-effect is not identifiable where it is not named, how often the fitted parameter lies
-within two standard errors of the injected one (where named first), the median limit
-against the median size, and the CPU time per run; then the verdict against the issue's
-criterion at realistic size (``clean``: silent in ≥ 95 %; ``identifiable``: named first
-in ≥ 80 %, within 2 SE in most; ``not identifiable``: said so wherever not named, false
-causes in ≤ 5 %).
+named first and anywhere, the runs with a false cause (and which), the record's own
+findings named (``own``: effects the real data carry themselves,
+:class:`testkit.matrix.RealEffect`, never a false cause), how often diagnose's detection
+limit calls the injected size identifiable, how often the output says the effect is not
+identifiable where it is not named, how often the fitted parameter lies within two
+standard errors of the injected one (where named first), the median limit against the
+median size, and the CPU time per run; then the verdict against the issue's criterion
+at realistic size (``clean``: silent in ≥ 95 %, the record's own findings aside;
+``identifiable``: named first in ≥ 80 %, within 2 SE in most; ``not identifiable``: said
+so wherever not named, false causes in ≤ 5 %).
 
 OpenBLAS runs one thread (``OPENBLAS_NUM_THREADS=1``, set here before numpy loads): the
 matrices are small, and on a shared 2-core machine its spinning threads cost more CPU
@@ -59,13 +61,15 @@ def row(st: dict) -> str:
     med_lim = float(np.median(st["limits"])) if st["limits"] else math.nan
     kind, ok = M.verdict(st) if st["size"] == "realistic" and n else ("-", None)
     false = ",".join(f"{k}:{v}" for k, v in st["false"].most_common()) or "-"
+    own = ",".join(f"{k}:{v}" for k, v in st.get("own", {}).items())
     cpu = float(np.median(st["cpu_s"])) if st["cpu_s"] else math.nan
     return (f"{st['cell']:<46} {n:3d} {_pct(st['named_first'], n)} {_pct(st['named_any'], n)} "
             f"{_pct(st['false_runs'], n)} {_pct(st['identifiable'], n)} "
             f"{_pct(st['said_not_identifiable'], max(n - st['named_any'], 0))} "
             f"{st['within_2se']:2d}/{st['checked_2se']:<2d} {size:9.3g} {med_lim:9.3g} "
             f"{cpu:5.2f}  {kind[:5]:<5} {'' if ok is None else ('met' if ok else 'NOT MET')}"
-            f"  false: {false}" + (f"  errors: {dict(st['errors'])}" if st["errors"] else "")
+            f"  false: {false}" + (f"  own: {own}" if own else "")
+            + (f"  errors: {dict(st['errors'])}" if st["errors"] else "")
             + ("" if lim or not st["limits"] else ""))
 
 

@@ -750,6 +750,9 @@ def diagnose(data, pack: BatteryPack | None = None, aircraft: Aircraft | None = 
     names = {e.name for e in wanted}
     power_ev = EV.power_channel(df)
     run.power_from_current = not power_ev["independent"]
+    if power_ev["independent"]:
+        run.power_channel_offset = (power_ev["current_offset_a"],
+                                    power_ev["current_offset_a_stderr"])
     exps = _capacity_experiments(df, run.notes)
     run.experiments = exps
     cap_effects = [e for e in wanted if e.level == "capacity"]
@@ -934,6 +937,9 @@ class _Run:
     experiments: list[dict] = field(default_factory=list)
     #: The record's power is the logged voltage × the logged current.
     power_from_current: bool = True
+    #: The current sensor's offset against an independently logged power, with its
+    #: standard error (:func:`planner.identify.diagnose.evidence.power_channel`). [A]
+    power_channel_offset: tuple[float, float] | None = None
 
     def skip(self, effects, level: str, reason: str) -> None:
         """Note ``effects`` (Effect objects or names) as not tested at ``level``."""
@@ -1006,6 +1012,7 @@ def _capacity_step(df: pd.DataFrame, exps: list[dict], pack: BatteryPack, effect
         try:
             level = S.CapacityLevel(exps, pack)
             level.power_from_current = run.power_from_current
+            level.power_channel_offset = run.power_channel_offset
         except (FitError, ModelError, ValueError) as exc:
             run.notes.append(f"capacity level not run: {exc}")
         if level is not None and level.n_rows < S.MIN_ROWS:

@@ -457,8 +457,12 @@ class CurrentOffset(CapacityEffect):
     driver_is_time = True
 
     def implausible(self, p, cap):
-        """A bias beyond :data:`MAX_OFFSET_SHARE` of the median current, or one the logged
-        current at rest contradicts (more than 3 standard errors apart)."""
+        """A bias beyond :data:`MAX_OFFSET_SHARE` of the median current, or one the direct
+        evidence contradicts (more than 3 standard errors apart): the logged current at
+        rest, or the logged current against an independently logged power
+        (``cap.power_channel_offset``, :func:`planner.identify.diagnose.evidence.power_channel`),
+        which measures the same offset sample by sample where the integral model's drift
+        also takes up the model's own misfit."""
         b, se = p["current_offset_a"], p["current_offset_a_stderr"]
         if abs(b) > MAX_OFFSET_SHARE * cap.median_current_a:
             return (f"a bias of {b:+.2f} A is {100 * abs(b) / cap.median_current_a:.0f} % of the "
@@ -472,6 +476,17 @@ class CurrentOffset(CapacityEffect):
             if z > 3.0:
                 return (f"the logged current at rest is {mean:+.3f} ± {sem:.3f} A, not the "
                         f"fitted bias {b:+.3f} A: the drift is not a sensor zero error")
+        direct = getattr(cap, "power_channel_offset", None)
+        if direct is not None:
+            # direct evidence of the same two channels: the logged current against the
+            # independently logged power / voltage, sample by sample, without a model
+            mean, sem = direct
+            z = abs(b - mean) / math.hypot(se if math.isfinite(se) else 0.0, sem)
+            if z > 3.0:
+                return (f"the logged current against the logged power / voltage reads "
+                        f"{mean:+.3f} ± {sem:.3f} A too high, not the fitted bias {b:+.3f} A: "
+                        "the drift beyond that is a misfit of the integral model (its "
+                        "charge per unit of energy), not a sensor zero error")
         return None
 
     def skip_reason(self, cap) -> str | None:

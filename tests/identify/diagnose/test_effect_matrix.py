@@ -27,6 +27,10 @@ SAMPLE = [
     (M.Cell("p42a", "offset", "minimal", None, "realistic"), 3),
     (M.Cell("a123", "real_cold", "everything", None, "realistic"), 1),
     (M.Cell("m100", "clean", "plain", None, "realistic"), 2),
+    # log 171's plain record carries a real power step (testkit.matrix, "The record's own
+    # findings"); with every channel a current offset against the power channel
+    (M.Cell("log171", "clean", "plain", None, "realistic"), 2),
+    (M.Cell("log171", "offset", "everything", None, "realistic"), 2),
 ]
 
 
@@ -50,6 +54,50 @@ def test_a_seeded_cell_of_the_effect_matrix_meets_the_criterion(cell, runs, draw
         # a miss is never silent: the output says the effect cannot be seen in these data
         assert st["said_not_identifiable"] == st["runs"] - st["named_any"]
     assert max(st["cpu_s"]) < 5.0
+    if cell.source == "log171" and cell.richness == "plain":
+        # the real step is still reported, in every run, and only as the record's own
+        assert st["own"] == {"payload_change": st["runs"]} and not st["false"]
+
+
+STEP = M.RealEffect("payload_change", change_time_s=228.0)
+FLIGHT = "log171"
+
+
+def _step_at(t):
+    return {"effect": "payload_change",
+            "parameters": {"mass_step_kg": 0.43, f"change_time_s[{FLIGHT}]": t}}
+
+
+@pytest.mark.parametrize("t_found, expect, injected, kind", [
+    (228.3, None, None, "own"),                  # log 171's own step on its clean record
+    (228.3, "wind", None, "own"),                # ... is never a false cause of a wind
+    (190.0, None, None, "other"),                # a step where the record has none
+    (152.0, "payload_change", 150.0, "injected"),    # the injected release, at its time
+    (228.3, "payload_change", 150.0, "own"),     # the real step is not the injected one
+    (190.0, "payload_change", 150.0, "other"),   # nor is a step at neither time
+    (224.0, "payload_change", 221.0, "injected"),    # a late release nearer its own time
+    (227.0, "payload_change", 221.0, "own"),     # ... but nearer the real step: the record's
+])
+def test_the_records_own_step_is_told_from_an_injected_one_by_its_time(
+        t_found, expect, injected, kind):
+    times = None if injected is None else {FLIGHT: injected}
+    assert M.classify(_step_at(t_found), (STEP,), expect, times) == kind
+
+
+def test_an_effect_without_a_time_is_the_records_own_unless_injected():
+    cold = (M.RealEffect("temperature"),)
+    f = {"effect": "temperature", "parameters": {"temperature_coefficient_per_c": 0.002}}
+    assert M.classify(f, cold, "current_offset") == "own"
+    assert M.classify(f, cold, "temperature") == "injected"
+    assert M.classify(f, (), "current_offset") == "other"
+    assert M.classify(f, (), "temperature") == "injected"
+
+
+def test_a_step_with_no_flight_named_is_located_by_its_earliest_change():
+    f = {"effect": "payload_change", "parameters": {"change_time_min_s": 229.0,
+                                                     "change_time_max_s": 229.0}}
+    assert M.located_changes(f["parameters"]) == {"": 229.0}
+    assert M.classify(f, (STEP,), None) == "own"
 
 
 def test_the_injection_laws_import_nothing_of_the_planner():

@@ -131,6 +131,26 @@ def test_a_drift_the_rest_current_does_not_show_is_not_a_sensor_bias():
     assert w["kind"] == "implausible" and "at rest" in w["why"]
 
 
+def test_a_drift_the_power_channel_does_not_show_is_not_a_sensor_bias():
+    """Where the power is logged independently of the current, the logged current against
+    the power / voltage measures the sensor's offset sample by sample (0.35 ± 0.002 A
+    here); a capacity-level drift 7 standard errors above it (0.44 ± 0.012 A, what the
+    integral model's misfit adds to it) is not a sensor bias. Within 3 standard errors
+    it is, and without the power channel the rule does not apply."""
+    off = E.CurrentOffset()
+
+    class Level:
+        median_current_a = 14.0
+        rest_current = None
+        power_channel_offset = (0.352, 0.002)
+
+    p = {"current_offset_a": 0.436, "current_offset_a_stderr": 0.012}
+    assert "misfit of the integral model" in off.implausible(p, Level())
+    assert off.implausible(dict(p, current_offset_a=0.36), Level()) is None
+    Level.power_channel_offset = None
+    assert off.implausible(p, Level()) is None
+
+
 # ----------------------------------------------------------------------------- one currency
 
 def test_findings_of_both_levels_are_ranked_by_one_measure():

@@ -328,6 +328,44 @@ def test_log171_step_is_reported_with_its_evidence_and_the_mode_change(shared_da
     assert not entry["identifiable"] and "mode" in entry["why"]
 
 
+@pytest.mark.parametrize("offset_a", [0.0, 0.35, 0.61])
+def test_log171_current_offset_against_a_power_channel_is_the_sensors(shared_data, offset_a):
+    """Before: log 171 with a current sensor reading 0.35 or 0.61 A too high and its power
+    logged independently (the effect matrix's injection, :func:`testkit.injections.
+    current_offset`) gave a capacity-level bias 0.085 A too high (0.436 ± 0.012 A), and
+    with no offset at all it named a 0.084 ± 0.012 A bias: the integral model, driven by
+    the power alone, does not follow the current per watt rising as the voltage falls
+    (to 15.0 V under 22 A at the end), and its time drift took that up. The logged
+    current against the power / voltage measures the offset without a model: the finding
+    is that one, within 2 standard errors of the injected offset, and nothing is named
+    without one."""
+    import warnings
+
+    import numpy as np
+
+    from planner.identify.diagnose import diagnose
+    from planner.io.flightdata import load_flight_data
+    from planner.parameters import default_battery_path, load_aircraft, load_battery
+    from testkit import injections as inj
+
+    ac = load_aircraft(REPO / "aircraft" / "solo_survey.yaml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        df, _ = load_flight_data([shared_data / "logs" / LOGS[0]])
+        rec = inj.current_offset(df, offset_a, power_logged=True,
+                                 rng=np.random.default_rng(1))
+        res = diagnose(rec, load_battery(default_battery_path(ac)), ac)
+    offsets = [f for f in res.findings if f["effect"] == "current_offset"]
+    if offset_a == 0.0:
+        assert not offsets, res.summary()
+    else:
+        assert res.findings[0]["effect"] == "current_offset", res.summary()
+        b = res.findings[0]["parameters"]
+        assert abs(b["current_offset_a"] - offset_a) <= 2 * b["current_offset_a_stderr"]
+    w = next(w for w in res.withheld if w["effect"] == "current_offset")
+    assert w["level"] == "capacity" and "misfit of the integral model" in w["why"]
+
+
 def test_solo_without_its_payload_lists_mass_and_load_beside_the_calibration(tmp_path):
     """Before: on the shipped simulated Solo log flown with 0.35 kg, diagnose without
     the payload said "Constant load 46 W (file 8 W)" alone. The power level's
