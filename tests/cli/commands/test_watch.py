@@ -54,6 +54,11 @@ def start_watch(port, jsonl, *extra, duration=40):
                           "--aircraft", SOLO, "--payload", "0.35", "--jsonl", str(jsonl),
                           "--duration", str(duration), "--silent-after", "2", *extra],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    return wait_bound(p, port)
+
+
+def wait_bound(p, port):
+    """``p`` once the watcher holds its UDP port (it is listening)."""
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -285,7 +290,7 @@ def test_a_real_px4_log_streams_over_loopback(shared_data, tmp_path):
                           "--reserve", "3.642V", "--jsonl", str(out), "--duration", "60",
                           "--passive"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                          text=True, cwd=REPO)
-    time.sleep(4.0)
+    wait_bound(w, port)
     play(tlog, port, speed=60.0, max_seconds=12)
     time.sleep(1.5)
     w.send_signal(signal.SIGINT)
