@@ -293,63 +293,71 @@ class ChainResult:
         return [text for code in codes for text in self.reason(i, code)]
 
     def reason(self, i: int, code: str) -> list[str]:
-        """The message(s) of check constraint ``code`` for pack ``i``."""
-        p, table = self.packs[i], self.table
-        c = {k: v[i] for k, v in self.circuit.items()}
-        out: list[str] = []
-        if code == "mission":
-            listed = sorted(table.problems)
-            problems = [f"{_leg_name(table, j)}: {why}" for j, why in listed]
-            if len(problems) > MAX_LISTED_PROBLEMS:
-                rest = sorted({j + 1 for j, _ in listed[MAX_LISTED_PROBLEMS - 1:]})
-                problems = problems[:MAX_LISTED_PROBLEMS - 1] + [
-                    f"and {len(rest)} more legs the aircraft cannot fly: legs "
-                    f"{_ranges(rest)}"]
-            out.extend(problems)
-        elif code == "cells":
-            out.append(f"{p.cells_series}S pack, the aircraft allows "
-                       + ", ".join(f"{c}S" for c in self.aircraft.cells_series_allowed))
-        elif code == "thrust":
-            out.append(f"thrust-to-weight {self.thrust_to_weight[i]:.2f} at the take-off "
-                       f"mass {self.takeoff_mass_kg[i]:.2f} kg is below the minimum "
-                       f"{self.min_thrust_to_weight:g}")
-        elif code == "power":
-            j = int(self.undeliverable_leg[i])
-            out.append(f"{_leg_name(table, j)}: the pack cannot deliver "
-                       f"{self.undeliverable_power_w[i]:.0f} W (at most "
-                       f"{self.deliverable_max_w[i]:.0f} W through "
-                       f"{p.resistance_ohm * 1000:.1f} mΩ)")
-        elif code == "c_rating":
-            j = int(self.peak_leg[i])
-            out.append(f"{_leg_name(table, j)}: current {self.peak_current_a[i]:.1f} A "
-                       f"exceeds the pack's {p.max_discharge_c:g} C rating "
-                       f"({self.max_current_a[i]:.1f} A)")
-        elif code == "takeoff_mass":
-            out.append(f"take-off mass {self.takeoff_mass_kg[i]:.2f} kg exceeds the "
-                       f"aircraft's maximum {self.aircraft.max_takeoff_mass_kg:.2f} kg")
-        elif code == "temperature":
-            out.append(f"the pack reaches {c['hot_temperature_c']:.0f} °C at t = "
-                       f"{c['hot_time_s']:.0f} s, outside the battery model's range "
-                       f"[{T_RANGE_C[0]:g} °C, {T_RANGE_C[1]:g} °C]"
-                       if np.isfinite(c["hot_time_s"]) else
-                       f"the pack starts at {c['pack_temperature_c']:.0f} °C, outside "
-                       f"the battery model's range [{T_RANGE_C[0]:g} °C, "
-                       f"{T_RANGE_C[1]:g} °C]: no prediction can be trusted")
-        elif code == "voltage":
-            out.extend(self._voltage_reasons(i, c))
-        elif code == "runs_out":
-            out.append(f"needs {self.charge_used_mah[i]:.0f} mAh, more than the "
-                       f"{self.usable_mah[i]:.0f} mAh the pack can give: it runs out "
-                       "before landing")
-        elif code == "landing_reserve":
-            out.append(self._landing_reason(i, c))
-        elif code == "return_home":
-            pnr = self.point_of_no_return(i)
-            out.append(f"cannot return home with the reserve from t = "
-                       f"{pnr['time_s']:.0f} s ({pnr['leg_origin']}, "
-                       f"{pnr['distance_home_m']:.0f} m from home): point of no return "
-                       "passed")
-        return out
+        """The message(s) of check constraint ``code`` for pack ``i``: the method
+        ``_reason_<code>`` of that constraint."""
+        return getattr(self, f"_reason_{code}")(i)
+
+    def _circuit_row(self, i: int) -> dict:
+        """The circuit model's figures of pack ``i`` (:data:`CIRCUIT_FIGURES`)."""
+        return {k: v[i] for k, v in self.circuit.items()}
+
+    def _reason_mission(self, i: int) -> list[str]:
+        listed = sorted(self.table.problems)
+        problems = [f"{_leg_name(self.table, j)}: {why}" for j, why in listed]
+        if len(problems) <= MAX_LISTED_PROBLEMS:
+            return problems
+        rest = sorted({j + 1 for j, _ in listed[MAX_LISTED_PROBLEMS - 1:]})
+        return problems[:MAX_LISTED_PROBLEMS - 1] + [
+            f"and {len(rest)} more legs the aircraft cannot fly: legs {_ranges(rest)}"]
+
+    def _reason_cells(self, i: int) -> list[str]:
+        allowed = ", ".join(f"{c}S" for c in self.aircraft.cells_series_allowed)
+        return [f"{self.packs[i].cells_series}S pack, the aircraft allows {allowed}"]
+
+    def _reason_thrust(self, i: int) -> list[str]:
+        return [f"thrust-to-weight {self.thrust_to_weight[i]:.2f} at the take-off mass "
+                f"{self.takeoff_mass_kg[i]:.2f} kg is below the minimum "
+                f"{self.min_thrust_to_weight:g}"]
+
+    def _reason_power(self, i: int) -> list[str]:
+        leg = _leg_name(self.table, int(self.undeliverable_leg[i]))
+        ohm = self.packs[i].resistance_ohm
+        return [f"{leg}: the pack cannot deliver {self.undeliverable_power_w[i]:.0f} W (at "
+                f"most {self.deliverable_max_w[i]:.0f} W through {ohm * 1000:.1f} mΩ)"]
+
+    def _reason_c_rating(self, i: int) -> list[str]:
+        leg = _leg_name(self.table, int(self.peak_leg[i]))
+        return [f"{leg}: current {self.peak_current_a[i]:.1f} A exceeds the pack's "
+                f"{self.packs[i].max_discharge_c:g} C rating ({self.max_current_a[i]:.1f} A)"]
+
+    def _reason_takeoff_mass(self, i: int) -> list[str]:
+        return [f"take-off mass {self.takeoff_mass_kg[i]:.2f} kg exceeds the aircraft's "
+                f"maximum {self.aircraft.max_takeoff_mass_kg:.2f} kg"]
+
+    def _reason_temperature(self, i: int) -> list[str]:
+        c = self._circuit_row(i)
+        span = f"[{T_RANGE_C[0]:g} °C, {T_RANGE_C[1]:g} °C]"
+        if np.isfinite(c["hot_time_s"]):
+            return [f"the pack reaches {c['hot_temperature_c']:.0f} °C at t = "
+                    f"{c['hot_time_s']:.0f} s, outside the battery model's range {span}"]
+        return [f"the pack starts at {c['pack_temperature_c']:.0f} °C, outside the battery "
+                f"model's range {span}: no prediction can be trusted"]
+
+    def _reason_voltage(self, i: int) -> list[str]:
+        return self._voltage_reasons(i, self._circuit_row(i))
+
+    def _reason_runs_out(self, i: int) -> list[str]:
+        return [f"needs {self.charge_used_mah[i]:.0f} mAh, more than the "
+                f"{self.usable_mah[i]:.0f} mAh the pack can give: it runs out before landing"]
+
+    def _reason_landing_reserve(self, i: int) -> list[str]:
+        return [self._landing_reason(i, self._circuit_row(i))]
+
+    def _reason_return_home(self, i: int) -> list[str]:
+        pnr = self.point_of_no_return(i)
+        return [f"cannot return home with the reserve from t = {pnr['time_s']:.0f} s "
+                f"({pnr['leg_origin']}, {pnr['distance_home_m']:.0f} m from home): point of "
+                "no return passed"]
 
     def _voltage_reasons(self, i: int, c: dict) -> list[str]:
         """The circuit model's cut-off and voltage collapse, in words, for pack ``i``."""
