@@ -595,6 +595,31 @@ class Wind(PowerEffect):
         """Course over ground of each bin. [deg]"""
         return pw.course
 
+    @staticmethod
+    def step_share(pw, wind_n_ms: float, wind_e_ms: float) -> float:
+        r"""Share of the within-flight variance of the airspeed change :math:`\Delta v` that
+        a wind :math:`(w_N, w_E)` [m/s] makes over the moving bins which one step per flight
+        (at its best place) explains (:meth:`regime_confound`); NaN without variation.
+        [unitless]"""
+        wn0, we0 = pw.logged_wind_n, pw.logged_wind_e
+        dv = (np.hypot(pw.vn - wn0 - wind_n_ms, pw.ve - we0 - wind_e_ms)
+              - np.hypot(pw.vn - wn0, pw.ve - we0))
+        m = pw.moving
+        sse = sst = 0.0
+        for e in np.unique(pw.exp[m]):
+            x = dv[m & (pw.exp == e)]
+            if x.size < 6:
+                continue
+            x = x - x.mean()
+            sst += float(np.dot(x, x))
+            # best single step: the split that leaves the least squared error
+            n = x.size
+            k = np.arange(1, n)
+            cs = np.cumsum(x)[:-1]
+            gain = cs**2 / k + cs**2 / (n - k)     # between-segment sum of squares
+            sse += float(np.dot(x, x) - gain.max())
+        return 1.0 - sse / sst if sst > 0 else math.nan
+
     def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
         r"""Why the fitted wind cannot be told from a mass change in flight, and the
         candidates; None when it can.
@@ -612,27 +637,8 @@ class Wind(PowerEffect):
         values = state.get("values", {})
         if "wind_n_ms" not in values:
             return None
-        wn0, we0 = pw.logged_wind_n, pw.logged_wind_e
-        dv = (np.hypot(pw.vn - wn0 - values["wind_n_ms"], pw.ve - we0 - values["wind_e_ms"])
-              - np.hypot(pw.vn - wn0, pw.ve - we0))
-        m = pw.moving
-        sse = sst = 0.0
-        for e in np.unique(pw.exp[m]):
-            x = dv[m & (pw.exp == e)]
-            if x.size < 6:
-                continue
-            x = x - x.mean()
-            sst += float(np.dot(x, x))
-            # best single step: the split that leaves the least squared error
-            n = x.size
-            k = np.arange(1, n)
-            cs = np.cumsum(x)[:-1]
-            gain = cs**2 / k + cs**2 / (n - k)     # between-segment sum of squares
-            sse += float(np.dot(x, x) - gain.max())
-        if sst <= 0:
-            return None
-        r2 = 1.0 - sse / sst
-        if r2 < CONFOUND_R**2:
+        r2 = self.step_share(pw, values["wind_n_ms"], values["wind_e_ms"])
+        if not math.isfinite(r2) or r2 < CONFOUND_R**2:
             return None
         return (f"{100 * r2:.0f} % of the wind's change of the airspeed within each flight is "
                 "one step (out and back): a mass change in flight at that point fits the same "
@@ -798,7 +804,6 @@ class PayloadChange(PowerEffect):
         changes the controllers, the thrust, a landing detector).
         """
         from planner.identify.diagnose import CONFOUND_R
-        from planner.chain.flightstate import CLIMB_THRESHOLD_MS
 
         mask = state.get("step_mask")
         times = state.get("change_time_s", {})
@@ -810,15 +815,7 @@ class PayloadChange(PowerEffect):
             return (f"every located step falls at a change of flight mode ({modes}): a step "
                     "at a mode change cannot be told from a change of how the aircraft is "
                     "flown", [self.name, f"the change of flight mode ({modes})"])
-        rows = np.isin(pw.exp, located)
-        y = np.asarray(mask, float)[rows]
-        if np.var(y) <= 0:
-            return None
-        climb = pw.climb[rows]
-        X = np.column_stack([np.ones(y.size), climb > CLIMB_THRESHOLD_MS,
-                             climb < -CLIMB_THRESHOLD_MS]).astype(float)
-        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-        r2 = float(1.0 - np.var(y - X @ coef) / np.var(y))
+        r2 = self.regime_share(pw, mask, located)
         if r2 >= CONFOUND_R**2:
             return (f"{100 * r2:.0f} % of the variation of its step (on after the change time "
                     f"in {len(located)} flight(s)) follows the flight regime (climbing, level, "
@@ -826,6 +823,42 @@ class PayloadChange(PowerEffect):
                     "climb or descent power is wrong",
                     [self.name, "the power model's climb or descent power"])
         return self._wind_confound(pw, np.asarray(mask, float), located)
+
+    @staticmethod
+    def regime_share(pw, mask, located) -> float:
+        """Share of the variance of a step indicator ``mask`` over the airborne bins of the
+        flights ``located`` that the regime indicators (climbing, descending) explain
+        (:meth:`regime_confound`); NaN without variation. [unitless]"""
+        from planner.chain.flightstate import CLIMB_THRESHOLD_MS
+
+        rows = np.isin(pw.exp, located)
+        y = np.asarray(mask, float)[rows]
+        if np.var(y) <= 0:
+            return math.nan
+        climb = pw.climb[rows]
+        X = np.column_stack([np.ones(y.size), climb > CLIMB_THRESHOLD_MS,
+                             climb < -CLIMB_THRESHOLD_MS]).astype(float)
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        return float(1.0 - np.var(y - X @ coef) / np.var(y))
+
+    @staticmethod
+    def course_share(pw, mask, located) -> float:
+        r"""Share of the within-flight variance of a step indicator ``mask`` (1 after each
+        flight's change) over the moving bins of the flights ``located`` that the cosine
+        and sine of the course explain (:meth:`_wind_confound`); NaN where it cannot be
+        computed. [unitless]"""
+        rows = pw.moving & np.isin(pw.exp, located)
+        if rows.sum() < 10:
+            return math.nan
+        c = np.radians(pw.course[rows])
+        exp = pw.exp[rows]
+        y, xc, xs = (stats.within_groups(v, exp) for v in (mask[rows], np.cos(c), np.sin(c)))
+        sst = float(np.dot(y, y))
+        if sst <= 0:
+            return math.nan
+        X = np.column_stack([xc, xs])
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        return float(1.0 - np.sum((y - X @ coef) ** 2) / sst)
 
     def _wind_confound(self, pw, mask, located) -> tuple[str, list[str]] | None:
         r"""The step against a steady wind, where the data can test one: a wind
@@ -838,19 +871,8 @@ class PayloadChange(PowerEffect):
 
         if not getattr(pw, "has_course", False) or Wind().skip_reason(pw) is not None:
             return None
-        rows = pw.moving & np.isin(pw.exp, located)
-        if rows.sum() < 10:
-            return None
-        c = np.radians(pw.course[rows])
-        exp = pw.exp[rows]
-        y, xc, xs = (stats.within_groups(v, exp) for v in (mask[rows], np.cos(c), np.sin(c)))
-        sst = float(np.dot(y, y))
-        if sst <= 0:
-            return None
-        X = np.column_stack([xc, xs])
-        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-        r2 = float(1.0 - np.sum((y - X @ coef) ** 2) / sst)
-        if r2 < CONFOUND_R**2:
+        r2 = self.course_share(pw, mask, located)
+        if not math.isfinite(r2) or r2 < CONFOUND_R**2:
             return None
         return (f"{100 * r2:.0f} % of the variation of its step within the flights follows the "
                 "direction of travel (out and back): a steady wind fits the same power pattern, "
