@@ -135,6 +135,9 @@ MAX_FADE_SPAN = 0.3
 MAX_OFFSET_SHARE = 0.1
 #: Largest steady wind, as a share of the maximum airspeed (it must still make way). [unitless]
 MAX_WIND_SHARE = 0.8
+#: Directions of a wind at which a route is checked for winds that are one step per
+#: flight (:meth:`Wind.passing_share`). [unitless]
+ROUTE_DIRECTIONS = 24
 #: Range of the density exponent of the power (momentum theory: induced power ∝ ρ^-1/2 at
 #: constant thrust; profile power ∝ ρ). [unitless]
 DENSITY_EXPONENT_RANGE = (0.0, 2.0)
@@ -560,8 +563,16 @@ class Wind(PowerEffect):
     driver_label = "course over ground [deg]"
 
     def skip_reason(self, pw) -> str | None:
+        """What in the data stops a wind from being seen (:meth:`data_reason`), or a route
+        on which a wind from more than 1 − :data:`planner.identify.diagnose.limits.POWER` of
+        the directions is one step per flight (:meth:`route_reason`, :meth:`regime_confound`):
+        a wind is then not named from any direction, so it is not tested."""
+        return self.data_reason(pw) or self.route_reason(pw)
+
+    def data_reason(self, pw) -> str | None:
         """A measured airspeed, no course, too little moving flight (:data:`MIN_MOVING_SHARE`)
-        or one direction of travel only (:data:`MAX_COURSE_CONCENTRATION`)."""
+        or one direction of travel only (:data:`MAX_COURSE_CONCENTRATION`): a wind does not
+        change what the power model sees, or cannot be told from the calibration."""
         if pw.airspeed_measured:
             return ("airspeed is measured: the power model already sees the air the "
                     "aircraft flies in, whatever the wind")
@@ -577,6 +588,24 @@ class Wind(PowerEffect):
         if r > MAX_COURSE_CONCENTRATION:
             return ("the aircraft flew in one direction only (course concentration "
                     f"{r:.2f}): a wind cannot be told from the calibration")
+        return None
+
+    def route_reason(self, pw) -> str | None:
+        """Why this route cannot tell a wind from a change in time within the flights
+        (:meth:`skip_reason`); None when it can."""
+        from planner.identify.diagnose.limits import POWER
+
+        moving = pw.moving
+
+        # the route's own test (:meth:`regime_confound`), for a light wind (linear regime:
+        # the airspeed changes by −v̂·w, whatever the wind's speed)
+        light = 1e-3 * float(np.median(np.hypot(pw.vn, pw.ve)[moving]))
+        q = self.passing_share(pw, light)
+        if q < POWER:
+            return (f"on this route a steady wind from {100 * (1 - q):.0f} % of the directions "
+                    "changes the airspeed within each flight as one step (the legs are flown "
+                    "in one order): a wind cannot be told from a payload dropped or picked up "
+                    "there, or anything else that changes in time within the flights")
         return None
 
     def transform(self, inputs, values, pw, state):
@@ -620,6 +649,18 @@ class Wind(PowerEffect):
             sse += float(np.dot(x, x) - gain.max())
         return 1.0 - sse / sst if sst > 0 else math.nan
 
+    @classmethod
+    def passing_share(cls, pw, speed_ms: float) -> float:
+        """Share of :data:`ROUTE_DIRECTIONS` directions from which a wind of ``speed_ms``
+        [m/s] is *not* one step per flight on this route (:meth:`step_share` below
+        :data:`planner.identify.diagnose.CONFOUND_R`²). [unitless]"""
+        from planner.identify.diagnose import CONFOUND_R
+
+        a = np.radians(np.arange(ROUTE_DIRECTIONS) * 360.0 / ROUTE_DIRECTIONS)
+        share = np.array([cls.step_share(pw, speed_ms * math.cos(x), speed_ms * math.sin(x))
+                          for x in a])
+        return float(np.mean(~(share >= CONFOUND_R**2)))
+
     def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
         r"""Why the fitted wind cannot be told from a mass change in flight, and the
         candidates; None when it can.
@@ -631,6 +672,18 @@ class Wind(PowerEffect):
         the one of the other confounds (:data:`planner.identify.diagnose.CONFOUND_R`): the share of
         the within-flight variance of :math:`\Delta v` over the moving bins that one step
         per flight (its best place) explains.
+
+        The route itself is checked too: where winds from more than 1 −
+        :data:`planner.identify.diagnose.limits.POWER` of the directions (of the fitted speed)
+        are one step per flight (:meth:`passing_share`), a fitted wind is withheld from
+        whichever direction it comes. A mass change, or anything else that changes in time
+        within flights flown in one order, pulls the fitted direction to the one that
+        mimics it, which may sit just short of the step test (on the DJI M100 triangle
+        route, ``benchmarks/bench_effect_matrix.py --sources m100 --injections payload``, the
+        winds fitted on records with a payload drop came from 294–304°, one step for
+        71–82 % of their airspeed change); and this is the route on which the detection
+        limit says a wind is not identifiable (:func:`planner.identify.diagnose.limits._wind_gate`),
+        so the decision and the limit agree.
         """
         from planner.identify.diagnose import CONFOUND_R
 
@@ -639,7 +692,17 @@ class Wind(PowerEffect):
             return None
         r2 = self.step_share(pw, values["wind_n_ms"], values["wind_e_ms"])
         if not math.isfinite(r2) or r2 < CONFOUND_R**2:
-            return None
+            from planner.identify.diagnose.limits import POWER
+
+            q = self.passing_share(pw, math.hypot(values["wind_n_ms"], values["wind_e_ms"]))
+            if q >= POWER:
+                return None
+            return (f"on this route a steady wind from {100 * (1 - q):.0f} % of the directions "
+                    "changes the airspeed within each flight as one step, which a mass change "
+                    "fits as well; a wind fitted on such a route takes the direction that "
+                    "mimics whatever changed in time within the flights, so the data cannot "
+                    "tell a wind from a payload dropped or picked up, from whichever "
+                    "direction it is fitted", [self.name, "payload_change"])
         return (f"{100 * r2:.0f} % of the wind's change of the airspeed within each flight is "
                 "one step (out and back): a mass change in flight at that point fits the same "
                 "power pattern, so the data cannot tell the wind from a payload dropped or "
@@ -869,7 +932,7 @@ class PayloadChange(PowerEffect):
         tell the two apart."""
         from planner.identify.diagnose import CONFOUND_R
 
-        if not getattr(pw, "has_course", False) or Wind().skip_reason(pw) is not None:
+        if not getattr(pw, "has_course", False) or Wind().data_reason(pw) is not None:
             return None
         r2 = self.course_share(pw, mask, located)
         if not math.isfinite(r2) or r2 < CONFOUND_R**2:

@@ -42,8 +42,9 @@ simplest test:
   the airspeed is one step per flight on this route, from most directions
   (:func:`_wind_gate`: the limit is then given at the power that leaves 80 % overall
   for a wind of unknown direction, or is infinite when no size reaches it), and a
-  payload change at a position where its step follows the flight regime or — with a
-  wind among the candidates — the course (:func:`_payload_gates`: infinite there).
+  payload change at a position where its step follows the flight regime or — where a
+  wind would change what the model sees — the course (:func:`_payload_gates`: infinite
+  there).
 
 A payload change needs more: it is located flight by flight, where its step must beat
 a threshold of 2 ln n long-run variances (module notes of ``search``), so its limit is
@@ -304,10 +305,6 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
 
 #: Power at which a limit is given: the size named in this share of the runs. [unitless]
 POWER = 0.8
-#: Directions of a wind at which the route's gate is checked (:func:`_wind_gate`).
-N_DIRECTIONS = 24
-
-
 def unit_paired_size(signature, nuisance, units, s2: float, alpha: float = 0.05,
                      power: float = POWER) -> float:
     r"""The size at which the search's paired sign-flip test on held-out *units* rejects
@@ -375,17 +372,15 @@ def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
     from against the route: on a closed route flown in one order (the M100's triangle,
     an out-and-back) the winds along its main axis are. A wind of unknown direction
     (uniform) is named with probability :math:`q\,P(\theta)`, q the share of the
-    :data:`N_DIRECTIONS` directions whose wind of the limit's size passes the gate and P
+    :data:`planner.identify.diagnose.effects.ROUTE_DIRECTIONS` directions whose wind of the limit's size passes the gate and P
     the tests' power; so the limit is the size of power :data:`POWER`/q, and there is
-    none when q < :data:`POWER` (named in fewer than that share at any size)."""
+    none when q < :data:`POWER` (named in fewer than that share at any size; the search
+    then withholds a fitted wind from any direction,
+    :meth:`planner.identify.diagnose.effects.Wind.regime_confound`)."""
     from planner.identify.diagnose import CONFOUND_R
     from planner.identify.diagnose.effects import Wind
 
-    a = np.radians(np.arange(N_DIRECTIONS) * 360.0 / N_DIRECTIONS)
-    size = lim.limit
-    share = np.array([Wind.step_share(level, size * math.cos(x), size * math.sin(x))
-                      for x in a])
-    q = float(np.mean(~(share >= CONFOUND_R**2)))
+    q = Wind.passing_share(level, lim.limit)
     if q >= 1.0:
         return lim, ""
     if q < POWER:
@@ -441,18 +436,19 @@ def _steps(level, s: np.ndarray, u: float) -> np.ndarray:
     return out
 
 
-def _payload_gates(level, tested):
+def _payload_gates(level):
     """The test of the search's own gates on a step at one position of every flight
     (:meth:`planner.identify.diagnose.effects.PayloadChange.regime_confound`): a step
-    whose indicator follows the climb and descent regimes, or — where a wind is among
-    the candidates — the course, at :data:`planner.identify.diagnose.CONFOUND_R`² or more
+    whose indicator follows the climb and descent regimes, or — where a wind would change
+    what the power model sees — the course, at :data:`planner.identify.diagnose.CONFOUND_R`² or more
     is withheld whatever its size, so its limit there is infinite. Returns
     ``gated(mask, flights) -> bool``."""
     from planner.identify.diagnose import CONFOUND_R
     from planner.identify.diagnose.effects import PayloadChange, Wind
 
-    wind = any(o.name == "wind" for o in tested) and getattr(level, "has_course", False) \
-        and Wind().skip_reason(level) is None
+    # as the search's own test: wherever a wind would change what the model sees, tested
+    # or not (a route that cannot tell a wind from a step is where this matters most)
+    wind = getattr(level, "has_course", False) and Wind().data_reason(level) is None
 
     def gated(mask, flights) -> bool:
         located = list(flights)
@@ -487,7 +483,7 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     by = {}
     se_mid = math.nan
     dof = J.shape[1] + len(flights)
-    gates = _payload_gates(level, tested)
+    gates = _payload_gates(level)
     ones = np.ones_like(s)
     for u in POSITIONS:
         g = _steps(level, s, u)
