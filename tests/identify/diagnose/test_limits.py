@@ -85,3 +85,13 @@ def test_a_wind_on_a_survey_route_keeps_a_finite_limit_no_smaller_than_the_tests
     gate leaves the limit finite and never below the tests' own."""
     lim, (gated, why) = _gate(_Route(SURVEY))
     assert why == "" and lim.limit <= gated.limit < math.inf
+
+
+def test_a_route_that_cannot_tell_a_wind_from_a_step_does_not_test_one():
+    """The search skips a wind where the limit has none (the triangle flown in one order),
+    so what it decides and what the limit says agree; on a survey it tests one."""
+    from planner.identify.diagnose.effects import Wind
+
+    why = Wind().route_reason(_Route(TRIANGLE))
+    assert why is not None and "one step" in why
+    assert Wind().route_reason(_Route(SURVEY)) is None
