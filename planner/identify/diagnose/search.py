@@ -1697,7 +1697,6 @@ def _rival_step(level, chosen, current, passing, candidates, promising=()):
             p_a, p_b = sign_flip_test(d), sign_flip_test(-d)
         else:
             p_a = p_b = 1.0
-        head = {"p_a_better": p_a, "p_b_better": p_b}
         if p_b < 0.5 * ALPHA_HELDOUT and passed:
             lead = rival
             continue
