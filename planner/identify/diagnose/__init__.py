@@ -606,10 +606,16 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
     (:meth:`planner.diagnose.effects.Effect.implausible`), or when its driver cannot be
     told apart from time, depth of discharge or another selected effect's driver
     (:data:`CONFOUND_R`); the model is refitted without it until what remains holds.
+    Rival effects the search could not tell apart (``LevelResult.confused``) are withheld
+    as confounded from the start.
     """
     try:
         res = S.search(level, effects)
-        res.withheld = []
+        by_name = {e.name: e for e in effects}
+        res.withheld = [{"effect": name, "level": level.name, "kind": "confounded",
+                         "why": tie["why"], "candidates": list(tie["candidates"]),
+                         "where": by_name[name].driver_label}
+                        for tie in res.confused for name in tie["candidates"]]
         all_rows = np.ones(level.n_rows, bool)
         res.base_fit = level.fit([], all_rows)
         while True:

@@ -27,6 +27,25 @@ What enters (per level, on the calibrated baseline fitted on all the data)
 * The effect's own **floor** where the search has one (a payload change of at least
   :data:`planner.identify.diagnose.effects.MIN_MASS_STEP` of the all-up mass).
 
+The limit is the size that the search's own decision rule names with
+:data:`POWER` (80 %) probability, so every gate of the rule enters, not only the
+simplest test:
+
+* the training likelihood-ratio test and the paired test, with the long-run variance of
+  the autocorrelated residuals (the effective sample size of the search's
+  :math:`n(1-\rho)/(1+\rho)`);
+* the paired sign-flip test on the held-out **units** (:func:`unit_paired_size`): it
+  refers the units' gains to their own spread, so a signature concentrated in a few
+  units is harder to confirm than its noise alone says;
+* the held-out gain of :data:`planner.identify.diagnose.search.MIN_GAIN_PCT`;
+* the **gates that withhold** a fitted effect whatever its size: a wind whose change of
+  the airspeed is one step per flight on this route, from most directions
+  (:func:`_wind_gate`: the limit is then given at the power that leaves 80 % overall
+  for a wind of unknown direction, or is infinite when no size reaches it), and a
+  payload change at a position where its step follows the flight regime or — where a
+  wind would change what the model sees — the course (:func:`_payload_gates`: infinite
+  there).
+
 A payload change needs more: it is located flight by flight, where its step must beat
 a threshold of 2 ln n long-run variances (module notes of ``search``), so its limit is
 the larger of the pooled one (net of each flight's own constant mass, the climb and
@@ -126,6 +145,10 @@ def entry(effect: str, level: str, *, found: bool, identifiable: bool,
                 f"smaller than {_fmt(level, effect, limit)} could be seen; read the finding "
                 f"as either. Telling them apart needs {HELP[effect]}")
         identifiable = True
+    elif not identifiable and found:
+        text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level, but one of "
+                f"another size or direction would not be identifiable with these data: "
+                f"{why}. It would be with {HELP[effect]}")
     elif not identifiable:
         text = f"{noun[0].upper() + noun[1:]}: not identifiable with these data: {why}. " \
                f"It would be with {HELP[effect]}"
@@ -252,6 +275,11 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
         else:
             lim = stats.detectable_size(sig, nuisance, resid, groups, dof=J.shape[1],
                                         heldout_mse=mse_rows, paired=True)
+            lim = _with_units(lim, sig, nuisance, level, resid, J.shape[1])
+        gate_why = ""
+        if e.name == "wind" and math.isfinite(lim.limit):
+            lim, gate_why = _wind_gate(level, sig, nuisance, resid, groups, J.shape[1],
+                                       mse_rows, lim)
         limit = lim.limit
         if e.name == "efficiency_curve":         # c1 → the slope η1 = −c1/c0²
             c0 = float(base.coef[0])
@@ -261,11 +289,11 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
         top = largest_physical(e.name, level)
         confused = None
         if not ident:
-            why = ("its signature is absorbed entirely by the calibration and the other "
-                   "candidates")
+            why = gate_why or ("its signature is absorbed entirely by the calibration and "
+                               "the other candidates")
         elif limit > top:
             ident, why = False, beyond_physics(e.name, report.name, limit, top)
-        if e.name in found and not (ident and limit <= top):
+        if e.name in found and not (ident and limit <= top) and not gate_why:
             confused = _confused_with(e, tested, sigs, J, resid, groups, top)
         if e.name in withheld and e.name not in found:
             w = withheld[e.name]
@@ -276,6 +304,100 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
                          limit=limit, why=why, n=level.n_experiments, stderr=lim.stderr,
                          per=per, confused_with=confused))
     return out
+
+
+#: Power at which a limit is given: the size named in this share of the runs. [unitless]
+POWER = 0.8
+def unit_paired_size(signature, nuisance, units, s2: float, alpha: float = 0.05,
+                     power: float = POWER) -> float:
+    r"""The size at which the search's paired sign-flip test on held-out *units* rejects
+    with probability ``power`` (:func:`planner.identify.diagnose.search.sign_flip_test`).
+    [unit of the parameter]
+
+    An effect of size θ lowers unit u's held-out loss by :math:`d_u = \theta^2 a_u +
+    \varepsilon_u`, with :math:`a_u` the unit's share of the visible signature
+    :math:`\lVert s_{\perp,u}\rVert^2` (least visible direction) and
+    :math:`\operatorname{var}\varepsilon_u = 4\theta^2\sigma^2_{LR} a_u` (σ²_LR the
+    residual's long-run variance, ``s2``: autocorrelated residuals within a unit). The
+    sign-flip test refers :math:`\sum d_u` to its randomisation distribution, of variance
+    :math:`\sum d_u^2` — not to the noise alone: a signature concentrated in few units
+    makes the test weak whatever its size, for :math:`\sum d_u / \sqrt{\sum d_u^2}` is at
+    most the square root of the effective number of units
+    :math:`(\sum a_u)^2/\sum a_u^2`. With A = Σ a_u, Q = Σ a_u², the normal
+    approximation of the randomisation test (Fisher 1935; Lehmann & Romano, *Testing
+    Statistical Hypotheses*, 3rd ed., 2005, §15.2: the sign-flip statistic is
+    asymptotically normal with the variance above) rejects with the given power when
+    :math:`\theta A - z_{1-\alpha}\sqrt{\theta^2 Q + 4\sigma^2 A} \ge
+    2 z_{power}\,\sigma\sqrt{A}`, a quadratic in θ; for Q → 0 it is the
+    :math:`2(z_{1-\alpha}+z_{power})\,SE` of :func:`planner.identify.stats.detectable_size`.
+    Infinite where the units are too few to reject at any size.
+    """
+    from scipy.stats import norm
+
+    s = np.asarray(signature, float).reshape(len(units), -1)
+    sp = stats.project_out(s, nuisance)
+    if sp.shape[1] > 1:
+        w, v = np.linalg.eigh(sp.T @ sp)
+        sp = sp @ v[:, :1]
+    a = np.bincount(np.asarray(units, int), weights=sp[:, 0] ** 2)
+    A, Q = float(a.sum()), float(np.dot(a, a))
+    za, zb = float(norm.ppf(1.0 - alpha)), float(norm.ppf(power))
+    den = A * A - za * za * Q
+    if not (A > 0 and s2 > 0 and den > 0):
+        return math.inf
+    c = 2.0 * zb * math.sqrt(s2 * A)
+    disc = (A * c) ** 2 - den * (c * c - 4.0 * za * za * s2 * A)
+    return (A * c + math.sqrt(max(disc, 0.0))) / den
+
+
+def _with_units(lim, sig, nuisance, level, resid, dof, power: float = POWER):
+    """``lim`` with its statistical limit raised to the paired test on the held-out units
+    where that is the stricter (:func:`unit_paired_size`)."""
+    from planner.identify.diagnose.search import ALPHA_HELDOUT
+
+    units = getattr(level, "row_unit", None)
+    if units is None or not math.isfinite(lim.limit):
+        return lim
+    s2 = stats.long_run_variance(resid, level.row_group, dof)
+    paired = unit_paired_size(sig, nuisance, units, s2, ALPHA_HELDOUT, power)
+    stat = max(lim.statistical, paired)
+    return stats.DetectionLimit(max(stat, lim.practical), stat, lim.practical, lim.stderr,
+                                lim.visible_share)
+
+
+def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
+    r"""The wind's limit through the route's own gate, and why it is infinite if it is.
+
+    The search withholds a fitted wind whose change of the airspeed within each flight is
+    one step (:meth:`planner.identify.diagnose.effects.Wind.regime_confound`: at least
+    :data:`planner.identify.diagnose.CONFOUND_R`² of its variation), for a mass change at
+    that point fits it as well. Whether a wind is withheld depends on where it blows
+    from against the route: on a closed route flown in one order (the M100's triangle,
+    an out-and-back) the winds along its main axis are. A wind of unknown direction
+    (uniform) is named with probability :math:`q\,P(\theta)`, q the share of the
+    :data:`planner.identify.diagnose.effects.ROUTE_DIRECTIONS` directions whose wind of the limit's size passes the gate and P
+    the tests' power; so the limit is the size of power :data:`POWER`/q, and there is
+    none when q < :data:`POWER` (named in fewer than that share at any size; the search
+    then withholds a fitted wind from any direction,
+    :meth:`planner.identify.diagnose.effects.Wind.regime_confound`)."""
+    from planner.identify.diagnose import CONFOUND_R
+    from planner.identify.diagnose.effects import Wind
+
+    q = Wind.passing_share(level, lim.limit)
+    if q >= 1.0:
+        return lim, ""
+    if q < POWER:
+        why = (f"on this route a steady wind from {100 * (1 - q):.0f} % of the directions "
+               f"changes the airspeed within each flight as one step (at least "
+               f"{100 * CONFOUND_R**2:.0f} % of its variation), which a mass change at that "
+               f"point fits as well, so at no size would a wind of unknown direction be "
+               f"named in {100 * POWER:.0f} % of cases")
+        return stats.DetectionLimit(math.inf, math.inf, lim.practical, lim.stderr,
+                                    lim.visible_share), why
+    p = POWER / q
+    out = stats.detectable_size(sig, nuisance, resid, groups, dof=dof, heldout_mse=mse,
+                                paired=True, power=p)
+    return _with_units(out, sig, nuisance, level, resid, dof, power=p), ""
 
 
 def _confused_with(effect, tested, sigs, J, resid, groups, top) -> list[str]:
@@ -317,6 +439,29 @@ def _steps(level, s: np.ndarray, u: float) -> np.ndarray:
     return out
 
 
+def _payload_gates(level):
+    """The test of the search's own gates on a step at one position of every flight
+    (:meth:`planner.identify.diagnose.effects.PayloadChange.regime_confound`): a step
+    whose indicator follows the climb and descent regimes, or — where a wind would change
+    what the power model sees — the course, at :data:`planner.identify.diagnose.CONFOUND_R`² or more
+    is withheld whatever its size, so its limit there is infinite. Returns
+    ``gated(mask, flights) -> bool``."""
+    from planner.identify.diagnose import CONFOUND_R
+    from planner.identify.diagnose.effects import PayloadChange, Wind
+
+    # as the search's own test: wherever a wind would change what the model sees, tested
+    # or not (a route that cannot tell a wind from a step is where this matters most)
+    wind = getattr(level, "has_course", False) and Wind().data_reason(level) is None
+
+    def gated(mask, flights) -> bool:
+        located = list(flights)
+        if PayloadChange.regime_share(level, mask, located) >= CONFOUND_R**2:
+            return True
+        return bool(wind and PayloadChange.course_share(level, mask, located)
+                    >= CONFOUND_R**2)
+    return gated
+
+
 def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> dict:
     """The payload change's limit by position (module notes)."""
     from planner.chain.flightstate import CLIMB_THRESHOLD_MS
@@ -340,10 +485,18 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
            for f in flights}
     by = {}
     se_mid = math.nan
+    dof = J.shape[1] + len(flights)
+    gates = _payload_gates(level)
+    ones = np.ones_like(s)
     for u in POSITIONS:
         g = _steps(level, s, u)
-        pooled = stats.detectable_size(g, nuisance, within, exp, dof=J.shape[1] + len(flights),
+        gated = gates(_steps(level, ones, u), flights)
+        if gated:
+            by[u] = math.inf
+            continue
+        pooled = stats.detectable_size(g, nuisance, within, exp, dof=dof,
                                        heldout_mse=mse_rows, paired=True)
+        pooled = _with_units(pooled, g, nuisance, level, within, dof)
         if u == 0.5:
             se_mid = pooled.stderr
         located = []
@@ -359,7 +512,8 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     best = min(by.values())
     ident = math.isfinite(best)
     why = "" if ident else ("a step in the power is absorbed entirely by each flight's own "
-                            "mass, the climb and descent and the other candidates")
+                            "mass, the climb and descent and the other candidates, or falls "
+                            "where the flights change regime or course at every position")
     top = largest_physical("payload_change", level)
     if ident and best > top:
         ident, why = False, beyond_physics("payload_change", "power", best, top)

@@ -156,7 +156,7 @@ def test_a_drift_the_power_channel_does_not_show_is_not_a_sensor_bias():
 def test_findings_of_both_levels_are_ranked_by_one_measure():
     """A hidden power effect and a hidden capacity effect: the two levels' findings are
     ordered by the common held-out measure (percentage points of the final error)."""
-    df, truth = power_dataset("system_power", 40.0, seed=2, duration_s=600.0, rate_hz=2.0)
+    df, truth = power_dataset("wind", (4.0, 250.0), seed=2, duration_s=600.0, rate_hz=2.0)
     res = diagnose(df, battery(PACK_6S), aircraft_file(efficiency=0.6, drag_area_m2=0.06),
                    payload_kg=truth["payload_kg"])
     gains = [f["heldout"]["final_gain_pp"] for f in res.findings]
