@@ -240,8 +240,11 @@ class CapacityEffect(Effect):
     """An effect at the capacity (and cut-off) level: one column of the charge drawn, linear in
     its coefficient (module notes, "Capacity level")."""
     level = "capacity"
-    #: Name of the linear coefficient this effect adds (its column's coefficient).
-    coefficient: ClassVar[str] = ""
+    @property
+    def coefficient(self) -> str:
+        """Name of the linear coefficient this effect adds (its column's coefficient): the
+        effect's parameter key."""
+        return self.key
     #: The coefficient is relative to the charge scale A (a factor on the charge drawn).
     relative: ClassVar[bool] = True
 
@@ -263,7 +266,6 @@ class Temperature(CapacityEffect):
     key = "temperature_coefficient_per_c"
     name = "temperature"
     needs = ("temperature_c",)
-    coefficient = "temperature_coefficient_per_c"
     driver_label = "pack temperature [°C]"
 
     def prepare(self, cap) -> None:
@@ -368,7 +370,6 @@ class CapacityFade(CapacityEffect):
     key = "fade_per_cycle"
     name = "capacity_fade"
     needs = ("cycle",)
-    coefficient = "fade_per_cycle"
     driver_label = "charge cycle (or experiment order) [cycles]"
 
     def prepare(self, cap) -> None:
@@ -454,7 +455,6 @@ class CurrentOffset(CapacityEffect):
     key = "current_offset_a"
     name = "current_offset"
     needs = ()
-    coefficient = "current_offset_a"
     relative = False
     driver_label = "time since start [s]"
     driver_is_time = True
@@ -1037,8 +1037,8 @@ class PayloadChange(PowerEffect):
         dp = p.get("power_step_w", math.nan)
         size = f"{abs(dp):.0f} W " if math.isfinite(dp) else ""
         on = "switched off" if dm < 0 else "switched on"
-        return [f"a change of how the aircraft is flown there (flight mode, height above "
-                f"ground, speed) that the power model does not follow",
+        return ["a change of how the aircraft is flown there (flight mode, height above "
+                "ground, speed) that the power model does not follow",
                 f"a load of {size}{on} (lights, a gimbal, a heater)"]
 
     def headline(self, p, pw):

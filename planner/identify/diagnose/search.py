@@ -1607,29 +1607,47 @@ class LevelResult:
     confused: list[dict] = field(default_factory=list)
 
 
+def _promising(cmp: Comparison) -> bool:
+    """An effect whose held-out gain and training test pass on its own (whatever its
+    paired test): a member of a masking pair or a rival of the round's leader."""
+    return cmp.gain_pct >= MIN_GAIN_PCT and cmp.lr_p_value < ALPHA_TRAIN
+
+
+def _fit_together(level, chosen, current, first, second):
+    """Two candidate effects, ``first`` and ``second`` ((effect, its score alone) each),
+    cross-validated together on top of ``chosen``, and each compared on top of the other
+    (:func:`compare`, ``against`` set): (the joint score, first on top of second, second
+    on top of first); None when the joint fit fails."""
+    (a, sa), (b, sb) = first, second
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            both = cross_validate(level, chosen + [a, b], base=current)
+    except (FitError, ModelError, np.linalg.LinAlgError, ValueError):
+        return None
+    a_on_b, b_on_a = compare(a, sb, both, level), compare(b, sa, both, level)
+    for c, other in ((a_on_b, b), (b_on_a, a)):
+        c.against = tuple(x.name for x in chosen) + (other.name,)
+    return both, a_on_b, b_on_a
+
+
 def _pair_step(level, chosen, current, round_scores, candidates):
     """Two effects that mask each other: when no single effect passes, try the pairs of
     promising ones (held-out gain ≥ the minimum and training test passed on their own).
     A pair joins when the pair passes against the current model and each member passes
     against the model with the other."""
-    promising = sorted((v for v in round_scores.values()
-                        if v[2].gain_pct >= MIN_GAIN_PCT and v[2].lr_p_value < ALPHA_TRAIN),
+    promising = sorted((v for v in round_scores.values() if _promising(v[2])),
                        key=lambda v: -v[2].gain_pct)[:3]
     best = None
     for i in range(len(promising)):
         for j in range(i + 1, len(promising)):
             (a, sa, _), (b, sb, _) = promising[i], promising[j]
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    both = cross_validate(level, chosen + [a, b], base=current)
-            except (FitError, ModelError, np.linalg.LinAlgError, ValueError):
+            fitted = _fit_together(level, chosen, current, (a, sa), (b, sb))
+            if fitted is None:
                 continue
+            both, cmp_a, cmp_b = fitted
             joint = compare(a, current, both, level)
-            cmp_b = compare(b, sa, both, level)      # b on top of a
-            cmp_a = compare(a, sb, both, level)      # a on top of b
-            for c, other in ((cmp_b, a), (cmp_a, b)):
-                c.against = tuple(x.name for x in chosen) + (other.name,)
+            for c in (cmp_b, cmp_a):
                 candidates[f"{c.effect} (after {' + '.join(c.against)})"] = c
             if joint.significant and cmp_a.significant and cmp_b.significant:
                 gain = 100.0 * (1.0 - both.rmse / current.rmse)
@@ -1693,16 +1711,11 @@ def _rival_step(level, chosen, current, passing, candidates, promising=()):
             continue
         if p_a < 0.5 * ALPHA_HELDOUT:
             continue
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                both = cross_validate(level, chosen + [a, b], base=current)
-        except (FitError, ModelError, np.linalg.LinAlgError, ValueError):
+        fitted = _fit_together(level, chosen, current, (a, sa), (b, sb))
+        if fitted is None:
             continue
-        a_on_b = compare(a, sb, both, level)
-        b_on_a = compare(b, sa, both, level)
-        for c, other in ((a_on_b, b), (b_on_a, a)):
-            c.against = tuple(x.name for x in chosen) + (other.name,)
+        _, a_on_b, b_on_a = fitted
+        for c in (a_on_b, b_on_a):
             candidates[f"{c.effect} (after {' + '.join(c.against)})"] = c
         if a_on_b.significant:
             continue                                 # a adds to b: a leads (b may follow)
@@ -1762,8 +1775,7 @@ def search(level, effects: list) -> LevelResult:
             current = pair[1]
             remaining = [r for r in remaining if r not in chosen and r.name not in failed]
             continue
-        promising = [v for v in round_scores.values()
-                     if v[2].gain_pct >= MIN_GAIN_PCT and v[2].lr_p_value < ALPHA_TRAIN]
+        promising = [v for v in round_scores.values() if _promising(v[2])]
         pick, tied = _rival_step(level, chosen, current, passing, candidates, promising)
         if pick is None:                # the leading ones cannot be told apart: name neither
             confused.append(tied)
