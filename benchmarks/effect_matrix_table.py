@@ -2,7 +2,8 @@
 ``docs/results.md``, with the count of cells meeting the criterion by kind.
 
 Columns: the cell (source/injection[/timing]/richness[/2x]); runs; % named first and
-anywhere; % of runs with a false cause (which, how often); % of runs whose detection limit
+anywhere; % of runs with a false cause (which, how often; "own": the record's own
+findings named, never a false cause); % of runs whose detection limit
 calls the injected size identifiable; of the runs that missed the effect, those whose
 output said it is not identifiable; runs with the named parameter within 2 SE of the truth
 (of those checked); median injected size / median detection limit in the detection
@@ -39,10 +40,11 @@ def markdown_row(st: dict) -> str:
     n = max(st["runs"] - sum(st["errors"].values()), 0)
     name = st["cell"].removesuffix("/realistic")
     clean = st["expect"] is None
-    false = _pct(st["false_runs"], n)
-    if st["false"]:
-        false += " (" + ", ".join(f"{k} {v}" for k, v in
-                                  sorted(st["false"].items(), key=lambda kv: -kv[1])) + ")"
+    which = [", ".join(f"{k} {v}" for k, v in sorted(st[key].items(), key=lambda kv: -kv[1]))
+             for key in ("false", "own") if st.get(key)]
+    if st.get("own"):
+        which[-1] = "own: " + which[-1]
+    false = _pct(st["false_runs"], n) + (f" ({'; '.join(which)})" if which else "")
     misses = n - st["named_any"]
     said = "–" if clean or misses == 0 else f"{st['said_not_identifiable']} of {misses}"
     se = "–" if not st["checked_2se"] else f"{st['within_2se']} of {st['checked_2se']}"
