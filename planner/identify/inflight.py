@@ -481,16 +481,11 @@ class InflightEstimator:
         self.q_own = 0.0
         self.last_src.clear()
         self.bin = None
-        self.t = t
-        self.t_battery = None
-        self.t_tick = t
+        self._restart_stream(t)
         self.px4_t = None
         self._p_t = None
         self.wind_t = t if self.wind_t is not None else None
         self.cwin = None
-        self.k_window_t = None
-        self.buf_p.clear()
-        self.buf_state.clear()
         if self.t_takeoff is not None:
             self.t_takeoff = t
             self.q_takeoff = self.q_now
@@ -499,16 +494,22 @@ class InflightEstimator:
         # a record's next flight: another pack, the learnt scales stay
         self.flights += 1
         self.reset_battery()
-        self.t = t
-        self.t_battery = None
-        self.t_tick = t
+        self._restart_stream(t)
         self.t_takeoff = self.q_takeoff = None
         self.airborne = False
         self.local = self.pos = self.hud = None
         self.leg_index = 0
+
+    def _restart_stream(self, t):
+        """The stream's clock and what is timed by it start again at ``t`` [s] (after a
+        reboot of the autopilot, or at a record's next flight): the last event, battery
+        sample and prediction times, the power and state buffers, the scale's window."""
+        self.t = t
+        self.t_battery = None
+        self.t_tick = t
+        self.k_window_t = None
         self.buf_p.clear()
         self.buf_state.clear()
-        self.k_window_t = None
 
     def _on_state(self, t, d):
         armed, mode, vtype, autopilot = d
