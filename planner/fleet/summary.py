@@ -280,77 +280,26 @@ def summarise_log(path: str, pack_id: str | None = None, pack_id_source: str = "
 
 def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, samples
           ) -> None:
+    """One log's row of the fleet table, ``row`` updated in place: the log's own figures,
+    the battery level's replay, the power level's, the pack resistance and the notes.
+    Raises :class:`NotReplayable` (no current), :class:`NotAirborne` (no airborne sample)
+    or a :class:`PlannerError` naming the log."""
     from planner.io.logs import read_log
 
     df, meta = read_log(path)
     key, aircraft, pack = choose_aircraft(models, key, meta, path)
-    if not record.has_power(df):
-        raise NotReplayable(f"{path}: {record.NO_CURRENT} (the log has "
-                            + ("battery voltage only)" if "voltage_v" in df else
-                               "no battery data)"))
-    df = record.complete_record(df.assign(experiment=Path(path).name))
-    df = df.reset_index(drop=True)
-    t = df["time_s"].to_numpy(float)
-    if len(t) < 2 or not t[-1] > t[0]:
-        raise PlannerError(f"{path}: fewer than 2 battery samples over time; expected a flight")
-    serial = meta.get("battery_serial")
-    if serial not in (None, "", 0):
-        pack_id, pack_id_source = str(serial), "log battery serial"
-        if cycle is None and meta.get("battery_cycle_count") is not None:
-            cycle = float(meta["battery_cycle_count"])
-    power = df["power_w"].to_numpy(float)
-    consumed = df["consumed_mah"].to_numpy(float)
-    ok_c = np.isfinite(consumed)
-    cells = meta.get("battery_cells") or (series_cells(df["voltage_v"]) if "voltage_v" in df
-                                          else None)
-    row.update(format=meta.get("format"), vehicle=meta.get("vehicle"),
-               aircraft=key if aircraft is not None else None,
-               pack_id=pack_id or "unknown",
-               pack_id_source=pack_id_source if pack_id else "unknown",
-               cycle=float(cycle) if cycle is not None else None,
-               start_time_utc=_start_time(meta), duration_s=float(t[-1] - t[0]),
-               samples=len(t), cells=float(cells) if cells else None,
-               log_capacity_mah=meta.get("battery_capacity_mah"),
-               energy_wh=float(record.cumulative_trapezoid(np.nan_to_num(power), t)[-1]) / 3600.0,
-               charge_mah=float(consumed[ok_c][-1] - consumed[ok_c][0]) if ok_c.any()
-               else None)
+    df, t = _replayable(df, path)
+    cells = _log_figures(row, df, meta, t, key if aircraft is not None else None,
+                         pack_id, pack_id_source, cycle)
     state = None
     if aircraft is not None and {"climb_rate_ms", "groundspeed_ms"} & set(df.columns):
         from planner.chain import flightstate
 
         state = flightstate.from_record(df)
     check_match(df, meta, aircraft, pack, path, state)
-    flown, label = flown_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
-    notes = []
-    if flown is not None:
-        if pack is not None and cells and int(cells) != pack.cells_series:
-            notes.append(f"the log's pack has {int(cells)} cells in series, the pack file "
-                         f"{pack.cells_series}")
-        chain = MissionChain(aircraft, flown)
-        capacity = pack.total_capacity_mah if pack is not None else \
-            meta.get("battery_capacity_mah")
-        bat, series = battery_replay(df, chain, label, capacity)
-        s, s_se = delta_scale(series["measured_mah"], series["predicted_mah"])
-        row.update(battery_model=label, predicted_charge_mah=bat.predicted_final_mah,
-                   charge_error_pct=bat.final_error_pct, delta_scale=s, delta_scale_se=s_se)
-    else:
-        notes.append(f"battery level skipped: {label}")
+    notes = _battery_level(row, df, meta, aircraft, pack, cells)
     if aircraft is not None:
-        if {"climb_rate_ms", "groundspeed_ms"} & set(df.columns):
-            if payload_kg is None:
-                own = record.experiment_payloads(df)
-                payload_kg = next(iter(own.values())) if own else 0.0
-                payload_kg = payload_kg if np.isfinite(payload_kg) else 0.0
-            mass = aircraft.empty_mass_kg + payload_kg + (
-                pack.total_mass_kg if pack is not None else 0.0)
-            pw, _ = power_replay(df, MissionChain(aircraft, pack), mass)
-            row.update(airborne_energy_wh=pw.measured_energy_wh,
-                       predicted_energy_wh=pw.predicted_energy_wh,
-                       energy_error_pct=pw.energy_error_pct, power_rmse_w=pw.rmse_w)
-            if samples:
-                row["_samples"] = calibration_samples(df)
-        else:
-            notes.append("no flight state (speed, climb) in the log: energy not predicted")
+        notes += _power_level(row, df, aircraft, pack, payload_kg, samples)
     if {"voltage_v", "current_a"} <= set(df.columns):
         r, r_se, n = step_resistance(t, df["voltage_v"], df["current_a"])
         row.update(resistance_ohm=r, resistance_se_ohm=r_se, resistance_steps=n)
@@ -369,6 +318,91 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
                               "(flight phases ground and take-off only); left out of the "
                               "accuracy and the aircraft calibration")
 
+
+def _replayable(df: pd.DataFrame, path) -> tuple[pd.DataFrame, np.ndarray]:
+    """The log's flight record completed (one experiment, named after the file) and its
+    times [s]; :class:`NotReplayable` without a current, a :class:`PlannerError` with
+    fewer than two samples over time."""
+    if not record.has_power(df):
+        raise NotReplayable(f"{path}: {record.NO_CURRENT} (the log has "
+                            + ("battery voltage only)" if "voltage_v" in df else
+                               "no battery data)"))
+    df = record.complete_record(df.assign(experiment=Path(path).name))
+    df = df.reset_index(drop=True)
+    t = df["time_s"].to_numpy(float)
+    if len(t) < 2 or not t[-1] > t[0]:
+        raise PlannerError(f"{path}: fewer than 2 battery samples over time; expected a flight")
+    return df, t
+
+
+def _log_figures(row, df, meta, t, aircraft_key, pack_id, pack_id_source, cycle):
+    """The log's own figures into ``row`` (format, vehicle, aircraft, pack id and cycle —
+    the log's battery serial and cycle count first —, start, duration [s], samples, cells,
+    capacity [mAh], energy [Wh], charge drawn [mAh]); returns the cells in series (None:
+    unknown)."""
+    serial = meta.get("battery_serial")
+    if serial not in (None, "", 0):
+        pack_id, pack_id_source = str(serial), "log battery serial"
+        if cycle is None and meta.get("battery_cycle_count") is not None:
+            cycle = float(meta["battery_cycle_count"])
+    power = df["power_w"].to_numpy(float)
+    consumed = df["consumed_mah"].to_numpy(float)
+    ok_c = np.isfinite(consumed)
+    cells = meta.get("battery_cells") or (series_cells(df["voltage_v"]) if "voltage_v" in df
+                                          else None)
+    row.update(format=meta.get("format"), vehicle=meta.get("vehicle"),
+               aircraft=aircraft_key,
+               pack_id=pack_id or "unknown",
+               pack_id_source=pack_id_source if pack_id else "unknown",
+               cycle=float(cycle) if cycle is not None else None,
+               start_time_utc=_start_time(meta), duration_s=float(t[-1] - t[0]),
+               samples=len(t), cells=float(cells) if cells else None,
+               log_capacity_mah=meta.get("battery_capacity_mah"),
+               energy_wh=float(record.cumulative_trapezoid(np.nan_to_num(power), t)[-1]) / 3600.0,
+               charge_mah=float(consumed[ok_c][-1] - consumed[ok_c][0]) if ok_c.any()
+               else None)
+    return cells
+
+
+def _battery_level(row, df, meta, aircraft, pack, cells) -> list[str]:
+    """The battery level's replay into ``row`` (model, predicted charge [mAh], error [%],
+    the δ scale and its standard error); returns its notes."""
+    flown, label = flown_pack(pack, meta, df.get("voltage_v", pd.Series(dtype=float)))
+    if flown is None:
+        return [f"battery level skipped: {label}"]
+    notes = []
+    if pack is not None and cells and int(cells) != pack.cells_series:
+        notes.append(f"the log's pack has {int(cells)} cells in series, the pack file "
+                     f"{pack.cells_series}")
+    chain = MissionChain(aircraft, flown)
+    capacity = pack.total_capacity_mah if pack is not None else \
+        meta.get("battery_capacity_mah")
+    bat, series = battery_replay(df, chain, label, capacity)
+    s, s_se = delta_scale(series["measured_mah"], series["predicted_mah"])
+    row.update(battery_model=label, predicted_charge_mah=bat.predicted_final_mah,
+               charge_error_pct=bat.final_error_pct, delta_scale=s, delta_scale_se=s_se)
+    return notes
+
+
+def _power_level(row, df, aircraft, pack, payload_kg, samples) -> list[str]:
+    """The power level's replay into ``row`` (airborne energy measured and predicted [Wh],
+    its error [%], the power RMSE [W]; the calibration samples when ``samples``); returns
+    its notes."""
+    if not {"climb_rate_ms", "groundspeed_ms"} & set(df.columns):
+        return ["no flight state (speed, climb) in the log: energy not predicted"]
+    if payload_kg is None:
+        own = record.experiment_payloads(df)
+        payload_kg = next(iter(own.values())) if own else 0.0
+        payload_kg = payload_kg if np.isfinite(payload_kg) else 0.0
+    mass = aircraft.empty_mass_kg + payload_kg + (
+        pack.total_mass_kg if pack is not None else 0.0)
+    pw, _ = power_replay(df, MissionChain(aircraft, pack), mass)
+    row.update(airborne_energy_wh=pw.measured_energy_wh,
+               predicted_energy_wh=pw.predicted_energy_wh,
+               energy_error_pct=pw.energy_error_pct, power_rmse_w=pw.rmse_w)
+    if samples:
+        row["_samples"] = calibration_samples(df)
+    return []
 
 def _cell_evidence(meta: dict, voltage) -> tuple[int | None, str]:
     """The log's cells in series and where they come from."""

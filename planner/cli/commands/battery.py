@@ -257,27 +257,7 @@ def run_fit(args) -> int:
     mass_kg = (parse_float(args.mass_kg, "--mass-kg", 1e-3, 1000.0, "kg")
                if args.mass_kg is not None else None)
     train, validate = _ids(args.train, "--train"), _ids(args.validate, "--validate")
-    base_raw = None
-    if args.battery:
-        # the fitted model goes into a copy of the pack file, which keeps its own name,
-        # cells, capacity, mass and chemistry: those options would be silently dropped
-        given = [(o, v, k) for o, v, k in (
-            ("--name", args.name, "name"), ("--cells", args.cells, "cells_series"),
-            ("--mass-kg", args.mass_kg, "mass_kg"),
-            ("--capacity-mah", args.capacity_mah, "capacity_mah"),
-            ("--chemistry", args.chemistry, "chemistry")) if v is not None]
-        if given:
-            option, value, key = given[0]
-            raise InputError(f"{option} {value}: not used with --battery {args.battery} (the "
-                             "fitted model is written into a copy of that pack file, which "
-                             f"keeps its own {key}): leave out {option} or --battery")
-        load_battery(args.battery)  # validate first: bad base file -> one-line error
-        base_raw = dict(read_definition(args.battery, to_folder=Path(out).parent))
-    else:
-        missing = [o for o, v in (("--name", args.name), ("--mass-kg", args.mass_kg)) if v is None]
-        if missing:
-            raise InputError(f"{' and '.join(missing)} required without --battery "
-                             "(the pack YAML needs name and mass_kg)")
+    base_raw = _base_pack(args, out)
     # with both lists given, the experiments in neither are left out unchecked
     chosen = set(train) | set(validate) if train and validate else None
     records = fit.load_records(args.data)
@@ -335,6 +315,33 @@ def run_fit(args) -> int:
     _fit_outputs(args, result, experiments, mapping, circuit_scores, json_out, plot_out)
     # a parameter on its bound or outside its physical range: written as such, exit 1
     return 0 if result.fit_status == "ok" else 1
+
+
+def _base_pack(args, out) -> dict | None:
+    """The pack file ``--battery`` the fitted model is written into a copy of (its
+    mapping, paths relative to ``out``'s folder), after checking that none of the options
+    it would silently override is given; None without ``--battery``, when ``--name`` and
+    ``--mass-kg`` are required instead."""
+    if not args.battery:
+        missing = [o for o, v in (("--name", args.name), ("--mass-kg", args.mass_kg)) if v is None]
+        if missing:
+            raise InputError(f"{' and '.join(missing)} required without --battery "
+                             "(the pack YAML needs name and mass_kg)")
+        return None
+    # the fitted model goes into a copy of the pack file, which keeps its own name,
+    # cells, capacity, mass and chemistry: those options would be silently dropped
+    given = [(o, v, k) for o, v, k in (
+        ("--name", args.name, "name"), ("--cells", args.cells, "cells_series"),
+        ("--mass-kg", args.mass_kg, "mass_kg"),
+        ("--capacity-mah", args.capacity_mah, "capacity_mah"),
+        ("--chemistry", args.chemistry, "chemistry")) if v is not None]
+    if given:
+        option, value, key = given[0]
+        raise InputError(f"{option} {value}: not used with --battery {args.battery} (the "
+                         "fitted model is written into a copy of that pack file, which "
+                         f"keeps its own {key}): leave out {option} or --battery")
+    load_battery(args.battery)  # validate first: bad base file -> one-line error
+    return dict(read_definition(args.battery, to_folder=Path(out).parent))
 
 
 def _new_pack(args, experiments, result, model, mass_kg):
