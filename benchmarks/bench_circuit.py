@@ -31,7 +31,7 @@ def mission_power(time_s: np.ndarray) -> np.ndarray:
 
 def main(repeats: int = 7) -> float:
     params = CircuitParameters(
-        capacity_ah=11.0, r0_ohm={"soc": [0.0, 0.2, 1.0], "ohm": [0.009, 0.0055, 0.005]},
+        capacity_ah=11.0, r0_ohm=([0.0, 0.2, 1.0], [0.009, 0.0055, 0.005]),
         r1_ohm=0.0025, c1_f=12_000.0, hysteresis_v=0.01, hysteresis_gamma=30.0,
         cells_series=6, cells_parallel=3)
     thermal = ThermalParameters(r_th_k_per_w=1.2, c_th_j_per_k=1800.0, t_air_c=15.0)

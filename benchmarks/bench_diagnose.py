@@ -7,7 +7,7 @@ Targets (issue "Diagnose"):
   (capacity and power levels, 36 000 samples): each under 10 s on this machine;
 * false-positive rate on clean synthetic data (no effect hidden): at most 5 %.
 
-The data come from the test generators (``tests/diagnose_generators.py``: the
+The data come from the test generators (``tests/helpers/diagnose_generators.py``: the
 equivalent-circuit pack model; rotor momentum theory restated), not from the
 extensions being diagnosed. Clean data keep the drivers of every effect present
 but inactive, and the planner starts from miscalibrated parameters.
@@ -26,7 +26,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(REPO / "tests"))
+sys.path.insert(0, str(REPO / "tests" / "helpers"))
 
 from diagnose_generators import (
     PACK_6S,

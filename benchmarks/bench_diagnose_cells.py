@@ -139,8 +139,8 @@ def report(name, s):
             within_cpe = np.mean(np.abs(f[:, 0] - f[:, 3]) <= 2 * f[:, 1])
             line.append(f"fitted {_fmt(np.median(f[:, 0]))} ± {_fmt(np.median(f[:, 1]))} {unit} "
                         f"vs {injected}; within 2 SE of the endurance equivalent in "
-                        f"{100 * within:.0f} % of hits, of the charge per energy in "
-                        f"{100 * within_cpe:.0f} %")
+                        f"{100 * within:.0f} % of the {len(f)} hits that fit it, of the charge "
+                        f"per energy in {100 * within_cpe:.0f} %")
         else:
             line.append(injected)
     false = ", ".join(f"{k} {v}" for k, v in s["false"].most_common()) or "none"

@@ -85,6 +85,12 @@ def measured_energy(samples):
                      for f in flights]) / 3600.0
 
 
+def _subset(samples, mask):
+    """The samples where ``mask`` is true (an optional channel that is None stays None)."""
+    return type(samples)(*(None if (v := getattr(samples, f)) is None else v[mask]
+                           for f in samples.__dataclass_fields__))
+
+
 def main() -> None:
     if not ENERGY.is_dir():
         print(f"no data at {ENERGY}: the calibration needs ../shared/data/energy")
@@ -102,10 +108,7 @@ def main() -> None:
                        train=train, validate=held, site_altitude_m=SITE_ALTITUDE_M)
     fitted = fit["aircraft"]
     s_all = airborne_samples(data, SITE_ALTITUDE_M)
-    s_held = type(s_all)(*(getattr(s_all, f)[np.isin(s_all.experiment, held)]
-                           for f in s_all.__dataclass_fields__))
-    s_train = type(s_all)(*(getattr(s_all, f)[np.isin(s_all.experiment, train)]
-                            for f in s_all.__dataclass_fields__))
+    s_held, s_train = (_subset(s_all, np.isin(s_all.experiment, ids)) for ids in (held, train))
     rng = np.random.default_rng(0)
 
     # per-flight discrepancy of the fitted model on the training flights (mid payload)

@@ -201,6 +201,12 @@ def run_case(name, data, runs, seed):
         stats["cpe"].append(cpe)
         if expect and named and named[0] == expect:
             stats["first"] += 1
-            p = res.findings[0]["parameters"]
-            stats["fits"].append((p[KEY[expect]], p[KEY[expect] + "_stderr"], equiv, cpe))
+            # the fitted coefficient of the model level's finding (a direct-evidence
+            # finding of the same cause, e.g. the resistance against the pack
+            # temperature, carries other parameters and may rank first)
+            p = next((f["parameters"] for f in res.findings
+                      if f["effect"] == expect and KEY[expect] in f["parameters"]), None)
+            if p is not None:
+                stats["fits"].append((p[KEY[expect]], p[KEY[expect] + "_stderr"], equiv,
+                                      cpe))
     return stats
