@@ -12,6 +12,9 @@ Sources (``../shared/data``, PROVENANCE.md in each folder)
     Data 8, 155, 2021, CC BY 4.0; route R1, flights 8–277), all of one payload class
     (0, 250 or 500 g, from ``m100_parameters.csv``, drawn at random), so that the mass
     given to diagnose is the flights' own; ``aircraft/dji_m100.yaml``, site 300 m.
+``m100_routes``
+    16 of the 22 M100 flights without payload on every other route (A1–A3, H, R2–R7):
+    what the ``m100`` draws hold fixed (one route flown in one order) varies here.
 ``log171``
     ArduCopter log 171 (a 3DR-Solo-like quad; CC BY-SA 3.0), ``aircraft/solo_survey.yaml``.
 ``ac313_2004``, ``ac313_2044``
@@ -173,9 +176,11 @@ def _definitions(aircraft_yaml: str | None, battery_yaml: str | None = None):
 
 
 @functools.lru_cache(maxsize=1)
-def m100_flights() -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The M100 route-R1 cruise flights with a course (the map's ground velocity's
-    direction, op ``enu_course``) and the per-flight parameters table."""
+@functools.lru_cache(maxsize=2)
+def m100_flights(route_r1: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The M100 route-R1 cruise flights (``route_r1``; else the flights of every other
+    route) with a course (the map's ground velocity's direction, op ``enu_course``) and
+    the per-flight parameters table."""
     import yaml
 
     from planner.io.flightdata import load_flight_data
@@ -188,7 +193,8 @@ def m100_flights() -> tuple[pd.DataFrame, pd.DataFrame]:
         df, _ = load_flight_data(sorted(ENERGY.glob("m100_flights_part*.csv.gz")),
                                  column_map=spec)
     par = pd.read_csv(ENERGY / "m100_parameters.csv")
-    r1 = par[(par["route"] == "R1") & par["payload"].isin([0.0, 250.0, 500.0])]
+    on_r1 = par["route"] == "R1"
+    r1 = par[(on_r1 if route_r1 else ~on_r1) & par["payload"].isin([0.0, 250.0, 500.0])]
     df = df[df["experiment"].astype(int).isin(r1["flight"])].reset_index(drop=True)
     return df, r1
 
@@ -235,6 +241,25 @@ class M100(Source):
         pack, ac = _definitions("aircraft/dji_m100.yaml")
         payload = cls / 1000.0
         return Draw(rec, pack, ac, payload, ac.empty_mass_kg + pack.total_mass_kg + payload,
+                    site_altitude_m=300.0, rho=_isa(300.0), pack_resistance_ohm=0.05,
+                    rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m))
+
+
+class M100Routes(M100):
+    """The M100 flights of every route but R1 (A1–A3, H, R2–R7: other shapes, headings
+    and altitudes), 16 of the 22 without payload a run: what the R1 draws hold fixed —
+    one route flown in one order — varies here."""
+
+    name = "m100_routes"
+
+    def draw(self, rng) -> Draw:
+        df, par = m100_flights(route_r1=False)
+        have = set(df["experiment"].astype(int).unique())
+        ids = [f for f in par.loc[par["payload"] == 0.0, "flight"] if f in have]
+        pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
+        rec = df[df["experiment"].astype(str).isin(pick)].reset_index(drop=True)
+        pack, ac = _definitions("aircraft/dji_m100.yaml")
+        return Draw(rec, pack, ac, 0.0, ac.empty_mass_kg + pack.total_mass_kg,
                     site_altitude_m=300.0, rho=_isa(300.0), pack_resistance_ohm=0.05,
                     rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m))
 
@@ -373,6 +398,7 @@ def sources() -> dict[str, Source]:
     solo = load_aircraft(REPO / "aircraft/solo_survey.yaml")
     return {
         "m100": M100(),
+        "m100_routes": M100Routes(),
         # The log switches LOITER → ACRO at 206 s (from its first sample), comes down from
         # 8.6 m to 1.2 m by 228 s and sits there drawing 333 W against 225 W in the hover
         # before (the means of 230–243 s and 100–200 s): without the ``mode`` channel
