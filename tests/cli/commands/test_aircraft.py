@@ -10,7 +10,6 @@ draws with its rotors stopped.
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 from diagnose_generators import QUAD, power_dataset
@@ -47,12 +46,18 @@ def _flights(folder: Path, power_scale: float = 1.0) -> Path:
     return path
 
 
-def test_a_good_fit_is_written_with_status_ok(tmp_path, capsys):
-    data = _flights(tmp_path)
+def _fit_quad(tmp_path, capsys, data, *extra) -> tuple[int, str, Path]:
+    """``fit-aircraft`` of the test quad (η 0.6 in its file) on ``data`` at 2.8 kg: its
+    exit code, standard output and the file it writes."""
     out = tmp_path / "fitted.yaml"
     rc = main(["fit-aircraft", str(data), "--aircraft", str(_quad_file(tmp_path, 0.6)),
-               "--mass", "2.8", "--out", str(out), "--parameters", "efficiency,drag_area_m2"])
-    text = capsys.readouterr().out
+               "--mass", "2.8", "--out", str(out), *extra])
+    return rc, capsys.readouterr().out, out
+
+
+def test_a_good_fit_is_written_with_status_ok(tmp_path, capsys):
+    rc, text, out = _fit_quad(tmp_path, capsys, _flights(tmp_path), "--parameters",
+                              "efficiency,drag_area_m2")
     assert rc == 0, text
     assert "fit_status: ok" in text
     written = yaml.safe_load(out.read_text())
@@ -66,11 +71,7 @@ def test_a_constant_load_on_its_bound_is_refit_held_as_diagnose_does(tmp_path, c
     """The same flights with the constant load free: the flights' power wants a negative
     one, the fit ends on 0 W; it is done again with the file's 12 W held, and the status
     names the free fit it replaces (exit 1)."""
-    data = _flights(tmp_path)
-    out = tmp_path / "fitted.yaml"
-    rc = main(["fit-aircraft", str(data), "--aircraft", str(_quad_file(tmp_path, 0.6)),
-               "--mass", "2.8", "--out", str(out)])
-    text = capsys.readouterr().out
+    rc, text, out = _fit_quad(tmp_path, capsys, _flights(tmp_path))
     assert rc == 1
     status = yaml.safe_load(out.read_text())["fit_status"]
     assert "the free fit: system_power_w ended on its low bound" in status
@@ -81,11 +82,7 @@ def test_a_constant_load_on_its_bound_is_refit_held_as_diagnose_does(tmp_path, c
 def test_an_efficiency_on_its_bound_is_a_misfit_exit_1_named_in_the_file(tmp_path, capsys):
     """Power logged at half the truth: only an η above 1 would fit; the fit ends on its
     bound and says so instead of writing 1.0 as a value."""
-    data = _flights(tmp_path, power_scale=0.5)
-    out = tmp_path / "fitted.yaml"
-    rc = main(["fit-aircraft", str(data), "--aircraft", str(_quad_file(tmp_path, 0.6)),
-               "--mass", "2.8", "--out", str(out)])
-    text = capsys.readouterr().out
+    rc, text, out = _fit_quad(tmp_path, capsys, _flights(tmp_path, power_scale=0.5))
     assert rc == 1
     status = yaml.safe_load(out.read_text())["fit_status"]
     assert status.startswith("misfit:") and "efficiency" in status
