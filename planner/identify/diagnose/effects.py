@@ -608,19 +608,16 @@ class Wind(PowerEffect):
     def route_reason(self, pw) -> str | None:
         """Why this route cannot tell a wind from a change in time within the flights
         (:meth:`skip_reason`); None when it can."""
-        from planner.identify.diagnose.limits import POWER
-
         moving = pw.moving
 
         # the route's own test (:meth:`regime_confound`), for a light wind (linear regime:
         # the airspeed changes by −v̂·w, whatever the wind's speed)
         light = 1e-3 * float(np.median(np.hypot(pw.vn, pw.ve)[moving]))
-        q = self.passing_share(pw, light)
-        if q < POWER:
-            return (f"on this route a steady wind from {100 * (1 - q):.0f} % of the directions "
-                    "changes the airspeed within each flight as one step (the legs are flown "
-                    "in one order): a wind cannot be told from a payload dropped or picked up "
-                    "there, or anything else that changes in time within the flights")
+        q, words = self.one_step_route(pw, light)
+        if words:
+            return (f"{words} (the legs are flown in one order): a wind cannot be told from a "
+                    "payload dropped or picked up there, or anything else that changes in "
+                    "time within the flights")
         return None
 
     def transform(self, inputs, values, pw, state):
@@ -676,6 +673,21 @@ class Wind(PowerEffect):
                           for x in a])
         return float(np.mean(~(share >= CONFOUND_R**2)))
 
+    @classmethod
+    def one_step_route(cls, pw, speed_ms: float) -> tuple[float, str | None]:
+        """The route's test for a wind of ``speed_ms`` [m/s]: the share ``q`` of directions
+        from which it is not one step per flight (:meth:`passing_share`) and, where ``q``
+        is below :data:`planner.identify.diagnose.limits.POWER` (a wind of unknown direction
+        could not be named in that share of cases at any size), the reason's opening words;
+        else None."""
+        from planner.identify.diagnose.limits import POWER
+
+        q = cls.passing_share(pw, speed_ms)
+        if q >= POWER:
+            return q, None
+        return q, (f"on this route a steady wind from {100 * (1 - q):.0f} % of the directions "
+                   "changes the airspeed within each flight as one step")
+
     def regime_confound(self, pw, state) -> tuple[str, list[str]] | None:
         r"""Why the fitted wind cannot be told from a mass change in flight, and the
         candidates; None when it can.
@@ -707,13 +719,11 @@ class Wind(PowerEffect):
             return None
         r2 = self.step_share(pw, values["wind_n_ms"], values["wind_e_ms"])
         if not math.isfinite(r2) or r2 < CONFOUND_R**2:
-            from planner.identify.diagnose.limits import POWER
-
-            q = self.passing_share(pw, math.hypot(values["wind_n_ms"], values["wind_e_ms"]))
-            if q >= POWER:
+            _, words = self.one_step_route(pw, math.hypot(values["wind_n_ms"],
+                                                          values["wind_e_ms"]))
+            if words is None:
                 return None
-            return (f"on this route a steady wind from {100 * (1 - q):.0f} % of the directions "
-                    "changes the airspeed within each flight as one step, which a mass change "
+            return (f"{words}, which a mass change "
                     "fits as well; a wind fitted on such a route takes the direction that "
                     "mimics whatever changed in time within the flights, so the data cannot "
                     "tell a wind from a payload dropped or picked up, from whichever "

@@ -383,12 +383,11 @@ def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
     from planner.identify.diagnose import CONFOUND_R
     from planner.identify.diagnose.effects import Wind
 
-    q = Wind.passing_share(level, lim.limit)
+    q, words = Wind.one_step_route(level, lim.limit)
     if q >= 1.0:
         return lim, ""
-    if q < POWER:
-        why = (f"on this route a steady wind from {100 * (1 - q):.0f} % of the directions "
-               f"changes the airspeed within each flight as one step (at least "
+    if words:
+        why = (f"{words} (at least "
                f"{100 * CONFOUND_R**2:.0f} % of its variation), which a mass change at that "
                f"point fits as well, so at no size would a wind of unknown direction be "
                f"named in {100 * POWER:.0f} % of cases")
