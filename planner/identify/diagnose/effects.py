@@ -891,8 +891,6 @@ class PayloadChange(PowerEffect):
         after) cannot be told from a change of how the aircraft is flown either (a mode
         changes the controllers, the thrust, a landing detector).
         """
-        from planner.identify.diagnose import CONFOUND_R
-
         mask = state.get("step_mask")
         times = state.get("change_time_s", {})
         located = [pw.names.index(k) for k, v in times.items() if v is not None]
@@ -903,14 +901,43 @@ class PayloadChange(PowerEffect):
             return (f"every located step falls at a change of flight mode ({modes}): a step "
                     "at a mode change cannot be told from a change of how the aircraft is "
                     "flown", [self.name, f"the change of flight mode ({modes})"])
-        r2 = self.regime_share(pw, mask, located)
-        if r2 >= CONFOUND_R**2:
+        gate = self.step_gate(pw, mask, located)
+        if gate is None:
+            return None
+        kind, r2 = gate
+        if kind == "regime":
             return (f"{100 * r2:.0f} % of the variation of its step (on after the change time "
                     f"in {len(located)} flight(s)) follows the flight regime (climbing, level, "
                     "descending): the data cannot tell a mass change from a power model whose "
                     "climb or descent power is wrong",
                     [self.name, "the power model's climb or descent power"])
-        return self._wind_confound(pw, np.asarray(mask, float), located)
+        return (f"{100 * r2:.0f} % of the variation of its step within the flights follows the "
+                "direction of travel (out and back): a steady wind fits the same power pattern, "
+                "so the data cannot tell a mass change from a wind",
+                [self.name, "wind"])
+
+    @classmethod
+    def step_gate(cls, pw, mask, located) -> tuple[str, float] | None:
+        r"""The gate that withholds a step with indicator ``mask`` (1 after each flight's
+        change) in the flights ``located``, whatever its size, with its share of the step's
+        variation: ``("regime", r²)`` where the climb and descent regimes explain at least
+        :data:`planner.identify.diagnose.CONFOUND_R`² of it (:meth:`regime_share`), else
+        ``("course", r²)`` where a wind would change what the power model sees (a course
+        and no measured airspeed, :meth:`Wind.data_reason`) and the cosine and sine of the
+        course explain that much of its within-flight variation (:meth:`course_share`: a
+        wind :math:`\vec w` changes the airspeed by about :math:`-\hat v_g \cdot \vec w`);
+        None when neither does (:meth:`regime_confound`, and the detection limit's
+        positions)."""
+        from planner.identify.diagnose import CONFOUND_R
+
+        mask = np.asarray(mask, float)
+        r2 = cls.regime_share(pw, mask, located)
+        if r2 >= CONFOUND_R**2:
+            return "regime", r2
+        if not getattr(pw, "has_course", False) or Wind().data_reason(pw) is not None:
+            return None
+        r2 = cls.course_share(pw, mask, located)
+        return ("course", r2) if r2 >= CONFOUND_R**2 else None
 
     @staticmethod
     def regime_share(pw, mask, located) -> float:
@@ -933,7 +960,7 @@ class PayloadChange(PowerEffect):
     def course_share(pw, mask, located) -> float:
         r"""Share of the within-flight variance of a step indicator ``mask`` (1 after each
         flight's change) over the moving bins of the flights ``located`` that the cosine
-        and sine of the course explain (:meth:`_wind_confound`); NaN where it cannot be
+        and sine of the course explain (:meth:`step_gate`); NaN where it cannot be
         computed. [unitless]"""
         rows = pw.moving & np.isin(pw.exp, located)
         if rows.sum() < 10:
@@ -947,25 +974,6 @@ class PayloadChange(PowerEffect):
         X = np.column_stack([xc, xs])
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         return float(1.0 - np.sum((y - X @ coef) ** 2) / sst)
-
-    def _wind_confound(self, pw, mask, located) -> tuple[str, list[str]] | None:
-        r"""The step against a steady wind, where the data can test one: a wind
-        :math:`\vec w` changes the airspeed by about :math:`-\hat v_g \cdot \vec w`, i.e.
-        by a combination of the cosine and sine of the course. When that explains
-        :data:`planner.identify.diagnose.CONFOUND_R`² of the step's within-flight variation over the
-        moving bins (out-and-back routes, the change at the turnaround), the data cannot
-        tell the two apart."""
-        from planner.identify.diagnose import CONFOUND_R
-
-        if not getattr(pw, "has_course", False) or Wind().data_reason(pw) is not None:
-            return None
-        r2 = self.course_share(pw, mask, located)
-        if not math.isfinite(r2) or r2 < CONFOUND_R**2:
-            return None
-        return (f"{100 * r2:.0f} % of the variation of its step within the flights follows the "
-                "direction of travel (out and back): a steady wind fits the same power pattern, "
-                "so the data cannot tell a mass change from a wind",
-                [self.name, "wind"])
 
     def start(self, pw):
         """The mass step's start, bounds and scale from the median all-up mass. [kg]"""

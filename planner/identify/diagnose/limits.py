@@ -43,8 +43,8 @@ simplest test:
   (:func:`_wind_gate`: the limit is then given at the power that leaves 80 % overall
   for a wind of unknown direction, or is infinite when no size reaches it), and a
   payload change at a position where its step follows the flight regime or — where a
-  wind would change what the model sees — the course (:func:`_payload_gates`: infinite
-  there).
+  wind would change what the model sees — the course
+  (:meth:`planner.identify.diagnose.effects.PayloadChange.step_gate`: infinite there).
 
 A payload change needs more: it is located flight by flight, where its step must beat
 a threshold of 2 ln n long-run variances (module notes of ``search``), so its limit is
@@ -438,33 +438,10 @@ def _steps(level, s: np.ndarray, u: float) -> np.ndarray:
     return out
 
 
-def _payload_gates(level):
-    """The test of the search's own gates on a step at one position of every flight
-    (:meth:`planner.identify.diagnose.effects.PayloadChange.regime_confound`): a step
-    whose indicator follows the climb and descent regimes, or — where a wind would change
-    what the power model sees — the course, at :data:`planner.identify.diagnose.CONFOUND_R`² or more
-    is withheld whatever its size, so its limit there is infinite. Returns
-    ``gated(mask, flights) -> bool``."""
-    from planner.identify.diagnose import CONFOUND_R
-    from planner.identify.diagnose.effects import PayloadChange, Wind
-
-    # as the search's own test: wherever a wind would change what the model sees, tested
-    # or not (a route that cannot tell a wind from a step is where this matters most)
-    wind = getattr(level, "has_course", False) and Wind().data_reason(level) is None
-
-    def gated(mask, flights) -> bool:
-        located = list(flights)
-        if PayloadChange.regime_share(level, mask, located) >= CONFOUND_R**2:
-            return True
-        return bool(wind and PayloadChange.course_share(level, mask, located)
-                    >= CONFOUND_R**2)
-    return gated
-
-
 def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> dict:
     """The payload change's limit by position (module notes)."""
     from planner.chain.flightstate import CLIMB_THRESHOLD_MS
-    from planner.identify.diagnose.effects import MIN_MASS_STEP
+    from planner.identify.diagnose.effects import MIN_MASS_STEP, PayloadChange
 
     s = sigs["payload_change"][:, 0]
     exp = level.exp
@@ -485,12 +462,11 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     by = {}
     se_mid = math.nan
     dof = J.shape[1] + len(flights)
-    gates = _payload_gates(level)
     ones = np.ones_like(s)
     for u in POSITIONS:
         g = _steps(level, s, u)
-        gated = gates(_steps(level, ones, u), flights)
-        if gated:
+        if PayloadChange.step_gate(level, _steps(level, ones, u), list(flights)) is not None:
+            # withheld by the search's own gates whatever its size
             by[u] = math.inf
             continue
         pooled = stats.detectable_size(g, nuisance, within, exp, dof=dof,
