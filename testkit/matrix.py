@@ -233,13 +233,19 @@ class M100(Source):
 
     def draw(self, rng) -> Draw:
         df, par = m100_flights()
-        have = set(df["experiment"].astype(int).unique())
         cls = float(rng.choice([0.0, 250.0, 500.0]))
-        ids = [f for f in par.loc[par["payload"] == cls, "flight"] if f in have]
+        return self._sixteen(rng, df, par, cls)
+
+    @staticmethod
+    def _sixteen(rng, df, par, payload_g: float) -> Draw:
+        """16 flights of ``df`` (at most as many as there are) that carried ``payload_g``
+        [g], drawn with ``rng``, with the M100's definitions."""
+        have = set(df["experiment"].astype(int).unique())
+        ids = [f for f in par.loc[par["payload"] == payload_g, "flight"] if f in have]
         pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
         rec = df[df["experiment"].astype(str).isin(pick)].reset_index(drop=True)
         pack, ac = _definitions("aircraft/dji_m100.yaml")
-        payload = cls / 1000.0
+        payload = payload_g / 1000.0
         return Draw(rec, pack, ac, payload, ac.empty_mass_kg + pack.total_mass_kg + payload,
                     site_altitude_m=300.0, rho=_isa(300.0), pack_resistance_ohm=0.05,
                     rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m))
@@ -253,15 +259,7 @@ class M100Routes(M100):
     name = "m100_routes"
 
     def draw(self, rng) -> Draw:
-        df, par = m100_flights(route_r1=False)
-        have = set(df["experiment"].astype(int).unique())
-        ids = [f for f in par.loc[par["payload"] == 0.0, "flight"] if f in have]
-        pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
-        rec = df[df["experiment"].astype(str).isin(pick)].reset_index(drop=True)
-        pack, ac = _definitions("aircraft/dji_m100.yaml")
-        return Draw(rec, pack, ac, 0.0, ac.empty_mass_kg + pack.total_mass_kg,
-                    site_altitude_m=300.0, rho=_isa(300.0), pack_resistance_ohm=0.05,
-                    rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m))
+        return self._sixteen(rng, *m100_flights(route_r1=False), 0.0)
 
 
 def _isa(h: float) -> float:
