@@ -31,7 +31,7 @@ SOURCES = sorted(p for p in PLANNER.rglob("*.py") if "__pycache__" not in p.part
 PHYSICS = [p for p in SOURCES if p.relative_to(PLANNER).parts[0] == "physics"]
 THIRD_PARTY_OK = {"numpy", "scipy", "numba", "pandas"}
 STDLIB_OK = {"__future__", "math", "dataclasses", "typing", "collections", "functools",
-             "itertools", "warnings", "enum"}
+             "itertools", "warnings", "enum", "types"}
 #: Calls that read or write files, parse YAML or draw.
 IO_CALLS = {"open", "read_csv", "to_csv", "read_text", "write_text", "read_bytes",
             "write_bytes", "safe_load", "load_yaml", "savefig", "to_parquet", "read_parquet"}

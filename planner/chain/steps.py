@@ -29,7 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
-import numba
 import numpy as np
 
 from planner.chain import kinematics
@@ -47,6 +46,7 @@ from planner.physics.battery.elements import (
 from planner.physics.battery.integral import charge_from_stress_jit
 from planner.physics.battery.ocv import lipo_ocv, lipo_ocv_jit
 from planner.physics.battery.thermal import T_RANGE_C
+from planner.physics.kernel import kernel
 from planner.physics.mission import Environment, Mission
 from planner.physics.units import AS_PER_MAH, J_PER_WH
 
@@ -690,7 +690,7 @@ def leg_figures(inputs: ChainInputs, states: FlightStates, power: ChainPower,
         p_undeliverable_w=p_bad, p_max_w=p_max)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def leg_kernel(lp_leg, rate_leg, dur, beta, scale, cap, r, cells, inc, s_end, c_end,
                current):
     r"""The per-leg figures of every pack in one compiled pass (packs × legs in).

@@ -338,7 +338,9 @@ def run(args) -> int:
     """``endurance watch``: follow the link or replayed log and print the predictions until it
     ends or Ctrl-C; returns 0."""
     from planner.identify.inflight import InflightEstimator
+    from planner.physics.kernel import compile_from_start
 
+    compile_from_start()            # a long run: each update fast, not the start-up
     jsonl = args.jsonl
     if jsonl not in (None, "-"):
         parent = Path(jsonl).resolve().parent

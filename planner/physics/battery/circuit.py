@@ -109,9 +109,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
-import numba
 import numpy as np
 
+from planner.errors import InputError, ModelError
 from planner.physics.battery import elements as el
 from planner.physics.battery.ocv import lipo_ocv
 from planner.physics.battery.thermal import (
@@ -120,7 +120,7 @@ from planner.physics.battery.thermal import (
     check_temperature,
     lumped_step,
 )
-from planner.errors import InputError, ModelError
+from planner.physics.kernel import kernel
 from planner.physics.limits import (
     ACTIVATION_ENERGY_MAX_J_MOL,
     CAPACITY_TEMP_COEFF_MAX_PER_C,
@@ -516,7 +516,7 @@ def on_soc_grid(table, row, soc):
 _NAN = float("nan")
 
 
-@numba.njit(cache=True)
+@kernel
 def _kernel(t, load_table, step_col, by_power, soc0, h0, v10,
             ns, npar, cap_as, eta_c, m_h, gamma, r1, r1_pack, tau1, ea, t_ref, kq,
             ocv_tab, ocv_idx, r0_tab, r0_idx, r0_scale, diff_gain, tau_d,

@@ -32,12 +32,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import numba
 import numpy as np
 
-from planner.physics.atmosphere import G
-from planner.physics.numeric import like_inputs, require
 from planner.errors import ModelError
+from planner.physics.atmosphere import G
+from planner.physics.kernel import kernel
+from planner.physics.numeric import like_inputs, require
 
 # Leishman's empirical fit of measured induced velocity in the vortex-ring and turbulent
 # wake states, -2 <= V_c/v_h <= 0 ([1], §2.14).
@@ -129,7 +129,7 @@ def _glauert_ratio(mu, x):
     return out
 
 
-@numba.njit(cache=True)
+@kernel
 def _glauert_kernel(mu2, x, iterations, out):  # pragma: no cover - compiled
     """The bracketed Newton iteration of :func:`_glauert_ratio`, element by element: each
     root stops as soon as it has settled to rounding (a compiled loop: the vectorised
