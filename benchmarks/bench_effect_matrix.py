@@ -151,6 +151,10 @@ def main(argv=None) -> int:
     for cell in cells:
         st = M.run_cell(cell, args.runs, args.seed, draws)
         print(row(st), flush=True)
+        for w in st["winds"]:
+            print(f"{'':<6}wind named {w['named_ms']:.1f} m/s from {w['named_from_deg']:.0f}°; "
+                  f"the {w['flights']} flights' anemometer: {w['measured_ms']:.1f} m/s from "
+                  f"{w['measured_from_deg']:.0f}° ({w['z']:.1f} combined SE apart)")
         kind, ok = M.verdict(st) if cell.size == "realistic" else (None, None)
         st = {k: (dict(v) if isinstance(v, dict) else v) for k, v in st.items()}
         st["verdict"], st["met"] = kind, ok

@@ -92,6 +92,12 @@ clean record carries of it (:func:`clean_parameters`). A current offset's truth 
 injected one alone: the clean log's current sensor error is in its power channel too
 (the power logged is V·I of that sensor, and the injection keeps it as the true power),
 so the current against the power channel differs by the injected offset only.
+
+On M100 flights a wind named where none is injected is also set against the wind the
+flights themselves flew in, measured by the on-board anemometer that diagnose never sees
+(:func:`anemometer_wind_of`, :func:`wind_against`; ``winds`` in the tallies): a wind
+within about two combined standard errors of it would be the flights' own weather, one
+far from it is a false cause whatever the weather was.
 """
 
 from __future__ import annotations
@@ -266,6 +272,54 @@ def _isa(h: float) -> float:
     from planner.physics import atmosphere
 
     return float(atmosphere.density(h))
+
+
+@functools.lru_cache(maxsize=1)
+def _anemometer_winds() -> dict:
+    """Each M100 flight's steady wind (east, north) [m/s] from its on-board anemometer
+    (:func:`testkit.m100.anemometer_wind`), over both files of the data set."""
+    from testkit.m100 import anemometer_wind
+
+    out = {}
+    for path in sorted(ENERGY.glob("m100_flights_part*.csv.gz")):
+        out.update(anemometer_wind(path))
+    return out
+
+
+def anemometer_wind_of(d: Draw) -> dict | None:
+    """The flights' own steady wind in a draw of M100 flights, measured by the on-board
+    anemometer, which diagnose never sees: the mean of the flights' winds weighted by
+    their samples (diagnose fits one wind to them all), with the standard error of each
+    component from the spread between flights; None with fewer than two flights that
+    have one. [m/s]"""
+    winds = _anemometer_winds()
+    rows = d.record.groupby(d.record["experiment"].astype(str)).size()
+    have = [f for f in rows.index if f in winds]
+    if len(have) < 2:
+        return None
+    w = np.array([winds[f] for f in have])
+    n = rows[have].to_numpy(float)
+    east, north = (w * n[:, None]).sum(axis=0) / n.sum()
+    se = w.std(axis=0, ddof=1) / math.sqrt(len(have))
+    return {"wind_e_ms": float(east), "wind_n_ms": float(north), "wind_e_ms_stderr":
+            float(se[0]), "wind_n_ms_stderr": float(se[1]), "flights": len(have)}
+
+
+def wind_against(named: dict, measured: dict) -> dict:
+    """A wind diagnose named (its ``parameters``) against one measured otherwise
+    (:func:`anemometer_wind_of`): both as speed [m/s] and direction it blows from [deg],
+    and the distance between the two vectors in combined standard errors (the root of
+    the sum of the two components' squared z). [m/s, deg, unitless]"""
+    z = math.hypot(
+        (named["wind_n_ms"] - measured["wind_n_ms"])
+        / math.hypot(named["wind_n_ms_stderr"], measured["wind_n_ms_stderr"]),
+        (named["wind_e_ms"] - measured["wind_e_ms"])
+        / math.hypot(named["wind_e_ms_stderr"], measured["wind_e_ms_stderr"]))
+    speed = math.hypot(measured["wind_e_ms"], measured["wind_n_ms"])
+    frm = math.degrees(math.atan2(-measured["wind_e_ms"], -measured["wind_n_ms"])) % 360
+    return {"named_ms": named["wind_speed_ms"], "named_from_deg": named["wind_from_deg"],
+            "measured_ms": speed, "measured_from_deg": frm,
+            "flights": measured["flights"], "z": z}
 
 
 @functools.lru_cache(maxsize=8)
@@ -807,7 +861,7 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
           "expect": cell.expect, "runs": n, "named_first": 0, "named_any": 0,
           "false_runs": 0, "false": Counter(), "silent": 0, "identifiable": 0,
           "said_not_identifiable": 0, "within_2se": 0, "checked_2se": 0, "limits": [],
-          "sizes": [], "cpu_s": [], "errors": Counter(), "own": Counter()}
+          "sizes": [], "cpu_s": [], "errors": Counter(), "own": Counter(), "winds": []}
     draws = {} if draws is None else draws
     for run in range(n):
         key = (cell.source, run, seed)
@@ -834,6 +888,11 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
         expect = cell.expect
         kinds = [classify(f, src.real, expect, injd.change_times) for f in res.findings]
         st["own"].update(f["effect"] for f, k in zip(res.findings, kinds) if k == "own")
+        if isinstance(src, M100) and cell.injection != "wind":
+            # a wind named on M100 flights against the one their anemometer measured
+            measured = anemometer_wind_of(d)
+            st["winds"] += [wind_against(f["parameters"], measured) for f in res.findings
+                            if f["effect"] == "wind" and measured is not None]
         # the record's own findings aside: silence, false causes and "named first" are
         # judged on the rest
         rest = [(f, k) for f, k in zip(res.findings, kinds) if k != "own"]

@@ -124,3 +124,32 @@ def test_verdict_follows_the_issue_criterion():
     assert M.verdict(hidden) == ("not identifiable", True)
     assert M.verdict(dict(hidden, said_not_identifiable=9)) == ("not identifiable", False)
     assert M.verdict(dict(hidden, false_runs=1)) == ("not identifiable", False)
+
+
+def test_a_named_wind_is_set_against_the_flights_anemometer_wind(monkeypatch):
+    """The flights' own wind (testkit.matrix.anemometer_wind_of) is the samples-weighted
+    mean of the flights' anemometer winds with the spread between flights as its
+    standard error, and a named wind is that many combined standard errors from it."""
+    import math
+
+    import numpy as np
+    import pandas as pd
+
+    winds = {"1": np.array([1.0, -2.0]), "2": np.array([3.0, 0.0]), "9": np.array([9.0, 9.0])}
+    monkeypatch.setattr(M, "_anemometer_winds", lambda: winds)
+    record = pd.DataFrame({"experiment": ["1"] * 30 + ["2"] * 10 + ["7"] * 50})
+    d = M.Draw(record, pack=None, aircraft=None)
+    got = M.anemometer_wind_of(d)
+    assert got["flights"] == 2                      # flight 7 has no anemometer wind
+    assert math.isclose(got["wind_e_ms"], (30 * 1.0 + 10 * 3.0) / 40)
+    assert math.isclose(got["wind_n_ms"], (30 * -2.0 + 10 * 0.0) / 40)
+    assert math.isclose(got["wind_e_ms_stderr"], np.std([1.0, 3.0], ddof=1) / math.sqrt(2))
+    named = {"wind_e_ms": got["wind_e_ms"], "wind_e_ms_stderr": 0.0,
+             "wind_n_ms": got["wind_n_ms"] + 2.0 * math.hypot(0.3, got["wind_n_ms_stderr"]),
+             "wind_n_ms_stderr": 0.3, "wind_speed_ms": 1.0, "wind_from_deg": 0.0}
+    cmp = M.wind_against(named, got)
+    assert math.isclose(cmp["z"], 2.0)
+    assert math.isclose(cmp["measured_from_deg"],
+                        math.degrees(math.atan2(-got["wind_e_ms"], -got["wind_n_ms"])) % 360)
+    assert M.anemometer_wind_of(M.Draw(record[record["experiment"] != "2"], None, None)) \
+        is None                                     # one flight: no spread, no answer
