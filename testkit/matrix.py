@@ -315,10 +315,12 @@ def wind_against(named: dict, measured: dict) -> dict:
         / math.hypot(named["wind_n_ms_stderr"], measured["wind_n_ms_stderr"]),
         (named["wind_e_ms"] - measured["wind_e_ms"])
         / math.hypot(named["wind_e_ms_stderr"], measured["wind_e_ms_stderr"]))
-    speed = math.hypot(measured["wind_e_ms"], measured["wind_n_ms"])
-    frm = math.degrees(math.atan2(-measured["wind_e_ms"], -measured["wind_n_ms"])) % 360
+    from planner.physics.wind import course_deg
+
+    east, north = measured["wind_e_ms"], measured["wind_n_ms"]
     return {"named_ms": named["wind_speed_ms"], "named_from_deg": named["wind_from_deg"],
-            "measured_ms": speed, "measured_from_deg": frm,
+            "measured_ms": math.hypot(east, north),
+            "measured_from_deg": float(course_deg(-east, -north)),   # blows from
             "flights": measured["flights"], "z": z}
 
 
@@ -888,11 +890,12 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
         expect = cell.expect
         kinds = [classify(f, src.real, expect, injd.change_times) for f in res.findings]
         st["own"].update(f["effect"] for f, k in zip(res.findings, kinds) if k == "own")
-        if isinstance(src, M100) and cell.injection != "wind":
+        winds = [f["parameters"] for f in res.findings if f["effect"] == "wind"]
+        if winds and isinstance(src, M100) and cell.injection != "wind":
             # a wind named on M100 flights against the one their anemometer measured
             measured = anemometer_wind_of(d)
-            st["winds"] += [wind_against(f["parameters"], measured) for f in res.findings
-                            if f["effect"] == "wind" and measured is not None]
+            if measured is not None:
+                st["winds"] += [wind_against(p, measured) for p in winds]
         # the record's own findings aside: silence, false causes and "named first" are
         # judged on the rest
         rest = [(f, k) for f, k in zip(res.findings, kinds) if k != "own"]

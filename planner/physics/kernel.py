@@ -17,8 +17,8 @@ kernel runs compiled. So a long series is never looped over in Python, and the a
 are those of one source: the interpreted and compiled runs agree to rounding
 (``tests/physics/test_kernel.py``). A process that runs long and must answer each
 update fast (``endurance watch``) compiles from its first call instead
-(:func:`compile_from_start`). ``NUMBA_DISABLE_JIT=1`` interprets every call, as numba
-does for its own dispatchers.
+(:func:`compile_from_start`). Under ``NUMBA_DISABLE_JIT=1`` numba's own dispatchers are
+the Python functions, so every call is interpreted either way.
 """
 
 from __future__ import annotations
@@ -53,7 +53,6 @@ class Kernel:
     def __init__(self, formula, **options):
         functools.update_wrapper(self, formula)
         self.compiled = numba.njit(cache=True, **options)(formula)
-        self.py_func = formula
 
     @functools.cached_property
     def interpreted(self):
@@ -67,14 +66,13 @@ class Kernel:
         return run
 
     def __call__(self, *args, **kwargs):
-        size = max((np.size(a) for a in (*args, *kwargs.values())
-                    if isinstance(a, np.ndarray)), default=1)
-        if numba.config.DISABLE_JIT:
-            return self.interpreted(*args, **kwargs)
-        if not Kernel.started and Kernel.spent + size <= INTERPRETED_ELEMENTS:
-            Kernel.spent += size
-            return self.interpreted(*args, **kwargs)
-        Kernel.started = True
+        if not Kernel.started:
+            size = max((a.size for a in (*args, *kwargs.values())
+                        if isinstance(a, np.ndarray)), default=1)
+            if Kernel.spent + size <= INTERPRETED_ELEMENTS:
+                Kernel.spent += size
+                return self.interpreted(*args, **kwargs)
+            Kernel.started = True
         return self.compiled(*args, **kwargs)
 
 
