@@ -46,6 +46,9 @@ References
    noncentrality parameter λ); the χ² form with λ = θᵀ(XᵀX)θ/σ² for a linear
    regression's added columns, e.g. S. D. Silvey, *Statistical Inference*, Chapman &
    Hall, 1975, sec. 7.
+.. [4] L. Kish, *Survey Sampling*, New York: Wiley, 1965, sec. 5.4 (the design effect:
+   the variance of an estimate under the clustered design over its variance under the
+   simple one).
 """
 
 from __future__ import annotations
@@ -57,7 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["RHO_MAX", "Covariance", "DetectionLimit", "ar1_inflation", "cluster_covariance",
-           "covariance", "delta_method", "detectable_size", "jacobian_covariance",
+           "covariance", "delta_method", "design_effect", "detectable_size", "jacobian_covariance",
            "lag1_autocorrelation", "long_run_variance", "noncentrality_for_power",
            "paired_test_factor",
            "poorly_determined", "practical_size", "project_out", "random_walk_covariance",
@@ -357,6 +360,10 @@ class DetectionLimit:
     visible_share : float
         Share of the signature's sum of squares left after the nuisance columns
         (0: absorbed entirely, 1: orthogonal to them). [unitless]
+    design_effect : float
+        Factor (≥ 1) by which the scatter between clusters (flights) raises the estimate's
+        variance above the autocorrelated residual's (:func:`design_effect`); 1 without
+        clusters. [unitless]
     """
 
     limit: float
@@ -364,6 +371,7 @@ class DetectionLimit:
     practical: float
     stderr: float
     visible_share: float
+    design_effect: float = 1.0
 
 
 def paired_test_factor(alpha: float = 0.05, power: float = 0.8) -> float:
@@ -378,7 +386,7 @@ def paired_test_factor(alpha: float = 0.05, power: float = 0.8) -> float:
 def detectable_size(signature, nuisance, resid, groups=None, *, dof: int = 0,
                     alpha: float = 0.05, power: float = 0.8,
                     heldout_mse: float | None = None, min_gain: float = 0.05,
-                    paired: bool = False) -> DetectionLimit:
+                    paired: bool = False, clusters=None) -> DetectionLimit:
     r"""Power analysis of one effect on one fitted quantity (module notes, [3]_).
 
     An effect of size θ adds :math:`\theta\,s` to the fitted quantity (``signature`` s,
@@ -403,6 +411,12 @@ def detectable_size(signature, nuisance, resid, groups=None, *, dof: int = 0,
     from :math:`\theta = 2(z_{1-\alpha} + z_{power})\,SE`
     (:func:`paired_test_factor`) — the stricter of the two statistical tests.
 
+    With ``clusters`` (the flight of each row), the residual's long-run variance is
+    raised by the :func:`design_effect` of the scatter between flights along the
+    signature: a flight-to-flight difference no within-flight noise model sees (a day's
+    weather, a pack, a route the power model fits less well) makes an effect carried by
+    whole flights harder to see than the bins' noise says.
+
     Parameters
     ----------
     signature : ndarray, shape (n,) or (n, k)
@@ -421,6 +435,8 @@ def detectable_size(signature, nuisance, resid, groups=None, *, dof: int = 0,
         Held-out mean squared error of the fit [fitted unit²]; None: no practical limit.
     min_gain : float
         Practical share of the held-out RMS error. [unitless]
+    clusters : array, optional
+        Cluster (flight) of each row, for :func:`design_effect`; None: none.
     """
     s = np.asarray(signature, float).reshape(len(resid), -1)
     total = float(np.sum(s * s))
@@ -432,7 +448,8 @@ def detectable_size(signature, nuisance, resid, groups=None, *, dof: int = 0,
     low = float(eig.min())
     if not (low > 1e-12 * max(total, 1e-300)):
         return DetectionLimit(math.inf, math.inf, math.inf, math.inf, visible)
-    s2 = long_run_variance(resid, groups, dof)
+    deff = 1.0 if clusters is None else design_effect(sp, resid, clusters, groups, dof)
+    s2 = long_run_variance(resid, groups, dof) * deff
     se = math.sqrt(s2 / low)
     stat = math.sqrt(noncentrality_for_power(k, alpha, power)) * se
     if paired:
@@ -440,7 +457,45 @@ def detectable_size(signature, nuisance, resid, groups=None, *, dof: int = 0,
     prac = 0.0
     if heldout_mse is not None and math.isfinite(heldout_mse):
         prac = practical_size(low / len(resid), heldout_mse, min_gain)
-    return DetectionLimit(max(stat, prac), stat, prac, se, visible)
+    return DetectionLimit(max(stat, prac), stat, prac, se, visible, deff)
+
+
+#: Fewest clusters for :func:`design_effect` to be estimated. [unitless]
+MIN_CLUSTERS = 4
+
+
+def design_effect(visible, resid, clusters, groups=None, dof: int = 0) -> float:
+    r"""Design effect of clustered rows on an effect's estimate (Kish 1965 [4]_): the
+    cluster-robust variance of the estimate (:func:`cluster_covariance`'s sandwich,
+    one cluster per flight [2]_) over the variance the autocorrelated residual gives it
+    (:func:`long_run_variance`), along the least visible direction of ``visible`` (the
+    signature net of the nuisance columns, n × k), at least 1. [unitless]
+
+    Both are taken from the residual with the effect fitted (``resid`` less its
+    least-squares fit on ``visible``): a sandwich's scores are those of the model that
+    holds the parameter, so an effect present in ``resid`` does not count as scatter.
+    Fewer than :data:`MIN_CLUSTERS` clusters cannot estimate it: 1.
+    """
+    x = np.asarray(visible, float).reshape(len(resid), -1)
+    labels, index = np.unique(np.asarray(clusters), return_inverse=True)
+    g = labels.size
+    if g < MIN_CLUSTERS:
+        return 1.0
+    r = np.asarray(resid, float)
+    coef, *_ = np.linalg.lstsq(x, r, rcond=None)
+    e = r - x @ coef
+    k = x.shape[1]
+    if k > 1:
+        _, v = np.linalg.eigh(x.T @ x)
+        x = x @ v[:, :1]
+    x = x[:, 0]
+    xx = float(np.dot(x, x))
+    within = long_run_variance(e, groups, dof + k) / xx
+    scores = np.bincount(index, weights=x * e, minlength=g)
+    between = g / (g - 1.0) * float(np.dot(scores, scores)) / xx**2
+    if not (within > 0 and math.isfinite(within)):
+        return 1.0
+    return max(1.0, between / within)
 
 
 def practical_size(mean_square: float, heldout_mse: float, min_gain: float = 0.05) -> float:

@@ -21,7 +21,12 @@ What enters (per level, on the calibrated baseline fitted on all the data)
   signature visible: their limit is large, and the output says the data cannot tell
   them.
 * The **noise**: the residual of the final fit (the effects found included), its
-  long-run variance (AR(1), within experiments) for the χ² test at 5 % with 80 % power,
+  long-run variance (AR(1), within experiments) raised by the scatter between flights
+  where there are four or more (:func:`planner.identify.stats.design_effect`: flights on
+  different routes and days scatter about their calibrated model by a level of their
+  own, which no within-flight noise model sees and which is the noise of an effect
+  carried by whole flights, such as the air density of a day), for the χ² test at 5 %
+  with 80 % power,
   and the held-out mean squared error for the practical gain of
   :data:`planner.identify.diagnose.search.MIN_GAIN_PCT`.
 * The effect's own **floor** where the search has one (a payload change of at least
@@ -133,7 +138,8 @@ def _things(level_name: str, n: int) -> str:
 def entry(effect: str, level: str, *, found: bool, identifiable: bool,
           limit: float | None = None, why: str = "", n: int = 0, by_position=None,
           stderr: float | None = None, per: str | None = None,
-          confused_with: list[str] | None = None) -> dict[str, Any]:
+          confused_with: list[str] | None = None,
+          design_effect: float = 1.0) -> dict[str, Any]:
     """One detection entry (fields: docs/commands.md, Diagnose): ``effect``, ``level``,
     ``parameter``, ``unit``, ``found``, ``identifiable``, ``limit`` (in the parameter's
     unit; None when not identifiable), ``by_position``, ``why``, ``help`` and ``text``."""
@@ -183,6 +189,8 @@ def entry(effect: str, level: str, *, found: bool, identifiable: bool,
         out["per"] = per
     if confused_with:
         out["confused_with"] = list(confused_with)
+    if design_effect > 1.0:
+        out["design_effect"] = float(design_effect)
     return out
 
 
@@ -274,7 +282,8 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
                                   sig, nuisance, resid, groups)
         else:
             lim = stats.detectable_size(sig, nuisance, resid, groups, dof=J.shape[1],
-                                        heldout_mse=mse_rows, paired=True)
+                                        heldout_mse=mse_rows, paired=True,
+                                        clusters=getattr(level, "exp", None))
             lim = _with_units(lim, sig, nuisance, level, resid, J.shape[1])
         gate_why = ""
         if e.name == "wind" and math.isfinite(lim.limit):
@@ -294,7 +303,8 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
         elif limit > top:
             ident, why = False, beyond_physics(e.name, report.name, limit, top)
         if e.name in found and not (ident and limit <= top) and not gate_why:
-            confused = _confused_with(e, tested, sigs, J, resid, groups, top)
+            confused = _confused_with(e, tested, sigs, J, resid, groups, top,
+                                      getattr(level, "exp", None))
         if e.name in withheld and e.name not in found:
             w = withheld[e.name]
             ident = False
@@ -302,7 +312,7 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
         per = getattr(level, "cycle_source", None) if e.name == "capacity_fade" else None
         out.append(entry(e.name, report.name, found=e.name in found, identifiable=ident,
                          limit=limit, why=why, n=level.n_experiments, stderr=lim.stderr,
-                         per=per, confused_with=confused))
+                         per=per, confused_with=confused, design_effect=lim.design_effect))
     return out
 
 
@@ -358,11 +368,11 @@ def _with_units(lim, sig, nuisance, level, resid, dof, power: float = POWER):
     units = getattr(level, "row_unit", None)
     if units is None or not math.isfinite(lim.limit):
         return lim
-    s2 = stats.long_run_variance(resid, level.row_group, dof)
+    s2 = stats.long_run_variance(resid, level.row_group, dof) * lim.design_effect
     paired = unit_paired_size(sig, nuisance, units, s2, ALPHA_HELDOUT, power)
     stat = max(lim.statistical, paired)
     return stats.DetectionLimit(max(stat, lim.practical), stat, lim.practical, lim.stderr,
-                                lim.visible_share)
+                                lim.visible_share, lim.design_effect)
 
 
 def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
@@ -392,14 +402,15 @@ def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
                f"point fits as well, so at no size would a wind of unknown direction be "
                f"named in {100 * POWER:.0f} % of cases")
         return stats.DetectionLimit(math.inf, math.inf, lim.practical, lim.stderr,
-                                    lim.visible_share), why
+                                    lim.visible_share, lim.design_effect), why
     p = POWER / q
     out = stats.detectable_size(sig, nuisance, resid, groups, dof=dof, heldout_mse=mse,
-                                paired=True, power=p)
+                                paired=True, power=p,
+                                clusters=getattr(level, "exp", None))
     return _with_units(out, sig, nuisance, level, resid, dof, power=p), ""
 
 
-def _confused_with(effect, tested, sigs, J, resid, groups, top) -> list[str]:
+def _confused_with(effect, tested, sigs, J, resid, groups, top, exp) -> list[str]:
     """The other candidates that, each alone beside the calibration, take a found
     effect's limit beyond its physical range (those the data cannot tell it from)."""
     out = []
@@ -407,7 +418,7 @@ def _confused_with(effect, tested, sigs, J, resid, groups, top) -> list[str]:
         if o.name in (effect.name, "payload_change"):
             continue
         lim = stats.detectable_size(sigs[effect.name], np.column_stack([J, sigs[o.name]]),
-                                    resid, groups, dof=J.shape[1]).limit
+                                    resid, groups, dof=J.shape[1], clusters=exp).limit
         if not lim <= top:
             out.append(o.name)
     return out or ["the other candidates together"]
@@ -460,7 +471,7 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     lam = {f: stats.noncentrality_for_power(1, critical=2.0 * math.log(max((exp == f).sum(), 3)))
            for f in flights}
     by = {}
-    se_mid = math.nan
+    se_mid, deff_mid = math.nan, 1.0
     dof = J.shape[1] + len(flights)
     ones = np.ones_like(s)
     for u in POSITIONS:
@@ -470,10 +481,10 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
             by[u] = math.inf
             continue
         pooled = stats.detectable_size(g, nuisance, within, exp, dof=dof,
-                                       heldout_mse=mse_rows, paired=True)
+                                       heldout_mse=mse_rows, paired=True, clusters=exp)
         pooled = _with_units(pooled, g, nuisance, level, within, dof)
         if u == 0.5:
-            se_mid = pooled.stderr
+            se_mid, deff_mid = pooled.stderr, pooled.design_effect
         located = []
         for f in flights:
             m = exp == f
@@ -497,4 +508,5 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
         ident, why = False, ("the fit that explains the misfit is withheld: "
                              + withheld["payload_change"]["why"])
     return entry("payload_change", "power", found=found, identifiable=ident, limit=best,
-                 why=why, n=level.n_experiments, by_position=by, stderr=se_mid)
+                 why=why, n=level.n_experiments, by_position=by, stderr=se_mid,
+                 design_effect=deff_mid)

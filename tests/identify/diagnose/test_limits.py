@@ -95,3 +95,67 @@ def test_a_route_that_cannot_tell_a_wind_from_a_step_does_not_test_one():
     why = Wind().route_reason(_Route(TRIANGLE))
     assert why is not None and "one step" in why
     assert Wind().route_reason(_Route(SURVEY)) is None
+
+
+def _flights(n_flights=12, bins=100, between_w=0.0, seed=1):
+    """Residuals [W] of ``n_flights`` flights: white noise of 5 W per bin plus a level of
+    ``between_w`` RMS per flight; a signature carried by whole flights (1 in every other
+    flight, as an effect of the air density of a day) and one that varies within them."""
+    rng = np.random.default_rng(seed)
+    exp = np.repeat(np.arange(n_flights), bins)
+    resid = 5.0 * rng.standard_normal(exp.size) + between_w * rng.standard_normal(
+        n_flights)[exp]
+    per_flight = (exp % 2).astype(float)
+    within = np.tile(np.sin(np.linspace(0.0, 6.0 * math.pi, bins)), n_flights)
+    return exp, resid, per_flight, within
+
+
+def test_design_effect_is_one_without_scatter_between_flights():
+    """Kish's design effect: with white noise only, the cluster-robust variance is the
+    residual's own (within sampling error), so the limit is unchanged."""
+    exp, resid, per_flight, within = _flights(between_w=0.0)
+    ones = np.ones((exp.size, 1))
+    for s in (per_flight, within):
+        sp = stats.project_out(s, ones)
+        assert 1.0 <= stats.design_effect(sp, resid, exp, exp, 1) < 2.0
+
+
+def test_scatter_between_flights_raises_the_limit_of_an_effect_carried_by_whole_flights():
+    """A level of 20 W per flight (flights on different routes and days scatter so about
+    their calibrated model) is the noise of an effect carried by whole flights: with 6
+    flights on each side its estimate, a difference of means, has a standard error of
+    20·√(1/6 + 1/6) = 11.5 W whatever the bins. The AR(1) variance (ρ clipped) sees a
+    fraction of it; with the flights as clusters the standard error comes near the true
+    one (median of 40 draws) and the limit rises by the square root of the design
+    effect. An effect that varies within the flights keeps its limit."""
+    true_se = 20.0 * math.sqrt(1 / 6 + 1 / 6)
+    ratios = []
+    for seed in range(40):
+        exp, resid, per_flight, within = _flights(between_w=20.0, seed=seed)
+        ones = np.ones((exp.size, 1))
+        plain = stats.detectable_size(per_flight, ones, resid, exp, dof=1)
+        clustered = stats.detectable_size(per_flight, ones, resid, exp, dof=1, clusters=exp)
+        ratios.append((plain.stderr / true_se, clustered.stderr / true_se))
+    plain_ratio, clustered_ratio = np.median(ratios, axis=0)
+    assert plain_ratio < 0.7
+    assert 0.8 < clustered_ratio < 1.25
+    assert clustered.limit == pytest.approx(plain.limit * math.sqrt(clustered.design_effect),
+                                            rel=1e-9)
+    w_plain = stats.detectable_size(within, ones, resid, exp, dof=1)
+    w_clustered = stats.detectable_size(within, ones, resid, exp, dof=1, clusters=exp)
+    assert w_clustered.limit < 1.5 * w_plain.limit
+
+
+def test_an_effect_present_in_the_residual_is_not_counted_as_scatter():
+    """The sandwich's scores come from the residual with the effect fitted: a real
+    per-flight effect of 30 W in the residual leaves the design effect near 1."""
+    exp, resid, per_flight, _ = _flights(between_w=0.0)
+    sp = stats.project_out(per_flight, np.ones((exp.size, 1)))
+    assert stats.design_effect(sp, resid + 30.0 * sp[:, 0], exp, exp, 1) < 2.0
+
+
+def test_too_few_flights_give_no_design_effect():
+    """Fewer than MIN_CLUSTERS flights cannot estimate a between-flight variance: 1."""
+    exp, resid, per_flight, _ = _flights(n_flights=stats.MIN_CLUSTERS - 1, between_w=20.0)
+    sp = stats.project_out(per_flight, np.ones((exp.size, 1)))
+    assert stats.design_effect(sp, resid, exp, exp, 1) == 1.0
