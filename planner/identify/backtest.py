@@ -54,6 +54,7 @@ from planner.io import record
 from planner.io.mission import load_mission
 from planner.parameters import Aircraft, BatteryPack
 from planner.physics.mission import Environment, Leg, Mission, NavDefaults
+from planner.physics.wind import course_deg
 
 __all__ = [
     "FLYING_POWER_FRACTION",
@@ -289,7 +290,7 @@ def forecast(exp: pd.DataFrame, experiment: str, options: BacktestOptions
     speed, angle = median("anemometer_speed_ms"), median("anemometer_angle_deg")
     if n is not None and e is not None:
         env["wind_speed_ms"] = math.hypot(n, e)
-        env["wind_from_deg"] = math.degrees(math.atan2(-e, -n)) % 360.0
+        env["wind_from_deg"] = float(course_deg(-e, -n))
         said.append("wind")
     elif speed is not None and angle is not None:
         env["wind_speed_ms"], env["wind_from_deg"] = speed, angle % 360.0

@@ -81,6 +81,7 @@ from planner.physics import atmosphere
 from planner.physics.battery.ocv import lipo_ocv
 from planner.physics.mission import Environment, Mission
 from planner.physics.units import AS_PER_MAH
+from planner.physics.wind import course_deg
 
 __all__ = ["InflightEstimator", "OcvCurve", "WatchSettings", "px4_filter_alpha"]
 
@@ -997,7 +998,7 @@ class InflightEstimator:
         site = (float(self.home[2]) if self.home is not None and math.isfinite(self.home[2])
                 else self.env0.site_altitude_m)
         env_mean = Environment(wind_speed_ms=math.hypot(wn, we),
-                               wind_from_deg=math.degrees(math.atan2(-we, -wn)) % 360.0,
+                               wind_from_deg=float(course_deg(-we, -wn)),
                                temperature_c=temp, site_altitude_m=site)
         out["wind_speed_ms"] = env_mean.wind_speed_ms
         out["wind_from_deg"] = env_mean.wind_from_deg
@@ -1024,7 +1025,7 @@ class InflightEstimator:
             wn_j, we_j = wn + wsd * self.zw[0, j], we + wsd * self.zw[1, j]
             env_j = replace(env_mean, wind_speed_ms=min(math.hypot(wn_j, we_j),
                                                         atmosphere.MAX_WIND_MS),
-                            wind_from_deg=math.degrees(math.atan2(-we_j, -wn_j)) % 360.0)
+                            wind_from_deg=float(course_deg(-we_j, -wn_j)))
             try:
                 r = self._chain(rows.size).run(
                     trip, env_j, payload_kg=self.payload, detail=False,

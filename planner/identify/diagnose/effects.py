@@ -84,6 +84,7 @@ import numpy as np
 
 from planner.identify import stats
 from planner.chain.flightstate import inplane_speed
+from planner.physics.wind import course_deg
 
 __all__ = [
     "CAPACITY_EFFECTS",
@@ -739,7 +740,7 @@ class Wind(PowerEffect):
         wn, we = values["wind_n_ms"], values["wind_e_ms"]
         sn, se = stderr["wind_n_ms"], stderr["wind_e_ms"]
         speed = math.hypot(wn, we)
-        frm = math.degrees(math.atan2(-we, -wn)) % 360.0
+        frm = float(course_deg(-we, -wn))
         s_speed = math.sqrt((wn * sn) ** 2 + (we * se) ** 2) / speed if speed > 0 else \
             math.hypot(sn, se)
         s_dir = math.degrees(math.sqrt((we * sn) ** 2 + (wn * se) ** 2) / speed**2) \
