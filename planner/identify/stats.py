@@ -477,9 +477,7 @@ def design_effect(visible, resid, clusters, groups=None, dof: int = 0) -> float:
     Fewer than :data:`MIN_CLUSTERS` clusters cannot estimate it: 1.
     """
     x = np.asarray(visible, float).reshape(len(resid), -1)
-    labels, index = np.unique(np.asarray(clusters), return_inverse=True)
-    g = labels.size
-    if g < MIN_CLUSTERS:
+    if np.unique(np.asarray(clusters)).size < MIN_CLUSTERS:
         return 1.0
     r = np.asarray(resid, float)
     coef, *_ = np.linalg.lstsq(x, r, rcond=None)
@@ -488,11 +486,8 @@ def design_effect(visible, resid, clusters, groups=None, dof: int = 0) -> float:
     if k > 1:
         _, v = np.linalg.eigh(x.T @ x)
         x = x @ v[:, :1]
-    x = x[:, 0]
-    xx = float(np.dot(x, x))
-    within = long_run_variance(e, groups, dof + k) / xx
-    scores = np.bincount(index, weights=x * e, minlength=g)
-    between = g / (g - 1.0) * float(np.dot(scores, scores)) / xx**2
+    within = long_run_variance(e, groups, dof + k) / float(np.dot(x[:, 0], x[:, 0]))
+    between = float(cluster_covariance(x, e, clusters).matrix[0, 0])
     if not (within > 0 and math.isfinite(within)):
         return 1.0
     return max(1.0, between / within)

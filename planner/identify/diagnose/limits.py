@@ -263,6 +263,7 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
                                        "computed on these data") for e in tested]
     resid = np.asarray(final.train_resid, float)
     groups = level.row_group
+    clusters = getattr(level, "exp", None)      # flights (a cut-off level has none)
     ho = np.asarray(res.final.heldout_row_resid, float)
     mse_rows = float(np.mean(ho**2)) if ho.size else None
     withheld = {w["effect"]: w for w in res.withheld}
@@ -283,7 +284,7 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
         else:
             lim = stats.detectable_size(sig, nuisance, resid, groups, dof=J.shape[1],
                                         heldout_mse=mse_rows, paired=True,
-                                        clusters=getattr(level, "exp", None))
+                                        clusters=clusters)
             lim = _with_units(lim, sig, nuisance, level, resid, J.shape[1])
         gate_why = ""
         if e.name == "wind" and math.isfinite(lim.limit):
@@ -303,8 +304,7 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
         elif limit > top:
             ident, why = False, beyond_physics(e.name, report.name, limit, top)
         if e.name in found and not (ident and limit <= top) and not gate_why:
-            confused = _confused_with(e, tested, sigs, J, resid, groups, top,
-                                      getattr(level, "exp", None))
+            confused = _confused_with(e, tested, sigs, J, resid, groups, top, clusters)
         if e.name in withheld and e.name not in found:
             w = withheld[e.name]
             ident = False
@@ -410,7 +410,7 @@ def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
     return _with_units(out, sig, nuisance, level, resid, dof, power=p), ""
 
 
-def _confused_with(effect, tested, sigs, J, resid, groups, top, exp) -> list[str]:
+def _confused_with(effect, tested, sigs, J, resid, groups, top, clusters) -> list[str]:
     """The other candidates that, each alone beside the calibration, take a found
     effect's limit beyond its physical range (those the data cannot tell it from)."""
     out = []
@@ -418,7 +418,7 @@ def _confused_with(effect, tested, sigs, J, resid, groups, top, exp) -> list[str
         if o.name in (effect.name, "payload_change"):
             continue
         lim = stats.detectable_size(sigs[effect.name], np.column_stack([J, sigs[o.name]]),
-                                    resid, groups, dof=J.shape[1], clusters=exp).limit
+                                    resid, groups, dof=J.shape[1], clusters=clusters).limit
         if not lim <= top:
             out.append(o.name)
     return out or ["the other candidates together"]
