@@ -19,8 +19,13 @@ Mass (:func:`payload_step`, multirotor)
     :math:`v_i^2 = \tfrac12\big(\sqrt{V^4 + 4 v_h^4} - V^2\big)`,
     :math:`v_h = \sqrt{T / (2 \rho A)}`, plus the climb power :math:`T v_c`. The electric
     power per ideal induced power is the flight's own: the median ratio over its slowest
-    level airborne samples (hover, where nearly all the power is induced). A mass change
+    level flying samples (hover, where nearly all the power is induced). A mass change
     changes only that part; profile and parasite power stay.
+Flying (:func:`lifting`, multirotor)
+    Every multirotor law acts only where the aircraft flies, where it draws at least
+    the ideal power above (no rotor carrying its weight undercuts it). Height above the first sample is no test: it keeps idle rotors after a landing
+    whose barometric altitude has drifted a few metres and ground tests with no
+    altitude, and it drops hovers whose record starts in the air.
 Mass (:func:`payload_step`, fixed wing)
     Induced drag :math:`D_i = (m g)^2 / (\tfrac12 \rho V^2 \pi e b^2)` and climb power
     :math:`m g v_c`, divided by a propulsive efficiency (Anderson, *Aircraft Performance
@@ -123,6 +128,29 @@ def airborne(g: pd.DataFrame) -> np.ndarray:
     return np.ones(len(g), bool)
 
 
+#: Samples over which the power must stay above the lifting floor (a running median):
+#: a single spike of a motor test on the ground is not a flight.
+LIFT_MEDIAN_SAMPLES = 5
+
+
+def lifting(g: pd.DataFrame, mass_kg: float, rho: float, area_m2: float) -> np.ndarray:
+    """Samples of one experiment at which a multirotor of ``mass_kg`` is flying: its
+    electric power (a running median of :data:`LIFT_MEDIAN_SAMPLES`) at least the ideal
+    induced and climb power of its weight at its speed (:func:`ideal_rotor_power`), which
+    no rotor carrying that weight can undercut (its efficiency is below 1), and the
+    sample's own power as well. The height
+    above the first sample (:func:`airborne`) misses what this catches: idle rotors
+    after a landing whose barometric altitude has drifted above the take-off's, ground
+    tests with no altitude, and records that start in the air (a hover whose altitude
+    then reads below its first sample)."""
+    p = _col(g, "power_w", np.nan)
+    steady = pd.Series(p).rolling(LIFT_MEDIAN_SAMPLES, center=True,
+                                  min_periods=1).median().to_numpy()
+    floor = ideal_rotor_power(mass_kg, rho, area_m2, speed_of(g), _col(g, "climb_rate_ms"))
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(p) & (p >= floor) & (steady >= floor)
+
+
 def add_power(df: pd.DataFrame, dp: np.ndarray, pack_resistance_ohm: float,
               power_logged: bool = False) -> pd.DataFrame:
     r"""The record with an added electric power ``dp`` [W] per row (module notes, "Pack"):
@@ -199,7 +227,7 @@ def speed_of(g: pd.DataFrame) -> np.ndarray:
 def electric_per_ideal(g: pd.DataFrame, mass_kg: float, rho: float, rotors: Rotors) -> float:
     """The flight's electric power per ideal induced power, over its slowest tenth of the
     level airborne samples (below 1.5 m/s where there are 20 or more). [unitless]"""
-    up = airborne(g)
+    up = lifting(g, mass_kg, rho, rotors.area_m2)
     climb = _col(g, "climb_rate_ms")
     v = speed_of(g)
     p = _col(g, "power_w", np.nan)
@@ -214,13 +242,13 @@ def electric_per_ideal(g: pd.DataFrame, mass_kg: float, rho: float, rotors: Roto
     return float(np.median(p[slow] / ideal)) if slow.any() else 1.0
 
 
-def change_times(df: pd.DataFrame, fractions) -> dict:
-    """Each experiment's time [s] at ``fractions`` (one per experiment) of its airborne
-    span."""
+def change_times(df: pd.DataFrame, fractions, flying=airborne) -> dict:
+    """Each experiment's time [s] at ``fractions`` (one per experiment) of its span in
+    the air, the samples ``flying(g)`` marks (default :func:`airborne`)."""
     out = {}
     for (key, idx), u in zip(experiments(df), fractions):
         g = df.loc[idx]
-        up = np.flatnonzero(airborne(g))
+        up = np.flatnonzero(flying(g))
         if up.size < 10:
             continue
         t = g["time_s"].to_numpy(float)
@@ -240,7 +268,8 @@ def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg: float, *,
             continue
         g = df.loc[idx]
         pos = df.index.get_indexer(idx)
-        after = airborne(g) & (g["time_s"].to_numpy(float) >= times[key])
+        up = lifting(g, mass_kg, rho, rotors.area_m2) if rotors is not None else airborne(g)
+        after = up & (g["time_s"].to_numpy(float) >= times[key])
         v = speed_of(g)
         climb = _col(g, "climb_rate_ms")
         if rotors is not None:
@@ -282,17 +311,21 @@ class SpeedLaw:
     def __call__(self, v) -> np.ndarray:
         return self.rotor(v) + self.parasite(v) + self.c
 
+    def flying(self, g: pd.DataFrame) -> np.ndarray:
+        """:func:`lifting` at the law's mass, density and disk area."""
+        return lifting(g, self.mass_kg, self.rho, self.area_m2)
+
 
 def fit_speed_law(df: pd.DataFrame, mass_kg: float, rho: float, rotors: Rotors) -> SpeedLaw:
-    """:class:`SpeedLaw` by least squares on the level airborne samples of ``df`` (|climb|
-    < 0.5 m/s); the coefficients are kept non-negative (a and b by NNLS)."""
+    """:class:`SpeedLaw` by least squares on the level flying samples of ``df`` (|climb|
+    < 0.5 m/s, :func:`lifting`); the coefficients are kept non-negative (a and b by
+    NNLS)."""
     from scipy.optimize import nnls
 
     xs, ys = [], []
     for _, idx in experiments(df):
         g = df.loc[idx]
-        ok = airborne(g) & (np.abs(_col(g, "climb_rate_ms")) < 0.5) & np.isfinite(
-            _col(g, "power_w", np.nan))
+        ok = lifting(g, mass_kg, rho, rotors.area_m2) & (np.abs(_col(g, "climb_rate_ms")) < 0.5)
         v = speed_of(g)[ok]
         xs.append(np.column_stack([ideal_rotor_power(mass_kg, rho, rotors.area_m2, v), v**3,
                                    np.ones(v.size)]))
@@ -338,7 +371,7 @@ def steady_wind(df: pd.DataFrame, speed_ms: float, from_deg: float, *, law: Spee
         vn, ve = ground_velocity(g)
         before = np.hypot(vn, ve)
         after = np.hypot(vn - wn, ve - we)
-        dp[pos] = np.where(airborne(g), law(after) - law(before), 0.0)
+        dp[pos] = np.where(law.flying(g), law(after) - law(before), 0.0)
     return add_power(out, dp, pack_resistance_ohm, power_logged)
 
 
@@ -369,7 +402,7 @@ def air_density(df: pd.DataFrame, ratios: dict, *, site_pressure_pa: float,
         temp[pos] = t_c + rng.normal(0.0, 0.3, len(g))
         if s == 1.0:
             continue
-        up = airborne(g)
+        up = law.flying(g) if law is not None else airborne(g)
         if law is not None:
             v = speed_of(g)
             par = law.parasite(v)

@@ -510,7 +510,7 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
         lo, hi = TIMINGS[timing]
         fr = rng.uniform(lo, hi, len(d.flights)) if timing == "random" else \
             np.full(len(d.flights), rng.uniform(lo, hi))
-        times = inj.change_times(rec, fr)
+        times = inj.change_times(rec, fr, flying=_flying(d))
         # carried from take-off, released at the change: the record before the change is
         # flown dm heavier (the real flight is the state after the release)
         out = _carry_until(rec, dm, times, d)
@@ -539,12 +539,12 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
                               wing_split=None if law is not None else _wing_split(d))
         return Injected(out, d.payload_kg, {"density_exponent": 1.0}, 1.0)
     if kind == "load":
-        p_med = _median_airborne_power(rec)
+        p_med = _median_airborne_power(rec, d)
         watts = _uniform(rng, 0.033, 0.09, size) * p_med
         out = inj.constant_load(rec, watts, pack_resistance_ohm=r)
         return Injected(out, d.payload_kg, {"missing_w": watts}, watts)
     if kind == "copper":
-        p_med = _median_airborne_power(rec)
+        p_med = _median_airborne_power(rec, d)
         i_med = float(np.nanmedian(rec["current_a"]))
         share = _uniform(rng, 0.03, 0.08, size)
         ohm = share * p_med / i_med**2
@@ -606,11 +606,20 @@ def _wing_split(d: Draw):
     return split
 
 
-def _median_airborne_power(rec) -> float:
+def _flying(d: Draw):
+    """The samples of an experiment at which the draw's aircraft flies: a multirotor's
+    :func:`testkit.injections.lifting`, else :func:`testkit.injections.airborne`."""
+    if d.rotors is None:
+        return inj.airborne
+    return lambda g: inj.lifting(g, d.mass_kg, d.rho, d.rotors.area_m2)
+
+
+def _median_airborne_power(rec, d: Draw) -> float:
     p = []
+    flying = _flying(d)
     for _, idx in inj.experiments(rec):
         g = rec.loc[idx]
-        p.append(g["power_w"].to_numpy(float)[inj.airborne(g)])
+        p.append(g["power_w"].to_numpy(float)[flying(g)])
     p = np.concatenate(p)
     return float(np.nanmedian(p)) if p.size else float(np.nanmedian(rec["power_w"]))
 

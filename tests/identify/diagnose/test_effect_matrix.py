@@ -109,6 +109,47 @@ def test_the_injection_laws_import_nothing_of_the_planner():
     assert imported and not [m for m in imported if m.split(".")[0] == "planner"]
 
 
+def test_the_multirotor_laws_act_only_where_the_m100_flies(draws):
+    """On the M100 flights of every route but R1 (Rodrigues et al. 2021, CC BY 4.0) the
+    ground tests have no altitude and their motors never run, several flights end with
+    the barometric altitude a few metres above the take-off's with the motors idle, and
+    two hovers start in the air.
+    The injection laws must not count those samples as flight: the speed law fitted on
+    the level flying samples has a rotor (induced) part and predicts the measured hover
+    power, and a payload is never carried on the ground."""
+    import dataclasses
+
+    import numpy as np
+
+    from testkit import injections as inj
+
+    df, _ = M.m100_flights(route_r1=False)          # all 22 flights, not a draw of 16
+    d = dataclasses.replace(M.M100Routes().draw(np.random.default_rng(0)), record=df)
+    law = M._speed_law(d)
+    hover = []
+    for key, idx in inj.experiments(df):
+        g = df.loc[idx]
+        fly = law.flying(g)
+        p = g["power_w"].to_numpy(float)
+        if not np.isfinite(g["altitude_m"]).any():        # a ground test
+            assert not fly.any(), key
+        # idle rotors on the ground draw 0-100 W (the ideal hover power is 123 W)
+        assert not (fly & (p < 100.0)).any(), key
+        # the hovers 221 and 222 start in the air: every sample is flight until 222 lands
+        assert fly.mean() > 0.95 or key not in ("221", "222"), key
+        slow = fly & (inj.speed_of(g) < 0.5) & (np.abs(inj._col(g, "climb_rate_ms")) < 0.5)
+        hover.append(p[slow])
+    hover = np.concatenate(hover)
+    assert hover.size > 200 and law.a > 0
+    assert abs(law(0.0) - np.median(hover)) < 0.05 * np.median(hover)
+    times = inj.change_times(df, np.full(len(d.flights), 0.5), flying=law.flying)
+    out = inj.payload_step(df, 0.3, times, d.mass_kg, rho=d.rho, pack_resistance_ohm=0.0,
+                           rotors=d.rotors)
+    dp = out["power_w"].to_numpy(float) - df["power_w"].to_numpy(float)
+    idle = df["power_w"].to_numpy(float) < 100.0
+    assert np.nanmax(np.abs(dp[idle])) == 0.0 and np.nanmax(dp) > 20.0
+
+
 def test_verdict_follows_the_issue_criterion():
     base = {"runs": 10, "errors": {}, "named_first": 0, "named_any": 0, "false_runs": 0,
             "identifiable": 0, "said_not_identifiable": 0, "within_2se": 0,
