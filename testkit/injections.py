@@ -325,7 +325,8 @@ def fit_speed_law(df: pd.DataFrame, mass_kg: float, rho: float, rotors: Rotors) 
     xs, ys = [], []
     for _, idx in experiments(df):
         g = df.loc[idx]
-        ok = lifting(g, mass_kg, rho, rotors.area_m2) & (np.abs(_col(g, "climb_rate_ms")) < 0.5)
+        level = np.abs(_col(g, "climb_rate_ms")) < 0.5
+        ok = lifting(g, mass_kg, rho, rotors.area_m2) & level
         v = speed_of(g)[ok]
         xs.append(np.column_stack([ideal_rotor_power(mass_kg, rho, rotors.area_m2, v), v**3,
                                    np.ones(v.size)]))

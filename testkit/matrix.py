@@ -40,7 +40,8 @@ voltage, current.
 
 Timing (the payload change only; the other effects last the whole record)
 --------------------------------------------------------------------------
-The change falls at a fraction of each flight's airborne span: ``early`` 0.10–0.25,
+The change falls at a fraction of each flight's span in the air (a multirotor's: where
+its rotors carry its weight, :func:`testkit.injections.lifting`): ``early`` 0.10–0.25,
 ``mid`` 0.40–0.60, ``late`` 0.75–0.90, ``random`` 0.10–0.90 drawn per flight.
 
 Sizes
