@@ -540,12 +540,12 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
                               wing_split=None if law is not None else _wing_split(d))
         return Injected(out, d.payload_kg, {"density_exponent": 1.0}, 1.0)
     if kind == "load":
-        p_med = _median_airborne_power(rec, d)
+        p_med = _median_flying_power(rec, d)
         watts = _uniform(rng, 0.033, 0.09, size) * p_med
         out = inj.constant_load(rec, watts, pack_resistance_ohm=r)
         return Injected(out, d.payload_kg, {"missing_w": watts}, watts)
     if kind == "copper":
-        p_med = _median_airborne_power(rec, d)
+        p_med = _median_flying_power(rec, d)
         i_med = float(np.nanmedian(rec["current_a"]))
         share = _uniform(rng, 0.03, 0.08, size)
         ohm = share * p_med / i_med**2
@@ -615,7 +615,7 @@ def _flying(d: Draw):
     return lambda g: inj.lifting(g, d.mass_kg, d.rho, d.rotors.area_m2)
 
 
-def _median_airborne_power(rec, d: Draw) -> float:
+def _median_flying_power(rec, d: Draw) -> float:
     p = []
     flying = _flying(d)
     for _, idx in inj.experiments(rec):

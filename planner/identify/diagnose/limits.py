@@ -288,8 +288,8 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
             lim = _with_units(lim, sig, nuisance, level, resid, J.shape[1])
         gate_why = ""
         if e.name == "wind" and math.isfinite(lim.limit):
-            lim, gate_why = _wind_gate(level, sig, nuisance, resid, groups, J.shape[1],
-                                       mse_rows, lim)
+            lim, gate_why = _wind_gate(level, sig, nuisance, resid, groups, clusters,
+                                       J.shape[1], mse_rows, lim)
         limit = lim.limit
         if e.name == "efficiency_curve":         # c1 → the slope η1 = −c1/c0²
             c0 = float(base.coef[0])
@@ -375,7 +375,7 @@ def _with_units(lim, sig, nuisance, level, resid, dof, power: float = POWER):
                                 lim.visible_share, lim.design_effect)
 
 
-def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
+def _wind_gate(level, sig, nuisance, resid, groups, clusters, dof, mse, lim):
     r"""The wind's limit through the route's own gate, and why it is infinite if it is.
 
     The search withholds a fitted wind whose change of the airspeed within each flight is
@@ -405,8 +405,7 @@ def _wind_gate(level, sig, nuisance, resid, groups, dof, mse, lim):
                                     lim.visible_share, lim.design_effect), why
     p = POWER / q
     out = stats.detectable_size(sig, nuisance, resid, groups, dof=dof, heldout_mse=mse,
-                                paired=True, power=p,
-                                clusters=getattr(level, "exp", None))
+                                paired=True, power=p, clusters=clusters)
     return _with_units(out, sig, nuisance, level, resid, dof, power=p), ""
 
 

@@ -67,7 +67,8 @@ def _gate(route):
     nuis = np.ones((route.exp.size, 1))
     lim = stats.detectable_size(route.sig, nuis, route.resid, route.exp, dof=1,
                                 paired=True)
-    return lim, L._wind_gate(route, route.sig, nuis, route.resid, route.exp, 1, None, lim)
+    return lim, L._wind_gate(route, route.sig, nuis, route.resid, route.exp, route.exp, 1,
+                                 None, lim)
 
 
 def test_a_wind_on_a_triangle_flown_in_one_order_has_no_limit():
