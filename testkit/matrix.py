@@ -182,7 +182,6 @@ def _definitions(aircraft_yaml: str | None, battery_yaml: str | None = None):
     return (load_battery(path) if path else None), ac
 
 
-@functools.lru_cache(maxsize=1)
 @functools.lru_cache(maxsize=2)
 def m100_flights(route_r1: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The M100 route-R1 cruise flights (``route_r1``; else the flights of every other
@@ -311,13 +310,13 @@ def wind_against(named: dict, measured: dict) -> dict:
     (:func:`anemometer_wind_of`): both as speed [m/s] and direction it blows from [deg],
     and the distance between the two vectors in combined standard errors (the root of
     the sum of the two components' squared z). [m/s, deg, unitless]"""
+    from planner.physics.wind import course_deg
+
     z = math.hypot(
         (named["wind_n_ms"] - measured["wind_n_ms"])
         / math.hypot(named["wind_n_ms_stderr"], measured["wind_n_ms_stderr"]),
         (named["wind_e_ms"] - measured["wind_e_ms"])
         / math.hypot(named["wind_e_ms_stderr"], measured["wind_e_ms_stderr"]))
-    from planner.physics.wind import course_deg
-
     east, north = measured["wind_e_ms"], measured["wind_n_ms"]
     return {"named_ms": named["wind_speed_ms"], "named_from_deg": named["wind_from_deg"],
             "measured_ms": math.hypot(east, north),
