@@ -1047,6 +1047,7 @@ def _power_step(df: pd.DataFrame, pack: BatteryPack, aircraft: Aircraft | None, 
         return
     base = level.physical(res.base_fit, [])
     _withhold_on_impossible_baseline(res, base[0], run.notes)
+    _note_descent_misfit(level, res, run.notes)
     run.add("power", level, res, lambda: _as_given_power(level, aircraft), base,
             effects=effects)
 
@@ -1088,6 +1089,23 @@ def _power_level(df, pack, aircraft, opts, effects, notes):
         notes.append(f"power level not run: {exc}")
         level = None
     return level, "power level not run"
+
+
+def _note_descent_misfit(level: S.PowerLevel, res: S.LevelResult, notes: list[str]) -> None:
+    """A note where the final power model misses a multirotor's vertical descents by more
+    than two standard errors and :data:`planner.identify.diagnose.search.DESCENT_MISFIT_SHARE`
+    of their power (:meth:`planner.identify.diagnose.search.PowerLevel.descent_misfit`)."""
+    d = level.descent_misfit(res.final_fit, [e for e, _ in res.selected])
+    if d is None or not (abs(d["misfit_w"]) > 2.0 * d["stderr_w"] and
+                         abs(d["misfit_w"]) > S.DESCENT_MISFIT_SHARE * d["power_w"]):
+        return
+    notes.append(
+        f"power level: the vertical descents ({d['flights']} flights, {d['bins']} bins at "
+        f"{d['rate_ms']:.1f} m/s) draw {abs(d['misfit_w']):.0f} ± {d['stderr_w']:.0f} W "
+        f"({100 * abs(d['misfit_w']) / d['power_w']:.0f} %) "
+        f"{'less' if d['misfit_w'] < 0 else 'more'} than the model, whose power in slow "
+        "descent (the vortex-ring state, an empirical curve) is uncertain; an effect "
+        "whose change falls where these descents begin would take part of this up")
 
 
 def _withhold_on_impossible_baseline(res: S.LevelResult, base_values: dict,
