@@ -181,10 +181,10 @@ CLIMB_WINDOW_S = 5.0
 #: Autopilot logs agree within 0.07–0.17 m/s; beyond 0.5 m/s the climb power alone
 #: (m g v_c / η) is misstated by some 8 % of the hover power of a 3.6-kg quadrotor. [m/s]
 MAX_CLIMB_DISAGREEMENT_MS = CLIMB_THRESHOLD_MS
-#: A multirotor's bin is a vertical descent below this ground speed and faster than
-#: :data:`DESCENT_MS` down (:meth:`PowerLevel.descent_misfit`). [m/s]
-VERTICAL_GS_MS = 0.5
-DESCENT_MS = 0.3
+#: Ground speed below which the aircraft is (nearly) still over ground, whatever the
+#: course says: its ground velocity is known, and a multirotor descending there descends
+#: vertically (:meth:`PowerLevel.descent_misfit`). [m/s]
+STILL_MS = 0.5
 #: Least number of flights with vertical descents for their misfit to be measured, and
 #: the share of their mean power from which it is reported. [unitless]
 MIN_DESCENT_FLIGHTS = 3
@@ -818,7 +818,7 @@ class PowerLevel:
         course = s["course"]
         # the ground velocity is known where the course is, and where the aircraft is
         # (nearly) still over ground whatever the course says
-        known = np.isfinite(course) | (s["gs"] < 0.5)
+        known = np.isfinite(course) | (s["gs"] < STILL_MS)
         a = np.radians(np.where(np.isfinite(course), course, 0.0))
         vn, kn = mean(s["gs"] * np.cos(a), known)
         ve, _ = mean(s["gs"] * np.sin(a), known)
@@ -1317,7 +1317,8 @@ class PowerLevel:
 
     def descent_misfit(self, fit: Fit, effects) -> dict[str, float] | None:
         r"""How far the model ``fit`` of ``effects`` misses a multirotor's vertical descents
-        (bins below :data:`VERTICAL_GS_MS` over ground, more than :data:`DESCENT_MS` down),
+        (bins below :data:`STILL_MS` over ground that descend: faster than
+        :data:`planner.chain.flightstate.CLIMB_THRESHOLD_MS`, as the flight phases count it),
         or None (not a multirotor, or fewer than :data:`MIN_DESCENT_FLIGHTS` flights with
         such bins).
 
@@ -1330,13 +1331,13 @@ class PowerLevel:
         model) and its standard error over the flights ``stderr_w`` [W], the descents'
         mean measured power ``power_w`` [W] and rate ``rate_ms`` [m/s], ``flights`` and
         ``bins``. On route R1 of the DJI M100 data (Rodrigues et al. 2021) every flight
-        ends with such a descent at 1–2 m/s, drawn some 25 W (5 %) below the calibrated model:
-        an effect that lowers the power from there on (a payload released late) takes it up.
+        ends with such a descent at 1–2 m/s, drawn some 20–25 W (4–5 %) below the
+        calibrated model: an effect that lowers the power from there on (a payload
+        released late) takes it up.
         """
         if not self.aircraft.is_multirotor:
             return None
-        climb = self.base_inputs["climb"]
-        vertical = (self.gs < VERTICAL_GS_MS) & (climb < -DESCENT_MS)
+        vertical = (self.gs < STILL_MS) & (self.climb < -CLIMB_THRESHOLD_MS)
         flights, e_of = np.unique(self.exp[vertical], return_inverse=True)
         if flights.size < MIN_DESCENT_FLIGHTS:
             return None
@@ -1346,7 +1347,7 @@ class PowerLevel:
         return {"misfit_w": float(per_flight.mean()),
                 "stderr_w": float(per_flight.std(ddof=1) / math.sqrt(flights.size)),
                 "power_w": float(self.measured[rows].mean()),
-                "rate_ms": float(-climb[rows].mean()),
+                "rate_ms": float(-self.climb[rows].mean()),
                 "flights": int(flights.size), "bins": int(rows.size)}
 
     def covariance(self, fit: Fit, effects):

@@ -202,7 +202,7 @@ def test_the_m100s_slow_vertical_descents_draw_less_than_the_rotor_model(source,
     0.9–1.7 m/s: at the end of every flight of route R1, and on the other routes flown on
     other days. The rotor model puts that power near the hover's (Leishman's empirical
     induced velocity in the vortex-ring state, Principles of Helicopter Aerodynamics,
-    2nd ed., §2.14); the aircraft draws some 20–30 W (4–6 %) less, on R1 and on the other
+    2nd ed., §2.14); the aircraft draws some 17–26 W (4–6 %) less, on R1 and on the other
     routes alike. Diagnose measures it over the flights and says so in a note."""
     import warnings
 
