@@ -224,10 +224,13 @@ def speed_of(g: pd.DataFrame) -> np.ndarray:
 
 # ============================================================================ mass
 
-def electric_per_ideal(g: pd.DataFrame, mass_kg: float, rho: float, rotors: Rotors) -> float:
+def electric_per_ideal(g: pd.DataFrame, mass_kg: float, rho: float, rotors: Rotors,
+                       up: np.ndarray | None = None) -> float:
     """The flight's electric power per ideal induced power, over its slowest tenth of the
-    level airborne samples (below 1.5 m/s where there are 20 or more). [unitless]"""
-    up = lifting(g, mass_kg, rho, rotors.area_m2)
+    level airborne samples (below 1.5 m/s where there are 20 or more); ``up``: the
+    flight's :func:`lifting` samples where the caller has them. [unitless]"""
+    if up is None:
+        up = lifting(g, mass_kg, rho, rotors.area_m2)
     climb = _col(g, "climb_rate_ms")
     v = speed_of(g)
     p = _col(g, "power_w", np.nan)
@@ -273,7 +276,7 @@ def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg: float, *,
         v = speed_of(g)
         climb = _col(g, "climb_rate_ms")
         if rotors is not None:
-            k = electric_per_ideal(g, mass_kg, rho, rotors)
+            k = electric_per_ideal(g, mass_kg, rho, rotors, up)
             gain = k * (ideal_rotor_power(mass_kg + dm_kg, rho, rotors.area_m2, v, climb)
                         - ideal_rotor_power(mass_kg, rho, rotors.area_m2, v, climb))
         else:
