@@ -127,7 +127,12 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default="realistic,2x")
     ap.add_argument("--json", help="write the cells' tallies here")
     ap.add_argument("--speed", action="store_true", help="the two speed figures only")
+    ap.add_argument("--descent", choices=("file", "calibrated"), default="file",
+                    help="the M100's slow-descent inflow weight: the aircraft file's "
+                         "(Leishman's curve), or calibrated by fit-aircraft on the flights "
+                         "not drawn (testkit.matrix.calibrated_aircraft)")
     args = ap.parse_args(argv)
+    M.CALIBRATE_DESCENT = args.descent == "calibrated"
     if not M.available():
         print(f"skipped: the real data are not at {M.DATA}")
         return 0
@@ -140,7 +145,8 @@ def main(argv=None) -> int:
              if (not kinds or c.injection in kinds) and (not rich or c.richness in rich)
              and (not timings or c.timing is None or c.timing in timings)]
     print(f"effect matrix: {len(cells)} cells, {args.runs} runs a cell (deterministic "
-          f"single-record sources fewer), seed {args.seed}")
+          f"single-record sources fewer), seed {args.seed}, M100 descent weight: "
+          f"{args.descent}")
     print("columns: runs, % named first, % named anywhere, % with a false cause, % the "
           "detection limit calls identifiable, % said not identifiable where not named, "
           "within 2 SE / checked, median size and limit (the detection entry's unit), "

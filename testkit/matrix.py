@@ -11,7 +11,9 @@ Sources (``../shared/data``, PROVENANCE.md in each folder)
     16 cruise flights of the DJI Matrice 100 delivery data set (Rodrigues et al., Sci.
     Data 8, 155, 2021, CC BY 4.0; route R1, flights 8–277), all of one payload class
     (0, 250 or 500 g, from ``m100_parameters.csv``, drawn at random), so that the mass
-    given to diagnose is the flights' own; ``aircraft/dji_m100.yaml``, site 300 m.
+    given to diagnose is the flights' own; ``aircraft/dji_m100.yaml`` (with
+    :data:`CALIBRATE_DESCENT`, its slow-descent inflow weight calibrated on the route's
+    flights not drawn: :func:`calibrated_aircraft`), site 300 m.
 ``m100_routes``
     16 of the 22 M100 flights without payload on every other route (A1–A3, H, R2–R7):
     what the ``m100`` draws hold fixed (one route flown in one order) varies here.
@@ -205,6 +207,57 @@ def m100_flights(route_r1: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
     return df, r1
 
 
+#: Diagnose the M100 draws with the slow-descent inflow weight calibrated on the flights
+#: not drawn (:func:`calibrated_aircraft`) instead of the aircraft file's (Leishman's
+#: curve); ``bench_effect_matrix.py --descent calibrated``.
+CALIBRATE_DESCENT = False
+
+#: Most flights ``fit-aircraft`` calibrates a draw's descent weight on
+#: (:func:`calibrated_aircraft`), evenly spaced among those not drawn.
+CALIBRATION_FLIGHTS = 48
+
+_CALIBRATED: dict = {}
+
+
+def calibrated_aircraft(d: Draw, richness: str):
+    """The draw's aircraft with its slow-descent inflow weight
+    (``multirotor.descent_inflow_weight``,
+    :func:`planner.physics.power.momentum.induced_velocity`) as ``fit-aircraft``
+    calibrates it, with the efficiency and the drag area, each flight at its own mass, on
+    up to :data:`CALIBRATION_FLIGHTS` flights of the same data that are not in the draw
+    (``d.extra["calibration"]``), reduced to the ``richness`` of the record diagnosed (the
+    weight found depends on whether the model flies the disks' axial speed). Diagnose
+    holds it: it comes from flights diagnose never sees, as an operator's aircraft file
+    comes from earlier flights. The draw's aircraft as it is without calibration flights
+    or flight state (``minimal``)."""
+    from planner.errors import PlannerError
+    from planner.identify.aircraft_fit import fit_aircraft, with_params
+
+    cal = d.extra.get("calibration")
+    if cal is None or d.aircraft is None or richness == "minimal":
+        return d.aircraft
+    key = (cal["key"], richness)
+    if key not in _CALIBRATED:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                r = fit_aircraft(reduce(cal["record"], richness), d.aircraft,
+                                 mass_kg=cal["mass_kg"], site_altitude_m=d.site_altitude_m,
+                                 parameters=["efficiency", "drag_area_m2",
+                                             "descent_inflow_weight"])
+            w = r["parameters"]["descent_inflow_weight"]
+        except PlannerError:
+            w = d.aircraft.multirotor.descent_inflow_weight
+        _CALIBRATED[key] = with_params(d.aircraft, {"descent_inflow_weight": w})
+    return _CALIBRATED[key]
+
+
+def diagnosed_aircraft(d: Draw, richness: str):
+    """The aircraft diagnose is given for a draw: the draw's, or with
+    :data:`CALIBRATE_DESCENT` its :func:`calibrated_aircraft`."""
+    return calibrated_aircraft(d, richness) if CALIBRATE_DESCENT else d.aircraft
+
+
 @dataclass(frozen=True)
 class RealEffect:
     """An effect a source's real data carry themselves (module notes, "The record's own
@@ -242,19 +295,29 @@ class M100(Source):
         cls = float(rng.choice([0.0, 250.0, 500.0]))
         return self._sixteen(rng, df, par, cls)
 
-    @staticmethod
-    def _sixteen(rng, df, par, payload_g: float) -> Draw:
+    def _sixteen(self, rng, df, par, payload_g: float) -> Draw:
         """16 flights of ``df`` (at most as many as there are) that carried ``payload_g``
-        [g], drawn with ``rng``, with the M100's definitions."""
+        [g], drawn with ``rng``, with the M100's definitions; the flights not drawn, each
+        with its mass, to calibrate on (:func:`calibrated_aircraft`)."""
         have = set(df["experiment"].astype(int).unique())
         ids = [f for f in par.loc[par["payload"] == payload_g, "flight"] if f in have]
         pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
         rec = df[df["experiment"].astype(str).isin(pick)].reset_index(drop=True)
         pack, ac = _definitions("aircraft/dji_m100.yaml")
+        rest = sorted(have - {int(x) for x in pick})
+        rest = [str(rest[i]) for i in np.unique(np.linspace(
+            0, len(rest) - 1, min(CALIBRATION_FLIGHTS, len(rest))).round().astype(int))]
+        payload_of = dict(zip(par["flight"].astype(str), par["payload"] / 1000.0))
+        calibration = {
+            "key": (self.name, tuple(sorted(pick))),
+            "record": df[df["experiment"].astype(str).isin(rest)].reset_index(drop=True),
+            "mass_kg": {f: ac.empty_mass_kg + pack.total_mass_kg + payload_of[f]
+                        for f in rest}}
         payload = payload_g / 1000.0
         return Draw(rec, pack, ac, payload, ac.empty_mass_kg + pack.total_mass_kg + payload,
                     site_altitude_m=300.0, rho=_isa(300.0), pack_resistance_ohm=0.05,
-                    rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m))
+                    rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m),
+                    extra={"calibration": calibration})
 
 
 class M100Routes(M100):
@@ -785,7 +848,8 @@ def clean_parameters(d: Draw, richness: str, effect: str) -> dict | None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = diagnose(reduce(d.record, richness), d.pack, d.aircraft,
+            res = diagnose(reduce(d.record, richness), d.pack,
+                           diagnosed_aircraft(d, richness),
                            payload_kg=d.payload_kg, site_altitude_m=d.site_altitude_m,
                            effects=[effect])
             lv = res.levels["power"].result.level
@@ -891,7 +955,8 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                res = diagnose(record, d.pack, d.aircraft, **opts)
+                res = diagnose(record, d.pack, diagnosed_aircraft(d, cell.richness),
+                               **opts)
         except Exception as exc:
             st["errors"][f"diagnose: {type(exc).__name__}: {exc}"[:160]] += 1
             continue

@@ -88,11 +88,14 @@ from planner.physics.power.rotor_losses import (
     rotor_losses_components,
 )
 from planner.identify import stats
+from planner.physics.limits import DESCENT_INFLOW_WEIGHT_MAX, DESCENT_INFLOW_WEIGHT_MIN
 
 #: Parameters fitted, start-value source, bounds, per aircraft type.
 PARAMETERS = {
     "multirotor": {"efficiency": (0.2, 1.0), "drag_area_m2": (0.0, 2.0),
-                   "system_power_w": (0.0, 2000.0)},
+                   "system_power_w": (0.0, 2000.0),
+                   "descent_inflow_weight": (DESCENT_INFLOW_WEIGHT_MIN,
+                                             DESCENT_INFLOW_WEIGHT_MAX)},
     "fixed_wing": {"cd0": (0.002, 0.3), "k": (0.005, 0.5), "efficiency": (0.1, 1.0),
                    "system_power_w": (0.0, 2000.0)},
 }
@@ -105,6 +108,14 @@ ROTOR_LOSSES_PARAMETERS = {"no_load_power_w": (0.0, 2000.0),
                            "copper_loss_power_w": (0.0, 2000.0),
                            "profile_power_ratio": (0.0, 3.85),
                            "drag_area_m2": (0.0, 2.0)}
+#: Vertical descent: slower than this over ground (in-plane airspeed) [m/s] and sinking
+#: faster than the flight phases' climb threshold
+#: (:data:`planner.chain.flightstate.CLIMB_THRESHOLD_MS`).
+STILL_MS = 0.5
+#: Least vertical descent in the training flights, in time and in flights, for the fit to
+#: free the slow-descent inflow weight (``descent_inflow_weight``); with less it is held
+#: at the file's value and the report says why. [s], [flights]
+MIN_DESCENT_S, MIN_DESCENT_FLIGHTS = 60.0, 3
 #: Leads of the power channel over the flight-state channels tried by the fit. [s]
 LEADS_S = (0.0, 0.15, 0.3)
 #: Rotors-stopped ground samples: within this height of the first altitude [m], ...
@@ -209,6 +220,24 @@ def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
         raise InputError("no airborne samples in the data (ground tests only?)")
     cols = [np.concatenate([part[i] for part in parts]) for i in range(7)]
     return Samples(*cols)
+
+
+def vertical_descent(s: Samples) -> tuple[float, int]:
+    """Time [s] the samples spend in vertical descent (:data:`STILL_MS`, the flight phases'
+    climb threshold) and the number of flights it comes from."""
+    down = (s.airspeed < STILL_MS) & (s.climb_rate < -flightstate.CLIMB_THRESHOLD_MS)
+    return float(np.sum(s.dt[down])), int(np.unique(s.experiment[down]).size)
+
+
+def _descent_held(s_trn: Samples) -> str | None:
+    """Why the training flights cannot free ``descent_inflow_weight`` (too little vertical
+    descent), or None."""
+    seconds, flights = vertical_descent(s_trn)
+    if seconds >= MIN_DESCENT_S and flights >= MIN_DESCENT_FLIGHTS:
+        return None
+    return (f"the training flights descend vertically for {seconds:.0f} s in {flights} "
+            f"flight(s), fewer than the {MIN_DESCENT_S:g} s in {MIN_DESCENT_FLIGHTS} that "
+            "show the power of a slow descent")
 
 
 def _predict(aircraft: Aircraft, s: Samples, mass: np.ndarray) -> np.ndarray:
@@ -353,6 +382,8 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                                 site_altitude_m=site_altitude_m,
                                 airborne_height_m=airborne_height_m, **kwargs)
     table = dict(PARAMETERS[aircraft.type])
+    if aircraft.is_multirotor and aircraft.multirotor.power_model == "propeller":
+        del table["descent_inflow_weight"]      # the propeller model has no inflow
     if not aircraft.is_multirotor and aircraft.fixed_wing.propeller_diameter_m:
         table["propeller_profile_power_w"] = PROPELLER_PROFILE_BOUNDS_W
     names = parameters or list(table)
@@ -364,11 +395,19 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     trn, val, how = _fit_split(s, validate, train)
     s_trn, s_val = _subset(s, trn), _subset(s, val)
     mass_trn = sample_masses(s_trn, mass_kg)
+    held = {}
+    if "descent_inflow_weight" in names:
+        why = _descent_held(s_trn)
+        if why is not None and parameters is None:
+            names = [n for n in names if n != "descent_inflow_weight"]
+            held["descent_inflow_weight"] = (
+                f"held at the file's {aircraft.multirotor.descent_inflow_weight:g}: {why}")
     x0 = np.array([get_param(aircraft, n) for n in names])
     lo = np.array([table[n][0] for n in names])
     hi = np.array([table[n][1] for n in names])
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     scale = np.maximum(np.abs(x0), 1e-3)
+    scale[[n == "descent_inflow_weight" for n in names]] = 1.0  # unitless, −1 … 2
 
     def residual(x):
         ac = with_params(aircraft, dict(zip(names, x)))
@@ -400,7 +439,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "train_experiments": sorted(set(s_trn.experiment)),
         "validation_experiments": sorted(set(s_val.experiment)),
         "experiments": list(dict.fromkeys(s.experiment)),
-        "ground_power": ground,
+        "ground_power": ground, "held": held,
     }
     result.update(_status(misfit, free, aircraft))
     result.update(_scores(aircraft, fitted, s, s, trn, val, mass_kg))
@@ -667,7 +706,8 @@ def _unit_terms(aircraft: Aircraft, s: Samples, mass: np.ndarray, drag_area: flo
             mass, s.air_density, m.rotors, m.rotor_diameter_m, 1.0, airspeed=s.airspeed,
             climb_rate=s.climb_rate, drag_area=drag_area, induced_factor=m.induced_factor,
             profile_power_ratio=1.0, tip_speed=m.tip_speed_ms, no_load_power=1.0,
-            copper_loss_power=1.0, reference_mass=m.reference_mass_kg, thrust=thrust)
+            copper_loss_power=1.0, reference_mass=m.reference_mass_kg, thrust=thrust,
+            descent_inflow_weight=m.descent_inflow_weight)
 
     force = s.specific_force
     if force is None or not np.isfinite(force).any():

@@ -151,6 +151,13 @@ MULTIROTOR_KEYS = {
         "hover figure of merit FM, ideal over actual rotor power: profile power "
         f"P0/P_ideal = 1/FM − κ (absent: {DEFAULT_FIGURE_OF_MERIT:g}, small fixed-pitch "
         "propellers)")),
+    "descent_inflow_weight": S.between(
+        L.DESCENT_INFLOW_WEIGHT_MIN, L.DESCENT_INFLOW_WEIGHT_MAX, default=0.0, meaning=(
+        "w, weight of momentum theory's inflow against Leishman's vortex-ring curve in slow "
+        "axial descent (`momentum`, `rotor_losses`): 0 Leishman's curve (the power stays "
+        "near hover's), 1 momentum theory (it falls by half of W·|V_c|), 2 nearly the whole "
+        "W·|V_c|, −1 it rises; fitted by `fit-aircraft` on flights with vertical "
+        "descents")),
     "tip_speed_ms": S.between(L.TIP_SPEED_MIN_MS, L.TIP_SPEED_MAX_MS, unit="m/s", meaning=(
         "hover tip speed, for the profile power's growth with speed (absent: from the "
         "thrust)")),
@@ -363,6 +370,7 @@ class Multirotor:
     induced_factor: float = _MR["induced_factor"]
     figure_of_merit: float | None = None
     tip_speed_ms: float | None = None
+    descent_inflow_weight: float = _MR["descent_inflow_weight"]
     max_thrust_n: float | None = None
     no_load_power_w: float | None = None
     copper_loss_power_w: float | None = None
@@ -493,7 +501,7 @@ class Aircraft:
             tip_speed=m.tip_speed_ms, stopped_power=self.system_power_w,
             no_load_power=m.no_load_power_w, copper_loss_power=m.copper_loss_power_w,
             reference_mass=m.reference_mass_kg, thrust=thrust, load_factor=load_factor,
-            rotors_turning=rotors_turning)
+            rotors_turning=rotors_turning, descent_inflow_weight=m.descent_inflow_weight)
 
     def _constant_efficiency_power(self, airspeed, climb_rate, air_density, mass,
                                    load_factor=1.0):
@@ -511,7 +519,7 @@ class Aircraft:
                 airspeed=airspeed, climb_rate=climb_rate, drag_area=m.drag_area_m2,
                 induced_factor=m.induced_factor, figure_of_merit=m.figure_of_merit,
                 tip_speed=m.tip_speed_ms, system_power=self.system_power_w,
-                load_factor=load_factor)
+                load_factor=load_factor, descent_inflow_weight=m.descent_inflow_weight)
         from planner.physics.power import fixed_wing
         f = self.fixed_wing
         required = fixed_wing.required_power(airspeed, air_density, mass, f.wing_area_m2, f.cd0,
@@ -775,6 +783,10 @@ def _multirotor(data: Any, where: str, problems: S.Problems) -> Multirotor | Non
         elif fm is not None and kappa * fm > 1.0:
             problems.add(f"multirotor.figure_of_merit must be at most 1/induced_factor "
                          f"= {1.0 / kappa:.3g} (profile power >= 0), got {fm!r}")
+    if model == "propeller" and isinstance(data, dict) and \
+            data.get("descent_inflow_weight") is not None:
+        problems.add("multirotor.descent_inflow_weight is read only by power_model momentum "
+                     "and rotor_losses (this file's power_model is 'propeller')")
     given = [key for key in ROTOR_LOSSES_KEYS if isinstance(data, dict)
              and data.get(key) is not None]
     if model != "rotor_losses" and given:

@@ -105,6 +105,13 @@ PROPELLER_INDUCED_FACTOR_MAX = 3.0
 #: Principles of Helicopter Aerodynamics, 2nd ed., 2006, ch. 3); 2 would double the ideal
 #: induced power. [unitless]
 ROTOR_INDUCED_FACTOR_MAX = 2.0
+#: Weight of momentum theory's inflow against Leishman's vortex-ring curve in slow axial
+#: descent (planner.physics.power.momentum.induced_velocity, "Slow descent"): at 2 the
+#: induced velocity keeps its hover value to first order, so the shaft power falls by
+#: nearly the descent's whole rate of potential energy W|V_c|, the most an ideal rotor
+#: gives back; at −1 it rises as the descent begins by up to 0.43 W|V_c| near hover, as
+#: the vortex ring's power settling does on some rotors. [unitless]
+DESCENT_INFLOW_WEIGHT_MIN, DESCENT_INFLOW_WEIGHT_MAX = -1.0, 2.0
 #: Rotors of a multirotor: up to eight on most, 18 on the Volocopter 2X. [count]
 ROTORS_MAX = 32
 #: Upper end of the static propeller coefficients C_T and C_P (rev/s convention), five to

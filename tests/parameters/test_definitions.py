@@ -67,6 +67,27 @@ def test_power_model_inferred_from_coefficients(tmp_path):
     assert ac.multirotor.power_model == "propeller"
 
 
+def test_the_descent_inflow_weight_is_read_by_the_rotor_models_only(tmp_path):
+    """The slow-descent inflow weight changes the momentum model's power in a vertical
+    descent; the propeller-coefficient model has no inflow, so a file giving it there is
+    refused, as is a weight outside −1 … 2."""
+    base = ("name: q\ntype: multirotor\nempty_mass_kg: 1\nefficiency: 0.7\n"
+            "multirotor: {rotors: 4, rotor_diameter_m: 0.25%s}\n")
+    plain = load_aircraft(write(tmp_path, base % ""))
+    ac = load_aircraft(write(tmp_path, base % ", descent_inflow_weight: 1.0", "w.yaml"))
+    assert plain.multirotor.descent_inflow_weight == 0.0
+    assert ac.multirotor.descent_inflow_weight == 1.0
+    descent = {"airspeed": 0.0, "climb_rate": -1.5, "air_density": 1.2, "mass": 1.6}
+    assert ac.battery_power(**descent) < plain.battery_power(**descent) - 1.0
+    climb = {**descent, "climb_rate": 1.5}
+    assert ac.battery_power(**climb) == pytest.approx(plain.battery_power(**climb))
+    with pytest.raises(InputError, match="descent_inflow_weight.*propeller"):
+        load_aircraft(write(tmp_path, base % ", ct: 0.1, cp: 0.04, descent_inflow_weight: 1",
+                            "p.yaml"))
+    with pytest.raises(InputError, match="descent_inflow_weight"):
+        load_aircraft(write(tmp_path, base % ", descent_inflow_weight: 3", "b.yaml"))
+
+
 def test_k_from_aspect_ratio_and_oswald(tmp_path):
     ac = load_aircraft(REPO / "aircraft/x8_mapper.yaml")
     import math

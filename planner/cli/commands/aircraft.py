@@ -150,18 +150,21 @@ def render(r, mass) -> str:
              f"{' …' if len(r['train_experiments']) > 5 else ''}), "
              f"{r['samples']['train']} airborne samples, mass {mass_text(mass)}; validation: "
              f"{r['split']} ({held}{' …' if len(r['validation_experiments']) > 5 else ''}; "
-             f"{r['samples']['validation']} samples)", "",
-             f"{'parameter':<19} {'start':>10} {'fitted':>10} {'± stderr':>10}"]
+             f"{r['samples']['validation']} samples)", ""]
+    width = max([19] + [len(k) for k in (*r["parameters"], *r.get("held", {}))])
+    lines.append(f"{'parameter':<{width}} {'start':>10} {'fitted':>10} {'± stderr':>10}")
     units = {"no_load_power_w": "W", "copper_loss_power_w": "W", "drag_area_m2": "m²",
              "system_power_w": "W"}
     for k, v in r["parameters"].items():
         if k in r.get("at_bound", ()):
-            lines.append(f"{k:<19} {fmt(r['start'][k], 4, 10)} {'—':>10} {'—':>10}  ended on "
+            lines.append(f"{k:<{width}} {fmt(r['start'][k], 4, 10)} {'—':>10} {'—':>10}  ended on "
                          f"its bound ({v:.4g}): a misfit of the model's form, not a value")
             continue
         flag = "  poorly determined" if k in r["poorly_determined"] else ""
-        lines.append(f"{k:<19} {fmt(r['start'][k], 4, 10)} {fmt(v, 4, 10)} "
+        lines.append(f"{k:<{width}} {fmt(r['start'][k], 4, 10)} {fmt(v, 4, 10)} "
                      f"{fmt(r['stderr'][k], 4, 10)} {units.get(k, ''):<2}{flag}")
+    for k, why in r.get("held", {}).items():
+        lines.append(f"{k:<{width}} {why}")
     if "stopped_power" in r:
         sp = r["stopped_power"]
         lines.append(f"system_power_w (rotors stopped) {sp['value_w']:.1f} W: {sp['source']}")

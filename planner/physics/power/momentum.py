@@ -23,6 +23,10 @@ References
    :math:`(1 + K\mu^2)` with :math:`K \approx 4.65`).
 .. [2] H. Glauert, "A general theory of the autogyro," Aeronautical Research Committee,
    London, U.K., R&M 1111, 1926.
+.. [3] Z. Liu, R. Sengupta and A. Kurzhanskiy, "A power consumption model for multi-rotor
+   small unmanned aircraft systems," in Proc. ICUAS 2017, pp. 310–315: vertical descent
+   power from momentum theory's normal working state,
+   :math:`\kappa T(-V_d/2 + \sqrt{V_d^2/4 + T/(2\rho A)})`.
 
 The battery power is :math:`P_{batt} = P_R/\eta` as in [UAV23] eq. 22–24.
 """
@@ -37,6 +41,7 @@ import numpy as np
 from planner.errors import ModelError
 from planner.physics.atmosphere import G
 from planner.physics.kernel import kernel
+from planner.physics.limits import DESCENT_INFLOW_WEIGHT_MAX, DESCENT_INFLOW_WEIGHT_MIN
 from planner.physics.numeric import like_inputs, require
 
 # Leishman's empirical fit of measured induced velocity in the vortex-ring and turbulent
@@ -98,13 +103,19 @@ def _vrs_fit(x):
     return poly(x) / VRS_KAPPA + 0.5 * x * end_excess
 
 
-def _axial_ratio(x):
-    """λ = v_i/v_h in purely axial flight, continuous over all three working states."""
+def _axial_ratio(x, descent_weight=0.0):
+    """λ = v_i/v_h in purely axial flight, continuous over all three working states;
+    ``descent_weight`` moves the vortex-ring branch towards momentum theory's normal
+    working state continued (:func:`induced_velocity`, "Slow descent")."""
     x = np.asarray(x, dtype=float)
     with np.errstate(invalid="ignore"):
         climb = -0.5 * x + np.sqrt(0.25 * x**2 + 1.0)
         windmill = -0.5 * x - np.sqrt(np.maximum(0.25 * x**2 - 1.0, 0.0))
-    vrs = _vrs_fit(np.clip(x, -2.0, 0.0))
+    xv = np.clip(x, -2.0, 0.0)
+    vrs = _vrs_fit(xv)
+    if np.any(descent_weight):
+        normal = -0.5 * xv + np.sqrt(0.25 * xv**2 + 1.0)
+        vrs = vrs + descent_weight * (normal - vrs) * (1.0 + 0.5 * xv)
     # momentum theory's windmill branch leaves x = -2 with an infinite slope, which
     # measurements do not show: ease into it over -2 - WINDMILL_BLEND <= x <= -2
     s = _smoothstep((-2.0 - x) / WINDMILL_BLEND)
@@ -160,7 +171,7 @@ def _glauert_kernel(mu2, x, iterations, out):  # pragma: no cover - compiled
         out[k] = lam
 
 
-def _induced_ratio(mu, x):
+def _induced_ratio(mu, x, descent_weight=0.0):
     """λ = v_i/v_h for any combination of in-plane (μ ≥ 0) and axial (x) inflow.
 
     λ = λ_G(μ', x) + w(μ) [λ_A(x) − λ_G(μ'_0, x)]; see :func:`induced_velocity`.
@@ -172,7 +183,7 @@ def _induced_ratio(mu, x):
     lam_glauert = _glauert_ratio(mu_reg, x)
     lam_glauert_axial = _glauert_ratio(np.sqrt(d) * MU_BLEND, x)
     w = 1.0 - _smoothstep(mu / MU_BLEND)
-    return lam_glauert + w * (_axial_ratio(x) - lam_glauert_axial)
+    return lam_glauert + w * (_axial_ratio(x, descent_weight) - lam_glauert_axial)
 
 
 # --------------------------------------------------------------------------------------
@@ -244,7 +255,7 @@ def ideal_hover_power(thrust, air_density, disk_area):
 
 
 def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.0,
-                     disk_tilt=0.0):
+                     disk_tilt=0.0, descent_inflow_weight=0.0):
     r"""
     Induced velocity of an actuator disk in climb, descent and forward flight.
 
@@ -258,6 +269,11 @@ def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.
         Vertical speed :math:`V_c`, up positive (negative = descent). [m s⁻¹]
     disk_tilt : numeric, default 0
         Forward tilt of the disk :math:`\alpha` (thrust tilted forward). [rad]
+    descent_inflow_weight : float, default 0
+        :math:`w` in [−1, 2] (:data:`planner.physics.limits.DESCENT_INFLOW_WEIGHT_MAX`),
+        the weight of momentum
+        theory's inflow against Leishman's curve in slow axial descent (Notes, "Slow
+        descent"); 0 is Leishman's curve. [unitless]
 
     Returns
     -------
@@ -303,6 +319,27 @@ def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.
       :math:`\lambda = s\lambda_W + (1 - s)`, :math:`s = \mathrm{smoothstep}((-2 - x)/0.5)`
       (pure windmill brake from :math:`x = -2.5`, i.e. :math:`\lambda \le 0.5`).
 
+    *Slow descent* (:math:`-2 \le x < 0`). Leishman's curve is a fit through widely
+    scattered measurements on helicopter rotors ([1]_ §2.14); at small :math:`|x|` it
+    keeps the induced power :math:`T(v_i + V_c)` at its hover value, whereas momentum
+    theory's normal working state, continued into descent
+    (:math:`\lambda_N = -x/2 + \sqrt{x^2/4 + 1}`, as small-UAS power models take it
+    [3]_), lets it fall by :math:`W|V_c|/2`. Which holds for a given rotor is a
+    measurement, so the weight :math:`w` of momentum theory is a parameter of the
+    aircraft:
+
+    .. math:: \lambda = \lambda_L(x) + w\,[\lambda_N(x) - \lambda_L(x)]\,(1 + x/2),
+
+    :math:`\lambda_L` Leishman's curve above. The factor :math:`1 + x/2` brings every
+    :math:`w` back to Leishman's curve at :math:`x = -2`, where it joins the windmill
+    brake: the curve stays continuous. Near hover the induced power falls as
+    :math:`T v_h[1 - (0.033 + 0.467\,w)|x|]`: :math:`w` = 0 keeps it (Leishman),
+    :math:`w` = 1 gives momentum theory's half of :math:`W|V_c|`, :math:`w` = 2 (the
+    largest) nearly the whole of it; below 0 (at least −1) the power rises as the
+    descent begins, the induced velocity staying near its hover value. A
+    fixed-pitch rotor also slows in descent (more blade incidence from the up-flow), so its
+    profile power falls as well; at these descent rates the weight takes that up too.
+
     *Mixed forward flight and descent.* Glauert's relation has a unique root for
     :math:`\mu_h \ge 0.62` or :math:`x > -1.755`; below that (the fold, which is where
     the vortex ring lives) it has three. The solution used everywhere is
@@ -330,11 +367,17 @@ def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.
     vh = _hover_velocity(t, rho, a)
     axial = v * np.sin(alpha) + vc * np.cos(alpha)
     inplane = np.abs(v * np.cos(alpha) - vc * np.sin(alpha))
-    vi = induced_from_components(vh, axial, inplane)
+    vi = induced_from_components(vh, axial, inplane, _descent_weight(descent_inflow_weight))
     return like_inputs(vi, thrust, air_density, disk_area, airspeed, climb_rate, disk_tilt)
 
 
-def induced_from_components(hover_velocity, axial, inplane):
+def _descent_weight(weight) -> float:
+    """The slow-descent inflow weight, checked (:func:`induced_velocity`). [unitless]"""
+    return float(require(weight, "descent_inflow_weight", ge=DESCENT_INFLOW_WEIGHT_MIN,
+                         le=DESCENT_INFLOW_WEIGHT_MAX))
+
+
+def induced_from_components(hover_velocity, axial, inplane, descent_inflow_weight=0.0):
     r"""Induced velocity from :math:`v_h` and the free-stream components through the disk.
 
     :math:`v_i = \lambda(\mu_h, x)\, v_h` with :math:`x = V_z/v_h`,
@@ -348,6 +391,8 @@ def induced_from_components(hover_velocity, axial, inplane):
     axial, inplane : ndarray
         Axial (through the disk, positive down) and in-plane free-stream components
         :math:`V_z`, :math:`V_{xy}`. [m s⁻¹]
+    descent_inflow_weight : float, default 0
+        As in :func:`induced_velocity`. [unitless]
 
     Returns
     -------
@@ -356,7 +401,7 @@ def induced_from_components(hover_velocity, axial, inplane):
     """
     vh = hover_velocity
     safe = np.where(vh > 0.0, vh, 1.0)
-    lam = _induced_ratio(inplane / safe, axial / safe)
+    lam = _induced_ratio(inplane / safe, axial / safe, descent_inflow_weight)
     return np.where(vh > 0.0, lam * vh, np.where(np.isnan(vh), np.nan, 0.0))
 
 
@@ -425,7 +470,8 @@ def profile_power_ratio_of(figure_of_merit, profile_power_ratio, induced_factor)
 
 def rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate, drag_area,
                       induced_factor, figure_of_merit, profile_power_ratio, tip_speed,
-                      load_factor, min_rotor_speed_ratio, gravity, thrust=None) -> dict:
+                      load_factor, min_rotor_speed_ratio, gravity, thrust=None,
+                      descent_inflow_weight=0.0) -> dict:
     r"""
     The rotors' aerodynamic power, term by term, from momentum theory (ndarrays).
 
@@ -466,7 +512,7 @@ def rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
     with np.errstate(invalid="ignore", divide="ignore"):
         axial = np.where(t > 0.0, (drag * v + weight * vc) / np.where(t > 0.0, t, 1.0), 0.0)
         inplane = np.sqrt(np.maximum(v**2 + vc**2 - axial**2, 0.0))
-    vi = induced_from_components(vh, axial, inplane)
+    vi = induced_from_components(vh, axial, inplane, _descent_weight(descent_inflow_weight))
     if tip_speed is None:
         vtip = vh * np.sqrt(2.0 / DEFAULT_ROTOR_CT)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -494,7 +540,8 @@ def momentum_power_components(mass, air_density, rotors, diameter, efficiency, a
                               climb_rate=0.0, drag_area=0.0, induced_factor=1.15,
                               figure_of_merit=None, profile_power_ratio=None, tip_speed=None,
                               system_power=0.0, load_factor=1.0,
-                              min_rotor_speed_ratio=MIN_ROTOR_SPEED_RATIO, gravity=G):
+                              min_rotor_speed_ratio=MIN_ROTOR_SPEED_RATIO, gravity=G,
+                              descent_inflow_weight=0.0):
     r"""
     Multirotor power budget from momentum theory, term by term.
 
@@ -539,6 +586,9 @@ def momentum_power_components(mass, air_density, rotors, diameter, efficiency, a
         [unitless]
     gravity : float, default 9.80665
         Acceleration of gravity. [m s⁻²]
+    descent_inflow_weight : float, default 0
+        Weight of momentum theory's inflow against Leishman's vortex-ring curve in slow
+        axial descent, in [−1, 2] (:func:`induced_velocity`, "Slow descent"). [unitless]
 
     Returns
     -------
@@ -569,7 +619,8 @@ def momentum_power_components(mass, air_density, rotors, diameter, efficiency, a
     through the tilted disk, :math:`V_z = (DV + WV_c)/T`; the in-plane component is
     :math:`V_{xy} = \sqrt{V^2 + V_c^2 - V_z^2}`; :math:`v_i` comes from
     :func:`induced_velocity` with these components (Glauert in forward flight,
-    Leishman's empirical curve in the vortex-ring state, windmill brake beyond).
+    Leishman's empirical curve in the vortex-ring state, moved towards momentum theory
+    by ``descent_inflow_weight``, windmill brake beyond).
 
     *Profile power.* :math:`P_{0,h} = r_0\,T v_h` with
     :math:`r_0 = 1/FM - \kappa` (from
@@ -593,7 +644,8 @@ def momentum_power_components(mass, air_density, rotors, diameter, efficiency, a
     """
     terms = rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
                               drag_area, induced_factor, figure_of_merit, profile_power_ratio,
-                              tip_speed, load_factor, min_rotor_speed_ratio, gravity)
+                              tip_speed, load_factor, min_rotor_speed_ratio, gravity,
+                              descent_inflow_weight=descent_inflow_weight)
     eta = require(efficiency, "efficiency", gt=0.0, le=1.0)
     ps = require(system_power, "system_power", ge=0.0, unit="W")
     battery = np.maximum(terms["shaft"], terms["floor"]) / eta + ps

@@ -92,7 +92,7 @@ def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficienc
                             stopped_power=0.0, no_load_power=0.0, copper_loss_power=0.0,
                             reference_mass=None, reference_density=REFERENCE_DENSITY,
                             thrust=None, load_factor=1.0, rotors_turning=True,
-                            min_rotor_speed_ratio=0.0, gravity=G):
+                            min_rotor_speed_ratio=0.0, gravity=G, descent_inflow_weight=0.0):
     r"""
     Multirotor battery power with motor no-load and copper losses, term by term.
 
@@ -125,6 +125,8 @@ induced_factor, figure_of_merit, profile_power_ratio, tip_speed, load_factor
         :math:`r^3 W v_h(W)(\kappa + r_0)`; 0 floors the shaft power at zero. [unitless]
     gravity : float, default 9.80665
         [m s⁻²]
+    descent_inflow_weight : float, default 0
+        As in :func:`planner.physics.power.momentum.momentum_power_components`. [unitless]
 
     Returns
     -------
@@ -149,7 +151,7 @@ induced_factor, figure_of_merit, profile_power_ratio, tip_speed, load_factor
     terms = rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
                               drag_area, induced_factor, figure_of_merit, profile_power_ratio,
                               tip_speed, load_factor, min_rotor_speed_ratio, gravity,
-                              thrust=thrust)
+                              thrust=thrust, descent_inflow_weight=descent_inflow_weight)
     eta = require(drive_efficiency, "drive_efficiency", gt=0.0, le=1.0)
     p_stop = require(stopped_power, "stopped_power", ge=0.0, unit="W")
     p_nl = require(no_load_power, "no_load_power", ge=0.0, unit="W")

@@ -172,3 +172,49 @@ def test_impossible_parameters_raise(kwargs, name):
     args.update(kwargs)
     with pytest.raises(ModelError, match=name):
         mt.momentum_battery_power(**args)
+
+
+def test_slow_descent_with_momentum_weight_one_gives_back_half_the_weight_rate():
+    """Liu, Sengupta & Kurzhanskiy, ICUAS 2017: vertical descent power from momentum
+    theory's normal working state, κT(−V_d/2 + √(V_d²/4 + v_h²)). With the descent inflow
+    weight 1 the curve is that near hover (the induced power falls by W·V_d/2), with 0
+    Leishman's (§2.14: the power stays within 6 % of W·V_d of hover's), with 2 it falls by
+    nearly the whole W·V_d (95 %)."""
+    vh = mt.hover_induced_velocity(WEIGHT, 1.204, AREA)
+    vd = 0.01 * vh                                  # x = -0.01
+    ideal = {**IDEAL, "climb_rate": -vd}
+    hover = mt.momentum_power_components(**QUAD, **IDEAL).shaft
+    drop = {w: hover - mt.momentum_power_components(**QUAD, **ideal,
+                                                    descent_inflow_weight=w).shaft
+            for w in (-1.0, 0.0, 1.0, 2.0)}
+    assert drop[1.0] == pytest.approx(0.5 * WEIGHT * vd, rel=0.02)
+    liu = WEIGHT * (-vd / 2 + np.sqrt(vd**2 / 4 + vh**2))
+    assert hover - drop[1.0] == pytest.approx(liu, rel=1e-4)
+    assert abs(drop[0.0]) < 0.06 * WEIGHT * vd
+    assert drop[2.0] == pytest.approx(WEIGHT * vd, rel=0.07)
+    assert drop[-1.0] < 0.0                         # the power rises as the descent begins
+
+
+@pytest.mark.parametrize("weight", [-1.0, 1.0, 2.0])
+def test_the_descent_weight_changes_only_the_axial_descent_and_stays_continuous(weight):
+    """Climb, forward flight above one hover induced velocity and the windmill brake
+    beyond x = -2 are the same for every weight; the curve is continuous at x = -2,
+    where every weight joins Leishman's curve and the windmill branch."""
+    vh = mt.hover_induced_velocity(WEIGHT, 1.204, AREA)
+    same = {"climb_rate": np.array([0.0, 1.0, 5.0, -2.5 * vh, -4.0 * vh])}
+    for kw in (same, {"airspeed": np.array([1.5 * vh, 3.0 * vh]), "climb_rate": -0.5 * vh}):
+        assert_allclose(mt.induced_velocity(WEIGHT, 1.204, AREA, **kw, descent_inflow_weight=weight),
+                        mt.induced_velocity(WEIGHT, 1.204, AREA, **kw), rtol=1e-12)
+    x = np.array([-2.0 + 1e-7, -2.0 - 1e-7])
+    vi = mt.induced_velocity(WEIGHT, 1.204, AREA, climb_rate=x * vh,
+                             descent_inflow_weight=weight)
+    assert abs(vi[0] - vi[1]) < 1e-5 * vh
+    slow = mt.induced_velocity(WEIGHT, 1.204, AREA, climb_rate=-0.3 * vh,
+                               descent_inflow_weight=weight)
+    assert slow != pytest.approx(mt.induced_velocity(WEIGHT, 1.204, AREA, climb_rate=-0.3 * vh))
+
+
+@pytest.mark.parametrize("weight", [-1.5, 2.5])
+def test_a_descent_weight_outside_its_range_is_refused(weight):
+    with pytest.raises(ModelError, match="descent_inflow_weight"):
+        mt.momentum_power_components(**QUAD, climb_rate=-1.0, descent_inflow_weight=weight)
