@@ -270,8 +270,7 @@ def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.
     disk_tilt : numeric, default 0
         Forward tilt of the disk :math:`\alpha` (thrust tilted forward). [rad]
     descent_inflow_weight : float, default 0
-        :math:`w` in [−1, 2] (:data:`planner.physics.limits.DESCENT_INFLOW_WEIGHT_MAX`),
-        the weight of momentum
+        :math:`w` in [−1, 2] (:mod:`planner.physics.limits`), the weight of momentum
         theory's inflow against Leishman's curve in slow axial descent (Notes, "Slow
         descent"); 0 is Leishman's curve. [unitless]
 
@@ -332,11 +331,12 @@ def induced_velocity(thrust, air_density, disk_area, airspeed=0.0, climb_rate=0.
 
     :math:`\lambda_L` Leishman's curve above. The factor :math:`1 + x/2` brings every
     :math:`w` back to Leishman's curve at :math:`x = -2`, where it joins the windmill
-    brake: the curve stays continuous. Near hover the induced power falls as
-    :math:`T v_h[1 - (0.033 + 0.467\,w)|x|]`: :math:`w` = 0 keeps it (Leishman),
-    :math:`w` = 1 gives momentum theory's half of :math:`W|V_c|`, :math:`w` = 2 (the
-    largest) nearly the whole of it; below 0 (at least −1) the power rises as the
-    descent begins, the induced velocity staying near its hover value. A
+    brake: the curve stays continuous. Near hover the ideal power :math:`T(v_i + V_c)`
+    falls as :math:`T v_h[1 - (0.033 + 0.467\,w)|x|]`: :math:`w` = 0 keeps it
+    (Leishman), :math:`w` = 1 gives back momentum theory's half of :math:`W|V_c|`,
+    :math:`w` = 2 (the largest, the induced velocity staying near its hover value)
+    nearly the whole of it; below 0 (at least −1) the power rises as the descent
+    begins. A
     fixed-pitch rotor also slows in descent (more blade incidence from the up-flow), so its
     profile power falls as well; at these descent rates the weight takes that up too.
 
