@@ -568,6 +568,8 @@ class Aircraft:
         if not self.is_multirotor and self.fixed_wing.propeller_diameter_m is None:
             for k in ("propellers", "propeller_induced_factor", "propeller_profile_power_w"):
                 out[self.type].pop(k, None)
+        if self.is_multirotor and self.multirotor.power_model == "propeller":
+            out[self.type].pop("descent_inflow_weight", None)    # the model has no inflow
         if self.navigation is not None:
             out["navigation"] = self.navigation.to_mapping()
         if self.source:

@@ -81,6 +81,9 @@ def test_the_descent_inflow_weight_is_read_by_the_rotor_models_only(tmp_path):
     assert ac.battery_power(**descent) < plain.battery_power(**descent) - 1.0
     climb = {**descent, "climb_rate": 1.5}
     assert ac.battery_power(**climb) == pytest.approx(plain.battery_power(**climb))
+    prop = load_aircraft(write(tmp_path, base % ", ct: 0.1, cp: 0.04", "q.yaml"))
+    assert "descent_inflow_weight" not in prop.to_mapping()["multirotor"]   # written back
+    assert ac.to_mapping()["multirotor"]["descent_inflow_weight"] == 1.0
     with pytest.raises(InputError, match="descent_inflow_weight.*propeller"):
         load_aircraft(write(tmp_path, base % ", ct: 0.1, cp: 0.04, descent_inflow_weight: 1",
                             "p.yaml"))
