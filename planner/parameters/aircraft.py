@@ -313,6 +313,11 @@ class Navigation:
 ROTOR_LOSSES_KEYS = ("no_load_power_w", "copper_loss_power_w", "drive_efficiency",
                      "reference_mass_kg", "power_lead_s")
 
+#: Keys of MULTIROTOR_KEYS only some power models read, and which: a file giving one to
+#: another model is refused, and the object holds None there (written back without it).
+MODEL_ONLY_KEYS = {**{key: ("rotor_losses",) for key in ROTOR_LOSSES_KEYS},
+                   "descent_inflow_weight": ("momentum", "rotor_losses")}
+
 #: Keys each multirotor power model needs (besides rotors and diameter).
 POWER_MODEL_KEYS = {"propeller": ("ct", "cp"), "momentum": (), "rotor_losses": ()}
 
@@ -355,8 +360,8 @@ class Multirotor:
 
     Each field is the key of :data:`MULTIROTOR_KEYS` of that name (unit and meaning
     there; defaults from there). ``power_model`` is always set (inferred when the file
-    leaves it out); the keys of :data:`ROTOR_LOSSES_KEYS` are None unless it is
-    ``rotor_losses``.
+    leaves it out); the keys of :data:`MODEL_ONLY_KEYS` are None unless it is one of the
+    models that read them.
     """
 
     rotors: int
@@ -370,7 +375,7 @@ class Multirotor:
     induced_factor: float = _MR["induced_factor"]
     figure_of_merit: float | None = None
     tip_speed_ms: float | None = None
-    descent_inflow_weight: float = _MR["descent_inflow_weight"]
+    descent_inflow_weight: float | None = _MR["descent_inflow_weight"]
     max_thrust_n: float | None = None
     no_load_power_w: float | None = None
     copper_loss_power_w: float | None = None
@@ -568,8 +573,6 @@ class Aircraft:
         if not self.is_multirotor and self.fixed_wing.propeller_diameter_m is None:
             for k in ("propellers", "propeller_induced_factor", "propeller_profile_power_w"):
                 out[self.type].pop(k, None)
-        if self.is_multirotor and self.multirotor.power_model == "propeller":
-            out[self.type].pop("descent_inflow_weight", None)    # the model has no inflow
         if self.navigation is not None:
             out["navigation"] = self.navigation.to_mapping()
         if self.source:
@@ -785,20 +788,17 @@ def _multirotor(data: Any, where: str, problems: S.Problems) -> Multirotor | Non
         elif fm is not None and kappa * fm > 1.0:
             problems.add(f"multirotor.figure_of_merit must be at most 1/induced_factor "
                          f"= {1.0 / kappa:.3g} (profile power >= 0), got {fm!r}")
-    if model == "propeller" and isinstance(data, dict) and \
-            data.get("descent_inflow_weight") is not None:
-        problems.add("multirotor.descent_inflow_weight is read only by power_model momentum "
-                     "and rotor_losses (this file's power_model is 'propeller')")
-    given = [key for key in ROTOR_LOSSES_KEYS if isinstance(data, dict)
-             and data.get(key) is not None]
-    if model != "rotor_losses" and given:
-        problems.add(", ".join(f"multirotor.{k}" for k in given)
-                     + f" {'is' if len(given) == 1 else 'are'} read only by power_model "
-                     f"rotor_losses (this file's power_model is '{model}')")
-    losses = {key: (d[key] if model == "rotor_losses" else None) for key in ROTOR_LOSSES_KEYS}
+    for readers in dict.fromkeys(MODEL_ONLY_KEYS.values()):
+        given = [key for key, r in MODEL_ONLY_KEYS.items() if r == readers and model not in r
+                 and isinstance(data, dict) and data.get(key) is not None]
+        if given:
+            problems.add(", ".join(f"multirotor.{k}" for k in given)
+                         + f" {'is' if len(given) == 1 else 'are'} read only by power_model "
+                         f"{' and '.join(readers)} (this file's power_model is '{model}')")
+    unread = {key: (d[key] if model in r else None) for key, r in MODEL_ONLY_KEYS.items()}
     if len(problems) > n:
         return None
-    return Multirotor(**S.fields_from(Multirotor, d, power_model=model, **losses))
+    return Multirotor(**S.fields_from(Multirotor, d, power_model=model, **unread))
 
 
 def load_aircraft(path: str | Path) -> Aircraft:
