@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["PHASES", "FlightState", "air_density_from_log", "fill_gaps", "flight_phases",
-           "from_record"]
+           "from_record", "vertical_descent"]
 
 #: Flight phases, in the order reports list them.
 PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent")
@@ -43,12 +43,24 @@ PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent")
 GROUND_POWER_FRACTION = 0.3
 #: Vertical speed beyond which an airborne sample climbs or descends. [m/s]
 CLIMB_THRESHOLD_MS = 0.5
+#: Ground (or in-plane) speed below which an airborne sample is still over ground: its
+#: ground velocity is known whatever the course says, and a multirotor descending there
+#: descends vertically (:func:`vertical_descent`). [m/s]
+STILL_MS = 0.5
 #: Ground speed above which an airborne sample cruises. [m/s]
 CRUISE_THRESHOLD_MS = 2.0
 #: Duration of the take-off phase after the first airborne sample. [s]
 TAKEOFF_S = 10.0
 #: Share of finite samples a channel needs to be used. [unitless]
 CHANNEL_COVERAGE = 0.5
+
+
+def vertical_descent(speed, climb_rate) -> np.ndarray:
+    """Where a multirotor descends vertically: still over ground (``speed`` below
+    :data:`STILL_MS`) and sinking faster than :data:`CLIMB_THRESHOLD_MS`, as the flight
+    phases count a descent. [m/s] in, bool out."""
+    return (np.asarray(speed, float) < STILL_MS) & \
+        (np.asarray(climb_rate, float) < -CLIMB_THRESHOLD_MS)
 
 
 def flight_phases(power_w, climb_rate_ms=None, groundspeed_ms=None, time_s=None,

@@ -108,10 +108,6 @@ ROTOR_LOSSES_PARAMETERS = {"no_load_power_w": (0.0, 2000.0),
                            "copper_loss_power_w": (0.0, 2000.0),
                            "profile_power_ratio": (0.0, 3.85),
                            "drag_area_m2": (0.0, 2.0)}
-#: Vertical descent: slower than this over ground (in-plane airspeed) [m/s] and sinking
-#: faster than the flight phases' climb threshold
-#: (:data:`planner.chain.flightstate.CLIMB_THRESHOLD_MS`).
-STILL_MS = 0.5
 #: Least vertical descent in the training flights, in time and in flights, for the fit to
 #: free the slow-descent inflow weight (``descent_inflow_weight``); with less it is held
 #: at the file's value and the report says why. [s], [flights]
@@ -223,9 +219,10 @@ def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
 
 
 def vertical_descent(s: Samples) -> tuple[float, int]:
-    """Time [s] the samples spend in vertical descent (:data:`STILL_MS`, the flight phases'
-    climb threshold) and the number of flights it comes from."""
-    down = (s.airspeed < STILL_MS) & (s.climb_rate < -flightstate.CLIMB_THRESHOLD_MS)
+    """Time [s] the samples spend in vertical descent
+    (:func:`planner.chain.flightstate.vertical_descent` of their in-plane airspeed) and the
+    number of flights it comes from."""
+    down = flightstate.vertical_descent(s.airspeed, s.climb_rate)
     return float(np.sum(s.dt[down])), int(np.unique(s.experiment[down]).size)
 
 
@@ -382,8 +379,8 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                                 site_altitude_m=site_altitude_m,
                                 airborne_height_m=airborne_height_m, **kwargs)
     table = dict(PARAMETERS[aircraft.type])
-    if aircraft.is_multirotor and aircraft.multirotor.power_model == "propeller":
-        del table["descent_inflow_weight"]      # the propeller model has no inflow
+    if aircraft.is_multirotor and aircraft.multirotor.descent_inflow_weight is None:
+        del table["descent_inflow_weight"]      # a model without inflow (propeller)
     if not aircraft.is_multirotor and aircraft.fixed_wing.propeller_diameter_m:
         table["propeller_profile_power_w"] = PROPELLER_PROFILE_BOUNDS_W
     names = parameters or list(table)
@@ -396,9 +393,9 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     s_trn, s_val = _subset(s, trn), _subset(s, val)
     mass_trn = sample_masses(s_trn, mass_kg)
     held = {}
-    if "descent_inflow_weight" in names:
+    if "descent_inflow_weight" in names and parameters is None:
         why = _descent_held(s_trn)
-        if why is not None and parameters is None:
+        if why is not None:
             names = [n for n in names if n != "descent_inflow_weight"]
             held["descent_inflow_weight"] = (
                 f"held at the file's {aircraft.multirotor.descent_inflow_weight:g}: {why}")

@@ -35,9 +35,8 @@ def test_the_descent_weight_fitted_on_other_routes_predicts_r1s_descents(shared_
     the fit never saw: against Leishman's curve (weight 0), R1's mean descent residual
     (predicted − measured, per flight, η and drag area refitted on R1 with the weight
     held) falls from about +17 W to within two standard errors of zero."""
-    from planner.chain.flightstate import CLIMB_THRESHOLD_MS
+    from planner.chain.flightstate import vertical_descent
     from planner.identify.aircraft_fit import (
-        STILL_MS,
         _predict,
         airborne_samples,
         fit_aircraft,
@@ -67,7 +66,7 @@ def test_the_descent_weight_fitted_on_other_routes_predicts_r1s_descents(shared_
         df, mass = flights(True)
         s = airborne_samples(df, 300.0)
         m = sample_masses(s, mass)
-        down = (s.airspeed < STILL_MS) & (s.climb_rate < -CLIMB_THRESHOLD_MS)
+        down = vertical_descent(s.airspeed, s.climb_rate)
         residual = {}
         for weight in (0.0, w):
             start = with_params(ac, {"descent_inflow_weight": weight})

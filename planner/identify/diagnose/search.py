@@ -140,7 +140,13 @@ from planner.identify import stats
 from planner.errors import FitError, ModelError
 from planner.identify.aircraft_fit import with_params
 from planner.identify.diagnose.evidence import mode_changes
-from planner.chain.flightstate import CLIMB_THRESHOLD_MS, from_record, inplane_speed
+from planner.chain.flightstate import (
+    CLIMB_THRESHOLD_MS,
+    STILL_MS,
+    from_record,
+    inplane_speed,
+    vertical_descent,
+)
 from planner.physics.units import AS_PER_MAH
 
 #: Folds of the cross-validation. [unitless]
@@ -181,10 +187,6 @@ CLIMB_WINDOW_S = 5.0
 #: Autopilot logs agree within 0.07–0.17 m/s; beyond 0.5 m/s the climb power alone
 #: (m g v_c / η) is misstated by some 8 % of the hover power of a 3.6-kg quadrotor. [m/s]
 MAX_CLIMB_DISAGREEMENT_MS = CLIMB_THRESHOLD_MS
-#: Ground speed below which the aircraft is (nearly) still over ground, whatever the
-#: course says: its ground velocity is known, and a multirotor descending there descends
-#: vertically (:meth:`PowerLevel.descent_misfit`). [m/s]
-STILL_MS = 0.5
 #: Least number of flights with vertical descents for their misfit to be measured, and
 #: the share of their mean power from which it is reported. [unitless]
 MIN_DESCENT_FLIGHTS = 3
@@ -1317,8 +1319,8 @@ class PowerLevel:
 
     def descent_misfit(self, fit: Fit, effects) -> dict[str, float] | None:
         r"""How far the model ``fit`` of ``effects`` misses a multirotor's vertical descents
-        (bins below :data:`STILL_MS` over ground that descend: faster than
-        :data:`planner.chain.flightstate.CLIMB_THRESHOLD_MS`, as the flight phases count it),
+        (bins of :func:`planner.chain.flightstate.vertical_descent`: still over ground and
+        descending as the flight phases count it),
         or None (not a multirotor, or fewer than :data:`MIN_DESCENT_FLIGHTS` flights with
         such bins).
 
@@ -1337,7 +1339,7 @@ class PowerLevel:
         """
         if not self.aircraft.is_multirotor:
             return None
-        vertical = (self.gs < STILL_MS) & (self.climb < -CLIMB_THRESHOLD_MS)
+        vertical = vertical_descent(self.gs, self.climb)
         flights, e_of = np.unique(self.exp[vertical], return_inverse=True)
         if flights.size < MIN_DESCENT_FLIGHTS:
             return None
