@@ -1,4 +1,4 @@
-"""Calibration of the predicted energy band on real flights (DJI Matrice 100).
+r"""Calibration of the predicted energy band on real flights (DJI Matrice 100).
 
 The question: does the P5–P95 band the planner gives for a flight's energy contain what
 was measured in 80–95 % of flights it has not seen? Too narrow (over-confident) and too
@@ -13,17 +13,21 @@ Procedure:
 
 1. Every other cruise flight trains ``fit_aircraft`` (efficiency, drag area, system power,
    with standard errors), the others are held out.
+   Each flight's all-up mass is the aircraft's empty mass, the 0.6 kg TB47D pack and the
+   flight's own payload (0–0.75 kg), which the data set's per-flight table
+   ``m100_parameters.csv`` gives (read through the column map).
 2. For each held-out flight the energy of its airborne samples is predicted from its
-   measured flight state through the chain's power model
-   (:meth:`planner.chain.mission_chain.MissionChain.power_at`), drawing
-   * the fitted parameters from normals with their standard errors (``DRAWS`` sets), and
-   * the payload from the data set's design, 0, 0.25 or 0.5 kg with equal weight (the
-     payload of each flight is not in this copy of the data).
+   measured flight state and its own mass through the chain's power model
+   (:meth:`planner.chain.mission_chain.MissionChain.power_at`), drawing the fitted
+   parameters from normals with their standard errors (``DRAWS`` sets).
 3. Coverage = share of held-out flights whose measured energy lies within P5–P95.
 
-A second band adds a per-flight model discrepancy: the spread of the per-flight energy
-errors of the fitted model on the *training* flights (normal, relative), which the
-parameters' standard errors do not contain.
+A second band adds the power model's own error as ``check --uncertainty`` draws it
+(:mod:`planner.chain.uncertainty`): each flight's energy times :math:`e^{\sigma z}`, σ the
+``energy_error_sd`` that ``fit-aircraft`` writes (the RMS per-flight energy error on its
+training flights), which the parameters' standard errors do not contain. A third band
+draws, in place of each flight's own payload, the payload of a training flight taken at
+random: the band of a user who does not know what the flight carried.
 
 Run: ``python benchmarks/calibrate_uncertainty.py``
 """
@@ -41,48 +45,55 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from planner.chain.mission_chain import MissionChain  # noqa: E402
-from planner.io.flightdata import load_flight_data  # noqa: E402
 from planner.identify.aircraft_fit import airborne_samples, fit_aircraft, with_params  # noqa: E402
+from planner.io.flightdata import load_flight_data  # noqa: E402
+from planner.io.record import experiment_payloads  # noqa: E402
 from planner.parameters import load_aircraft_and_battery  # noqa: E402
 
 ENERGY = REPO.parent / "shared" / "data" / "energy"
-PAYLOADS_KG = (0.0, 0.25, 0.5)      # the data set's design (Rodrigues et al. 2021)
-DRAWS = 40                          # parameter sets
-SITE_ALTITUDE_M = 300.0             # Pittsburgh test site, about 300 m AMSL
+DRAWS = 40                             # parameter sets
+SITE_ALTITUDE_M = 300.0                # Pittsburgh test site, about 300 m AMSL
 
 
-def predictive_energy(aircraft, samples, fit, rng, discrepancy_sd=0.0):
-    """Predicted airborne energy of every flight of ``samples``: (flights, draws) [Wh]."""
+def _flight_index(samples):
+    """The flights of ``samples`` in their order and each sample's flight number."""
     flights = list(dict.fromkeys(samples.experiment))
-    index = np.searchsorted(np.array(flights, dtype=object), samples.experiment,
-                            sorter=np.argsort(np.array(flights, dtype=object)))
-    order = np.argsort(np.array(flights, dtype=object))
-    flight_of = order[index]
+    number = {f: i for i, f in enumerate(flights)}
+    return flights, np.array([number[f] for f in samples.experiment])
+
+
+def predictive_energy(aircraft, samples, fit, mass_of, rng, discrepancy_sd=0.0,
+                      payloads=None, bare_kg=0.0):
+    """Predicted airborne energy of every flight of ``samples``: (flights, draws) [Wh].
+
+    ``mass_of``: all-up mass [kg] of each flight (experiment id → kg). With ``payloads``,
+    each draw gives every flight a payload [kg] drawn from those, on ``bare_kg`` (the
+    empty aircraft and the pack), in place of its own."""
+    flights, flight_of = _flight_index(samples)
     names = list(fit["parameters"])
     mean = np.array([fit["parameters"][k] for k in names])
     sd = np.array([fit["stderr"][k] for k in names])
     sd = np.where(np.isfinite(sd), sd, 0.0)
-    mass0 = aircraft.empty_mass_kg + 0.6
+    own = np.array([mass_of[f] for f in flights])[flight_of]
     out = []
     for _ in range(DRAWS):
         theta = mean + sd * rng.standard_normal(len(names))
-        ac = with_params(aircraft, dict(zip(names, theta)))
-        chain = MissionChain(ac, None)
-        for payload in PAYLOADS_KG:
-            p = chain.power_at(samples.airspeed, samples.climb_rate, samples.air_density,
-                               mass0 + payload)
-            e = np.bincount(flight_of, weights=p * samples.dt, minlength=len(flights))
-            out.append(e / 3600.0)
+        chain = MissionChain(with_params(aircraft, dict(zip(names, theta))), None)
+        mass = own if payloads is None else (
+            bare_kg + rng.choice(payloads, len(flights))[flight_of])
+        p = chain.power_at(samples.airspeed, samples.climb_rate, samples.air_density, mass)
+        e = np.bincount(flight_of, weights=p * samples.dt, minlength=len(flights))
+        out.append(e / 3600.0)
     e = np.array(out).T                                  # flights × draws
-    if discrepancy_sd > 0:
-        e = e * (1.0 + discrepancy_sd * rng.standard_normal(e.shape))
+    if discrepancy_sd > 0:      # as check --uncertainty draws it (planner.chain.uncertainty)
+        e = e * np.exp(discrepancy_sd * rng.standard_normal(e.shape))
     return flights, e
 
 
 def measured_energy(samples):
-    flights = list(dict.fromkeys(samples.experiment))
-    return np.array([np.sum((samples.measured_w * samples.dt)[samples.experiment == f])
-                     for f in flights]) / 3600.0
+    flights, flight_of = _flight_index(samples)
+    return np.bincount(flight_of, weights=samples.measured_w * samples.dt,
+                       minlength=len(flights)) / 3600.0
 
 
 def _subset(samples, mask):
@@ -101,34 +112,37 @@ def main() -> None:
     data, _ = load_flight_data(sorted(ENERGY.glob("m100_flights_part*.csv.gz")),
                                column_map="dji_m100")
     data = data[data.experiment.astype(str).isin(cruise)].copy()
-    aircraft, _ = load_aircraft_and_battery(REPO / "aircraft/dji_m100.yaml")
+    aircraft, pack = load_aircraft_and_battery(REPO / "aircraft/dji_m100.yaml")
+    bare = aircraft.empty_mass_kg + pack.total_mass_kg
+    payload = experiment_payloads(data)
+    mass_of = {f: bare + payload[f] for f in payload}
     flights = list(dict.fromkeys(data.experiment.astype(str)))
     train, held = flights[0::2], flights[1::2]
-    fit = fit_aircraft(data, aircraft, mass_kg=aircraft.empty_mass_kg + 0.6 + 0.25,
-                       train=train, validate=held, site_altitude_m=SITE_ALTITUDE_M)
+    fit = fit_aircraft(data, aircraft, mass_kg=mass_of, train=train, validate=held,
+                       site_altitude_m=SITE_ALTITUDE_M)
     fitted = fit["aircraft"]
     s_all = airborne_samples(data, SITE_ALTITUDE_M)
-    s_held, s_train = (_subset(s_all, np.isin(s_all.experiment, ids)) for ids in (held, train))
+    s_held = _subset(s_all, np.isin(s_all.experiment, held))
     rng = np.random.default_rng(0)
 
-    # per-flight discrepancy of the fitted model on the training flights (mid payload)
-    p_tr = MissionChain(fitted, None).power_at(s_train.airspeed, s_train.climb_rate,
-                                               s_train.air_density,
-                                               fitted.empty_mass_kg + 0.6 + 0.25)
-    e_tr = np.array([np.sum((p_tr * s_train.dt)[s_train.experiment == f])
-                     for f in dict.fromkeys(s_train.experiment)]) / 3600.0
-    rel = e_tr / measured_energy(s_train) - 1.0
-    disc = float(np.std(rel))
+    # the model error check --uncertainty draws: fit-aircraft's energy_error_sd
+    disc = fit["energy_error_sd"]
 
     fitted_text = ", ".join(f"{k} {v:.4g} ± {fit['stderr'][k]:.2g}"
                             for k, v in fit["parameters"].items())
-    print(f"{len(flights)} cruise flights: {len(train)} train fit-aircraft, {len(held)} "
-          f"held out; fitted {fitted_text}")
+    print(f"{len(flights)} cruise flights, payload 0–0.75 kg each from the data set's "
+          f"per-flight table: {len(train)} train fit-aircraft, {len(held)} held out; "
+          f"fitted {fitted_text}")
     e_meas = measured_energy(s_held)
-    for label, d in (("parameters (fit standard errors) + payload 0/0.25/0.5 kg", 0.0),
-                     (f"… + per-flight discrepancy ±{100 * disc:.1f} % (training flights)",
-                      disc)):
-        names, e = predictive_energy(fitted, s_held, fit, rng, d)
+    carried = np.array([payload[f] for f in train])
+    for label, d, alt in (
+            ("parameters (fit standard errors), each flight's own payload", 0.0, None),
+            ((f"… + the model error check --uncertainty draws (fit-aircraft's "
+              f"energy_error_sd {100 * disc:.1f} %, RMS per-flight error on the training "
+              "flights)"), disc, None),
+            (("… with each flight's payload unknown (drawn from the training flights' "
+              f"{', '.join(f'{m:g}' for m in np.unique(carried))} kg)"), disc, carried)):
+        _, e = predictive_energy(fitted, s_held, fit, mass_of, rng, d, alt, bare)
         p5, p50, p95 = np.percentile(e, [5, 50, 95], axis=1)
         inside = (e_meas >= p5) & (e_meas <= p95)
         width = np.median((p95 - p5) / p50)
