@@ -107,7 +107,9 @@ PROPELLER_PROFILE_BOUNDS_W = (0.0, 2000.0)
 ROTOR_LOSSES_PARAMETERS = {"no_load_power_w": (0.0, 2000.0),
                            "copper_loss_power_w": (0.0, 2000.0),
                            "profile_power_ratio": (0.0, 3.85),
-                           "drag_area_m2": (0.0, 2.0)}
+                           "drag_area_m2": (0.0, 2.0),
+                           "descent_inflow_weight": (DESCENT_INFLOW_WEIGHT_MIN,
+                                                     DESCENT_INFLOW_WEIGHT_MAX)}
 #: Least vertical descent in the training flights, in time and in flights, for the fit to
 #: free the slow-descent inflow weight (``descent_inflow_weight``); with less it is held
 #: at the file's value and the report says why. [s], [flights]
@@ -740,25 +742,33 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     """Fit the ``rotor_losses`` multirotor model to measured flights (module notes).
 
     Parameters as :func:`fit_aircraft`; ``parameters`` are names among
-    ``no_load_power_w``, ``copper_loss_power_w``, ``figure_of_merit`` and
-    ``drag_area_m2``; ``airborne_height_m`` selects the airborne samples by height above
+    ``no_load_power_w``, ``copper_loss_power_w``, ``figure_of_merit``, ``drag_area_m2``
+    and ``descent_inflow_weight`` (by default freed only where the training flights
+    descend vertically, as :func:`fit_aircraft`); ``airborne_height_m`` selects the airborne samples by height above
     the first sample instead of the flight phases; ``leads_s`` the leads tried. [s]
 
     Returns
     -------
     dict
-        As :func:`fit_aircraft`, plus ``at_bound`` (parameters ending on a bound: misfit
+        As :func:`fit_aircraft` (with ``held``), plus ``at_bound`` (parameters ending on a bound: misfit
         of the model's form), ``stopped_power`` (value, samples, source), ``lead_s``
         (chosen), ``lead_train_rmse_w`` (per lead tried) and ``profile_power_ratio``.
     """
     chosen = _rotor_losses_chosen(parameters)
-    names = ["profile_power_ratio" if n == _FM else n for n in chosen]
     states = _states(data, site_altitude_m)
     given_lead = float(aircraft.multirotor.power_lead_s or 0.0)
     samples = {lead: rotor_losses_samples(states, lead, airborne_height_m)
                for lead in dict.fromkeys([*leads_s, given_lead])}
     s0 = samples[given_lead]
     trn, val, how = _fit_split(s0, validate, train)
+    held = {}
+    if "descent_inflow_weight" in chosen and parameters is None:
+        why = _descent_held(_subset(s0, trn))
+        if why is not None:
+            chosen = [n for n in chosen if n != "descent_inflow_weight"]
+            held["descent_inflow_weight"] = (
+                f"held at the file's {aircraft.multirotor.descent_inflow_weight:g}: {why}")
+    names = ["profile_power_ratio" if n == _FM else n for n in chosen]
     p_air = float(np.median(s0.measured_w))
     stop = _held_stopped_power(states, set(s0.experiment[trn]), p_air, aircraft)
     base = with_params(aircraft, {"system_power_w": stop["value_w"]})
@@ -784,7 +794,7 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     result = {
         "aircraft": fitted, "parameters": values, "start": starts,
         "stderr": {n: se[n] for n in chosen}, "poorly_determined": poor,
-        "at_bound": at_bound, "split": how, "stopped_power": stop,
+        "at_bound": at_bound, "split": how, "stopped_power": stop, "held": held,
         "lead_s": lead, "lead_train_rmse_w": {f"{k:g}": v[0] for k, v in fits.items()},
         "profile_power_ratio": r0,
         "train_experiments": sorted(set(s0.experiment[trn])),
@@ -802,10 +812,13 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
 #: The figure of merit, fitted as the profile power ratio r₀ = 1/FM − κ.
 _FM = "figure_of_merit"
 #: The names :func:`fit_rotor_losses` fits.
-_ROTOR_LOSSES_PUBLIC = ["no_load_power_w", "copper_loss_power_w", _FM, "drag_area_m2"]
-#: Scales of the rotor_losses parameters for the solver. [W], [W], [unitless], [m²]
+_ROTOR_LOSSES_PUBLIC = ["no_load_power_w", "copper_loss_power_w", _FM, "drag_area_m2",
+                       "descent_inflow_weight"]
+#: Scales of the rotor_losses parameters for the solver. [W], [W], [unitless], [m²],
+#: [unitless]
 _ROTOR_LOSSES_SCALES = {"no_load_power_w": 100.0, "copper_loss_power_w": 100.0,
-                        "profile_power_ratio": 0.5, "drag_area_m2": 0.05}
+                        "profile_power_ratio": 0.5, "drag_area_m2": 0.05,
+                        "descent_inflow_weight": 1.0}
 
 
 def chosen_parameters(parameters: list[str] | None, allowed, what: str,
@@ -849,7 +862,8 @@ def _rotor_losses_start(base: Aircraft, names: list[str], p_air: float):
     start = {"no_load_power_w": base.multirotor.no_load_power_w or 0.1 * p_air,
              "copper_loss_power_w": base.multirotor.copper_loss_power_w or 0.2 * p_air,
              "profile_power_ratio": _profile_ratio(base),
-             "drag_area_m2": base.multirotor.drag_area_m2}
+             "drag_area_m2": base.multirotor.drag_area_m2,
+             "descent_inflow_weight": base.multirotor.descent_inflow_weight}
     x0 = np.array([start[n] for n in names])
     lo = np.array([ROTOR_LOSSES_PARAMETERS[n][0] for n in names])
     hi = np.array([ROTOR_LOSSES_PARAMETERS[n][1] for n in names])
@@ -870,16 +884,19 @@ def _fit_at_lead(s_trn: Samples, base: Aircraft, mass_kg, lead: float, names, st
     cache: dict[float, Any] = {}
 
     def residual(x):
-        # the aerodynamics depend on f alone: one evaluation per drag area tried
+        # the aerodynamics depend on f and the descent inflow weight w alone: one
+        # evaluation per pair tried
         v = dict(zip(names, x))
         mr = ref.multirotor
         f = float(v.get("drag_area_m2", mr.drag_area_m2))
-        if f not in cache:
+        w = float(v.get("descent_inflow_weight", mr.descent_inflow_weight))
+        if (f, w) not in cache:
             if len(cache) > 4:
                 cache.clear()
-            cache[f] = _unit_terms(ref, s_trn, m_trn, f)
+            cache[f, w] = _unit_terms(with_params(ref, {"descent_inflow_weight": w}),
+                                      s_trn, m_trn, f)
         pred = battery_power_from_unit_terms(
-            cache[f], v.get("profile_power_ratio", _profile_ratio(ref)),
+            cache[f, w], v.get("profile_power_ratio", _profile_ratio(ref)),
             v.get("no_load_power_w", mr.no_load_power_w),
             v.get("copper_loss_power_w", mr.copper_loss_power_w), mr.drive_efficiency,
             ref.system_power_w)

@@ -125,3 +125,46 @@ def test_the_model_error_fit_aircraft_writes_covers_held_out_m100_flights(shared
     assert held.size > 80
     inside = np.abs(np.log1p(held)) <= 1.645 * sigma
     assert 0.80 <= inside.mean() <= 0.95
+
+
+def _rotor_losses_m100():
+    from planner.parameters import load_aircraft_and_battery
+    from testkit.matrix import REPO
+    ac, pack = load_aircraft_and_battery(REPO / "aircraft/dji_m100_rotor_losses.yaml")
+    return ac, pack
+
+
+def test_the_rotor_losses_fit_frees_the_descent_weight_only_on_vertical_descents(shared_data):
+    """The rotor_losses fit follows fit-aircraft's rule for the slow-descent inflow
+    weight: DJI M100 flights of route R1 (Rodrigues et al. 2021, CC BY 4.0), which end
+    in a vertical descent, free it and report it with a standard error (a weight on its
+    bound is named in the fit status as a misfit); the same flights with their vertical
+    descents cut away hold it at the file's value and say why; asked for by name it is
+    fitted all the same."""
+    from planner.identify.aircraft_fit import fit_aircraft
+    from testkit import matrix as M
+
+    ac, pack = _rotor_losses_m100()
+    df, _ = M.m100_flights(route_r1=True)
+    keep = sorted(df["experiment"].astype(int).unique())[::6]
+    df = df[df["experiment"].astype(int).isin(keep)]
+    mass = ac.empty_mass_kg + pack.total_mass_kg + 0.25
+    level = ~((df["groundspeed_ms"].abs() < 1.0) & (df["climb_rate_ms"] < -0.3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        free = fit_aircraft(df, ac, mass_kg=mass, site_altitude_m=300.0, leads_s=(0.15,))
+        held = fit_aircraft(df[level], ac, mass_kg=mass, site_altitude_m=300.0,
+                            leads_s=(0.15,))
+        asked = fit_aircraft(df[level], ac, mass_kg=mass, site_altitude_m=300.0,
+                             leads_s=(0.15,),
+                             parameters=["no_load_power_w", "descent_inflow_weight"])
+    w = free["parameters"]["descent_inflow_weight"]
+    assert "descent_inflow_weight" not in free["held"]
+    assert -1.0 <= w <= 2.0 and np.isfinite(free["stderr"]["descent_inflow_weight"])
+    assert free["aircraft"].multirotor.descent_inflow_weight == pytest.approx(w)
+    assert ("descent_inflow_weight" in free["fit_status"]) == (
+        "descent_inflow_weight" in free["at_bound"])
+    assert "descent_inflow_weight" not in held["parameters"]
+    assert "held at the file's 0" in held["held"]["descent_inflow_weight"]
+    assert held["aircraft"].multirotor.descent_inflow_weight == 0.0
+    assert "descent_inflow_weight" in asked["parameters"] and not asked["held"]
