@@ -239,6 +239,21 @@ def _descent_held(s_trn: Samples) -> str | None:
             "show the power of a slow descent")
 
 
+def _descent_weight_freed(names: list[str], parameters, s_trn: Samples,
+                          aircraft: Aircraft) -> tuple[list[str], dict[str, str]]:
+    """The parameters to fit, without ``descent_inflow_weight`` where the fit chooses
+    them itself (``parameters`` None) and the training samples ``s_trn`` cannot free it
+    (:func:`_descent_held`), and what is held with why."""
+    if "descent_inflow_weight" not in names or parameters is not None:
+        return names, {}
+    why = _descent_held(s_trn)
+    if why is None:
+        return names, {}
+    w = aircraft.multirotor.descent_inflow_weight
+    return ([n for n in names if n != "descent_inflow_weight"],
+            {"descent_inflow_weight": f"held at the file's {w:g}: {why}"})
+
+
 def _predict(aircraft: Aircraft, s: Samples, mass: np.ndarray) -> np.ndarray:
     chain = MissionChain(aircraft, None)
     force = s.specific_force
@@ -394,13 +409,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     trn, val, how = _fit_split(s, validate, train)
     s_trn, s_val = _subset(s, trn), _subset(s, val)
     mass_trn = sample_masses(s_trn, mass_kg)
-    held = {}
-    if "descent_inflow_weight" in names and parameters is None:
-        why = _descent_held(s_trn)
-        if why is not None:
-            names = [n for n in names if n != "descent_inflow_weight"]
-            held["descent_inflow_weight"] = (
-                f"held at the file's {aircraft.multirotor.descent_inflow_weight:g}: {why}")
+    names, held = _descent_weight_freed(names, parameters, s_trn, aircraft)
     x0 = np.array([get_param(aircraft, n) for n in names])
     lo = np.array([table[n][0] for n in names])
     hi = np.array([table[n][1] for n in names])
@@ -744,14 +753,15 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     Parameters as :func:`fit_aircraft`; ``parameters`` are names among
     ``no_load_power_w``, ``copper_loss_power_w``, ``figure_of_merit``, ``drag_area_m2``
     and ``descent_inflow_weight`` (by default freed only where the training flights
-    descend vertically, as :func:`fit_aircraft`); ``airborne_height_m`` selects the airborne samples by height above
-    the first sample instead of the flight phases; ``leads_s`` the leads tried. [s]
+    descend vertically, :func:`_descent_weight_freed`); ``airborne_height_m`` selects
+    the airborne samples by height above the first sample instead of the flight phases;
+    ``leads_s`` the leads tried. [s]
 
     Returns
     -------
     dict
-        As :func:`fit_aircraft` (with ``held``), plus ``at_bound`` (parameters ending on a bound: misfit
-        of the model's form), ``stopped_power`` (value, samples, source), ``lead_s``
+        As :func:`fit_aircraft` (with ``held``), plus ``at_bound`` (parameters ending on
+        a bound: misfit of the model's form), ``stopped_power`` (value, samples, source), ``lead_s``
         (chosen), ``lead_train_rmse_w`` (per lead tried) and ``profile_power_ratio``.
     """
     chosen = _rotor_losses_chosen(parameters)
@@ -761,13 +771,7 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                for lead in dict.fromkeys([*leads_s, given_lead])}
     s0 = samples[given_lead]
     trn, val, how = _fit_split(s0, validate, train)
-    held = {}
-    if "descent_inflow_weight" in chosen and parameters is None:
-        why = _descent_held(_subset(s0, trn))
-        if why is not None:
-            chosen = [n for n in chosen if n != "descent_inflow_weight"]
-            held["descent_inflow_weight"] = (
-                f"held at the file's {aircraft.multirotor.descent_inflow_weight:g}: {why}")
+    chosen, held = _descent_weight_freed(chosen, parameters, _subset(s0, trn), aircraft)
     names = ["profile_power_ratio" if n == _FM else n for n in chosen]
     p_air = float(np.median(s0.measured_w))
     stop = _held_stopped_power(states, set(s0.experiment[trn]), p_air, aircraft)
@@ -881,7 +885,7 @@ def _fit_at_lead(s_trn: Samples, base: Aircraft, mass_kg, lead: float, names, st
     m_trn = sample_masses(s_trn, mass_kg)
     ref = with_params(base, {"reference_mass_kg": float(np.mean(m_trn)),
                              "power_lead_s": lead})
-    cache: dict[float, Any] = {}
+    cache: dict[tuple[float, float], Any] = {}
 
     def residual(x):
         # the aerodynamics depend on f and the descent inflow weight w alone: one
