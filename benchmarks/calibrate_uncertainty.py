@@ -45,7 +45,12 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from planner.chain.mission_chain import MissionChain  # noqa: E402
-from planner.identify.aircraft_fit import airborne_samples, fit_aircraft, with_params  # noqa: E402
+from planner.identify.aircraft_fit import (  # noqa: E402
+    airborne_samples,
+    fit_aircraft,
+    sample_masses,
+    with_params,
+)
 from planner.io.flightdata import load_flight_data  # noqa: E402
 from planner.io.record import experiment_payloads  # noqa: E402
 from planner.parameters import load_aircraft_and_battery  # noqa: E402
@@ -74,7 +79,7 @@ def predictive_energy(aircraft, samples, fit, mass_of, rng, discrepancy_sd=0.0,
     mean = np.array([fit["parameters"][k] for k in names])
     sd = np.array([fit["stderr"][k] for k in names])
     sd = np.where(np.isfinite(sd), sd, 0.0)
-    own = np.array([mass_of[f] for f in flights])[flight_of]
+    own = sample_masses(samples, mass_of)
     out = []
     for _ in range(DRAWS):
         theta = mean + sd * rng.standard_normal(len(names))

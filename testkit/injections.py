@@ -23,9 +23,10 @@ Mass (:func:`payload_step`, multirotor)
     changes only that part; profile and parasite power stay.
 Flying (:func:`lifting`, multirotor)
     Every multirotor law acts only where the aircraft flies, where it draws at least
-    the ideal power above (no rotor carrying its weight undercuts it). Height above the first sample is no test: it keeps idle rotors after a landing
-    whose barometric altitude has drifted a few metres and ground tests with no
-    altitude, and it drops hovers whose record starts in the air.
+    the ideal power above (no rotor carrying its weight undercuts it). Height above the
+    first sample is no test: it keeps idle rotors after a landing whose barometric
+    altitude has drifted a few metres and ground tests with no altitude, and it drops
+    hovers whose record starts in the air.
 Mass (:func:`payload_step`, fixed wing)
     Induced drag :math:`D_i = (m g)^2 / (\tfrac12 \rho V^2 \pi e b^2)` and climb power
     :math:`m g v_c`, divided by a propulsive efficiency (Anderson, *Aircraft Performance

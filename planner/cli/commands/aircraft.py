@@ -157,8 +157,9 @@ def render(r, mass) -> str:
              "system_power_w": "W"}
     for k, v in r["parameters"].items():
         if k in r.get("at_bound", ()):
-            lines.append(f"{k:<{width}} {fmt(r['start'][k], 4, 10)} {'—':>10} {'—':>10}  ended on "
-                         f"its bound ({v:.4g}): a misfit of the model's form, not a value")
+            lines.append(f"{k:<{width}} {fmt(r['start'][k], 4, 10)} {'—':>10} {'—':>10}  "
+                         f"ended on its bound ({v:.4g}): a misfit of the model's form, not a "
+                         "value")
             continue
         flag = "  poorly determined" if k in r["poorly_determined"] else ""
         lines.append(f"{k:<{width}} {fmt(r['start'][k], 4, 10)} {fmt(v, 4, 10)} "

@@ -138,7 +138,7 @@ from planner.physics import atmosphere
 from planner.physics.battery import integral
 from planner.identify import stats
 from planner.errors import FitError, ModelError
-from planner.identify.aircraft_fit import with_params
+from planner.identify.aircraft_fit import MIN_DESCENT_FLIGHTS, with_params
 from planner.identify.diagnose.evidence import mode_changes
 from planner.chain.flightstate import (
     CLIMB_THRESHOLD_MS,
@@ -187,9 +187,10 @@ CLIMB_WINDOW_S = 5.0
 #: Autopilot logs agree within 0.07–0.17 m/s; beyond 0.5 m/s the climb power alone
 #: (m g v_c / η) is misstated by some 8 % of the hover power of a 3.6-kg quadrotor. [m/s]
 MAX_CLIMB_DISAGREEMENT_MS = CLIMB_THRESHOLD_MS
-#: Least number of flights with vertical descents for their misfit to be measured, and
-#: the share of their mean power from which it is reported. [unitless]
-MIN_DESCENT_FLIGHTS = 3
+#: Share of the vertical descents' mean power from which their misfit is reported (it is
+#: measured on as many flights with vertical descents as fit-aircraft needs to free the
+#: descent inflow weight, :data:`~planner.identify.aircraft_fit.MIN_DESCENT_FLIGHTS`).
+#: [unitless]
 DESCENT_MISFIT_SHARE = 0.03
 
 

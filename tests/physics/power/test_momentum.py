@@ -203,7 +203,8 @@ def test_the_descent_weight_changes_only_the_axial_descent_and_stays_continuous(
     vh = mt.hover_induced_velocity(WEIGHT, 1.204, AREA)
     same = {"climb_rate": np.array([0.0, 1.0, 5.0, -2.5 * vh, -4.0 * vh])}
     for kw in (same, {"airspeed": np.array([1.5 * vh, 3.0 * vh]), "climb_rate": -0.5 * vh}):
-        assert_allclose(mt.induced_velocity(WEIGHT, 1.204, AREA, **kw, descent_inflow_weight=weight),
+        assert_allclose(mt.induced_velocity(WEIGHT, 1.204, AREA, **kw,
+                                            descent_inflow_weight=weight),
                         mt.induced_velocity(WEIGHT, 1.204, AREA, **kw), rtol=1e-12)
     x = np.array([-2.0 + 1e-7, -2.0 - 1e-7])
     vi = mt.induced_velocity(WEIGHT, 1.204, AREA, climb_rate=x * vh,
