@@ -439,6 +439,16 @@ class Aircraft:
         return heaviest_takeoff_kg(self.type, block, self.max_takeoff_mass_kg)
 
     @property
+    def power_efficiency(self) -> float:
+        """The efficiency the power model divides the mechanical power by: ``efficiency``,
+        or 1 for the ``rotor_losses`` model, which does not read it (its losses and
+        ``drive_efficiency`` are inside the model). A recalibration that scales the
+        model's power is measured against it. [unitless]"""
+        if self.is_multirotor and self.multirotor.power_model == "rotor_losses":
+            return 1.0
+        return self.efficiency
+
+    @property
     def min_airspeed_ms(self) -> float:
         """Least airspeed of steady flight. [m/s]
 

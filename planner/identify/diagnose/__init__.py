@@ -795,7 +795,9 @@ CALIBRATION_ALTERNATIVE_SHARE = 0.1
 def calibration_alternatives(lv: LevelReport, aircraft: Aircraft | None) -> dict | None:
     r"""What else the power level's recalibration of η could stand for.
 
-    The calibration scales the whole modelled power by the file's η over the fitted one;
+    The calibration scales the whole modelled power by the file's η
+    (:attr:`~planner.parameters.Aircraft.power_efficiency`: 1 for ``rotor_losses``, whose
+    model it scales as given) over the fitted one;
     anything that raises (or lowers) the power nearly in proportion is absorbed there. Two
     alternatives are sized on the flights (mean over the airborne bins): an all-up mass
     heavier by :math:`\Delta m` at the file's η — :math:`\overline{M}\,(\eta_f/\hat\eta -
@@ -808,7 +810,7 @@ def calibration_alternatives(lv: LevelReport, aircraft: Aircraft | None) -> dict
     """
     if aircraft is None or lv.name != "power" or "efficiency" not in lv.base_values:
         return None
-    eta_file, eta = float(aircraft.efficiency), float(lv.base_values["efficiency"])
+    eta_file, eta = float(aircraft.power_efficiency), float(lv.base_values["efficiency"])
     if not (eta > 0 and abs(eta / eta_file - 1.0) >= CALIBRATION_ALTERNATIVE_SHARE):
         return None
     level, base = lv.result.level, lv.result.base_fit
