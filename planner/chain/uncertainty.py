@@ -130,9 +130,10 @@ DEFAULT_FORECAST_SPREADS = {
 }
 #: Default spread of the power model's whole-flight energy error, for an aircraft file
 #: without ``energy_error_sd``: the RMS per-flight energy error of the DJI M100
-#: ``rotor_losses`` fit on its 187 training flights, 8.2 % (``fit-aircraft`` on
-#: ../shared/data/energy, the command in aircraft/dji_m100_rotor_losses.yaml's source;
-#: docs/results.md). A file never fitted to flights likely errs more. [unitless]
+#: ``rotor_losses`` fit on its 187 training flights fitted at one mass of 2.605 kg, their
+#: payloads not given, 8.2 % (``fit-aircraft`` on ../shared/data/energy, the command in
+#: aircraft/dji_m100_rotor_losses.yaml's source with ``--mass 2.605``; docs/commands.md).
+#: A file never fitted to flights likely errs more. [unitless]
 DEFAULT_MODEL_ERROR_SD = 0.08
 
 
@@ -341,8 +342,8 @@ def resolve_spreads(spreads: Spreads, aircraft) -> tuple[Spreads, dict[str, str]
         values["model_error_sd"] = DEFAULT_MODEL_ERROR_SD
         origin["model_error_sd"] = (f"default: {where} has no energy_error_sd; the DJI M100 "
                                     "rotor_losses fit's RMS per-flight energy error on its "
-                                    "187 training flights, 8.2 % (fit-aircraft writes the "
-                                    "aircraft's own)")
+                                    "187 training flights fitted at one mass, 8.2 % "
+                                    "(fit-aircraft writes the aircraft's own)")
     s = replace(spreads, **values)
     for name in ("wind_sd_ms", "wind_direction_sd_deg", "temperature_sd_c", "soh_sd",
                  "payload_sd_kg", "model_error_sd"):

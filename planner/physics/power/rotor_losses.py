@@ -25,9 +25,15 @@ draws while it turns:
   :math:`T = C_T\rho\Omega^2D^4`, so :math:`\Omega \propto \sqrt{T/\rho}` and
   :math:`\hat\Omega = \sqrt{(T/\rho)/(T_{ref}/\rho_{ref})}`, normalised at the reference
   hover (:math:`T_{ref} = m_{ref}g`, :math:`\rho_{ref}` = 1.225 kg/m³) [3]_, [4]_.
-* :math:`P_{cu}\hat Q^2` — the copper loss :math:`I^2R`: current is proportional to the
-  motor torque, and for a fixed-pitch propeller :math:`Q = C_Q\rho\Omega^2D^5 \propto T`,
-  so :math:`\hat Q = T/T_{ref}` [3]_, [4]_.
+* :math:`P_{cu}\hat Q^2` — the copper loss :math:`I^2R`: the motor current is
+  proportional to its torque, and the torque is the rotor's shaft power over its speed,
+  :math:`Q = P_{shaft}/\Omega` [3]_. Normalised at the reference hover,
+  :math:`\hat Q = \max(P_{shaft}, P_{floor}) / (\hat\Omega\,P_{ref})` with
+  :math:`P_{ref} = (\kappa + r_0)\,T_{ref}\,v_h(T_{ref}, \rho_{ref})` the shaft power of
+  that hover. In a hover at any mass and density this is :math:`\hat Q = T/T_{ref}` (a
+  fixed-pitch propeller's :math:`Q = C_Q\rho\Omega^2D^5 \propto T`); in forward flight,
+  climb and descent the torque follows the shaft power the rotors deliver there, which
+  the thrust alone does not give (a descent lowers both).
 * :math:`\eta_d` — what is left between battery and motors (ESC switching, wiring).
 
 With :math:`P_{nl} = P_{cu} = 0`, :math:`\eta_d = \eta`, :math:`P_{stop} = P_S` and the
@@ -59,6 +65,8 @@ from planner.physics.atmosphere import RHO0, G
 from planner.physics.numeric import require
 from planner.physics.power.momentum import (
     RotorPowerTerms,
+    ideal_hover_power,
+    profile_power_ratio_of,
     rotor_shaft_terms,
     terms_like_inputs,
 )
@@ -84,6 +92,14 @@ class RotorLossesPower(RotorPowerTerms):
     """Motor copper loss :math:`P_{cu}\\hat Q^2`. [W]"""
     rotor_speed_ratio: Any
     """:math:`\\hat\\Omega`, rotor speed over that of the reference hover. [unitless]"""
+    torque_ratio: Any
+    """:math:`\\hat Q`, rotor torque over that of the reference hover. [unitless]"""
+    reference_induced: Any
+    """Induced power :math:`\\kappa T_{ref} v_h(T_{ref}, \\rho_{ref})` of the reference
+    hover. [W]"""
+    reference_profile: Any
+    """Profile power :math:`r_0 T_{ref} v_h(T_{ref}, \\rho_{ref})` of the reference
+    hover. [W]"""
 
 
 def rotor_losses_components(mass, air_density, rotors, diameter, drive_efficiency=0.95,
@@ -137,16 +153,19 @@ induced_factor, figure_of_merit, profile_power_ratio, tip_speed, load_factor
     .. math::
 
         P_{batt} = P_{stop} + s\,\frac{\max(P_{shaft}, P_{floor})
-                   + P_{nl}\sqrt{\frac{T/\rho}{T_{ref}/\rho_{ref}}}
-                   + P_{cu}\left(\frac{T}{T_{ref}}\right)^2}{\eta_d}
+                   + P_{nl}\hat\Omega + P_{cu}\hat Q^2}{\eta_d},
+        \qquad \hat\Omega = \sqrt{\frac{T/\rho}{T_{ref}/\rho_{ref}}},
+        \qquad \hat Q = \frac{\max(P_{shaft}, P_{floor})}{\hat\Omega\,(\kappa + r_0)
+                              T_{ref}\,v_h(T_{ref}, \rho_{ref})}
 
     :math:`P_{shaft} = \kappa T v_i + r_0 T v_h (1 + 4.65\mu^2) + \tfrac12\rho V^3 f +
     W\dot h` ([1]_ ch. 2 and 5; :math:`v_i` from
     :func:`planner.physics.power.momentum.induced_velocity`'s Glauert / vortex-ring solution with
     the axial inflow :math:`V_z = (DV + W\dot h)/T`); the motor terms follow Drela's
-    first-order motor model [3]_ (:math:`I_0V \propto \Omega`, :math:`I^2R \propto Q^2`)
-    with :math:`\Omega \propto \sqrt{T/\rho}` and :math:`Q \propto T` of a fixed-pitch
-    propeller, as Gur & Rosen [4]_ model UAV motor losses.
+    first-order motor model [3]_ (:math:`I_0V \propto \Omega`, :math:`I^2R \propto Q^2`,
+    :math:`Q = P_{shaft}/\Omega`) with :math:`\Omega \propto \sqrt{T/\rho}` of a
+    fixed-pitch propeller, as Gur & Rosen [4]_ model UAV motor losses; in a hover
+    :math:`\hat Q = T/T_{ref}`.
     """
     terms = rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
                               drag_area, induced_factor, figure_of_merit, profile_power_ratio,
@@ -162,8 +181,15 @@ induced_factor, figure_of_merit, profile_power_ratio, tip_speed, load_factor
     t, rho = terms["thrust"], np.asarray(air_density, dtype=float)
     t_ref = m_ref * gravity
     speed = np.sqrt((t / rho) / (t_ref / rho_ref))
+    kappa = np.asarray(induced_factor, dtype=float)
+    ideal_ref = ideal_hover_power(t_ref, rho_ref, rotors * 0.25 * np.pi * diameter**2)
+    ref_induced = kappa * ideal_ref
+    ref_profile = profile_power_ratio_of(figure_of_merit, profile_power_ratio,
+                                         kappa) * ideal_ref
+    torque = _torque_ratio(np.maximum(terms["shaft"], terms["floor"]), speed,
+                           ref_induced + ref_profile)
     no_load = p_nl * speed
-    copper = p_cu * (t / t_ref) ** 2
+    copper = p_cu * torque**2
     battery = _battery(terms["shaft"], terms["floor"], no_load, copper, eta, p_stop,
                        rotors_turning)
     inputs = (mass, air_density, rotors, diameter, drive_efficiency, airspeed, climb_rate,
@@ -172,8 +198,17 @@ induced_factor, figure_of_merit, profile_power_ratio, tip_speed, load_factor
     out = terms_like_inputs({k: terms[k] for k in (
         "induced", "profile", "parasite", "climb", "shaft", "thrust")} | {
         "no_load": no_load, "copper": copper, "battery": battery,
-        "rotor_speed_ratio": speed}, battery, inputs)
+        "rotor_speed_ratio": speed, "torque_ratio": torque,
+        "reference_induced": ref_induced, "reference_profile": ref_profile}, battery, inputs)
     return RotorLossesPower(**out)
+
+
+def _torque_ratio(shaft, speed, reference_shaft):
+    """Q̂ = P_shaft/(Ω̂ P_ref): the torque over the reference hover's (module notes); 0
+    where the rotors do not turn (Ω̂ = 0)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(speed > 0.0, shaft / (np.where(speed > 0.0, speed, 1.0)
+                                              * reference_shaft), 0.0)
 
 
 def _battery(shaft, floor, no_load, copper, eta, p_stop, turning):
@@ -189,9 +224,9 @@ def battery_power_from_unit_terms(unit: RotorLossesPower, profile_power_ratio, n
 
     The induced, parasite and climb power, thrust and rotor speed do not depend on
     :math:`r_0`, :math:`P_{nl}`, :math:`P_{cu}`, :math:`\eta_d` or :math:`P_{stop}`;
-    the profile power and the two losses are proportional to :math:`r_0`,
-    :math:`P_{nl}` and :math:`P_{cu}`. A fit that varies only these reuses one
-    evaluation of the aerodynamics.
+    the profile power (of the samples and of the reference hover) and the no-load loss
+    are proportional to :math:`r_0` and :math:`P_{nl}`, and the torque ratio follows
+    from them. A fit that varies only these reuses one evaluation of the aerodynamics.
 
     Parameters
     ----------
@@ -209,11 +244,13 @@ stopped_power : numeric
     power : ndarray
         The same as :func:`rotor_losses_battery_power` with these parameters. [W]
     """
-    shaft = (np.asarray(unit.induced) + profile_power_ratio * np.asarray(unit.profile)
-             + np.asarray(unit.parasite) + np.asarray(unit.climb))
-    return _battery(shaft, 0.0, no_load_power * np.asarray(unit.no_load),
-                    copper_loss_power * np.asarray(unit.copper), drive_efficiency,
-                    stopped_power, True)
+    shaft = np.maximum(np.asarray(unit.induced) + profile_power_ratio * np.asarray(unit.profile)
+                       + np.asarray(unit.parasite) + np.asarray(unit.climb), 0.0)
+    speed = np.asarray(unit.rotor_speed_ratio)
+    torque = _torque_ratio(shaft, speed, np.asarray(unit.reference_induced)
+                           + profile_power_ratio * np.asarray(unit.reference_profile))
+    return _battery(shaft, 0.0, no_load_power * speed, copper_loss_power * torque**2,
+                    drive_efficiency, stopped_power, True)
 
 
 def rotor_losses_battery_power(mass, air_density, rotors, diameter, drive_efficiency=0.95,
