@@ -101,12 +101,6 @@ def measured_energy(samples):
                        minlength=len(flights)) / 3600.0
 
 
-def _subset(samples, mask):
-    """The samples where ``mask`` is true (an optional channel that is None stays None)."""
-    return type(samples)(*(None if (v := getattr(samples, f)) is None else v[mask]
-                           for f in samples.__dataclass_fields__))
-
-
 def main() -> None:
     if not ENERGY.is_dir():
         print(f"no data at {ENERGY}: the calibration needs ../shared/data/energy")
@@ -127,7 +121,7 @@ def main() -> None:
                        site_altitude_m=SITE_ALTITUDE_M)
     fitted = fit["aircraft"]
     s_all = airborne_samples(data, SITE_ALTITUDE_M)
-    s_held = _subset(s_all, np.isin(s_all.experiment, held))
+    s_held = s_all.subset(np.isin(s_all.experiment, held))
     rng = np.random.default_rng(0)
 
     # the model error check --uncertainty draws: fit-aircraft's energy_error_sd

@@ -186,6 +186,12 @@ class Samples:
     dt: np.ndarray
     specific_force: np.ndarray | None = None
 
+    def subset(self, mask: np.ndarray) -> Samples:
+        """The samples where ``mask`` is true (an optional channel that is None stays
+        None)."""
+        return Samples(*(None if getattr(self, f) is None else getattr(self, f)[mask]
+                         for f in Samples.__dataclass_fields__))
+
 
 def _check_fittable(exp_id, exp: pd.DataFrame) -> None:
     """Raise :class:`InputError` unless the experiment has power and flight state."""
@@ -284,11 +290,6 @@ def sample_masses(s: Samples, mass_kg) -> np.ndarray:
 
 def _is_rotor_losses(aircraft: Aircraft) -> bool:
     return aircraft.is_multirotor and aircraft.multirotor.power_model == "rotor_losses"
-
-
-def _subset(s: Samples, mask: np.ndarray) -> Samples:
-    return Samples(*(None if getattr(s, f) is None else getattr(s, f)[mask]
-                     for f in Samples.__dataclass_fields__))
 
 
 def split_experiments(s: Samples, validate: list[str] | None, train: list[str] | None):
@@ -407,7 +408,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                          f"expected some of {', '.join(table)}")
     s = airborne_samples(data, site_altitude_m, airborne_height_m)
     trn, val, how = _fit_split(s, validate, train)
-    s_trn, s_val = _subset(s, trn), _subset(s, val)
+    s_trn, s_val = s.subset(trn), s.subset(val)
     mass_trn = sample_masses(s_trn, mass_kg)
     names, held = _descent_weight_freed(names, parameters, s_trn, aircraft)
     x0 = np.array([get_param(aircraft, n) for n in names])
@@ -584,13 +585,13 @@ def _scores(aircraft, fitted, before: Samples, after: Samples, trn, val, mass_kg
     :func:`energy_error_sd` (``aircraft``, ``energy_error_sd``, ``energy_error_flights``).
     ``before`` and ``after`` are the samples each aircraft is flown on: the same, unless
     the fit chose a state lead."""
-    sd, flights = energy_error_sd(fitted, _subset(after, trn), mass_kg)
+    sd, flights = energy_error_sd(fitted, after.subset(trn), mass_kg)
     out: dict[str, Any] = {"aircraft": replace(fitted, energy_error_sd=sd),
                            "energy_error_sd": sd, "energy_error_flights": flights}
     for name, rows in (("train", trn), ("validation", val)):
         if name == "validation" and rows.sum() < 2:
             break
-        b, a = _subset(before, rows), _subset(after, rows)
+        b, a = before.subset(rows), after.subset(rows)
         m = sample_masses(b, mass_kg)
         out[name] = {"before": _metrics(_predict(aircraft, b, m), b.measured_w, b.dt),
                      "after": _metrics(_predict(fitted, a, m), a.measured_w, a.dt)}
@@ -771,13 +772,13 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
                for lead in dict.fromkeys([*leads_s, given_lead])}
     s0 = samples[given_lead]
     trn, val, how = _fit_split(s0, validate, train)
-    chosen, held = _descent_weight_freed(chosen, parameters, _subset(s0, trn), aircraft)
+    chosen, held = _descent_weight_freed(chosen, parameters, s0.subset(trn), aircraft)
     names = ["profile_power_ratio" if n == _FM else n for n in chosen]
     p_air = float(np.median(s0.measured_w))
     stop = _held_stopped_power(states, set(s0.experiment[trn]), p_air, aircraft)
     base = with_params(aircraft, {"system_power_w": stop["value_w"]})
     x0, lo, hi, scale = _rotor_losses_start(base, names, p_air)
-    fits = {lead: _fit_at_lead(_subset(samples[lead], trn), base, mass_kg, lead, names,
+    fits = {lead: _fit_at_lead(samples[lead].subset(trn), base, mass_kg, lead, names,
                                (x0, lo, hi, scale), kwargs)
             for lead in leads_s}
     lead = min(fits, key=lambda k: fits[k][0])
