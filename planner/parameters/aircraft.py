@@ -439,13 +439,20 @@ class Aircraft:
         return heaviest_takeoff_kg(self.type, block, self.max_takeoff_mass_kg)
 
     @property
-    def power_efficiency(self) -> float:
-        """The efficiency the power model divides the mechanical power by: ``efficiency``,
-        or 1 for the ``rotor_losses`` model, which does not read it (its losses and
-        ``drive_efficiency`` are inside the model). A recalibration that scales the
-        model's power is measured against it. [unitless]"""
+    def efficiency_key(self) -> str:
+        """The parameter by which the power model divides everything the propulsion
+        draws: ``drive_efficiency`` for the ``rotor_losses`` model (which does not read
+        ``efficiency``), else ``efficiency``. A recalibration that scales the power model
+        sets this one."""
         if self.is_multirotor and self.multirotor.power_model == "rotor_losses":
-            return 1.0
+            return "drive_efficiency"
+        return "efficiency"
+
+    @property
+    def power_efficiency(self) -> float:
+        """The value of :attr:`efficiency_key`. [unitless]"""
+        if self.efficiency_key == "drive_efficiency":
+            return self.multirotor.drive_efficiency
         return self.efficiency
 
     @property

@@ -376,7 +376,7 @@ class DiagnoseResult:
             return None
         v = lv.final_values
         values = {k: float(v[k]) for k in lv.result.level.shape}
-        values["efficiency"] = float(np.clip(v["efficiency"], 1e-3, 1.0))
+        values[self.aircraft.efficiency_key] = float(np.clip(v["efficiency"], 1e-3, 1.0))
         if "system_power_w" in v:
             values["system_power_w"] = float(max(v["system_power_w"], 0.0))
         ac = with_params(self.aircraft, values)
@@ -796,8 +796,8 @@ def calibration_alternatives(lv: LevelReport, aircraft: Aircraft | None) -> dict
     r"""What else the power level's recalibration of η could stand for.
 
     The calibration scales the whole modelled power by the file's η
-    (:attr:`~planner.parameters.Aircraft.power_efficiency`: 1 for ``rotor_losses``, whose
-    model it scales as given) over the fitted one;
+    (:attr:`~planner.parameters.Aircraft.power_efficiency`: the drive efficiency for
+    ``rotor_losses``) over the fitted one;
     anything that raises (or lowers) the power nearly in proportion is absorbed there. Two
     alternatives are sized on the flights (mean over the airborne bins): an all-up mass
     heavier by :math:`\Delta m` at the file's η — :math:`\overline{M}\,(\eta_f/\hat\eta -

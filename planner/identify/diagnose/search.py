@@ -946,8 +946,10 @@ class PowerLevel:
 
     def mechanical(self, shape: dict[str, float], inputs: dict, rows: np.ndarray,
                    table: bool = True) -> np.ndarray:
-        """Mechanical (shaft) power of the aircraft model at unit efficiency and no
-        system load, with the ``shape`` parameters, at the ``inputs`` of ``rows``; from
+        """Mechanical (shaft) power of the aircraft model at unit efficiency
+        (:attr:`~planner.parameters.Aircraft.efficiency_key`: with ``rotor_losses`` the
+        shaft power plus the motor losses) and no system load, with the ``shape``
+        parameters, at the ``inputs`` of ``rows``; from
         the drag-area spline (:meth:`_drag_table`) where it holds. [W]"""
         if table and self.aircraft.is_multirotor and inputs is self.base_inputs:
             if self._table is None:
@@ -957,7 +959,8 @@ class PowerLevel:
                 f = shape[self._shape_name]
                 if 0.0 <= f <= top:
                     return spline(f)[rows]
-        ac = with_params(self.aircraft, {**shape, "efficiency": 1.0, "system_power_w": 0.0})
+        ac = with_params(self.aircraft, {**shape, self.aircraft.efficiency_key: 1.0,
+                                         "system_power_w": 0.0})
         v = inputs["airspeed"][rows]
         if not self.aircraft.is_multirotor:
             v = np.maximum(v, self.v_min)

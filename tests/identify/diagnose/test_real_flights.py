@@ -393,24 +393,29 @@ def test_solo_without_its_payload_lists_mass_and_load_beside_the_calibration(tmp
                    for f in bare.findings)
 
 
-def test_a_rotor_losses_aircraft_is_measured_against_its_own_model_not_its_efficiency(
-        shared_data):
+def test_a_rotor_losses_aircraft_is_calibrated_through_its_drive_efficiency(shared_data):
     """The rotor_losses model does not read the file's top-level `efficiency` (written
-    for reference): diagnose's recalibration scales that model as given, so the scale it
-    finds is compared with 1. Compared with the file's 0.38 on the DJI M100 flights
-    (Rodrigues et al. 2021, CC BY 4.0) it said "the flights' power is lower than the
-    file's model by 62 %" where the file's model was within 1 %."""
+    for reference): diagnose's recalibration scales the model's drive efficiency, and is
+    compared with it. Compared with the file's 0.38 on the DJI M100 flights (Rodrigues
+    et al. 2021, CC BY 4.0) it said "the flights' power is lower than the file's model by
+    62 %" where the file's model was within 1 %, and the calibrated aircraft it wrote
+    carried the scale in a key the model does not read."""
     from planner.identify.diagnose import calibration_alternatives, diagnose
     from planner.io.flightdata import load_flight_data
     from planner.parameters import load_aircraft_and_battery
 
     ac, pack = load_aircraft_and_battery(REPO / "aircraft" / "dji_m100_rotor_losses.yaml")
-    assert ac.efficiency < 0.5 and ac.power_efficiency == 1.0
+    assert ac.efficiency < 0.5 and ac.efficiency_key == "drive_efficiency"
+    assert ac.power_efficiency == ac.multirotor.drive_efficiency
     df, _ = load_flight_data([shared_data / "energy" / "m100_flights_sample.csv"],
                              column_map="dji_m100")
     res = diagnose(df, pack, ac, site_altitude_m=300.0)
     lv = res.levels["power"]
     # the file's model, fitted on the other M100 flights, needs no rescaling here
-    assert lv.base_values["efficiency"] == pytest.approx(1.0, abs=0.05)
+    eta = lv.base_values["efficiency"]
+    assert eta == pytest.approx(ac.multirotor.drive_efficiency, abs=0.05)
     assert calibration_alternatives(lv, ac) is None
     assert "recalibrated from the file's" not in res.summary()
+    out = res.extended_aircraft()
+    assert out.multirotor.drive_efficiency == pytest.approx(eta)
+    assert out.efficiency == ac.efficiency
