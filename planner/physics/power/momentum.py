@@ -485,7 +485,8 @@ def rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
     -------
     terms : dict of ndarray
         ``weight`` [N], ``thrust`` [N], ``induced_velocity`` [m s⁻¹], ``induced``,
-        ``profile``, ``parasite``, ``climb``, ``shaft``, ``floor`` [W].
+        ``profile``, ``parasite``, ``climb``, ``shaft``, ``floor`` [W], and
+        ``profile_power_ratio`` :math:`r_0` [unitless].
     """
     m = require(mass, "mass", gt=0.0, unit="kg")
     rho = require(air_density, "air_density", gt=0.0, unit="kg/m³")
@@ -526,7 +527,7 @@ def rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
     return {"weight": weight, "thrust": t, "induced_velocity": vi, "induced": induced,
             "profile": profile, "parasite": parasite, "climb": climb,
             "shaft": induced + profile + parasite + climb,
-            "floor": r**3 * weight * vh_weight * (kappa + r0)}
+            "floor": r**3 * weight * vh_weight * (kappa + r0), "profile_power_ratio": r0}
 
 
 def terms_like_inputs(terms: dict, battery, inputs) -> dict:

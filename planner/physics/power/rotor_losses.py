@@ -66,7 +66,6 @@ from planner.physics.numeric import require
 from planner.physics.power.momentum import (
     RotorPowerTerms,
     ideal_hover_power,
-    profile_power_ratio_of,
     rotor_shaft_terms,
     terms_like_inputs,
 )
@@ -181,11 +180,9 @@ induced_factor, figure_of_merit, profile_power_ratio, tip_speed, load_factor
     t, rho = terms["thrust"], np.asarray(air_density, dtype=float)
     t_ref = m_ref * gravity
     speed = np.sqrt((t / rho) / (t_ref / rho_ref))
-    kappa = np.asarray(induced_factor, dtype=float)
     ideal_ref = ideal_hover_power(t_ref, rho_ref, rotors * 0.25 * np.pi * diameter**2)
-    ref_induced = kappa * ideal_ref
-    ref_profile = profile_power_ratio_of(figure_of_merit, profile_power_ratio,
-                                         kappa) * ideal_ref
+    ref_induced = np.asarray(induced_factor, dtype=float) * ideal_ref
+    ref_profile = terms["profile_power_ratio"] * ideal_ref
     torque = _torque_ratio(np.maximum(terms["shaft"], terms["floor"]), speed,
                            ref_induced + ref_profile)
     no_load = p_nl * speed
