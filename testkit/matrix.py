@@ -241,7 +241,9 @@ def calibrated_aircraft(d: Draw, richness: str):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                r = fit_aircraft(reduce(cal["record"], richness), d.aircraft,
+                record = cal["data"][cal["data"]["experiment"].astype(str).isin(
+                    cal["flights"])].reset_index(drop=True)
+                r = fit_aircraft(reduce(record, richness), d.aircraft,
                                  mass_kg=cal["mass_kg"], site_altitude_m=d.site_altitude_m,
                                  parameters=["efficiency", "drag_area_m2",
                                              "descent_inflow_weight"])
@@ -298,7 +300,8 @@ class M100(Source):
     def _sixteen(self, rng, df, par, payload_g: float) -> Draw:
         """16 flights of ``df`` (at most as many as there are) that carried ``payload_g``
         [g], drawn with ``rng``, with the M100's definitions; the flights not drawn, each
-        with its mass, to calibrate on (:func:`calibrated_aircraft`)."""
+        with its mass, to calibrate on (:func:`calibrated_aircraft`, which takes their
+        record from ``df`` only when it calibrates)."""
         have = set(df["experiment"].astype(int).unique())
         ids = [f for f in par.loc[par["payload"] == payload_g, "flight"] if f in have]
         pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
@@ -310,7 +313,7 @@ class M100(Source):
         payload_of = dict(zip(par["flight"].astype(str), par["payload"] / 1000.0))
         calibration = {
             "key": (self.name, tuple(sorted(pick))),
-            "record": df[df["experiment"].astype(str).isin(rest)].reset_index(drop=True),
+            "flights": rest, "data": df,
             "mass_kg": {f: ac.empty_mass_kg + pack.total_mass_kg + payload_of[f]
                         for f in rest}}
         payload = payload_g / 1000.0
