@@ -809,7 +809,7 @@ class MissionChain:
         # a multirotor flies its rotor disks' in-plane and axial speed (FlightState notes)
         v, climb = (state.rotor_velocities() if ac.is_multirotor
                     else (state.airspeed_ms, state.climb_rate_ms))
-        if not (ac.is_multirotor and ac.multirotor.power_model == "rotor_losses"):
+        if not ac.has_rotor_losses:
             return self.power_at(v, climb, state.air_density, mass_kg, on_ground=on_ground)
         lead = float(ac.multirotor.power_lead_s or 0.0)
         t = np.asarray(state.time_s, float)

@@ -263,7 +263,7 @@ def _descent_weight_freed(names: list[str], parameters, s_trn: Samples,
 def _predict(aircraft: Aircraft, s: Samples, mass: np.ndarray) -> np.ndarray:
     chain = MissionChain(aircraft, None)
     force = s.specific_force
-    if force is None or not _is_rotor_losses(aircraft):
+    if force is None or not aircraft.has_rotor_losses:
         return chain.power_at(s.airspeed, s.climb_rate, s.air_density, mass)
     ok = np.isfinite(force)
     measured = chain.power_at(s.airspeed, s.climb_rate, s.air_density, mass,
@@ -286,10 +286,6 @@ def sample_masses(s: Samples, mass_kg) -> np.ndarray:
                          "per flight")
     ids, inverse = np.unique(s.experiment.astype(str), return_inverse=True)
     return np.array([float(mass_kg[i]) for i in ids])[inverse]
-
-
-def _is_rotor_losses(aircraft: Aircraft) -> bool:
-    return aircraft.is_multirotor and aircraft.multirotor.power_model == "rotor_losses"
 
 
 def split_experiments(s: Samples, validate: list[str] | None, train: list[str] | None):
@@ -391,7 +387,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         ``per_experiment_energy_error_pct`` (before/after, validation flights),
         ``split``.
     """
-    if _is_rotor_losses(aircraft):
+    if aircraft.has_rotor_losses:
         return fit_rotor_losses(data, aircraft, mass_kg=mass_kg, parameters=parameters,
                                 train=train, validate=validate,
                                 site_altitude_m=site_altitude_m,

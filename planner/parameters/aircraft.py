@@ -439,12 +439,19 @@ class Aircraft:
         return heaviest_takeoff_kg(self.type, block, self.max_takeoff_mass_kg)
 
     @property
+    def has_rotor_losses(self) -> bool:
+        """A multirotor flown by the ``rotor_losses`` power model
+        (:mod:`planner.physics.power.rotor_losses`): its motor losses replace ``efficiency``
+        and ``efficiency_slope``."""
+        return self.is_multirotor and self.multirotor.power_model == "rotor_losses"
+
+    @property
     def efficiency_key(self) -> str:
         """The parameter by which the power model divides everything the propulsion
         draws: ``drive_efficiency`` for the ``rotor_losses`` model (which does not read
         ``efficiency``), else ``efficiency``. A recalibration that scales the power model
         sets this one."""
-        if self.is_multirotor and self.multirotor.power_model == "rotor_losses":
+        if self.has_rotor_losses:
             return "drive_efficiency"
         return "efficiency"
 
@@ -497,7 +504,7 @@ class Aircraft:
         power : numeric
             Battery power. [W]
         """
-        if self.is_multirotor and self.multirotor.power_model == "rotor_losses":
+        if self.has_rotor_losses:
             return self.rotor_losses_power(airspeed, climb_rate, air_density, mass,
                                            load_factor, thrust=thrust)
         power = self._constant_efficiency_power(airspeed, climb_rate, air_density, mass,

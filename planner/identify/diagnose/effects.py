@@ -1245,8 +1245,14 @@ class EfficiencyCurve(PowerEffect):
     driver_label = "modelled mechanical power [W]"
 
     def skip_reason(self, pw) -> str | None:
-        """A mechanical power too steady (:data:`MIN_LOAD_VARIATION`) to tell a curve from a
-        constant efficiency."""
+        """A ``rotor_losses`` aircraft, whose no-load and copper losses are how its
+        efficiency changes with load (its file refuses ``efficiency_slope``: a curve on
+        top could not be written into the calibrated aircraft; a wrong one is a misfit of
+        those losses, which ``fit-aircraft`` refits), or a mechanical power too steady
+        (:data:`MIN_LOAD_VARIATION`) to tell a curve from a constant efficiency."""
+        if pw.aircraft is not None and pw.aircraft.has_rotor_losses:
+            return ("the rotor_losses power model's no-load and copper losses are how its "
+                    "efficiency changes with load: refit them with fit-aircraft instead")
         return _steady_load(pw, "an efficiency curve cannot be told from a constant "
                                 "efficiency")
 
