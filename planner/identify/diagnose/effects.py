@@ -1008,10 +1008,15 @@ class PayloadChange(PowerEffect):
         return pw.time
 
     def parameters(self, values, stderr, pw, state):
-        """The step [kg] with its standard error, the flights with a change, their change
-        times [s] and how many fall at the end of a climb."""
+        """The step [kg] with its standard error (the larger of the fit's and the spread of
+        the placebo steps, :meth:`planner.identify.diagnose.search.PowerLevel.placebo_steps`,
+        both kept), the flights with a change, their change times [s] and how many fall at
+        the end of a climb."""
         out = {"mass_step_kg": values["mass_step_kg"],
                "mass_step_kg_stderr": stderr["mass_step_kg"]}
+        for k in ("mass_step_kg_fit_stderr", "mass_step_kg_placebo_sd", "placebo_positions"):
+            if k in values:
+                out[k] = values[k]
         times = state.get("change_time_s", {})
         located = {k: v for k, v in times.items() if v is not None}
         out["flights_with_change"] = float(len(located))

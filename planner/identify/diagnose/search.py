@@ -112,6 +112,17 @@ parameter: :math:`k = 2` for the time and the size, :math:`k = 1` on a held-out
 flight, whose step size was learned on the other flights), else the flight has
 none.
 
+The step's standard error is the larger of the fit's (AR(1)-inflated, within flights)
+and the spread of **placebo steps**: the same step fitted on the final model's residual
+at other times of the same flights, where nothing was located
+(:meth:`PowerLevel.placebo_steps`, at 17 fractions of each flight's airborne span), the
+root mean square of their sizes. A residual that drifts within the flights, or a regime
+the power model misses (the slow vertical descents that end the DJI M100 flights),
+makes steps of its own at any time; the fit's standard error treats the residual as
+noise about a correct model and cannot see them, the placebos do. This is inference
+from placebo event dates (Chetty, Looney & Kroft, *American Economic Review* 99, 1145,
+2009; Abadie, Diamond & Hainmueller, *JASA* 105, 493, 2010).
+
 Climb rate
 ----------
 Where the record has an altitude, the logged climb rate is checked against the
@@ -192,6 +203,14 @@ MAX_CLIMB_DISAGREEMENT_MS = CLIMB_THRESHOLD_MS
 #: descent inflow weight, :data:`~planner.identify.aircraft_fit.MIN_DESCENT_FLIGHTS`).
 #: [unitless]
 DESCENT_MISFIT_SHARE = 0.03
+#: Fractions of each located flight's airborne span at which a placebo step is placed
+#: (:meth:`PowerLevel.placebo_steps`). [unitless]
+PLACEBO_POSITIONS = tuple(round(0.10 + 0.05 * i, 2) for i in range(17))
+#: A placebo this close to a flight's own change time (a share of its airborne span) is
+#: not placed in that flight. [unitless]
+PLACEBO_EXCLUSION = 0.1
+#: Fewer placebo positions than this give no placebo spread. [count]
+MIN_PLACEBOS = 5
 
 
 # ============================================================================ split
@@ -1363,6 +1382,47 @@ class PowerLevel:
         J, r0 = self._jacobian(fit, effects, rows)
         return stats.covariance(J, r0, self.exp[rows]).matrix, np.r_[fit.nl, fit.coef]
 
+    def placebo_steps(self, fit: Fit, effects) -> np.ndarray:
+        r"""Mass steps [kg] that the residual of the model ``fit`` of ``effects`` (a payload
+        change among them, located) makes by itself at other times of the same flights:
+        the placebo estimates of the step's size (module notes, "Change points").
+
+        At each fraction :data:`PLACEBO_POSITIONS` of every located flight's airborne span
+        (bins within :data:`PLACEBO_EXCLUSION` of the span from the flight's own change
+        time take no placebo), the residual net of each flight's mean is regressed on the
+        placebo step's column :math:`s\,1\{t \ge t_p\}` (:math:`s` the power's change
+        per kg of mass) beside the located step's own, both net of each flight's mean;
+        the placebo's coefficient is a mass step where none was located. Empty where there
+        are fewer than :data:`MIN_PLACEBOS` positions."""
+        times = {k: v for k, v in fit.state.get("change_time_s", {}).items() if v is not None}
+        mask = fit.state.get("step_mask")
+        payload = next((e for e in effects if e.name == "payload_change"), None)
+        if payload is None or mask is None or not times:
+            return np.empty(0)
+        located = np.array([self.names.index(k) for k in times])
+        rows = np.flatnonzero(np.isin(self.exp, located))
+        exp, t = self.exp[rows], self.time[rows]
+        sens = self.signature(fit, effects, payload)[rows, 0]
+        resid = self.measured[rows] - self.predict(fit, effects, rows)
+        first = np.array([t[exp == e].min() for e in located])
+        span = np.array([t[exp == e].max() for e in located]) - first
+        change = np.array([times[self.names[e]] for e in located])
+        pos = np.full(self.n_experiments, -1)
+        pos[located] = np.arange(located.size)
+        k = pos[exp]                            # each row's flight in ``located``
+        y = stats.within_groups(resid, exp)
+        step = stats.within_groups(sens * np.asarray(mask, float)[rows], exp)
+        out = []
+        for f in PLACEBO_POSITIONS:
+            tp = first + f * span
+            far = np.abs(tp - change) > PLACEBO_EXCLUSION * span
+            col = stats.within_groups(sens * (t >= tp[k]) * far[k], exp)
+            if not far.any() or float(np.dot(col, col)) <= 0:
+                continue
+            coef, *_ = np.linalg.lstsq(np.column_stack([step, col]), y, rcond=None)
+            out.append(float(coef[1]))
+        return np.array(out) if len(out) >= MIN_PLACEBOS else np.empty(0)
+
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
         """The shape parameters, the efficiency η (unitless) and each effect's
         parameters in physical units, with standard errors (delta method)."""
@@ -1392,6 +1452,15 @@ class PowerLevel:
         stderr = dict(zip(names, map(float, se)))
         if eff_curve:
             values.setdefault("efficiency", values["efficiency_at_reference"])
+        placebo = self.placebo_steps(fit, effects) if "mass_step_kg" in values else ()
+        if len(placebo):
+            # the step's standard error is the larger of the fit's and the placebo steps'
+            # spread (module notes, "Change points")
+            values["mass_step_kg_fit_stderr"] = stderr["mass_step_kg"]
+            values["mass_step_kg_placebo_sd"] = float(np.sqrt(np.mean(placebo**2)))
+            values["placebo_positions"] = float(len(placebo))
+            stderr["mass_step_kg"] = max(stderr["mass_step_kg"],
+                                         values["mass_step_kg_placebo_sd"])
         return values, stderr
 
     def confounders(self) -> list[tuple[str, np.ndarray]]:

@@ -410,6 +410,25 @@ def test_clean_flights_give_each_power_effect_a_detection_limit():
     assert "Detection limits" in res.summary()
 
 
+@pytest.mark.parametrize("magnitude, seed, profile", [(-0.5, 0, "survey"),
+                                                      (0.8, 1, "lawnmower")])
+def test_on_flights_the_model_fits_the_placebo_steps_are_as_small_as_the_fits_error(
+        magnitude, seed, profile):
+    """Placebo steps (the step fitted on the final residual at other times of the same
+    flights: search, "Change points") measure what the residual makes of a step by
+    itself. Where the power follows the model but for noise and turbulence, they are of
+    the size of the fit's own standard error; the step's standard error is the larger
+    of the two, and the truth lies within two of it."""
+    res, _ = _power("payload_change", magnitude, seed, profile=profile)
+    p = next(f for f in res.findings if f["effect"] == "payload_change")["parameters"]
+    assert p["placebo_positions"] >= S.MIN_PLACEBOS
+    ratio = p["mass_step_kg_placebo_sd"] / p["mass_step_kg_fit_stderr"]
+    assert 0.3 < ratio < 2.5
+    assert p["mass_step_kg_stderr"] == max(p["mass_step_kg_fit_stderr"],
+                                           p["mass_step_kg_placebo_sd"])
+    assert abs(p["mass_step_kg"] - magnitude) < 2 * p["mass_step_kg_stderr"]
+
+
 def test_a_payload_change_above_its_limit_is_found_and_the_limit_says_so():
     res, truth = _power("payload_change", -0.5, 0)
     entry = next(e for e in res.detection if e["effect"] == "payload_change"
