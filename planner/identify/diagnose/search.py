@@ -77,7 +77,13 @@ each other; a pair joins when it passes and each member passes on top of the
 other. Capacity- and power-level effects are searched separately (they explain
 different residuals). Reported parameters and their standard errors come from
 the final fit on all the data, with the covariance :math:`s^2 (J^TJ)^{-1}`
-inflated by :math:`(1+\rho)/(1-\rho)` for the autocorrelation of the residuals.
+inflated by :math:`(1+\rho)/(1-\rho)` for the autocorrelation of the residuals. On the
+power level with :data:`planner.identify.stats.MIN_CLUSTERS` or more flights each standard
+error is the larger of that and the flight-clustered sandwich's (Liang & Zeger 1986): an
+effect carried by whole flights (the air density of a day, a wind shared by flights on
+different courses) is estimated against the scatter between flights, which a
+within-flight noise model does not see; the detection limits count the same scatter
+(:func:`planner.identify.stats.design_effect`).
 
 Rival effects
 -------------
@@ -1375,12 +1381,21 @@ class PowerLevel:
                 "rate_ms": float(-self.climb[rows].mean()),
                 "flights": int(flights.size), "bins": int(rows.size)}
 
-    def covariance(self, fit: Fit, effects):
+    def covariance(self, fit: Fit, effects, clustered: bool = False):
         """Covariance of [nonlinear…, linear…] of an all-data fit, AR(1)-inflated within
-        each flight (:func:`planner.identify.stats.covariance`)."""
+        each flight (:func:`planner.identify.stats.covariance`); with ``clustered`` also
+        the flight-clustered sandwich (:func:`planner.identify.stats.cluster_covariance`),
+        None with fewer than :data:`planner.identify.stats.MIN_CLUSTERS` flights."""
         rows = np.flatnonzero(fit.train)
         J, r0 = self._jacobian(fit, effects, rows)
-        return stats.covariance(J, r0, self.exp[rows]).matrix, np.r_[fit.nl, fit.coef]
+        cov = stats.covariance(J, r0, self.exp[rows]).matrix
+        x = np.r_[fit.nl, fit.coef]
+        if not clustered:
+            return cov, x
+        flights = np.unique(self.exp[rows]).size
+        cl = (stats.cluster_covariance(J, r0, self.exp[rows]).matrix
+              if flights >= stats.MIN_CLUSTERS else None)
+        return cov, x, cl
 
     def placebo_steps(self, fit: Fit, effects) -> np.ndarray:
         r"""Mass steps [kg] that the residual of the model ``fit`` of ``effects`` (a payload
@@ -1425,8 +1440,10 @@ class PowerLevel:
 
     def physical(self, fit: Fit, effects) -> tuple[dict[str, float], dict[str, float]]:
         """The shape parameters, the efficiency η (unitless) and each effect's
-        parameters in physical units, with standard errors (delta method)."""
-        cov, x = self.covariance(fit, effects)
+        parameters in physical units, with standard errors (delta method): each the
+        larger of the AR(1) one and the flight-clustered sandwich's (module notes,
+        "Selection statistics")."""
+        cov, x, clustered = self.covariance(fit, effects, clustered=True)
         k = len(fit.nl)
         names = list(fit.nl_names) + ["efficiency"]
         extra = [n for e in effects for n in e.linear]
@@ -1448,6 +1465,8 @@ class PowerLevel:
             names += (["efficiency_at_reference", "efficiency_slope"]
                       if n == "efficiency_slope_coefficient" else [n])
         vals, se = stats.delta_method(conv, x, cov)
+        if clustered is not None:
+            se = np.fmax(se, stats.delta_method(conv, x, clustered)[1])
         values = dict(zip(names, map(float, vals)))
         stderr = dict(zip(names, map(float, se)))
         if eff_curve:
