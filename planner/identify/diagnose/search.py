@@ -1381,21 +1381,17 @@ class PowerLevel:
                 "rate_ms": float(-self.climb[rows].mean()),
                 "flights": int(flights.size), "bins": int(rows.size)}
 
-    def covariance(self, fit: Fit, effects, clustered: bool = False):
-        """Covariance of [nonlinear…, linear…] of an all-data fit, AR(1)-inflated within
-        each flight (:func:`planner.identify.stats.covariance`); with ``clustered`` also
+    def covariances(self, fit: Fit, effects):
+        """Covariances of [nonlinear…, linear…] of an all-data fit, with those values:
+        AR(1)-inflated within each flight (:func:`planner.identify.stats.covariance`), and
         the flight-clustered sandwich (:func:`planner.identify.stats.cluster_covariance`),
         None with fewer than :data:`planner.identify.stats.MIN_CLUSTERS` flights."""
         rows = np.flatnonzero(fit.train)
         J, r0 = self._jacobian(fit, effects, rows)
-        cov = stats.covariance(J, r0, self.exp[rows]).matrix
-        x = np.r_[fit.nl, fit.coef]
-        if not clustered:
-            return cov, x
-        flights = np.unique(self.exp[rows]).size
-        cl = (stats.cluster_covariance(J, r0, self.exp[rows]).matrix
-              if flights >= stats.MIN_CLUSTERS else None)
-        return cov, x, cl
+        groups = self.exp[rows]
+        clustered = (stats.cluster_covariance(J, r0, groups).matrix
+                     if np.unique(groups).size >= stats.MIN_CLUSTERS else None)
+        return stats.covariance(J, r0, groups).matrix, np.r_[fit.nl, fit.coef], clustered
 
     def placebo_steps(self, fit: Fit, effects) -> np.ndarray:
         r"""Mass steps [kg] that the residual of the model ``fit`` of ``effects`` (a payload
@@ -1443,7 +1439,7 @@ class PowerLevel:
         parameters in physical units, with standard errors (delta method): each the
         larger of the AR(1) one and the flight-clustered sandwich's (module notes,
         "Selection statistics")."""
-        cov, x, clustered = self.covariance(fit, effects, clustered=True)
+        cov, x, clustered = self.covariances(fit, effects)
         k = len(fit.nl)
         names = list(fit.nl_names) + ["efficiency"]
         extra = [n for e in effects for n in e.linear]
