@@ -651,6 +651,7 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                                     "candidates": conf[1], "where": e.driver_label,
                                     "parameters": params, "evidence": e.cause(params, level)}
             if not drop:
+                res.final_physical = (res.final_fit, values, stderr)
                 break
             res.withheld += [w for w in drop.values() if w is not None]
             res.selected = [(e, c) for e, c in res.selected if e.name not in drop]
@@ -962,7 +963,13 @@ class _Run:
         ``effects``: those asked for at this level."""
         self.level_effects[name] = list(effects)
         bv, bs = base if base is not None else level.physical(res.base_fit, [])
-        fv, fs = level.physical(res.final_fit, [e for e, _ in res.selected])
+        done = res.final_physical
+        if res.final_fit is res.base_fit:
+            fv, fs = bv, bs
+        elif done is not None and done[0] is res.final_fit:
+            fv, fs = done[1], done[2]
+        else:
+            fv, fs = level.physical(res.final_fit, [e for e, _ in res.selected])
         rg, fg = as_given()
         rep = LevelReport(name, res, bv, bs, fv, fs, rg, fg, [])
         rep.findings = _findings(name, res, level, fv, fs)

@@ -1732,6 +1732,9 @@ class LevelResult:
     failed: dict[str, str]
     final_fit: Fit | None = None
     base_fit: Fit | None = None
+    #: ``(fit, values, stderr)``: the level's ``physical`` of ``fit``, the final fit with
+    #: the selected effects, as the honesty rules computed it last.
+    final_physical: tuple | None = None
     #: Effects that passed the held-out tests but are not named as causes (implausible,
     #: confounded), each a dict with ``effect``, ``kind``, ``why`` and ``where``.
     withheld: list[dict] = field(default_factory=list)
