@@ -6,7 +6,9 @@ own items, records what the watcher sends it, and injects the faults the watcher
 survive: frames with a bad CRC, truncated frames, a flood of messages, a reboot (the boot
 clock and the charge counter start again), a mission changed in flight, a second vehicle
 on the link, a silent spell. It sends to 127.0.0.1 only and stops by itself (at the end of
-the log, or after ``max_seconds``).
+the log, or after ``max_seconds``); with ``linger_s`` it goes on answering the mission
+protocol after the log, as a landed vehicle does, until the watcher has acknowledged the
+mission it holds (or ``linger_s`` has passed).
 """
 
 from __future__ import annotations
@@ -88,6 +90,7 @@ class FakeVehicle:
     received: list = field(default_factory=list)
     sent: int = 0
     served_counts: list = field(default_factory=list)
+    linger_s: float = 0.0
 
     def __post_init__(self):
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -101,6 +104,7 @@ class FakeVehicle:
         self._thread = threading.Thread(target=self._run, daemon=True)
         self.items = list(self.mission)
         self.frame_count = 0
+        self.acked = False          # the watcher acknowledged the items held now
 
     # -- control
     def start(self) -> FakeVehicle:
@@ -154,12 +158,21 @@ class FakeVehicle:
                     continue
                 self.received.append(m)
                 mtype = m.get_type()
+                if mtype == "MISSION_ACK":
+                    self.acked = True
                 if mtype == "MISSION_REQUEST_LIST":
                     self.served_counts.append(len(self.items))
                     self._send(mav.MAVLink_mission_count_message(
                         m.get_srcSystem(), m.get_srcComponent(), len(self.items), 0))
                 elif mtype in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
-                    if 0 <= m.seq < len(self.items):
+                    if m.seq >= len(self.items) and (m.seq != 0 or self.autopilot != 3):
+                        # an item the mission no longer holds: as ArduPilot's
+                        # MissionItemProtocol_Waypoints::get_item, the count, then an error
+                        self._send(mav.MAVLink_mission_count_message(
+                            m.get_srcSystem(), m.get_srcComponent(), len(self.items), 0))
+                        self._send(mav.MAVLink_mission_ack_message(
+                            m.get_srcSystem(), m.get_srcComponent(), 1, 0))   # MAV_MISSION_ERROR
+                    elif 0 <= m.seq < len(self.items):
                         cmd, frame, p = self.items[m.seq]
                         self._send(mav.MAVLink_mission_item_int_message(
                             m.get_srcSystem(), m.get_srcComponent(), m.seq, frame, cmd,
@@ -177,6 +190,7 @@ class FakeVehicle:
         boot_shift = 0.0
         consumed_shift = 0
         rebooted = changed = False
+        heartbeat = None
         last_current = -math.inf
         flood_start = None
         for msg in src.messages():
@@ -214,7 +228,10 @@ class FakeVehicle:
             if f.mission_change_at_s is not None and not changed and tl >= f.mission_change_at_s:
                 changed = True
                 self.items = list(self.new_mission)
+                self.acked = False
             self._send(msg)
+            if mtype == "HEARTBEAT":
+                heartbeat = msg
             if f.second_vehicle and mtype in ("HEARTBEAT", "SYS_STATUS", "BATTERY_STATUS",
                                               "GLOBAL_POSITION_INT"):
                 if mtype == "SYS_STATUS":
@@ -244,3 +261,13 @@ class FakeVehicle:
                         time.sleep(rest)
                 wall0 += time.monotonic() - flood_start      # the log resumes where it was
         self._serve(0.0)
+        # the log is over; the vehicle is still there for the mission protocol
+        end = time.monotonic() + self.linger_s
+        beat = -math.inf
+        while self.items and not self.acked and not self._stop.is_set() \
+                and time.monotonic() < end:
+            if heartbeat is not None and time.monotonic() - beat >= 1.0:
+                beat = time.monotonic()
+                self._send(heartbeat)
+            self._serve(0.0)
+            time.sleep(0.02)

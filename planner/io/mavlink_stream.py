@@ -367,6 +367,13 @@ class MissionClient:
     vehicle. A request unanswered within :attr:`timeout_s` is sent again, at most
     :attr:`retries` times; then the download is abandoned and tried again after
     :attr:`backoff_s`. The items arrive through the decoder's :class:`MissionCapture`.
+
+    A vehicle refuses a request for an item its mission no longer holds (it changed during
+    the download) with a ``MISSION_ACK`` carrying an error: ArduPilot's
+    ``MissionItemProtocol_Waypoints::get_item`` sends the new ``MISSION_COUNT`` and
+    ``MAV_MISSION_ERROR``, PX4's ``MavlinkMissionManager::handle_mission_request_both``
+    ``MAV_MISSION_ERROR`` and ends the transfer. The download then starts again from the
+    list at once, at most :attr:`retries` times in a row before the back-off.
     """
 
     def __init__(self, send, timeout_s: float = 1.5, retries: int = 6, backoff_s: float = 10.0):
@@ -380,6 +387,7 @@ class MissionClient:
         self.tries = 0
         self.failed_at = -math.inf
         self.requests = 0
+        self.refusals = 0              # error acknowledgements in a row
 
     def start(self, target: tuple[int, int], now: float) -> None:
         """Begin (or restart) a download from ``target`` = (system, component)."""
@@ -422,13 +430,22 @@ class MissionClient:
                     self._finish()
                 else:
                     self._request(now)
+        elif mtype == "MISSION_ACK" and self.state in ("count", "items") \
+                and getattr(msg, "type", 0) != 0:
+            # the vehicle refused our request: its mission changed under the download, or
+            # another ground station is uploading (ArduPilot: MAV_MISSION_DENIED)
+            self.refusals += 1
+            if self.refusals > self.retries:
+                self.state, self.failed_at = "failed", now
+            else:
+                self.start(self.target, now)
 
     def _finish(self) -> None:
         from pymavlink.dialects.v20 import ardupilotmega as mav
 
         sysid, comp = self.target
         self.send(mav.MAVLink_mission_ack_message(sysid, comp, 0, 0))
-        self.state = "done"
+        self.state, self.refusals = "done", 0
 
     def poll(self, now: float) -> None:
         """Time-outs: send again, or give up and retry after the back-off."""
@@ -661,8 +678,9 @@ class MavlinkDecoder:
         out.append(Event("mission_current", t, (seq, total)))
 
     def _changed(self, recv_s):
-        """The vehicle's mission changed: download it again."""
-        if self.client is not None and self.client.state not in ("count", "items"):
+        """The vehicle's mission changed: download it again (a download under way fetches
+        the old mission's items: it starts again too)."""
+        if self.client is not None:
             self.capture.reset()
             self._start_download(recv_s)
 
@@ -714,10 +732,14 @@ class MavlinkDecoder:
         out.append(Event("mission", t, (MissionItems(tuple(rest), home, source, len(items)),)))
 
     def _mission_ack(self, msg, t, out, recv_s):
-        # the vehicle accepted an upload from another ground station: the mission changed
-        if getattr(msg, "mission_type", 0) in (0, None) and msg.type == 0 \
-                and msg.target_system not in (SOURCE_SYSTEM, 0):
-            self._changed(recv_s)
+        if getattr(msg, "mission_type", 0) not in (0, None):
+            return
+        if msg.target_system not in (SOURCE_SYSTEM, 0):
+            # the vehicle accepted an upload from another ground station: the mission changed
+            if msg.type == 0:
+                self._changed(recv_s)
+        elif self.client is not None:
+            self.client.on_message(msg, recv_s)      # a refusal of our own request
 
 
 # --------------------------------------------------------------------------- sources

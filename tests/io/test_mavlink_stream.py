@@ -346,3 +346,49 @@ def test_a_changed_mission_count_reported_by_the_vehicle_starts_a_new_download()
     assert len(sent) == n                                # same count: nothing asked
     dec.decode(_decoded(mav.MAVLink_mission_current_message(1, 5, 0, 0), link), 2.0)
     assert sent[-1].get_type() == "MISSION_REQUEST_LIST" and len(sent) == n + 1
+
+
+def test_a_refused_item_request_starts_the_download_again_from_the_list():
+    """The mission changed under the download: ArduPilot (MissionItemProtocol_Waypoints::
+    get_item) and PX4 (MavlinkMissionManager::handle_mission_request_both) answer a request
+    for an item it no longer holds with MISSION_ACK MAV_MISSION_ERROR; waiting for the
+    time-outs and the back-off instead left the watcher on the old mission."""
+    sent = []
+    link = _link()
+    client = MissionClient(sent.append, timeout_s=1.0, retries=2)
+    client.start((1, 1), 0.0)
+    client.on_message(_decoded(mav.MAVLink_mission_count_message(254, 190, 6, 0), link), 0.1)
+    client.on_message(_item(0), 0.2)
+    assert sent[-1].get_type() == "MISSION_REQUEST_INT" and sent[-1].seq == 1
+    refused = _decoded(mav.MAVLink_mission_ack_message(254, 190, 1, 0), link)
+    client.on_message(refused, 0.3)
+    assert client.state == "count" and sent[-1].get_type() == "MISSION_REQUEST_LIST"
+    # a refusal addressed to another ground station is not ours
+    n = len(sent)
+    client.on_message(_decoded(mav.MAVLink_mission_ack_message(255, 190, 1, 0), link), 0.4)
+    assert len(sent) == n and client.state == "count"
+    # refused again and again: the back-off, not a storm of requests
+    for k in range(5):
+        client.on_message(refused, 0.5 + 0.1 * k)
+    assert client.state == "failed"
+
+
+def test_a_mission_changed_during_the_download_is_downloaded_again_at_once():
+    sent = []
+    link = _link()
+    dec = MavlinkDecoder(send=sent.append)
+    dec.decode(_heartbeat(link), 0.0)
+    dec.decode(_decoded(mav.MAVLink_global_position_int_message(1000, 0, 0, 0, 0, 0, 0, 0, 0),
+                        link), 0.0)
+    dec.decode(_decoded(mav.MAVLink_mission_current_message(1, 5, 0, 0), link), 0.05)
+    dec.decode(_decoded(mav.MAVLink_mission_count_message(254, 190, 6, 0), link), 0.1)
+    dec.decode(_item(0, link=link), 0.2)
+    assert dec.client.state == "items"
+    # the vehicle now reports 2 items: the download under way fetches a stale mission
+    dec.decode(_decoded(mav.MAVLink_mission_current_message(1, 2, 0, 0), link), 0.3)
+    assert sent[-1].get_type() == "MISSION_REQUEST_LIST" and dec.client.state == "count"
+    dec.decode(_decoded(mav.MAVLink_mission_count_message(254, 190, 3, 0), link), 0.4)
+    dec.decode(_item(0, link=link), 0.5)
+    dec.decode(_item(1, link=link), 0.6)
+    events = dec.decode(_item(2, link=link), 0.7)
+    assert events[-1].kind == "mission" and events[-1].data[0].count == 3
