@@ -630,11 +630,11 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                 params = e.parameters(values, stderr, level, res.final_fit.state)
                 z = e.z_score(params)
                 if math.isfinite(z) and z < MIN_Z:
-                    notes.append(f"{_title(level.name)} level: {e.name} passed the held-out "
-                                 "tests but "
-                                 f"its parameter is only {z:.1f} standard errors from no "
-                                 "effect in the fit on all the data: not reported")
-                    drop[e.name] = None
+                    # withheld, so that its detection entry says why it is not named
+                    # rather than that none was found
+                    drop[e.name] = {"effect": e.name, "level": level.name, "kind": "weak",
+                                    "why": _weak_why(e, params, z, level.name),
+                                    "where": e.driver_label, "parameters": params}
                     continue
                 why = e.implausible(params, level)
                 if why:
@@ -653,12 +653,33 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
             if not drop:
                 res.final_physical = (res.final_fit, values, stderr)
                 break
-            res.withheld += [w for w in drop.values() if w is not None]
+            res.withheld += list(drop.values())
             res.selected = [(e, c) for e, c in res.selected if e.name not in drop]
         return res
     except (FitError, ModelError, np.linalg.LinAlgError) as exc:
         notes.append(f"{_title(level.name)} level: could not be calibrated ({exc})")
         return None
+
+
+def _weak_why(effect, params: dict, z: float, level_name: str) -> str:
+    """Why an effect that passed the held-out tests is withheld: its key parameter is
+    within :data:`MIN_Z` standard errors of no effect (with what makes most of the error,
+    where the vertical descents do)."""
+    from planner.identify.diagnose.limits import PARAMETER
+
+    unit = PARAMETER.get((level_name, effect.name), (None, ""))[1]
+    unit = f" {unit}" if unit and not unit.startswith("(") else ""
+    se = params.get(effect.key + "_stderr", math.nan)
+    why = (f"it passed the held-out tests, but its {effect.key} ({params[effect.key]:.3g} ± "
+           f"{se:.2g}{unit}) is only {z:.1f} standard errors from no effect in the fit on "
+           "all the data")
+    bias = params.get(effect.key + "_descent_bias")
+    if bias is not None and bias > 0.5 * se:
+        why += (f"; most of that error is the vertical descents': the step moves by "
+                f"{abs(params[effect.key + '_descent_shift']):.2g}{unit} when they get a "
+                "power level of their own (the rotor model's power in slow descent is an "
+                "empirical curve)")
+    return why
 
 
 def _as_given_capacity(level, pack) -> tuple[float, float]:

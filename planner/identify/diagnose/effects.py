@@ -1010,11 +1010,14 @@ class PayloadChange(PowerEffect):
     def parameters(self, values, stderr, pw, state):
         """The step [kg] with its standard error (the larger of the fit's and the spread of
         the placebo steps, :meth:`planner.identify.diagnose.search.PowerLevel.placebo_steps`,
-        both kept), the flights with a change, their change times [s] and how many fall at
-        the end of a climb."""
+        with the bias the vertical descents can put into it added in quadrature,
+        :meth:`planner.identify.diagnose.search.PowerLevel.descent_shift`; all kept), the
+        flights with a change, their change times [s] and how many fall at the end of a
+        climb."""
         out = {"mass_step_kg": values["mass_step_kg"],
                "mass_step_kg_stderr": stderr["mass_step_kg"]}
-        for k in ("mass_step_kg_fit_stderr", "mass_step_kg_placebo_sd", "placebo_positions"):
+        for k in ("mass_step_kg_fit_stderr", "mass_step_kg_placebo_sd", "placebo_positions",
+                  "mass_step_kg_descent_shift", "mass_step_kg_descent_bias"):
             if k in values:
                 out[k] = values[k]
         times = state.get("change_time_s", {})

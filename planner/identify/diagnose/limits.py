@@ -73,6 +73,9 @@ from planner.physics.units import AS_PER_MAH
 __all__ = ["HELP", "POSITIONS", "beyond_physics", "entry", "largest_physical", "level_limits",
            "not_identifiable"]
 
+#: A detection limit more than this many times the largest physical size is said in words,
+#: not as a figure. [unitless]
+BEYOND_WORDS = 1000.0
 #: Fractions of each flight's airborne span at which a payload change's limit is given.
 POSITIONS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 
@@ -226,6 +229,11 @@ def beyond_physics(effect: str, level_name: str, limit: float, top: float) -> st
     """Why an effect is not identifiable at any physical size: the largest physical one,
     ``top``, is below the detection limit ``limit`` (both in the effect's unit at
     ``level_name``), in words."""
+    if not limit <= BEYOND_WORDS * top:
+        # a limit many orders above any physical size is not a figure worth printing
+        return (f"even the largest physical one ({_fmt(level_name, effect, top)}) is more than "
+                f"{BEYOND_WORDS:g} times below the smallest these data could reveal: its "
+                "signature is all but absorbed by the calibration and the other candidates")
     return (f"even the largest physical one ({_fmt(level_name, effect, top)}) is below the "
             f"smallest these data could reveal ({_fmt(level_name, effect, limit)})")
 

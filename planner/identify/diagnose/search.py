@@ -129,6 +129,21 @@ noise about a correct model and cannot see them, the placebos do. This is infere
 from placebo event dates (Chetty, Looney & Kroft, *American Economic Review* 99, 1145,
 2009; Abadie, Diamond & Hainmueller, *JASA* 105, 493, 2010).
 
+What the placebos cannot see is a misfit where the step itself lies: the step takes it
+up, and the residual they are fitted to no longer holds it. On a multirotor the regime
+the rotor model is least sure of is the slow vertical descent (the vortex-ring state,
+an empirical curve: :meth:`PowerLevel.descent_misfit`), which ends most flights, so a
+late step falls on it. Where three or more flights descend vertically, the step is fitted
+once more with a power level of the vertical descents' own beside it (one Gauss-Newton
+step from the final fit, :meth:`PowerLevel.descent_shift`). How far the step moves, less
+what noise alone would move it (a Hausman contrast: Hausman, *Econometrica* 46, 1251,
+1978), is the bias the descents' misfit puts into it, and the standard error becomes the
+root sum of squares of the above and that bias: the root mean square error of the
+estimate (the detection limit takes the descents as a nuisance regime too,
+:mod:`planner.identify.diagnose.limits`). Where the model flies the descents right the
+shift is of the size of that noise and the bias nil (``mass_step_kg_descent_shift``,
+``mass_step_kg_descent_bias``).
+
 Climb rate
 ----------
 Where the record has an altitude, the logged climb rate is checked against the
@@ -1381,6 +1396,46 @@ class PowerLevel:
                 "rate_ms": float(-self.climb[rows].mean()),
                 "flights": int(flights.size), "bins": int(rows.size)}
 
+    def descent_shift(self, fit: Fit, effects, key: str = "mass_step_kg"
+                      ) -> tuple[float, float] | None:
+        r"""How far the parameter ``key`` of the all-data ``fit`` of ``effects`` moves when
+        the vertical descents (:func:`planner.chain.flightstate.vertical_descent`) get a
+        power level of their own, and the bias that shift shows (module notes, "Change
+        points"); None where fewer than :data:`MIN_DESCENT_FLIGHTS` flights descend
+        vertically (or not a multirotor). [unit of the parameter]
+
+        The shift :math:`\Delta` is one Gauss-Newton step from the fit with and without the
+        descents' indicator column beside the parameters. Were the model's descent power
+        right, :math:`\Delta` would be noise only, of variance
+        :math:`V_1 - V_0` (the variances of the parameter with and without the column:
+        the efficient estimate against a consistent one, Hausman 1978); the bias is
+        estimated as :math:`\sqrt{\max(\Delta^2 - (V_1 - V_0), 0)}`. Each variance is the
+        larger of the AR(1) one and the flight-clustered sandwich's, as in
+        :meth:`physical`.
+        """
+        if not self.aircraft.is_multirotor or key not in fit.nl_names:
+            return None
+        vertical = vertical_descent(self.gs, self.climb)
+        rows = np.flatnonzero(fit.train)
+        if np.unique(self.exp[rows][vertical[rows]]).size < MIN_DESCENT_FLIGHTS:
+            return None
+        J, r0 = self._jacobian(fit, effects, rows)
+        groups = self.exp[rows]
+        k = list(fit.nl_names).index(key)
+
+        def step_and_variance(X):
+            d = np.linalg.lstsq(X, -r0, rcond=None)[0]
+            r = r0 + X @ d
+            v = stats.covariance(X, r, groups).matrix[k, k]
+            if np.unique(groups).size >= stats.MIN_CLUSTERS:
+                v = max(v, stats.cluster_covariance(X, r, groups).matrix[k, k])
+            return float(d[k]), float(v)
+
+        step0, v0 = step_and_variance(J)
+        step1, v1 = step_and_variance(np.column_stack([J, vertical[rows].astype(float)]))
+        shift = step1 - step0
+        return shift, math.sqrt(max(shift**2 - max(v1 - v0, 0.0), 0.0))
+
     def covariances(self, fit: Fit, effects):
         """Covariances of [nonlinear…, linear…] of an all-data fit, with those values:
         AR(1)-inflated within each flight (:func:`planner.identify.stats.covariance`), and
@@ -1476,6 +1531,11 @@ class PowerLevel:
             values["placebo_positions"] = float(len(placebo))
             stderr["mass_step_kg"] = max(stderr["mass_step_kg"],
                                          values["mass_step_kg_placebo_sd"])
+        shift = self.descent_shift(fit, effects) if "mass_step_kg" in values else None
+        if shift is not None:
+            # ... and the bias the vertical descents' misfit can put into it (module notes)
+            values["mass_step_kg_descent_shift"], values["mass_step_kg_descent_bias"] = shift
+            stderr["mass_step_kg"] = math.hypot(stderr["mass_step_kg"], shift[1])
         return values, stderr
 
     def confounders(self) -> list[tuple[str, np.ndarray]]:

@@ -59,20 +59,83 @@ def test_a_seeded_cell_of_the_effect_matrix_meets_the_criterion(cell, runs, draw
         assert st["own"] == {"payload_change": st["runs"]} and not st["false"]
 
 
-def test_a_late_release_on_real_m100_flights_is_sized_within_the_placebo_error(draws):
+def test_a_late_release_on_real_m100_flights_is_named_only_where_the_descents_leave_it_clear(
+        draws):
     """A payload released at 75–90 % of each flight's airborne time on 16 real DJI M100
-    route-R1 flights (Rodrigues et al. 2021, CC BY 4.0) with every channel: its size is
-    found 15–30 % large, because every R1 flight ends with a slow vertical descent drawn
-    some 20–25 W below the rotor model (docs/results.md), which a step late in the flight
-    takes up. The fit's standard error sees the residual as noise about a right model and
-    covers the truth in 2 of 5 runs (seed 0); the placebo steps (the same step fitted at
-    other times of the same flights) see the residual's structure, and the reported
-    error, the larger of the two, covers the truth in most runs, as the criterion asks."""
+    route-R1 flights (Rodrigues et al. 2021, CC BY 4.0) with every channel. Every R1
+    flight ends with a slow vertical descent drawn some 20–25 W below the rotor model
+    (docs/results.md), where such a release falls: the step takes that misfit up and is
+    found 15–30 % large. The placebo steps cannot see it (the step has taken it out of
+    the residual they are fitted to); fitted once more with a power level of the
+    descents' own, the step moves by 0.1–0.27 kg, and that shift is part of its error.
+    Where the step then stands less than 2 standard errors from none it is withheld and
+    the output says why (not "none found"); where it is named, the truth lies within
+    2 SE of it; the cell meets the criterion (seed 0)."""
     cell = M.Cell("m100", "payload", "everything", "late", "realistic")
     st = M.run_cell(cell, 5, seed=0, draws=draws)
     kind, met = M.verdict(st)
-    assert st["named_first"] == 5 and st["checked_2se"] == 5
-    assert st["within_2se"] >= 4 and met, (kind, st["within_2se"])
+    assert met, (kind, st)
+    assert st["named_first"] >= 2 and st["within_2se"] == st["checked_2se"] == st["named_first"]
+    assert st["said_not_identifiable"] == st["runs"] - st["named_any"]
+
+
+def _late_release(source, richness, run, draws):
+    import warnings
+
+    import numpy as np
+
+    from planner.identify.diagnose import diagnose
+
+    cell = M.Cell(source, "payload", richness, "late", "realistic")
+    key = (source, run, 0)
+    if key not in draws:
+        draws[key] = M.sources()[source].draw(np.random.default_rng(M._seed(cell, run, 0)))
+    d = draws[key]
+    injd = M.inject("payload", d, np.random.default_rng(M._detail_seed(cell, run, 0)),
+                    M.SIZES["realistic"], "late")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = diagnose(M.reduce(injd.record, richness), d.pack,
+                       M.diagnosed_aircraft(d, richness), payload_kg=injd.payload_kg,
+                       site_altitude_m=d.site_altitude_m)
+    return res, M._truth("payload", injd, None, res)[0]
+
+
+def test_a_late_release_on_other_m100_routes_is_sized_within_the_error_its_descents_add(
+        draws):
+    """A payload released late (75–90 %) on 16 real DJI M100 flights of the routes other
+    than R1 (Rodrigues et al. 2021, CC BY 4.0), plain record, seed 0's first draw. The
+    step is found 20 % large; neither the fit's error nor the placebo steps' spread (both
+    about 0.02 kg) covers that, for the step has taken up the vertical descents' misfit.
+    Fitted with a power level of the descents' own the step moves by about 0.06 kg; with
+    that shift in its error the truth lies within 2 SE."""
+    res, truth = _late_release("m100_routes", "plain", 0, draws)
+    first = res.findings[0]
+    assert first["effect"] == "payload_change"
+    p = first["parameters"]
+    without = max(p["mass_step_kg_fit_stderr"], p["mass_step_kg_placebo_sd"])
+    miss = abs(p["mass_step_kg"] - truth["mass_step_kg"])
+    assert miss > 2 * without                       # the old error did not cover it
+    assert p["mass_step_kg_descent_bias"] > 2 * without
+    assert miss < 2 * p["mass_step_kg_stderr"]
+    assert M.within_2se("payload_change", p, truth)
+
+
+def test_a_step_the_descents_leave_within_2_se_of_none_is_withheld_and_said_why(draws):
+    """Seed 0's first late release on route R1 (DJI M100, plain record): the step passes
+    the held-out tests, but counted with the shift of the vertical descents it is within
+    2 SE of none. It is not named, and neither the detection entry nor the unexplained
+    misfit says "none found": both say why, naming the descents."""
+    res, _ = _late_release("m100", "plain", 0, draws)
+    assert not [f for f in res.findings if f["effect"] == "payload_change"]
+    weak = [w for w in res.withheld if w["effect"] == "payload_change"]
+    assert len(weak) == 1 and weak[0]["kind"] == "weak"
+    p = weak[0]["parameters"]
+    assert abs(p["mass_step_kg"]) < 2 * p["mass_step_kg_stderr"]
+    assert p["mass_step_kg_descent_bias"] > 0.5 * p["mass_step_kg_stderr"]
+    entry = next(e for e in res.detection if e["effect"] == "payload_change")
+    assert not entry["identifiable"] and "vertical descents" in entry["text"]
+    assert "payload_change not named" in res.unexplained()
 
 
 def test_the_air_density_of_other_days_is_sized_within_the_flight_clustered_error(draws):

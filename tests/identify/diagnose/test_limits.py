@@ -160,3 +160,18 @@ def test_too_few_flights_give_no_design_effect():
     exp, resid, per_flight, _ = _flights(n_flights=stats.MIN_CLUSTERS - 1, between_w=20.0)
     sp = stats.project_out(per_flight, np.ones((exp.size, 1)))
     assert stats.design_effect(sp, resid, exp, exp, 1) == 1.0
+
+
+def test_a_limit_far_beyond_any_physical_size_is_said_in_words_not_as_a_figure():
+    """On log 171 flown by a 7-inch quad's file the wind's limit came out at 4·10¹³ m/s
+    and was printed as such; a limit over a thousand times the largest physical size is
+    said in words, a nearer one keeps its figure."""
+    from planner.identify.diagnose.limits import BEYOND_WORDS, beyond_physics
+
+    far = beyond_physics("wind", "power", 41971114035255.2, 16.0)
+    assert "41971114035255" not in far and f"more than {BEYOND_WORDS:g} times" in far
+    assert "16.0 m/s" in far
+    near = beyond_physics("wind", "power", 48.2, 16.0)
+    assert "(48.2 m/s)" in near and "16.0 m/s" in near
+    assert beyond_physics("wind", "power", float("inf"), 16.0) == \
+        beyond_physics("wind", "power", 1e300, 16.0)
