@@ -329,13 +329,20 @@ def test_answers_addressed_to_another_ground_station_do_not_drive_our_download()
     assert client.state == "count"
 
 
-def test_a_changed_mission_count_reported_by_the_vehicle_starts_a_new_download():
+def _downloading():
+    """A decoder that has seen the vehicle (heartbeat, position) and asked for its mission:
+    (decoder, what it sent, the vehicle's link)."""
     sent = []
     link = _link()
     dec = MavlinkDecoder(send=sent.append)
     dec.decode(_heartbeat(link), 0.0)
     dec.decode(_decoded(mav.MAVLink_global_position_int_message(1000, 0, 0, 0, 0, 0, 0, 0, 0),
                         link), 0.0)
+    return dec, sent, link
+
+
+def test_a_changed_mission_count_reported_by_the_vehicle_starts_a_new_download():
+    dec, sent, link = _downloading()
     assert sent[-1].get_type() == "MISSION_REQUEST_LIST"
     dec.decode(_decoded(mav.MAVLink_mission_count_message(254, 190, 2, 0), link), 0.1)
     dec.decode(_item(0, link=link), 0.2)
@@ -374,12 +381,7 @@ def test_a_refused_item_request_starts_the_download_again_from_the_list():
 
 
 def test_a_mission_changed_during_the_download_is_downloaded_again_at_once():
-    sent = []
-    link = _link()
-    dec = MavlinkDecoder(send=sent.append)
-    dec.decode(_heartbeat(link), 0.0)
-    dec.decode(_decoded(mav.MAVLink_global_position_int_message(1000, 0, 0, 0, 0, 0, 0, 0, 0),
-                        link), 0.0)
+    dec, sent, link = _downloading()
     dec.decode(_decoded(mav.MAVLink_mission_current_message(1, 5, 0, 0), link), 0.05)
     dec.decode(_decoded(mav.MAVLink_mission_count_message(254, 190, 6, 0), link), 0.1)
     dec.decode(_item(0, link=link), 0.2)
