@@ -664,21 +664,25 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
 def _weak_why(effect, params: dict, z: float, level_name: str) -> str:
     """Why an effect that passed the held-out tests is withheld: its key parameter is
     within :data:`MIN_Z` standard errors of no effect (with what makes most of the error,
-    where the vertical descents do)."""
-    from planner.identify.diagnose.limits import PARAMETER
+    where the vertical descents do); in the unit its detection limit is given in."""
+    from planner.identify.diagnose.limits import PARAMETER, in_unit
 
-    unit = PARAMETER.get((level_name, effect.name), (None, ""))[1]
-    unit = f" {unit}" if unit and not unit.startswith("(") else ""
+    if PARAMETER.get((level_name, effect.name), ("",))[0] == effect.key:
+        def show(x):
+            return in_unit(level_name, effect.name, x)
+    else:
+        def show(x):
+            return f"{x:.3g}"
     se = params.get(effect.key + "_stderr", math.nan)
-    why = (f"it passed the held-out tests, but its {effect.key} ({params[effect.key]:.3g} ± "
-           f"{se:.2g}{unit}) is only {z:.1f} standard errors from no effect in the fit on "
-           "all the data")
+    why = (f"it passed the held-out tests, but its {effect.key} ({show(params[effect.key])} ± "
+           f"{show(se)}) is only {z:.1f} standard errors from no effect in the fit on all the "
+           "data")
     bias = params.get(effect.key + "_descent_bias")
     if bias is not None and bias > 0.5 * se:
         why += (f"; most of that error is the vertical descents': the step moves by "
-                f"{abs(params[effect.key + '_descent_shift']):.2g}{unit} when they get a "
-                "power level of their own (the rotor model's power in slow descent is an "
-                "empirical curve)")
+                f"{show(abs(params[effect.key + '_descent_shift']))} when they get a power "
+                "level of their own (the rotor model's power in slow descent is an empirical "
+                "curve)")
     return why
 
 

@@ -70,8 +70,8 @@ import numpy as np
 from planner.identify import stats
 from planner.physics.units import AS_PER_MAH
 
-__all__ = ["HELP", "POSITIONS", "beyond_physics", "entry", "largest_physical", "level_limits",
-           "not_identifiable"]
+__all__ = ["HELP", "POSITIONS", "beyond_physics", "entry", "in_unit", "largest_physical",
+           "level_limits", "not_identifiable"]
 
 #: A detection limit more than this many times the largest physical size is said in words,
 #: not as a figure. [unitless]
@@ -125,7 +125,8 @@ PARAMETER = {
 }
 
 
-def _fmt(level: str, effect: str, x: float) -> str:
+def in_unit(level: str, effect: str, x: float) -> str:
+    """``x``, in the unit of :data:`PARAMETER`'s parameter of ``effect`` at ``level``."""
     _, unit, scale, digits = PARAMETER[(level, effect)]
     return f"{scale * x:.{digits}f} {unit}" if math.isfinite(x) else "∞"
 
@@ -151,7 +152,7 @@ def entry(effect: str, level: str, *, found: bool, identifiable: bool,
     if found and confused_with:
         text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level, but these data "
                 f"cannot tell it from {' or '.join(confused_with)}: against them none "
-                f"smaller than {_fmt(level, effect, limit)} could be seen; read the finding "
+                f"smaller than {in_unit(level, effect, limit)} could be seen; read the finding "
                 f"as either. Telling them apart needs {HELP[effect]}")
         identifiable = True
     elif not identifiable and found:
@@ -163,16 +164,16 @@ def entry(effect: str, level: str, *, found: bool, identifiable: bool,
                f"It would be with {HELP[effect]}"
     elif found:
         text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level (these data show "
-                f"one down to {_fmt(level, effect, limit)})")
+                f"one down to {in_unit(level, effect, limit)})")
     else:
         where = ""
         if by_position:
             lo = min(by_position.values())
             edge = max(by_position[0.1], by_position[0.9])
-            where = (f" where it falls best in the flights ({_fmt(level, effect, edge)} "
+            where = (f" where it falls best in the flights ({in_unit(level, effect, edge)} "
                      "in their first or last tenth)") if math.isfinite(edge) and edge > lo \
                 else ""
-        text = (f"None found: {noun} smaller than {_fmt(level, effect, limit)}{where} cannot "
+        text = (f"None found: {noun} smaller than {in_unit(level, effect, limit)}{where} cannot "
                 f"be seen in {_things(level, n)} (below it, it is not identifiable with these "
                 f"data). A smaller one needs {HELP[effect]}")
     if per == "experiment order":
@@ -231,11 +232,11 @@ def beyond_physics(effect: str, level_name: str, limit: float, top: float) -> st
     ``level_name``), in words."""
     if not limit <= BEYOND_WORDS * top:
         # a limit many orders above any physical size is not a figure worth printing
-        return (f"even the largest physical one ({_fmt(level_name, effect, top)}) is more than "
-                f"{BEYOND_WORDS:g} times below the smallest these data could reveal: its "
+        return (f"even the largest physical one ({in_unit(level_name, effect, top)}) is more "
+                f"than {BEYOND_WORDS:g} times below the smallest these data could reveal: its "
                 "signature is all but absorbed by the calibration and the other candidates")
-    return (f"even the largest physical one ({_fmt(level_name, effect, top)}) is below the "
-            f"smallest these data could reveal ({_fmt(level_name, effect, limit)})")
+    return (f"even the largest physical one ({in_unit(level_name, effect, top)}) is below the "
+            f"smallest these data could reveal ({in_unit(level_name, effect, limit)})")
 
 
 def not_identifiable(effect: str, level: str, why: str) -> dict[str, Any]:

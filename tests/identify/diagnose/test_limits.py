@@ -175,3 +175,17 @@ def test_a_limit_far_beyond_any_physical_size_is_said_in_words_not_as_a_figure()
     assert "(48.2 m/s)" in near and "16.0 m/s" in near
     assert beyond_physics("wind", "power", float("inf"), 16.0) == \
         beyond_physics("wind", "power", 1e300, 16.0)
+
+
+def test_a_withheld_weak_effect_is_said_in_the_unit_of_its_detection_limit():
+    """A cold-pack coefficient is a fraction per °C, its limit is given in %/°C: the reason
+    an effect within 2 SE of none is withheld shows 0.24 %/°C, not 0.0024 labelled %/°C."""
+    from planner.identify.diagnose import _weak_why
+    from planner.identify.diagnose.effects import make_effects
+
+    temperature = make_effects(["temperature"])[0]
+    why = _weak_why(temperature, {"temperature_coefficient_per_c": 0.0024,
+                                  "temperature_coefficient_per_c_stderr": 0.0015},
+                    1.6, "capacity")
+    assert "(0.240 %/°C ± 0.150 %/°C)" in why and "1.6 standard errors" in why
+    assert "vertical descents" not in why
