@@ -1396,13 +1396,14 @@ class PowerLevel:
                 "rate_ms": float(-self.climb[rows].mean()),
                 "flights": int(flights.size), "bins": int(rows.size)}
 
-    def descent_shift(self, fit: Fit, effects, key: str = "mass_step_kg"
+    def descent_shift(self, fit: Fit, jacobian, key: str = "mass_step_kg"
                       ) -> tuple[float, float] | None:
-        r"""How far the parameter ``key`` of the all-data ``fit`` of ``effects`` moves when
-        the vertical descents (:func:`planner.chain.flightstate.vertical_descent`) get a
-        power level of their own, and the bias that shift shows (module notes, "Change
-        points"); None where fewer than :data:`MIN_DESCENT_FLIGHTS` flights descend
-        vertically (or not a multirotor). [unit of the parameter]
+        r"""How far the parameter ``key`` of the all-data ``fit`` moves when the vertical
+        descents (:func:`planner.chain.flightstate.vertical_descent`) get a power level of
+        their own, and the bias that shift shows (module notes, "Change points"); None
+        where fewer than :data:`MIN_DESCENT_FLIGHTS` flights descend vertically (or not a
+        multirotor). ``jacobian``: the fit's (Jacobian, residual) on its training rows
+        (:meth:`_jacobian`). [unit of the parameter]
 
         The shift :math:`\Delta` is one Gauss-Newton step from the fit with and without the
         descents' indicator column beside the parameters. Were the model's descent power
@@ -1419,16 +1420,14 @@ class PowerLevel:
         rows = np.flatnonzero(fit.train)
         if np.unique(self.exp[rows][vertical[rows]]).size < MIN_DESCENT_FLIGHTS:
             return None
-        J, r0 = self._jacobian(fit, effects, rows)
+        J, r0 = jacobian
         groups = self.exp[rows]
         k = list(fit.nl_names).index(key)
 
         def step_and_variance(X):
             d = np.linalg.lstsq(X, -r0, rcond=None)[0]
-            r = r0 + X @ d
-            v = stats.covariance(X, r, groups).matrix[k, k]
-            if np.unique(groups).size >= stats.MIN_CLUSTERS:
-                v = max(v, stats.cluster_covariance(X, r, groups).matrix[k, k])
+            ar1, clustered = _covariance_pair(X, r0 + X @ d, groups)
+            v = ar1[k, k] if clustered is None else max(ar1[k, k], clustered[k, k])
             return float(d[k]), float(v)
 
         step0, v0 = step_and_variance(J)
@@ -1436,17 +1435,15 @@ class PowerLevel:
         shift = step1 - step0
         return shift, math.sqrt(max(shift**2 - max(v1 - v0, 0.0), 0.0))
 
-    def covariances(self, fit: Fit, effects):
+    def covariances(self, fit: Fit, jacobian):
         """Covariances of [nonlinear…, linear…] of an all-data fit, with those values:
-        AR(1)-inflated within each flight (:func:`planner.identify.stats.covariance`), and
-        the flight-clustered sandwich (:func:`planner.identify.stats.cluster_covariance`),
-        None with fewer than :data:`planner.identify.stats.MIN_CLUSTERS` flights."""
-        rows = np.flatnonzero(fit.train)
-        J, r0 = self._jacobian(fit, effects, rows)
-        groups = self.exp[rows]
-        clustered = (stats.cluster_covariance(J, r0, groups).matrix
-                     if np.unique(groups).size >= stats.MIN_CLUSTERS else None)
-        return stats.covariance(J, r0, groups).matrix, np.r_[fit.nl, fit.coef], clustered
+        AR(1)-inflated within each flight and the flight-clustered sandwich, None with
+        fewer than :data:`planner.identify.stats.MIN_CLUSTERS` flights
+        (:func:`_covariance_pair`). ``jacobian``: the fit's (Jacobian, residual) on its
+        training rows (:meth:`_jacobian`)."""
+        J, r0 = jacobian
+        ar1, clustered = _covariance_pair(J, r0, self.exp[np.flatnonzero(fit.train)])
+        return ar1, np.r_[fit.nl, fit.coef], clustered
 
     def placebo_steps(self, fit: Fit, effects) -> np.ndarray:
         r"""Mass steps [kg] that the residual of the model ``fit`` of ``effects`` (a payload
@@ -1494,7 +1491,8 @@ class PowerLevel:
         parameters in physical units, with standard errors (delta method): each the
         larger of the AR(1) one and the flight-clustered sandwich's (module notes,
         "Selection statistics")."""
-        cov, x, clustered = self.covariances(fit, effects)
+        jacobian = self._jacobian(fit, effects, np.flatnonzero(fit.train))
+        cov, x, clustered = self.covariances(fit, jacobian)
         k = len(fit.nl)
         names = list(fit.nl_names) + ["efficiency"]
         extra = [n for e in effects for n in e.linear]
@@ -1531,11 +1529,11 @@ class PowerLevel:
             values["placebo_positions"] = float(len(placebo))
             stderr["mass_step_kg"] = max(stderr["mass_step_kg"],
                                          values["mass_step_kg_placebo_sd"])
-        shift = self.descent_shift(fit, effects) if "mass_step_kg" in values else None
-        if shift is not None:
+        descent = self.descent_shift(fit, jacobian) if "mass_step_kg" in values else None
+        if descent is not None:
             # ... and the bias the vertical descents' misfit can put into it (module notes)
-            values["mass_step_kg_descent_shift"], values["mass_step_kg_descent_bias"] = shift
-            stderr["mass_step_kg"] = math.hypot(stderr["mass_step_kg"], shift[1])
+            values["mass_step_kg_descent_shift"], values["mass_step_kg_descent_bias"] = descent
+            stderr["mass_step_kg"] = math.hypot(stderr["mass_step_kg"], descent[1])
         return values, stderr
 
     def confounders(self) -> list[tuple[str, np.ndarray]]:
@@ -1550,6 +1548,16 @@ class PowerLevel:
     def row_driver_residual(self, resid: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Held-out bin residual, as it is: an excess power. [W]"""
         return resid
+
+
+def _covariance_pair(J: np.ndarray, r: np.ndarray, groups: np.ndarray):
+    """The covariance of a least-squares fit with Jacobian ``J`` and residual ``r``,
+    AR(1)-inflated within each group (:func:`planner.identify.stats.covariance`), and the
+    group-clustered sandwich (:func:`planner.identify.stats.cluster_covariance`), None with
+    fewer than :data:`planner.identify.stats.MIN_CLUSTERS` groups."""
+    clustered = (stats.cluster_covariance(J, r, groups).matrix
+                 if np.unique(groups).size >= stats.MIN_CLUSTERS else None)
+    return stats.covariance(J, r, groups).matrix, clustered
 
 
 def _altitude_rate(t: np.ndarray, alt: np.ndarray, climb: np.ndarray
