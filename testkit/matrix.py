@@ -91,7 +91,11 @@ the record's own findings named (``own``), the detection limit diagnose gives fo
 injected effect (``detection`` in its JSON) against the injected size, and whether the
 fitted parameter lies within two of its standard errors of the injected one (where the
 effect is named first). The truth of an injected wind, load or copper loss adds what the
-clean record carries of it (:func:`clean_parameters`). A current offset's truth is the
+clean record carries of it (:func:`clean_parameters`), except a wind on M100 flights: it
+adds the wind the flights flew in as their on-board anemometer measured it
+(:func:`anemometer_wind_of`), a measurement, not diagnose's own fit of the clean record.
+A wind's size, set against its detection limit, is the speed of that sum: the wind the
+record holds. A current offset's truth is the
 injected one alone: the clean log's current sensor error is in its power channel too
 (the power logged is V·I of that sensor, and the injection keeps it as the true power),
 so the current against the power channel differs by the injected offset only.
@@ -909,13 +913,15 @@ def classify(finding: dict, real: tuple[RealEffect, ...], expect: str | None,
 
 def _truth(kind: str, injd: Injected, clean: dict | None, res) -> tuple[dict, float]:
     """The truth in diagnose's units and the size in the detection entries' parameter,
-    with what the clean record carries already (:func:`clean_parameters`)."""
+    with what the clean record carries already (``clean``: :func:`clean_parameters`, or a
+    wind measured otherwise, :func:`anemometer_wind_of`; module notes)."""
     truth, size = dict(injd.truth), injd.size
     if kind == "wind" and clean:
         to = math.radians(truth["wind_from_deg"] + 180.0)
         wn = clean["wind_n_ms"] + truth["wind_speed_ms"] * math.cos(to)
         we = clean["wind_e_ms"] + truth["wind_speed_ms"] * math.sin(to)
-        truth["wind_speed_ms"] = math.hypot(wn, we)
+        truth["wind_speed_ms"] = size = math.hypot(wn, we)
+        truth["wind_from_deg"] = math.degrees(math.atan2(-we, -wn)) % 360.0
     if kind == "load" and clean:
         truth["missing_w"] += clean["missing_w"]
     if kind == "copper":
@@ -983,7 +989,10 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
         if expect is None:
             continue
         clean = None
-        if cell.injection in ("wind", "load", "copper") and d.aircraft is not None:
+        if cell.injection == "wind" and isinstance(src, M100):
+            clean = anemometer_wind_of(d)       # measured, not diagnose's own (notes)
+        if cell.injection in ("wind", "load", "copper") and d.aircraft is not None \
+                and clean is None:
             ck = (key, cell.richness, expect)
             if ck not in draws:
                 draws[ck] = clean_parameters(d, cell.richness, expect)

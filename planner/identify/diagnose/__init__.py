@@ -664,7 +664,8 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
 def _weak_why(effect, params: dict, z: float, level_name: str) -> str:
     """Why an effect that passed the held-out tests is withheld: its key parameter is
     within :data:`MIN_Z` standard errors of no effect (with what makes most of the error,
-    where the vertical descents do); in the unit its detection limit is given in."""
+    where the vertical descents or the hovers do: :data:`_REGIME_BIAS`); in the unit its
+    detection limit is given in."""
     from planner.identify.diagnose.limits import PARAMETER, in_unit
 
     if PARAMETER.get((level_name, effect.name), ("",))[0] == effect.key:
@@ -677,13 +678,25 @@ def _weak_why(effect, params: dict, z: float, level_name: str) -> str:
     why = (f"it passed the held-out tests, but its {effect.key} ({show(params[effect.key])} ± "
            f"{show(se)}) is only {z:.1f} standard errors from no effect in the fit on all the "
            "data")
-    bias = params.get(effect.key + "_descent_bias")
-    if bias is not None and bias > 0.5 * se:
-        why += (f"; most of that error is the vertical descents': the step moves by "
-                f"{show(abs(params[effect.key + '_descent_shift']))} when they get a power "
-                "level of their own (the rotor model's power in slow descent is an empirical "
-                "curve)")
+    for regime, whose, moves, reason in _REGIME_BIAS:
+        bias = params.get(f"{effect.key}_{regime}_bias")
+        if bias is not None and bias > 0.5 * se:
+            why += (f"; most of that error is {whose}: {moves} by "
+                    f"{show(abs(params[f'{effect.key}_{regime}_shift']))} when they get a "
+                    f"power level of their own ({reason})")
     return why
+
+
+#: The regimes whose own power level shows a bias in a parameter (``<key>_<regime>_shift``
+#: and ``_bias``: PowerLevel.descent_shift, PowerLevel.hover_shift), in the words of
+#: :func:`_weak_why`: the regime, whose error, what moves, and why the model is unsure there.
+_REGIME_BIAS = (
+    ("descent", "the vertical descents'", "the step moves",
+     "the rotor model's power in slow descent is an empirical curve"),
+    ("hover", "the hovers'", "the wind's speed moves",
+     "there the wind is the whole airspeed, and its effect the rotor model's fall of power "
+     "from the hover"),
+)
 
 
 def _as_given_capacity(level, pack) -> tuple[float, float]:

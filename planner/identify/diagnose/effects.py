@@ -736,7 +736,10 @@ class Wind(PowerEffect):
 
     def parameters(self, values, stderr, pw, state):
         """Wind components, speed [m/s] and the direction it blows from [deg], with standard
-        errors; whether it adds to the autopilot's logged wind."""
+        errors; whether it adds to the autopilot's logged wind. On a multirotor the
+        speed's error adds in quadrature the bias the model's power in the hover can put
+        into it (:meth:`planner.identify.diagnose.search.PowerLevel.hover_shift`; the shift
+        and the bias are kept), and each component its share of it."""
         wn, we = values["wind_n_ms"], values["wind_e_ms"]
         sn, se = stderr["wind_n_ms"], stderr["wind_e_ms"]
         speed = math.hypot(wn, we)
@@ -745,10 +748,18 @@ class Wind(PowerEffect):
             math.hypot(sn, se)
         s_dir = math.degrees(math.sqrt((we * sn) ** 2 + (wn * se) ** 2) / speed**2) \
             if speed > 0 else 180.0
+        out = {}
+        bias = values.get("wind_speed_ms_hover_bias")
+        if bias is not None and speed > 0:
+            # the bias lies along the wind: the speed takes it whole, each component its part
+            s_speed = math.hypot(s_speed, bias)
+            sn, se = math.hypot(sn, bias * wn / speed), math.hypot(se, bias * we / speed)
+            out = {"wind_speed_ms_hover_shift": values["wind_speed_ms_hover_shift"],
+                   "wind_speed_ms_hover_bias": bias}
         return {"wind_n_ms": wn, "wind_n_ms_stderr": sn, "wind_e_ms": we,
                 "wind_e_ms_stderr": se, "wind_speed_ms": speed, "wind_speed_ms_stderr": s_speed,
                 "wind_from_deg": frm, "wind_from_deg_stderr": min(s_dir, 180.0),
-                "logged_wind_added": float(pw.has_logged_wind)}
+                "logged_wind_added": float(pw.has_logged_wind), **out}
 
     def implausible(self, p, pw):
         """A wind above :data:`MAX_WIND_SHARE` of the maximum airspeed."""

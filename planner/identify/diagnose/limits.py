@@ -285,6 +285,9 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
             continue
         if e.name == "wind" and "payload_change" in sigs:
             others.append(_steps(level, sigs["payload_change"][:, 0], 0.5)[:, None])
+        if e.name == "wind" and level.aircraft.is_multirotor:
+            # the hover's own power level, as the wind's error counts it (module notes)
+            others.append(_hover_level(level))
         nuisance = np.column_stack([J] + others) if others else J
         sig = sigs[e.name]
         if report.name == "capacity":
@@ -455,6 +458,19 @@ def _steps(level, s: np.ndarray, u: float) -> np.ndarray:
         tc = t.min() + u * (t.max() - t.min())
         out[m] = np.where(t >= tc, s[m], 0.0)
     return out
+
+
+def _hover_level(level) -> np.ndarray:
+    """The indicator column of a multirotor's hover bins
+    (:meth:`planner.identify.diagnose.search.PowerLevel.hovering`) where, as for the wind's
+    error (:meth:`~planner.identify.diagnose.search.PowerLevel.hover_shift`), enough
+    flights hover; else an empty column set."""
+    from planner.identify.aircraft_fit import MIN_DESCENT_FLIGHTS
+
+    still = level.hovering()
+    if still.all() or np.unique(level.exp[still]).size < MIN_DESCENT_FLIGHTS:
+        return np.zeros((level.n_rows, 0))
+    return still.astype(float)[:, None]
 
 
 def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> dict:

@@ -144,6 +144,25 @@ estimate (the detection limit takes the descents as a nuisance regime too,
 shift is of the size of that noise and the bias nil (``mass_step_kg_descent_shift``,
 ``mass_step_kg_descent_bias``).
 
+Wind
+----
+A multirotor holds its ground velocity, so a steady wind is read in two ways: where it
+moves, the power changes with the direction of travel (the airspeed rises upwind and
+falls downwind); where it hovers or moves only vertically, the wind is the whole
+airspeed, and the power falls by the model's translational lift, whatever the wind's
+direction. The second reading rests on the model's power at low airspeed, where momentum
+theory's induced power is least sure (on DJI M100 flights of the routes other than R1,
+Rodrigues et al. 2021, the calibrated rotor model's power falls from the hover to
+3 m/s about twice as much as the measured power does). As for the
+descents and a payload step, the wind is fitted once more with a power level of the
+hover bins' own (:meth:`PowerLevel.hovering`: the ground velocity known and below
+:data:`MOVING_MS`), and how far its speed moves, less what noise alone would move it
+(:meth:`PowerLevel.hover_shift`, the same Hausman contrast), is added in quadrature to
+the speed's standard error, each component taking its part
+(``wind_speed_ms_hover_shift``, ``wind_speed_ms_hover_bias``); the detection limit
+takes the hover as a nuisance regime too. On flights the model flies right the bias is
+of the size of the fit's error.
+
 Climb rate
 ----------
 Where the record has an altitude, the logged climb rate is checked against the
@@ -1400,38 +1419,77 @@ class PowerLevel:
                       ) -> tuple[float, float] | None:
         r"""How far the parameter ``key`` of the all-data ``fit`` moves when the vertical
         descents (:func:`planner.chain.flightstate.vertical_descent`) get a power level of
-        their own, and the bias that shift shows (module notes, "Change points"); None
-        where fewer than :data:`MIN_DESCENT_FLIGHTS` flights descend vertically (or not a
-        multirotor). ``jacobian``: the fit's (Jacobian, residual) on its training rows
-        (:meth:`_jacobian`). [unit of the parameter]
+        their own, and the bias that shift shows (module notes, "Change points";
+        :meth:`regime_shift`); None where fewer than :data:`MIN_DESCENT_FLIGHTS` flights
+        descend vertically (or not a multirotor). ``jacobian``: the fit's (Jacobian,
+        residual) on its training rows (:meth:`_jacobian`). [unit of the parameter]"""
+        if not self.aircraft.is_multirotor or key not in fit.nl_names:
+            return None
+        direction = np.zeros(len(fit.nl))
+        direction[list(fit.nl_names).index(key)] = 1.0
+        return self.regime_shift(fit, jacobian, vertical_descent(self.gs, self.climb),
+                                 direction)
+
+    def hover_shift(self, fit: Fit, jacobian) -> tuple[float, float] | None:
+        r"""How far the speed of the fitted wind moves when the bins in which the aircraft
+        hovers or moves only vertically (ground speed below :data:`MOVING_MS`, the ground
+        velocity known) get a power level of their own, and the bias that shift shows
+        (module notes, "Wind"; :meth:`regime_shift`); None without a fitted wind, on a
+        fixed wing, or where fewer than :data:`MIN_DESCENT_FLIGHTS` flights hover.
+        ``jacobian``: as :meth:`descent_shift`. [m/s]"""
+        names = list(fit.nl_names)
+        if not self.aircraft.is_multirotor or "wind_n_ms" not in names:
+            return None
+        kn, ke = names.index("wind_n_ms"), names.index("wind_e_ms")
+        speed = math.hypot(fit.nl[kn], fit.nl[ke])
+        if speed <= 0.0:
+            return None
+        direction = np.zeros(len(fit.nl))
+        direction[kn], direction[ke] = fit.nl[kn] / speed, fit.nl[ke] / speed
+        return self.regime_shift(fit, jacobian, self.hovering(), direction)
+
+    def hovering(self) -> np.ndarray:
+        """The bins in which the aircraft hovers or moves only vertically: its ground
+        velocity known and below :data:`MOVING_MS` (a wind sets the airspeed there, the
+        model's power at low airspeed its effect: module notes, "Wind")."""
+        return self.course_known & (self.gs < MOVING_MS)
+
+    def regime_shift(self, fit: Fit, jacobian, regime: np.ndarray, direction: np.ndarray
+                     ) -> tuple[float, float] | None:
+        r"""How far the combination ``direction`` · (nonlinear parameters) of the all-data
+        ``fit`` moves when the bins of ``regime`` (a boolean per bin) get a power level of
+        their own, and the bias that shift shows; None where fewer than
+        :data:`MIN_DESCENT_FLIGHTS` training flights have such bins, or all bins are in it.
 
         The shift :math:`\Delta` is one Gauss-Newton step from the fit with and without the
-        descents' indicator column beside the parameters. Were the model's descent power
-        right, :math:`\Delta` would be noise only, of variance
-        :math:`V_1 - V_0` (the variances of the parameter with and without the column:
+        regime's indicator column beside the parameters. Were the model's power in that
+        regime right, :math:`\Delta` would be noise only, of variance
+        :math:`V_1 - V_0` (the variances of the combination with and without the column:
         the efficient estimate against a consistent one, Hausman 1978); the bias is
         estimated as :math:`\sqrt{\max(\Delta^2 - (V_1 - V_0), 0)}`. Each variance is the
         larger of the AR(1) one and the flight-clustered sandwich's, as in
         :meth:`physical`.
         """
-        if not self.aircraft.is_multirotor or key not in fit.nl_names:
-            return None
-        vertical = vertical_descent(self.gs, self.climb)
         rows = np.flatnonzero(fit.train)
-        if np.unique(self.exp[rows][vertical[rows]]).size < MIN_DESCENT_FLIGHTS:
+        inside = regime[rows]
+        if inside.all() or np.unique(self.exp[rows][inside]).size < MIN_DESCENT_FLIGHTS:
             return None
         J, r0 = jacobian
         groups = self.exp[rows]
-        k = list(fit.nl_names).index(key)
+        u = np.r_[np.asarray(direction, float), np.zeros(J.shape[1] - len(direction))]
+
+        on = np.flatnonzero(u)
 
         def step_and_variance(X):
             d = np.linalg.lstsq(X, -r0, rcond=None)[0]
             ar1, clustered = _covariance_pair(X, r0 + X @ d, groups)
-            v = ar1[k, k] if clustered is None else max(ar1[k, k], clustered[k, k])
-            return float(d[k]), float(v)
+            v = float(u[on] @ ar1[np.ix_(on, on)] @ u[on])
+            if clustered is not None:
+                v = max(v, float(u[on] @ clustered[np.ix_(on, on)] @ u[on]))
+            return float(u[on] @ d[on]), v
 
         step0, v0 = step_and_variance(J)
-        step1, v1 = step_and_variance(np.column_stack([J, vertical[rows].astype(float)]))
+        step1, v1 = step_and_variance(np.column_stack([J, inside.astype(float)]))
         shift = step1 - step0
         return shift, math.sqrt(max(shift**2 - max(v1 - v0, 0.0), 0.0))
 
@@ -1534,6 +1592,11 @@ class PowerLevel:
             # ... and the bias the vertical descents' misfit can put into it (module notes)
             values["mass_step_kg_descent_shift"], values["mass_step_kg_descent_bias"] = descent
             stderr["mass_step_kg"] = math.hypot(stderr["mass_step_kg"], descent[1])
+        hover = self.hover_shift(fit, jacobian) if "wind_n_ms" in values else None
+        if hover is not None:
+            # ... and the bias the model's power in the hover puts into a wind's speed
+            # (module notes, "Wind"); the wind effect adds it to the speed's error
+            values["wind_speed_ms_hover_shift"], values["wind_speed_ms_hover_bias"] = hover
         return values, stderr
 
     def confounders(self) -> list[tuple[str, np.ndarray]]:

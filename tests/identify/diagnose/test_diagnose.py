@@ -436,6 +436,43 @@ def test_on_flights_the_model_fits_the_placebo_steps_are_as_small_as_the_fits_er
     assert abs(p["mass_step_kg"] - magnitude) < 2 * p["mass_step_kg_stderr"]
 
 
+@pytest.mark.parametrize("speed, frm, seed, profile", [(4.0, 250.0, 0, "survey"),
+                                                       (7.0, 30.0, 1, "lawnmower")])
+def test_a_winds_error_counts_the_bias_a_misfit_of_the_hover_puts_into_it(
+        speed, frm, seed, profile):
+    """A multirotor's wind is read partly in its hover (search, "Wind"): there the wind
+    sets the airspeed, and the model's power at low airspeed its effect. On flights made
+    by the model the hover's own power level moves the wind by no more than noise would
+    (the bias is of the size of the fit's error); with the hover drawing 30 W more than
+    the model says, the wind comes out slow and the bias that the hover's level shows
+    keeps the truth within two standard errors, where the fit's error alone would put it
+    many errors away."""
+    df, truth = power_dataset("wind", (speed, frm), seed=seed, profile=profile, **FLIGHTS)
+
+    def wind(record):
+        res = diagnose(record, battery(PACK_6S), aircraft_file(**WRONG),
+                       payload_kg=truth["payload_kg"])
+        return next(f for f in res.findings if f["effect"] == "wind")["parameters"]
+
+    p = wind(df)
+    assert p["wind_speed_ms_hover_bias"] <= abs(p["wind_speed_ms_hover_shift"])
+    assert p["wind_speed_ms_hover_bias"] < 3 * p["wind_speed_ms_stderr"] < 0.1 * speed
+    assert abs(p["wind_speed_ms"] - speed) < 2 * p["wind_speed_ms_stderr"]
+
+    hover = (df["groundspeed_ms"].abs() < 2.0) & (df["altitude_m"] > 1.0)
+    assert 0.1 < hover.mean() < 0.5
+    off = df.copy()
+    off.loc[hover, "power_w"] += 30.0
+    off.loc[hover, "current_a"] += 30.0 / off.loc[hover, "voltage_v"]
+    q = wind(off)
+    bias = q["wind_speed_ms_hover_bias"]
+    assert q["wind_speed_ms"] < speed - 0.1 * speed          # slow: the hover's misfit
+    fit_only = math.sqrt(max(q["wind_speed_ms_stderr"]**2 - bias**2, 0.0))
+    assert abs(q["wind_speed_ms"] - speed) > 3 * fit_only
+    assert q["wind_speed_ms_stderr"] == pytest.approx(math.hypot(fit_only, bias))
+    assert abs(q["wind_speed_ms"] - speed) < 2 * q["wind_speed_ms_stderr"]
+
+
 def test_a_payload_change_above_its_limit_is_found_and_the_limit_says_so():
     res, truth = _power("payload_change", -0.5, 0)
     entry = next(e for e in res.detection if e["effect"] == "payload_change"

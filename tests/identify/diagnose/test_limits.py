@@ -189,3 +189,20 @@ def test_a_withheld_weak_effect_is_said_in_the_unit_of_its_detection_limit():
                     1.6, "capacity")
     assert "(0.240 %/°C ± 0.150 %/°C)" in why and "1.6 standard errors" in why
     assert "vertical descents" not in why
+
+
+def test_a_weak_wind_says_when_most_of_its_error_is_the_hovers():
+    """A multirotor's wind whose error is mostly the bias its hovers show (search,
+    "Wind") is withheld with that reason, in m/s; a small bias is not named."""
+    from planner.identify.diagnose import _weak_why
+    from planner.identify.diagnose.effects import make_effects
+
+    wind = make_effects(["wind"])[0]
+    p = {"wind_speed_ms": 2.6, "wind_speed_ms_stderr": 1.5,
+         "wind_speed_ms_hover_shift": -1.4, "wind_speed_ms_hover_bias": 1.3}
+    why = _weak_why(wind, p, 1.7, "power")
+    assert "most of that error is the hovers'" in why
+    assert "the wind's speed moves by 1.4 m/s" in why
+    assert "vertical descents" not in why
+    small = _weak_why(wind, {**p, "wind_speed_ms_hover_bias": 0.3}, 1.7, "power")
+    assert "hovers" not in small
