@@ -19,6 +19,9 @@ from here.
 * :func:`cluster_covariance` — the cluster-robust (sandwich) covariance with one
   cluster per flight [2]_: residuals may be correlated in any way within a flight (a
   payload, a wind, a pack of that flight), only flights are taken as independent.
+* :func:`effective_clusters` and :func:`few_clusters_critical` — how many clusters carry
+  an estimate (G* [5]_), and the t critical value to judge it by where they are fewer
+  than :data:`MIN_CLUSTERS`.
 * :func:`random_walk_covariance` — the sandwich for a residual that is a random walk
   within each experiment (a measured charge, the integral of a noisy current): the
   integral model's fit (:mod:`planner.identify.battery_fit`, whose notes derive it).
@@ -49,6 +52,9 @@ References
 .. [4] L. Kish, *Survey Sampling*, New York: Wiley, 1965, sec. 5.4 (the design effect:
    the variance of an estimate under the clustered design over its variance under the
    simple one).
+.. [5] A. V. Carter, K. T. Schnepel and D. G. Steigerwald, "Asymptotic behavior of a
+   t-test robust to cluster heterogeneity," Review of Economics and Statistics 99(4),
+   698–709, 2017 (the effective number of clusters G*).
 """
 
 from __future__ import annotations
@@ -462,6 +468,44 @@ def detectable_size(signature, nuisance, resid, groups=None, *, dof: int = 0,
 
 #: Fewest clusters for :func:`design_effect` to be estimated. [unitless]
 MIN_CLUSTERS = 4
+
+
+def effective_clusters(jac, direction, groups) -> float:
+    r"""Effective number of clusters :math:`G^*` behind the estimate of
+    :math:`a^\mathsf{T}\theta` (``direction`` a) of a least-squares fit with Jacobian
+    ``jac``, one cluster per group (Carter, Schnepel and Steigerwald [5]_, :math:`G^*(0)`):
+    with :math:`\gamma_g = a^\mathsf{T} A J_g^\mathsf{T} J_g A\, a`, :math:`A =
+    (J^\mathsf{T}J)^{-1}`, each cluster's share of the estimate's variance under
+    independent errors, :math:`G^* = (\sum_g \gamma_g)^2 / \sum_g \gamma_g^2`. Equal
+    shares give the number of clusters; an estimate that three of sixteen flights carry
+    has about three. A cluster-robust variance rests on that many scores, and a test
+    of it on a t distribution with :math:`G^* - 1` degrees of freedom
+    (:func:`few_clusters_critical`). NaN for a singular fit. [unitless]"""
+    jac = np.asarray(jac, float)
+    a = np.asarray(direction, float)
+    base = jacobian_covariance(jac)
+    if base.singular:
+        return math.nan
+    w = base.matrix @ a                               # A a
+    labels, index = np.unique(np.asarray(groups), return_inverse=True)
+    proj = jac @ w                                    # J_g A a, stacked
+    gamma = np.bincount(index, weights=proj**2, minlength=labels.size)
+    total = float(gamma.sum())
+    return total**2 / float(np.dot(gamma, gamma)) if total > 0 else math.nan
+
+
+def few_clusters_critical(g_star: float, alpha: float = 0.05) -> float | None:
+    r"""The two-sided critical value of a test whose cluster-robust variance rests on
+    :math:`G^*` effective clusters (:func:`effective_clusters`), where :math:`G^*` is
+    below :data:`MIN_CLUSTERS`: Student's t with :math:`G^* - 1` degrees of freedom
+    (at least 1; Cameron and Miller [2]_, sec. VI.C; Carter, Schnepel and Steigerwald
+    [5]_). None from :data:`MIN_CLUSTERS` on, where the normal reference stands.
+    [unitless]"""
+    from scipy.stats import t
+
+    if not math.isfinite(g_star) or g_star >= MIN_CLUSTERS:
+        return None
+    return float(t.ppf(1.0 - alpha / 2.0, max(g_star - 1.0, 1.0)))
 
 
 def design_effect(visible, resid, clusters, groups=None, dof: int = 0) -> float:

@@ -511,15 +511,23 @@ def test_an_aircraft_the_run_does_not_have_is_a_failed_row_that_names_it(fleet):
 def test_ctrl_c_says_how_many_flights_were_kept_and_how_to_resume(fleet_dir, tmp_path):
     """Ctrl-C from a terminal reaches the whole process group (the command and its Dask
     workers): one line saying what was kept and how to resume, no worker tracebacks, and
-    the table it names holds that many flights."""
+    the table it names holds that many flights.
+
+    The command starts as from a terminal, with Ctrl-C's default handler: a test run in
+    the background (``cmd &``, ``nohup``) passes SIGINT ignored to its children, and
+    Python keeps an inherited SIGINT ignored, as a command started so should."""
     import os
     import signal
     import subprocess
     import sys
 
     out = tmp_path / "fleet"
+    as_from_a_terminal = ("import runpy, signal, sys; "
+                          "signal.signal(signal.SIGINT, signal.default_int_handler); "
+                          "sys.argv[0] = 'endurance'; "
+                          "runpy.run_module('planner.cli.main', run_name='__main__')")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "planner.cli.main", "fleet", str(fleet_dir / "logs"),
+        [sys.executable, "-c", as_from_a_terminal, "fleet", str(fleet_dir / "logs"),
          "--aircraft", str(AIRCRAFT), str(REPO / "aircraft/quad_7in.yaml"),
          str(REPO / "aircraft/x8_mapper.yaml"), "--packs", str(fleet_dir / "packs.csv"),
          "--out", str(out), "--workers", "1"],

@@ -86,3 +86,28 @@ def test_random_walk_covariance_is_infinite_for_a_singular_jacobian():
                                                  [100], lag_fraction=0.01)
     assert cov.singular and iid.singular and np.all(np.isinf(cov.stderr))
     assert 0.9 < rho <= 1.0                      # a straight line about its mean
+
+
+def test_effective_clusters_count_the_flights_that_carry_an_estimate():
+    """Carter, Schnepel & Steigerwald (2017) G*(0): equal clusters give their number; a
+    parameter that three of sixteen equal flights carry (its column is zero elsewhere)
+    rests on three, and a test of it is judged on Student's t with two degrees of
+    freedom (4.30 at 5 %, two-sided); from four effective clusters the normal stands."""
+    rng = np.random.default_rng(0)
+    groups = np.repeat(np.arange(16), 50)
+    level = np.ones(groups.size)
+    x = rng.normal(size=groups.size)
+    J = np.column_stack([level, x])
+    assert stats.effective_clusters(J, [0.0, 1.0], groups) == pytest.approx(16, rel=0.1)
+    carried = np.where(groups < 3, x, 0.0)
+    J3 = np.column_stack([level, carried])
+    g = stats.effective_clusters(J3, [0.0, 1.0], groups)
+    assert g == pytest.approx(3, rel=0.1)
+    assert stats.few_clusters_critical(g) > stats.few_clusters_critical(3.9) > 1.96
+    assert stats.few_clusters_critical(3.0) == pytest.approx(4.303, abs=1e-3)
+    assert stats.few_clusters_critical(4.0) is None
+    assert stats.few_clusters_critical(float("nan")) is None
+    # unequal shares: one flight with most of the information counts little more than one
+    weights = np.where(groups == 0, 10.0, 1.0)
+    assert stats.effective_clusters(np.column_stack([level, x * weights]), [0, 1],
+                                    groups) < 3

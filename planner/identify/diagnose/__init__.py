@@ -629,11 +629,14 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
             for e in chosen:
                 params = e.parameters(values, stderr, level, res.final_fit.state)
                 z = e.z_score(params)
-                if math.isfinite(z) and z < MIN_Z:
+                few = (_few_flights(level, values.get(f"effective_flights[{e.name}]"))
+                       if values.get(f"clustered_error[{e.name}]") else None)
+                crit = max(MIN_Z, few[1]) if few else MIN_Z
+                if math.isfinite(z) and z < crit:
                     # withheld, so that its detection entry says why it is not named
                     # rather than that none was found
                     drop[e.name] = {"effect": e.name, "level": level.name, "kind": "weak",
-                                    "why": _weak_why(e, params, z, level.name),
+                                    "why": _weak_why(e, params, z, level.name, few),
                                     "where": e.driver_label, "parameters": params}
                     continue
                 why = e.implausible(params, level)
@@ -661,11 +664,27 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
         return None
 
 
-def _weak_why(effect, params: dict, z: float, level_name: str) -> str:
+def _few_flights(level, g_star) -> tuple[float, float] | None:
+    """``(G*, critical value)`` where an effect's estimate, whose error is the
+    flight-clustered one, rests on fewer than
+    :data:`planner.identify.stats.MIN_CLUSTERS` flights in effect (``g_star``,
+    :func:`planner.identify.stats.effective_clusters`) of a level of that many flights
+    or more: its z is then judged against
+    Student's t with G* − 1 degrees of freedom
+    (:func:`planner.identify.stats.few_clusters_critical`); else None."""
+    if g_star is None or getattr(level, "n_experiments", 0) < stats.MIN_CLUSTERS:
+        return None
+    crit = stats.few_clusters_critical(g_star)
+    return None if crit is None else (float(g_star), crit)
+
+
+def _weak_why(effect, params: dict, z: float, level_name: str,
+              few: tuple[float, float] | None = None) -> str:
     """Why an effect that passed the held-out tests is withheld: its key parameter is
     within :data:`MIN_Z` standard errors of no effect (with what makes most of the error,
-    where the vertical descents or the hovers do: :data:`_REGIME_BIAS`); in the unit its
-    detection limit is given in."""
+    where the vertical descents or the hovers do: :data:`_REGIME_BIAS`), or, where it
+    rests on few flights in effect (``few``: :func:`_few_flights`), within the t
+    distribution's critical value; in the unit its detection limit is given in."""
     from planner.identify.diagnose.limits import PARAMETER, in_unit
 
     if PARAMETER.get((level_name, effect.name), ("",))[0] == effect.key:
@@ -678,6 +697,10 @@ def _weak_why(effect, params: dict, z: float, level_name: str) -> str:
     why = (f"it passed the held-out tests, but its {effect.key} ({show(params[effect.key])} ± "
            f"{show(se)}) is only {z:.1f} standard errors from no effect in the fit on all the "
            "data")
+    if few is not None and z >= MIN_Z:
+        why += (f", and its evidence comes from {few[0]:.1f} flights in effect: too few to "
+                "tell one shared effect from each flight's own, it needs "
+                f"{few[1]:.1f} (Student's t with {max(few[0] - 1, 1):.1f} degrees of freedom)")
     for regime, whose, moves, reason in _REGIME_BIAS:
         bias = params.get(f"{effect.key}_{regime}_bias")
         if bias is not None and bias > 0.5 * se:

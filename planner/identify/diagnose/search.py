@@ -66,7 +66,9 @@ An effect (added to the current model) is reported only when all hold:
    that rises is a constant loss, i.e. ``system_power``).
 5. **Consistency on all the data.** After the search, the selected model is
    fitted on all the data; an effect whose key parameter is less than 2
-   standard errors from "no effect" there is dropped (and a note says so).
+   standard errors from "no effect" there (on the power level, where the estimate
+   rests on fewer than four flights in effect, less than Student's t critical value:
+   below) is dropped (and a note says so).
 
 Greedy combination: all testable effects are scored against the calibrated
 baseline; the one with the largest held-out gain among those that pass joins
@@ -83,7 +85,20 @@ error is the larger of that and the flight-clustered sandwich's (Liang & Zeger 1
 effect carried by whole flights (the air density of a day, a wind shared by flights on
 different courses) is estimated against the scatter between flights, which a
 within-flight noise model does not see; the detection limits count the same scatter
-(:func:`planner.identify.stats.design_effect`).
+(:func:`planner.identify.stats.design_effect`). A sandwich rests on as many scores as
+there are flights that carry the estimate, not flights in the data: a wind fitted on
+sixteen flights of which three cruise along a course rests on about three. That number,
+the effective number of flights :math:`G^*` along the effect's key parameter
+(:func:`planner.identify.stats.effective_clusters`; Carter, Schnepel & Steigerwald
+2017), is kept with each fit (``effective_flights[<effect>]`` of
+:meth:`PowerLevel.physical`). Where the flight-clustered error is the one in use
+(``clustered_error[<effect>]``) and :math:`G^*` is below
+:data:`planner.identify.stats.MIN_CLUSTERS`, the consistency test of rule 5 judges the
+effect's z against Student's t with :math:`G^* - 1` degrees of freedom instead of 2
+(Cameron & Miller 2015, sec. VI.C), and says so where that withholds it; where the
+AR(1) error is the larger, the test stands on the model's own noise. The detection
+limits do not count it: a limit is given for an
+effect not yet fitted, whose direction (a wind's) is not known.
 
 Rival effects
 -------------
@@ -1597,7 +1612,37 @@ class PowerLevel:
             # ... and the bias the model's power in the hover puts into a wind's speed
             # (module notes, "Wind"); the wind effect adds it to the speed's error
             values["wind_speed_ms_hover_shift"], values["wind_speed_ms_hover_bias"] = hover
+        for e in effects:
+            # how many flights carry each effect's estimate, and whether its error is the
+            # flight-clustered one (module notes, "Selection statistics")
+            a = self._key_direction(fit, effects, e, jacobian[0].shape[1])
+            if a is None:
+                continue
+            values[f"effective_flights[{e.name}]"] = stats.effective_clusters(
+                jacobian[0], a, self.exp[np.flatnonzero(fit.train)])
+            values[f"clustered_error[{e.name}]"] = float(
+                clustered is not None and a @ clustered @ a > a @ cov @ a)
         return values, stderr
+
+    def _key_direction(self, fit: Fit, effects, effect, width: int) -> np.ndarray | None:
+        """The direction of ``effect``'s key estimate among the fit's [nonlinear…,
+        linear…] parameters: along the fitted wind for a wind, else its key parameter (or
+        its first linear column); None where it has none."""
+        names = list(fit.nl_names) + ["inverse_efficiency"] + \
+            [n for e in effects for n in e.linear]
+        a = np.zeros(width)
+        if effect.name == "wind":
+            kn, ke = names.index("wind_n_ms"), names.index("wind_e_ms")
+            speed = math.hypot(fit.nl[kn], fit.nl[ke])
+            if speed <= 0.0:
+                return None
+            a[kn], a[ke] = fit.nl[kn] / speed, fit.nl[ke] / speed
+        else:
+            key = effect.key if effect.key in names else (effect.linear or (None,))[0]
+            if key not in names:
+                return None
+            a[names.index(key)] = 1.0
+        return a
 
     def confounders(self) -> list[tuple[str, np.ndarray]]:
         """What an effect's driver must not follow (per bin): the time since the start and
