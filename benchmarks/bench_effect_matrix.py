@@ -172,6 +172,7 @@ def main(argv=None) -> int:
         ks = [s for s in real if s["verdict"] == kind]
         if ks:
             print(f"  {kind}: {sum(1 for s in ks if s['met'])} of {len(ks)}")
+    print(M.run_by_run_text(M.run_by_run(real)))
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1, default=float))
         print(f"wrote {args.json}")

@@ -7,7 +7,9 @@ findings named, never a false cause); % of runs whose detection limit
 calls the injected size identifiable; of the runs that missed the effect, those whose
 output said it is not identifiable; runs with the named parameter within 2 SE of the truth
 (of those checked); median injected size / median detection limit in the detection
-entry's unit; median CPU seconds of diagnose per run; the verdict at realistic size.
+entry's unit; median CPU seconds of diagnose per run; the verdict at realistic size;
+then the count of cells meeting the criterion and the criterion read run by run
+(:func:`testkit.matrix.run_by_run`).
 
 Run: ``python benchmarks/effect_matrix_table.py matrix.json [more.json …]`` (several files
 are joined; a cell in a later file replaces the same cell of an earlier one).
@@ -18,9 +20,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from testkit import matrix as M  # noqa: E402
 
 HEAD = ("| cell (source/injection[/timing]/richness) | runs | named first | named anywhere "
         "| false cause | limit calls it identifiable | said not identifiable (of misses) "
@@ -81,6 +88,9 @@ def main(argv=None) -> int:
     runs = sum(s["runs"] for s in cells.values())
     print(f"\n{met} of {len(real)} cells at realistic size meet the criterion ({kinds}); "
           f"{len(cells)} cells, {runs} runs.")
+    by_run = M.run_by_run(list(cells.values()))
+    if by_run["cells"]:
+        print(M.run_by_run_text(by_run) + ".")
     return 0
 
 

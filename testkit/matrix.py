@@ -945,6 +945,7 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
           "expect": cell.expect, "runs": n, "named_first": 0, "named_any": 0,
           "false_runs": 0, "false": Counter(), "silent": 0, "identifiable": 0,
           "said_not_identifiable": 0, "within_2se": 0, "checked_2se": 0, "limits": [],
+          "named_first_identifiable": 0, "named_or_said_not_identifiable": 0,
           "sizes": [], "cpu_s": [], "errors": Counter(), "own": Counter(), "winds": []}
     draws = {} if draws is None else draws
     for run in range(n):
@@ -1008,17 +1009,53 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
         st["sizes"].append(size)
         ident = math.isfinite(limit) and abs(size) >= limit
         st["identifiable"] += ident
-        if rest and rest[0][1] == "injected":
+        first = bool(rest) and rest[0][1] == "injected"
+        if first:
             st["named_first"] += 1
             ok = within_2se(expect, rest[0][0]["parameters"], truth)
             if ok is not None:
                 st["checked_2se"] += 1
                 st["within_2se"] += bool(ok)
+        st["named_first_identifiable"] += ident and first
         if any(k == "injected" for _, k in rest):
             st["named_any"] += 1
+            st["named_or_said_not_identifiable"] += not ident
         elif not ident:
             st["said_not_identifiable"] += bool(entries)
+            st["named_or_said_not_identifiable"] += bool(entries)
     return st
+
+
+def run_by_run(stats: list[dict]) -> dict:
+    """The criterion read run by run over realistic-size cells with an injection
+    (``stats``: :func:`run_cell`'s tallies; older tallies without the run-by-run counts
+    are left out): the runs whose detection limit calls the injected size identifiable
+    and those named first among them; the other runs and those in which the effect was
+    named anyway or said not identifiable."""
+    out = {"identifiable": 0, "named_first": 0, "not_identifiable": 0, "named_or_said": 0,
+           "cells": 0}
+    for st in stats:
+        if st.get("size") != "realistic" or st.get("expect") is None or \
+                "named_first_identifiable" not in st:
+            continue
+        n = max(st["runs"] - sum(dict(st["errors"]).values()), 0)
+        out["cells"] += 1
+        out["identifiable"] += st["identifiable"]
+        out["named_first"] += st["named_first_identifiable"]
+        out["not_identifiable"] += n - st["identifiable"]
+        out["named_or_said"] += st["named_or_said_not_identifiable"]
+    return out
+
+
+def run_by_run_text(r: dict) -> str:
+    """:func:`run_by_run` in one line."""
+    def pct(a, b):
+        return f"{100 * a / b:.0f} %" if b else "–"
+    return (f"run by run ({r['cells']} realistic cells with an injection): the limit calls "
+            f"the injected size identifiable in {r['identifiable']} runs, named first in "
+            f"{r['named_first']} ({pct(r['named_first'], r['identifiable'])}); in the other "
+            f"{r['not_identifiable']} runs the effect is named or said not identifiable in "
+            f"{r['named_or_said']} ({pct(r['named_or_said'], r['not_identifiable'])})")
 
 
 def verdict(st: dict) -> tuple[str, bool | None]:

@@ -53,6 +53,9 @@ def test_a_seeded_cell_of_the_effect_matrix_meets_the_criterion(cell, runs, draw
     if kind == "not identifiable":
         # a miss is never silent: the output says the effect cannot be seen in these data
         assert st["said_not_identifiable"] == st["runs"] - st["named_any"]
+        assert st["named_or_said_not_identifiable"] == st["runs"] - st["identifiable"]
+    if kind == "identifiable":
+        assert st["named_first_identifiable"] >= 0.8 * st["identifiable"]
     assert max(st["cpu_s"]) < 5.0
     if cell.source == "log171" and cell.richness == "plain":
         # the real step is still reported, in every run, and only as the record's own
@@ -433,3 +436,32 @@ def test_a_wind_that_three_flights_carry_is_not_named_as_the_flights_shared_wind
     assert "flights in effect" in weak[0]["why"]
     entry = next(e for e in res.detection if e["effect"] == "wind" and e["level"] == "power")
     assert not entry["identifiable"] and "withheld" in entry["why"]
+
+
+def test_the_criterion_read_run_by_run_counts_each_run_against_its_own_limit():
+    """A cell whose limit calls 3 of 5 runs identifiable, named first in exactly those,
+    and says not identifiable in the 2 others, misses the cell criterion (60 % named)
+    but meets it run by run: 3 of 3 named, 2 of 2 said. Clean cells, 2× cells and
+    tallies without the run-by-run counts are left out."""
+    from collections import Counter
+
+    def tally(**kw):
+        st = {"size": "realistic", "expect": "payload_change", "runs": 5,
+              "errors": Counter(), "identifiable": 3, "named_first": 3, "named_any": 3,
+              "false_runs": 0, "said_not_identifiable": 2, "within_2se": 3,
+              "checked_2se": 3, "named_first_identifiable": 3,
+              "named_or_said_not_identifiable": 2}
+        return st | kw
+
+    mixed = tally()
+    assert M.verdict(mixed) == ("identifiable", False)
+    rest = [tally(expect=None), tally(size="2x"),
+            {k: v for k, v in tally().items() if k != "named_first_identifiable"}]
+    r = M.run_by_run([mixed, *rest])
+    assert r == {"identifiable": 3, "named_first": 3, "not_identifiable": 2,
+                 "named_or_said": 2, "cells": 1}
+    r = M.run_by_run([mixed, tally(errors=Counter({"inject: x": 1}), identifiable=1,
+                                   named_first_identifiable=0,
+                                   named_or_said_not_identifiable=2)])
+    assert (r["identifiable"], r["named_first"], r["not_identifiable"]) == (4, 3, 5)
+    assert "named first in 3 (75 %)" in M.run_by_run_text(r)
