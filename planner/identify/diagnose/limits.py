@@ -463,12 +463,10 @@ def _steps(level, s: np.ndarray, u: float) -> np.ndarray:
 def _hover_level(level) -> np.ndarray:
     """The indicator column of a multirotor's hover bins
     (:meth:`planner.identify.diagnose.search.PowerLevel.hovering`) where, as for the wind's
-    error (:meth:`~planner.identify.diagnose.search.PowerLevel.hover_shift`), enough
-    flights hover; else an empty column set."""
-    from planner.identify.aircraft_fit import MIN_DESCENT_FLIGHTS
-
+    error (:meth:`~planner.identify.diagnose.search.PowerLevel.hover_shift`), they can
+    have a power level of their own (``has_own_level``); else an empty column set."""
     still = level.hovering()
-    if still.all() or np.unique(level.exp[still]).size < MIN_DESCENT_FLIGHTS:
+    if not level.has_own_level(still):
         return np.zeros((level.n_rows, 0))
     return still.astype(float)[:, None]
 

@@ -66,9 +66,9 @@ An effect (added to the current model) is reported only when all hold:
    that rises is a constant loss, i.e. ``system_power``).
 5. **Consistency on all the data.** After the search, the selected model is
    fitted on all the data; an effect whose key parameter is less than 2
-   standard errors from "no effect" there (on the power level, where the estimate
-   rests on fewer than four flights in effect, less than Student's t critical value:
-   below) is dropped (and a note says so).
+   standard errors from "no effect" there (on the power level, where its
+   flight-clustered error rests on fewer than four flights in effect, Student's t
+   critical value instead: below) is dropped (and a note says so).
 
 Greedy combination: all testable effects are scored against the calibrated
 baseline; the one with the largest held-out gain among those that pass joins
@@ -168,7 +168,7 @@ airspeed, and the power falls by the model's translational lift, whatever the wi
 direction. The second reading rests on the model's power at low airspeed, where momentum
 theory's induced power is least sure (on DJI M100 flights of the routes other than R1,
 Rodrigues et al. 2021, the calibrated rotor model's power falls from the hover to
-3 m/s about twice as much as the measured power does). As for the
+3 m/s 1.3–6 times as much as the measured power does, in three draws). As for the
 descents and a payload step, the wind is fitted once more with a power level of the
 hover bins' own (:meth:`PowerLevel.hovering`: the ground velocity known and below
 :data:`MOVING_MS`), and how far its speed moves, less what noise alone would move it
@@ -1463,6 +1463,16 @@ class PowerLevel:
         direction[kn], direction[ke] = fit.nl[kn] / speed, fit.nl[ke] / speed
         return self.regime_shift(fit, jacobian, self.hovering(), direction)
 
+    def has_own_level(self, regime: np.ndarray, rows: np.ndarray | None = None) -> bool:
+        """Whether the bins of ``regime`` (a boolean per bin) among ``rows`` (default: all)
+        can get a power level of their own (:meth:`regime_shift`, and the detection
+        limits' nuisance regimes): :data:`MIN_DESCENT_FLIGHTS` flights or more have such
+        bins, and not every bin is one."""
+        rows = np.arange(self.n_rows) if rows is None else rows
+        inside = regime[rows]
+        return bool(not inside.all()
+                    and np.unique(self.exp[rows][inside]).size >= MIN_DESCENT_FLIGHTS)
+
     def hovering(self) -> np.ndarray:
         """The bins in which the aircraft hovers or moves only vertically: its ground
         velocity known and below :data:`MOVING_MS` (a wind sets the airspeed there, the
@@ -1487,7 +1497,7 @@ class PowerLevel:
         """
         rows = np.flatnonzero(fit.train)
         inside = regime[rows]
-        if inside.all() or np.unique(self.exp[rows][inside]).size < MIN_DESCENT_FLIGHTS:
+        if not self.has_own_level(regime, rows):
             return None
         J, r0 = jacobian
         groups = self.exp[rows]
