@@ -917,11 +917,13 @@ def _truth(kind: str, injd: Injected, clean: dict | None, res) -> tuple[dict, fl
     wind measured otherwise, :func:`anemometer_wind_of`; module notes)."""
     truth, size = dict(injd.truth), injd.size
     if kind == "wind" and clean:
+        from planner.physics.wind import course_deg
+
         to = math.radians(truth["wind_from_deg"] + 180.0)
         wn = clean["wind_n_ms"] + truth["wind_speed_ms"] * math.cos(to)
         we = clean["wind_e_ms"] + truth["wind_speed_ms"] * math.sin(to)
         truth["wind_speed_ms"] = size = math.hypot(wn, we)
-        truth["wind_from_deg"] = math.degrees(math.atan2(-we, -wn)) % 360.0
+        truth["wind_from_deg"] = float(course_deg(-we, -wn))     # blows from
     if kind == "load" and clean:
         truth["missing_w"] += clean["missing_w"]
     if kind == "copper":

@@ -629,8 +629,7 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
             for e in chosen:
                 params = e.parameters(values, stderr, level, res.final_fit.state)
                 z = e.z_score(params)
-                few = (_few_flights(level, values.get(f"effective_flights[{e.name}]"))
-                       if values.get(f"clustered_error[{e.name}]") else None)
+                few = _few_flights(values, e.name)
                 crit = max(MIN_Z, few[1]) if few else MIN_Z
                 if math.isfinite(z) and z < crit:
                     # withheld, so that its detection entry says why it is not named
@@ -664,15 +663,16 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
         return None
 
 
-def _few_flights(level, g_star) -> tuple[float, float] | None:
-    """``(G*, critical value)`` where an effect's estimate, whose error is the
-    flight-clustered one, rests on fewer than
-    :data:`planner.identify.stats.MIN_CLUSTERS` flights in effect (``g_star``,
-    :func:`planner.identify.stats.effective_clusters`) of a level of that many flights
-    or more: its z is then judged against
-    Student's t with G* − 1 degrees of freedom
+def _few_flights(values: dict, name: str) -> tuple[float, float] | None:
+    """``(G*, critical value)`` where the estimate of effect ``name`` among a level's
+    ``values`` (:meth:`planner.identify.diagnose.search.PowerLevel.physical`) has the
+    flight-clustered error (so the level has
+    :data:`planner.identify.stats.MIN_CLUSTERS` flights or more) and rests on fewer
+    flights in effect than that (G*, :func:`planner.identify.stats.effective_clusters`):
+    its z is then judged against Student's t with G* − 1 degrees of freedom
     (:func:`planner.identify.stats.few_clusters_critical`); else None."""
-    if g_star is None or getattr(level, "n_experiments", 0) < stats.MIN_CLUSTERS:
+    g_star = values.get(f"effective_flights[{name}]")
+    if g_star is None or not values.get(f"clustered_error[{name}]"):
         return None
     crit = stats.few_clusters_critical(g_star)
     return None if crit is None else (float(g_star), crit)

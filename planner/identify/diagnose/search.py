@@ -1452,15 +1452,9 @@ class PowerLevel:
         (module notes, "Wind"; :meth:`regime_shift`); None without a fitted wind, on a
         fixed wing, or where fewer than :data:`MIN_DESCENT_FLIGHTS` flights hover.
         ``jacobian``: as :meth:`descent_shift`. [m/s]"""
-        names = list(fit.nl_names)
-        if not self.aircraft.is_multirotor or "wind_n_ms" not in names:
+        direction = _wind_direction(fit, len(fit.nl))
+        if not self.aircraft.is_multirotor or direction is None:
             return None
-        kn, ke = names.index("wind_n_ms"), names.index("wind_e_ms")
-        speed = math.hypot(fit.nl[kn], fit.nl[ke])
-        if speed <= 0.0:
-            return None
-        direction = np.zeros(len(fit.nl))
-        direction[kn], direction[ke] = fit.nl[kn] / speed, fit.nl[ke] / speed
         return self.regime_shift(fit, jacobian, self.hovering(), direction)
 
     def has_own_level(self, regime: np.ndarray, rows: np.ndarray | None = None) -> bool:
@@ -1503,15 +1497,13 @@ class PowerLevel:
         groups = self.exp[rows]
         u = np.r_[np.asarray(direction, float), np.zeros(J.shape[1] - len(direction))]
 
-        on = np.flatnonzero(u)
-
         def step_and_variance(X):
             d = np.linalg.lstsq(X, -r0, rcond=None)[0]
             ar1, clustered = _covariance_pair(X, r0 + X @ d, groups)
-            v = float(u[on] @ ar1[np.ix_(on, on)] @ u[on])
+            v = _variance_along(ar1, u)
             if clustered is not None:
-                v = max(v, float(u[on] @ clustered[np.ix_(on, on)] @ u[on]))
-            return float(u[on] @ d[on]), v
+                v = max(v, _variance_along(clustered, u))
+            return float(u @ d[:u.size]), v
 
         step0, v0 = step_and_variance(J)
         step1, v1 = step_and_variance(np.column_stack([J, inside.astype(float)]))
@@ -1622,6 +1614,7 @@ class PowerLevel:
             # ... and the bias the model's power in the hover puts into a wind's speed
             # (module notes, "Wind"); the wind effect adds it to the speed's error
             values["wind_speed_ms_hover_shift"], values["wind_speed_ms_hover_bias"] = hover
+        groups = self.exp[np.flatnonzero(fit.train)]
         for e in effects:
             # how many flights carry each effect's estimate, and whether its error is the
             # flight-clustered one (module notes, "Selection statistics")
@@ -1629,9 +1622,10 @@ class PowerLevel:
             if a is None:
                 continue
             values[f"effective_flights[{e.name}]"] = stats.effective_clusters(
-                jacobian[0], a, self.exp[np.flatnonzero(fit.train)])
+                jacobian[0], a, groups)
             values[f"clustered_error[{e.name}]"] = float(
-                clustered is not None and a @ clustered @ a > a @ cov @ a)
+                clustered is not None
+                and _variance_along(clustered, a) > _variance_along(cov, a))
         return values, stderr
 
     def _key_direction(self, fit: Fit, effects, effect, width: int) -> np.ndarray | None:
@@ -1640,18 +1634,13 @@ class PowerLevel:
         its first linear column); None where it has none."""
         names = list(fit.nl_names) + ["inverse_efficiency"] + \
             [n for e in effects for n in e.linear]
-        a = np.zeros(width)
         if effect.name == "wind":
-            kn, ke = names.index("wind_n_ms"), names.index("wind_e_ms")
-            speed = math.hypot(fit.nl[kn], fit.nl[ke])
-            if speed <= 0.0:
-                return None
-            a[kn], a[ke] = fit.nl[kn] / speed, fit.nl[ke] / speed
-        else:
-            key = effect.key if effect.key in names else (effect.linear or (None,))[0]
-            if key not in names:
-                return None
-            a[names.index(key)] = 1.0
+            return _wind_direction(fit, width)
+        key = effect.key if effect.key in names else (effect.linear or (None,))[0]
+        if key not in names:
+            return None
+        a = np.zeros(width)
+        a[names.index(key)] = 1.0
         return a
 
     def confounders(self) -> list[tuple[str, np.ndarray]]:
@@ -1666,6 +1655,30 @@ class PowerLevel:
     def row_driver_residual(self, resid: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Held-out bin residual, as it is: an excess power. [W]"""
         return resid
+
+
+def _wind_direction(fit: Fit, width: int) -> np.ndarray | None:
+    """The unit vector along the fitted wind among the first ``width`` of the fit's
+    [nonlinear…, linear…] parameters (the wind's north and east components); None
+    without a wind or with a calm one."""
+    names = list(fit.nl_names)
+    if "wind_n_ms" not in names:
+        return None
+    kn, ke = names.index("wind_n_ms"), names.index("wind_e_ms")
+    speed = math.hypot(fit.nl[kn], fit.nl[ke])
+    if speed <= 0.0:
+        return None
+    a = np.zeros(width)
+    a[kn], a[ke] = fit.nl[kn] / speed, fit.nl[ke] / speed
+    return a
+
+
+def _variance_along(cov: np.ndarray, a: np.ndarray) -> float:
+    """The variance :math:`a^\mathsf{T} C a` of the combination ``a`` of parameters with
+    covariance ``cov``, over the parameters ``a`` weighs only (an infinite variance of
+    one it does not weigh stays out). [unit of the combination squared]"""
+    on = np.flatnonzero(a)
+    return float(a[on] @ cov[np.ix_(on, on)] @ a[on])
 
 
 def _covariance_pair(J: np.ndarray, r: np.ndarray, groups: np.ndarray):
