@@ -1674,7 +1674,7 @@ def _wind_direction(fit: Fit, width: int) -> np.ndarray | None:
 
 
 def _variance_along(cov: np.ndarray, a: np.ndarray) -> float:
-    """The variance :math:`a^\mathsf{T} C a` of the combination ``a`` of parameters with
+    r"""The variance :math:`a^\mathsf{T} C a` of the combination ``a`` of parameters with
     covariance ``cov``, over the parameters ``a`` weighs only (an infinite variance of
     one it does not weigh stays out). [unit of the combination squared]"""
     on = np.flatnonzero(a)
