@@ -7,7 +7,8 @@ findings named, never a false cause); % of runs whose detection limit
 calls the injected size identifiable; of the runs that missed the effect, those whose
 output said it is not identifiable; runs with the named parameter within 2 SE of the truth
 (of those checked); median injected size / median detection limit in the detection
-entry's unit; median CPU seconds of diagnose per run; the verdict at realistic size;
+entry's unit; median CPU seconds of diagnose per run; the verdict at realistic size
+(:func:`testkit.matrix.verdict` on the cell's tallies);
 then the count of cells meeting the criterion and the criterion read run by run
 (:func:`testkit.matrix.run_by_run`).
 
@@ -75,6 +76,9 @@ def main(argv=None) -> int:
     cells: dict[str, dict] = {}
     for path in args.json:
         for st in json.loads(Path(path).read_text()):
+            if st.get("verdict") is not None:
+                # the criterion as the code reads it now, not as when the JSON was written
+                st["verdict"], st["met"] = M.verdict(st)
             cells[st["cell"]] = st
     print(HEAD)
     print("|" + "---|" * 11)

@@ -47,8 +47,10 @@ Air density (:func:`air_density`)
     (:math:`\rho = p/(R_d T)`, :math:`R_d` = 287.05 J/(kg K)).
 Cold pack (:func:`cold_pack`)
     Arrhenius law of the cell's DC resistance, :math:`R(T) = R_{25}\exp[E_a/R_g (1/T -
-    1/T_{25})]` (Jaguemont, Boulon and Dubé 2016, Applied Energy 164, 99–114); the load
-    draws the same power, so the current rises as the voltage sags.
+    1/T_{25})]` (Jaguemont, Boulon and Dubé 2016, Applied Energy 164, 99–114), applied to
+    the whole resistance of each experiment's pack as its record shows it (the voltage's
+    step against the current's, :func:`dc_resistance`); the load draws the same power, so
+    the current rises as the voltage sags.
 Current sensor (:func:`current_offset`)
     The logged current reads :math:`b` too high; the logged charge integrates it. Where
     the record's power is logged independently (a power module that measures the power
@@ -469,20 +471,48 @@ def arrhenius(temp_c, ea_j_per_mol: float, ref_c: float = 25.0) -> np.ndarray:
                                           - 1.0 / (ref_c + T0_K)))
 
 
-def cold_pack(df: pd.DataFrame, temps_c: dict, *, r25_ohm: float, ea_j_per_mol: float,
+def dc_resistance(df: pd.DataFrame, step_share: float = 0.1) -> dict:
+    r"""Each experiment's DC resistance as the record shows it [Ω]: the least-squares slope
+    of the voltage's first differences on the current's, :math:`R = -\sum \Delta V \Delta I /
+    \sum \Delta I^2`, over the samples whose current steps by more than ``step_share`` of the
+    experiment's median current (the voltage's response to a current step: the pulse
+    resistance of Plett, *Battery Management Systems* vol. 1, 2015, §2.10). None for an
+    experiment with fewer than ten such steps or a slope that is not positive."""
+    out = {}
+    for key, idx in experiments(df):
+        i = df.loc[idx, "current_a"].to_numpy(float)
+        v = df.loc[idx, "voltage_v"].to_numpy(float)
+        ok = np.isfinite(i) & np.isfinite(v)
+        di, dv = np.diff(i[ok]), np.diff(v[ok])
+        level = float(np.median(np.abs(i[ok]))) if ok.any() else 0.0
+        step = np.abs(di) > step_share * max(level, 1e-6)
+        r = -float(np.dot(dv[step], di[step])) / float(np.dot(di[step], di[step])) \
+            if step.sum() >= 10 else math.nan
+        out[key] = r if r > 0 else None
+    return out
+
+
+def cold_pack(df: pd.DataFrame, temps_c: dict, *, ea_j_per_mol: float,
               pack_resistance_ohm: float, flown_c: float = 25.0, self_heating_k: float = 3.0,
               rng=None) -> pd.DataFrame:
     r"""The record with each experiment's pack at ``temps_c[id]`` (module notes, "Cold
-    pack"): the pack warms by ``self_heating_k`` over the charge drawn; its DC resistance
-    is :math:`R_{25}\,r(T)` against the :math:`R_{25}\,r(T_{flown})` it had (the real
-    flight's pack at ``flown_c``); the load keeps its power, so the current solves
-    :math:`(V - R_p (I' - I) - \Delta R\,I')\,I' = V I`. ``temperature_c`` is logged with a
-    sensor's 0.5 K noise. [°C], [Ω], [J/mol]"""
+    pack"): the pack warms by ``self_heating_k`` over the charge drawn; its whole DC
+    resistance follows Arrhenius from the one it had as flown (the real flight's pack at
+    ``flown_c``), :math:`R(T) = R_{own}\,r(T)/r(T_{flown})`, with :math:`R_{own}` the
+    experiment's resistance as its record shows it (:func:`dc_resistance`; where that
+    cannot be measured, ``pack_resistance_ohm``). The ratio of the resistance at two
+    temperatures is then Arrhenius's whatever each pack's own resistance, as the law says;
+    one increment of resistance added to every pack would not be. The load keeps its
+    power, so the current solves :math:`(V - R_{own} (I' - I) - \Delta R\,I')\,I' = V I`,
+    with :math:`\Delta R = R(T) - R_{own}`. ``temperature_c`` is logged with a sensor's
+    0.5 K noise. [°C], [Ω], [J/mol]"""
     out = df.copy()
     v = df["voltage_v"].to_numpy(float)
     i = df["current_a"].to_numpy(float)
     temp = np.full(len(df), np.nan)
     dr = np.zeros(len(df))
+    rp = np.full(len(df), float(pack_resistance_ohm))
+    own = dc_resistance(df)
     t_all = df["time_s"].to_numpy(float)
     for key, idx in experiments(df):
         pos = df.index.get_indexer(idx)
@@ -490,8 +520,9 @@ def cold_pack(df: pd.DataFrame, temps_c: dict, *, r25_ohm: float, ea_j_per_mol: 
         frac = q / q[-1] if q[-1] > 0 else np.zeros_like(q)
         tc = float(temps_c[key]) + self_heating_k * frac
         temp[pos] = tc
-        dr[pos] = r25_ohm * (arrhenius(tc, ea_j_per_mol) - arrhenius(flown_c, ea_j_per_mol))
-    rp = float(pack_resistance_ohm)
+        r_own = own.get(key) or float(pack_resistance_ohm)
+        rp[pos] = r_own
+        dr[pos] = r_own * (arrhenius(tc, ea_j_per_mol, ref_c=flown_c) - 1.0)
     # (V + R_p I) - (R_p + ΔR) I' ... quadratic in I': (R_p + ΔR) I'^2 - (V + R_p I) I' + V I = 0
     a = rp + dr
     b = v + rp * i

@@ -630,7 +630,7 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
     if kind == "cold_pack":
         temps = {k: _uniform(rng, -5.0, 30.0) for k in d.flights}
         ea = 19_000.0 * size
-        out = inj.cold_pack(rec, temps, r25_ohm=r, ea_j_per_mol=ea, pack_resistance_ohm=r,
+        out = inj.cold_pack(rec, temps, ea_j_per_mol=ea, pack_resistance_ohm=r,
                             rng=rng)
         return Injected(out, d.payload_kg, {"activation_energy_j_per_mol": ea}, ea)
     if kind in ("fade", "cold_cells", "real_cold"):
@@ -1063,14 +1063,15 @@ def run_by_run_text(r: dict) -> str:
 def verdict(st: dict) -> tuple[str, bool | None]:
     """The issue's criterion for one realistic-size cell: (kind, met). Kinds: ``clean``
     (silent in ≥ 95 %, the record's own findings aside), ``identifiable`` (the detection limit calls it so in most runs:
-    named first in ≥ 80 %, within 2 SE in most), ``not identifiable`` (said so where not
+    named first in ≥ 80 %, within 2 SE in most: more than half of those checked),
+    ``not identifiable`` (said so where not
     found, false causes in ≤ 5 %)."""
     n = max(st["runs"] - sum(st["errors"].values()), 1)
     if st["expect"] is None:
         return "clean", st["silent"] / n >= 0.95
     false_ok = st["false_runs"] / n <= 0.05
     if st["identifiable"] / n >= 0.5:
-        two = st["within_2se"] >= 0.5 * st["checked_2se"] if st["checked_2se"] else True
+        two = st["within_2se"] > 0.5 * st["checked_2se"] if st["checked_2se"] else True
         return "identifiable", st["named_first"] / n >= 0.8 and two
     missed = n - st["named_any"]
     said = st["said_not_identifiable"] >= missed

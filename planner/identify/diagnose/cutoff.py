@@ -45,6 +45,20 @@ charge-weighted mean of the hinge :math:`\max(T_{ref} - T, 0)` over the discharg
 by :math:`1 + k h`). :math:`c_0, a` are solved in closed form, :math:`\theta` by bounded
 least squares.
 
+Fade law
+--------
+The planner's charge scale :math:`1 + \varphi n` has the pack hold :math:`1/(1 + \varphi n)`
+of its energy after n cycles; the other common law, a capacity that falls linearly with
+the cycles, :math:`1 - a n` (the linear ageing regime: e.g. Ecker et al. 2014, Journal
+of Power Sources 248, 839–851), is as plausible. The two agree while the fade is small;
+over 20–25 % they bend differently, and the fresh pack's energy :math:`c_0` is not
+known, so the fitted φ follows the curvature of the law fitted over the discharges'
+cycles. The capacity fade is fitted once more with the linear law, expressed as the
+charge scale that matches it from a fresh pack (both 1 at n = 0; least squares of
+:math:`\ln(1 + \varphi n) + \ln(1 - a n)` over the discharges' cycles), and the
+difference (``fade_per_cycle_law_shift``) is added in quadrature to φ's standard error,
+as the bias a law of the wrong form would put into it.
+
 Splits and statistics are those of :mod:`planner.identify.diagnose.search` with whole experiments
 held out (experiment *i* to fold *i* mod min(4, n)); each held-out discharge is one test
 unit. The held-out error is the error of the predicted energy at the cut-off in % (the
@@ -298,7 +312,44 @@ class CutoffLevel:
         if self.rate is not None:
             values["energy_per_a_pct"] = 100.0 * float(x[m + 1]) / self.i_ref
             stderr["energy_per_a_pct"] = 100.0 * float(se[m + 1]) / self.i_ref
+        for i, e in enumerate(effects):
+            if e.name == "capacity_fade":
+                shift = self.fade_law_shift(fit, effects, i)
+                if math.isfinite(shift):
+                    values[f"{e.coefficient}_law_shift"] = shift
+                    stderr[e.coefficient] = math.hypot(stderr[e.coefficient], shift)
         return values, stderr
+
+    def fade_law_shift(self, fit: Fit, effects, i: int) -> float:
+        r"""How far the fade moves under the other common law of capacity fade (module
+        notes, "Fade law"): :math:`\varphi_{lin} - \varphi`, with :math:`\varphi_{lin}`
+        the charge scale of the linear capacity law fitted on the same discharges. NaN
+        where it cannot be fitted. [1/cycle]"""
+        rows = np.flatnonzero(fit.train)
+        Z = self._columns(effects)[rows]
+        _, X = self._linear()
+        X, y = X[rows], self.y[rows]
+        n = Z[:, i]
+        others = np.delete(Z, i, axis=1) @ np.delete(fit.nl, i) if Z.shape[1] > 1 else 0.0
+        base = y + np.log(np.maximum(1.0 + others, 1e-9))
+        top = float(np.max(np.abs(n)))
+        if top <= 0 or len(rows) <= X.shape[1] + 1:
+            return math.nan
+
+        def resid(a):
+            target = base - np.log(np.maximum(1.0 - a[0] * n, 1e-9))
+            coef, *_ = np.linalg.lstsq(X, target, rcond=None)
+            return target - X @ coef
+
+        phi = float(fit.nl[i])
+        a0 = phi / (1.0 + phi * top) if phi > -1.0 / top else 0.0
+        lin = least_squares(resid, [a0], bounds=([-10.0 / top], [0.99 / top]),
+                            xtol=1e-12, ftol=1e-12, max_nfev=200)
+        a = float(lin.x[0])
+        # the linear law as the planner's charge scale 1 + φ n, both 1 at n = 0
+        eq = least_squares(lambda f: np.log1p(np.maximum(f[0] * n, -0.99))
+                           + np.log1p(-a * n), [phi], xtol=1e-12, ftol=1e-12, max_nfev=200)
+        return float(eq.x[0]) - phi
 
     def confounders(self) -> list[tuple[str, np.ndarray]]:
         """What an effect's driver must not follow: the discharge rate (mean current),

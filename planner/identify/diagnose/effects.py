@@ -401,12 +401,18 @@ class CapacityFade(CapacityEffect):
         return self.cycles[cap.window_exp].astype(float)
 
     def parameters(self, values, stderr, cap, state):
-        """The fade φ [1/cycle] with its standard error, the last cycle, and whether the
-        cycles are the experiments' order."""
+        """The fade φ [1/cycle] with its standard error, the last cycle, whether the
+        cycles are the experiments' order, and at the cut-off level the shift to the
+        linear capacity law (:meth:`planner.identify.diagnose.cutoff.CutoffLevel.fade_law_shift`,
+        in the error)."""
         f = values[self.coefficient]
-        return {"fade_per_cycle": f, "fade_per_cycle_stderr": stderr[self.coefficient],
-                "cycle": float(np.max(self.cycles)),
-                "cycle_from_experiment_order": float(self.source != "cycle")}
+        out = {"fade_per_cycle": f, "fade_per_cycle_stderr": stderr[self.coefficient],
+               "cycle": float(np.max(self.cycles)),
+               "cycle_from_experiment_order": float(self.source != "cycle")}
+        shift = values.get(f"{self.coefficient}_law_shift")
+        if shift is not None:
+            out["fade_per_cycle_law_shift"] = shift
+        return out
 
     def implausible(self, p, cap):
         """A pack that draws less charge as it ages (φ ≤ 0), or more than

@@ -24,7 +24,14 @@ Pack resistance against the pack temperature (``temperature``)
     :math:`\ln R_j` on :math:`x_j = 1/T_j - 1/T_{25}` over the experiments
     (:math:`T_j` the current-weighted mean pack temperature), with a between-experiment
     variance :math:`\tau^2` for what differs from pack to pack (DerSimonian and Laird
-    1986, Controlled Clinical Trials 7, 177–188, as a meta-regression). It is named on
+    1986, Controlled Clinical Trials 7, 177–188, as a meta-regression). The coefficients'
+    covariance is Knapp and Hartung's (2003, Statistics in Medicine 22, 2693–2710): the
+    DerSimonian–Laird one scaled by the weighted residual variance
+    :math:`q = \sum w_j (y_j - \hat y_j)^2 / (k - 2)` where q > 1 (the "modified" form,
+    never narrower than DerSimonian–Laird's: Röver, Knapp and Friede 2015, BMC Medical
+    Research Methodology 15, 99). With 16 flights τ² is itself uncertain, and the Wald
+    error that takes it as known is too narrow (IntHout, Ioannidis and Borm 2014, BMC
+    Medical Research Methodology 14, 25). It is named on
     the rules of the search (:mod:`planner.identify.diagnose.search`): held out
     experiment by experiment (leave one out), the prediction of :math:`\ln R_j` with the
     temperature must beat the one without by :data:`planner.identify.diagnose.search.MIN_GAIN_PCT`
@@ -182,7 +189,8 @@ def experiment_resistance(current: np.ndarray, voltage: np.ndarray, temperature:
 
 def _meta_regression(y, var, x):
     """Weighted least squares of y on [1, x] with a between-experiment variance τ²
-    (DerSimonian–Laird, module notes): (coefficients, covariance, τ², weights)."""
+    (DerSimonian–Laird, module notes): (coefficients, covariance, τ², weights); the
+    covariance is the modified Knapp–Hartung one (module notes)."""
     X = np.column_stack([np.ones_like(x), x])
     w = 1.0 / var
     W = np.diag(w)
@@ -196,6 +204,8 @@ def _meta_regression(y, var, x):
     W = np.diag(w)
     A = np.linalg.inv(X.T @ W @ X)
     beta = A @ X.T @ W @ y
+    if len(y) > p:
+        A = A * max(1.0, float(np.sum(w * (y - X @ beta) ** 2)) / (len(y) - p))
     return beta, A, tau2, w
 
 
