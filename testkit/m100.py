@@ -74,23 +74,36 @@ def _raw(path):
         "orientation_y", "orientation_z", "orientation_w"])
 
 
+#: Largest heading offset of the anemometer's angle tried per flight. [deg]
+MAX_HEADING_OFFSET_DEG = 45.0
+
+
 def anemometer_wind(path=DATA) -> dict[str, np.ndarray]:
     r"""Each flight's steady wind (east, north) [m/s] from its on-board anemometer.
 
     The anemometer (upstream ``wind_speed``, ``wind_angle``) reads the air flow relative to
     the vehicle, rotor wash included: as a vector :math:`\vec a` of its speed towards the
-    compass direction ``wind_angle``, the ground velocity is :math:`\vec v_g = \vec w +
+    compass direction ``wind_angle`` + δ, the ground velocity is :math:`\vec v_g = \vec w +
     k\,\vec a` for a steady wind :math:`\vec w` (the velocity of the air), with a scale
     k < 1 for the flow the sensor sees. Fitted by least squares per flight over the
     airborne samples (more than 7 m above the first valid altitude) on the east and north
     components of the body-frame velocity rotated by the attitude quaternion (as the
     column map's ``enu_*`` ops do). Of the readings of the angle (world or body frame,
     towards or from it), this one leaves the steadiest wind within a flight: on flights
-    1–149, with k = 0.6, the wind's within-flight spread (the two components' standard
-    deviations, combined) is 3.2 m/s, against 5.1–8.3 m/s for the other readings (each at
-    the best of the scales tried, 0.4–1) and 5.1 m/s for the ground velocity alone. Fitted per flight, k has median 0.66. No model
-    uses this wind; :func:`wind_step` compares it with the power model's residual.
+    1–149, with k = 0.6 and δ = 0, the wind's within-flight spread (the two components'
+    standard deviations, combined) is 3.2 m/s, against 5.1–8.3 m/s for the other readings
+    (each at the best of the scales tried, 0.4–1) and 5.1 m/s for the ground velocity
+    alone. Fitted per flight, k has median 0.66.
+
+    The angle is a magnetic one (upstream README), and its offset from the frame of the
+    velocities is not the same on every flight: δ is fitted per flight too, the offset
+    within ±:data:`MAX_HEADING_OFFSET_DEG` that leaves the steadiest wind (least squares
+    over a 2.5° grid, then refined). On the M100 flights it is −15 to −35° on flights
+    1–7 (their RMS misfit of the ground velocity falls by 10–35 %) and −12 to +12° on
+    flights 268–279. No model uses this wind; :func:`wind_step` compares it with the power
+    model's residual.
     """
+    from scipy.optimize import minimize_scalar
     from scipy.spatial.transform import Rotation
 
     raw = _raw(path)
@@ -111,11 +124,23 @@ def anemometer_wind(path=DATA) -> dict[str, np.ndarray]:
         n = int(m.sum())
         if n < 100:
             continue
+        y = np.concatenate([v[m, 0], v[m, 1]])
         X = np.zeros((2 * n, 3))
         X[:n, 0] = X[n:, 1] = 1.0
-        X[:n, 2], X[n:, 2] = a_e[m], a_n[m]
-        coef, *_ = np.linalg.lstsq(X, np.concatenate([v[m, 0], v[m, 1]]), rcond=None)
-        out[str(f)] = coef[:2]
+
+        def fit(delta_deg, ae=a_e[m], an=a_n[m]):
+            c, s = np.cos(np.radians(delta_deg)), np.sin(np.radians(delta_deg))
+            X[:n, 2], X[n:, 2] = ae * c + an * s, an * c - ae * s     # angle + δ
+            coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+            return float(np.sum((y - X @ coef) ** 2)), coef
+
+        grid = np.arange(-MAX_HEADING_OFFSET_DEG, MAX_HEADING_OFFSET_DEG + 1e-9, 2.5)
+        best = grid[int(np.argmin([fit(d)[0] for d in grid]))]
+        lo = max(best - 2.5, -MAX_HEADING_OFFSET_DEG)
+        hi = min(best + 2.5, MAX_HEADING_OFFSET_DEG)
+        delta = minimize_scalar(lambda d: fit(d)[0], bounds=(lo, hi), method="bounded",
+                                options={"xatol": 1e-3}).x
+        out[str(f)] = fit(float(delta))[1][:2]
     return out
 
 

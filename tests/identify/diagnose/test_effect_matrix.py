@@ -269,7 +269,9 @@ def test_verdict_follows_the_issue_criterion():
 def test_a_named_wind_is_set_against_the_flights_anemometer_wind(monkeypatch):
     """The flights' own wind (testkit.matrix.anemometer_wind_of) is the samples-weighted
     mean of the flights' anemometer winds with the spread between flights as its
-    standard error, and a named wind is that many combined standard errors from it."""
+    standard error, and a named wind is that many combined standard errors from it: the
+    flights' own weather within the 95 % radius of a 2-D normal (2.45), a false cause
+    beyond."""
     import math
 
     import numpy as np
@@ -289,6 +291,10 @@ def test_a_named_wind_is_set_against_the_flights_anemometer_wind(monkeypatch):
              "wind_n_ms_stderr": 0.3, "wind_speed_ms": 1.0, "wind_from_deg": 0.0}
     cmp = M.wind_against(named, got)
     assert math.isclose(cmp["z"], 2.0)
+    # 2 combined standard errors away: the flights' own weather; 3: a false cause
+    assert M.weather_kind(cmp) == "own"
+    far = dict(named, wind_n_ms=got["wind_n_ms"] + 3.0 * math.hypot(0.3, got["wind_n_ms_stderr"]))
+    assert M.weather_kind(M.wind_against(far, got)) == "other"
     assert math.isclose(cmp["measured_from_deg"],
                         math.degrees(math.atan2(-got["wind_e_ms"], -got["wind_n_ms"])) % 360)
     assert M.anemometer_wind_of(M.Draw(record[record["experiment"] != "2"], None, None)) \
