@@ -55,10 +55,7 @@ A payload change needs more: it is located flight by flight, where its step must
 a threshold of 2 ln n long-run variances (module notes of ``search``), so its limit is
 the larger of the pooled one (net of each flight's own constant mass, the climb and
 descent regimes and the other candidates) and the size at which the median flight
-locates it with 80 % power, on the part of its step that the flight's constant mass and
-its climb and descent leave (the scan's residual holds the power model's misfit in those
-regimes, and a step where the climb ends or the descent starts is where that misfit
-steps too); both depend on where in the flights it happens, and the
+locates it with 80 % power; both depend on where in the flights it happens, and the
 limit is given by position (``by_position``: fraction of each flight's airborne span).
 The limit falls as 1/√(number of flights) for the pooled tests.
 """
@@ -513,11 +510,7 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
         located = []
         for f in flights:
             m = exp == f
-            # net of the flight's own constant mass and of its climb and descent: the
-            # scan's residual holds the power model's misfit in those regimes, whose
-            # step at the end of the climb or the start of the descent it cannot tell
-            # from a change of mass there (module notes)
-            gf = stats.project_out(g[m][:, None], np.column_stack([s[m], regime[m]]))[:, 0]
+            gf = stats.project_out(g[m][:, None], s[m][:, None])[:, 0]
             ss = float(np.dot(gf, gf))
             if ss <= 0:
                 located.append(math.inf)
