@@ -99,7 +99,7 @@ def anemometer_wind(path=DATA) -> dict[str, np.ndarray]:
     velocities is not the same on every flight: δ is fitted per flight too, the offset
     within ±:data:`MAX_HEADING_OFFSET_DEG` that leaves the steadiest wind (least squares
     over a 2.5° grid, then refined). On the M100 flights it is −15 to −35° on flights
-    1–7 (their RMS misfit of the ground velocity falls by 10–35 %) and −12 to +12° on
+    1–7 (their RMS misfit of the ground velocity falls by 9–36 %) and −12 to +12° on
     flights 268–279. No model uses this wind; :func:`wind_step` compares it with the power
     model's residual.
     """
