@@ -103,8 +103,8 @@ so the current against the power channel differs by the injected offset only.
 On M100 flights a wind named where none is injected is set against the wind the flights
 themselves flew in, measured by the on-board anemometer that diagnose never sees
 (:func:`anemometer_wind_of`, :func:`wind_against`; ``winds`` in the tallies). The
-flights did fly in a wind (about 1–1.5 m/s on the draws of route R1 and of the other
-routes), so a wind named within :data:`WIND_AGREES_Z` combined standard errors of the
+flights did fly in a wind (the mean over a draw's flights, of several days: 0.2–1.3 m/s
+on route R1, 1.0–1.5 m/s on the other routes, seeds 0–2), so a wind named within :data:`WIND_AGREES_Z` combined standard errors of the
 measured one (the 95 % radius of the difference of two two-dimensional estimates) is the
 flights' own weather, like the declared effects above: never a false cause, and silence
 and "named first" are judged on the other findings. One farther from it is a false
