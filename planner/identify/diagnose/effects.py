@@ -1228,7 +1228,9 @@ class SystemPower(PowerEffect):
                     "power cannot be that small")
         ground = pw.ground_power_w
         if ground is not None:
-            high = ground[1] + 3.0 * (se if math.isfinite(se) else 0.0) + GROUND_POWER_MARGIN_W
+            # a constant load is drawn at every moment, the rotors stopped or idle: every
+            # ground sample bounds it, the low percentile the most tightly
+            high = ground[0] + 3.0 * (se if math.isfinite(se) else 0.0) + GROUND_POWER_MARGIN_W
             if ps > high:
                 return (f"a constant load of {ps:.0f} W where the aircraft draws "
                         f"{ground[0]:.0f}–{ground[1]:.0f} W on the ground (rotors stopped or "
