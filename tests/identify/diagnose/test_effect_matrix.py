@@ -13,7 +13,6 @@ the planner (checked below), so diagnose is examined on data its own models did 
 import ast
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from testkit import matrix as M
@@ -515,6 +514,8 @@ def test_a_linear_capacity_fade_is_sized_within_the_error_its_law_adds(draws):
     bends the other way, and with the fresh cell's energy unknown it fits φ 5–13 % above
     the truth; the shift to the linear law (``fade_per_cycle_law_shift``) in its error
     keeps the truth within 2 SE (2 of 5 runs without it, seed 2)."""
+    import numpy as np
+
     from planner.identify.diagnose import diagnose
 
     cell = M.Cell("p42a", "fade", "everything", None, "realistic")
