@@ -173,6 +173,10 @@ def main(argv=None) -> int:
         if ks:
             print(f"  {kind}: {sum(1 for s in ks if s['met'])} of {len(ks)}")
     print(M.run_by_run_text(M.run_by_run(real)))
+    print("named first against the injected size over the run's detection limit (every "
+          "size; the limit is named with 80 % probability):")
+    for line in M.limit_calibration_text(M.limit_calibration(out)):
+        print("  " + line)
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1, default=float))
         print(f"wrote {args.json}")

@@ -9,8 +9,10 @@ output said it is not identifiable; runs with the named parameter within 2 SE of
 (of those checked); median injected size / median detection limit in the detection
 entry's unit; median CPU seconds of diagnose per run; the verdict at realistic size
 (:func:`testkit.matrix.verdict` on the cell's tallies);
-then the count of cells meeting the criterion and the criterion read run by run
-(:func:`testkit.matrix.run_by_run`).
+then the count of cells meeting the criterion, the criterion read run by run
+(:func:`testkit.matrix.run_by_run`) and how often an effect is named first against its
+size over the run's own detection limit (:func:`testkit.matrix.limit_calibration`; JSON
+files written since the tallies keep each run).
 
 Run: ``python benchmarks/effect_matrix_table.py matrix.json [more.json …]`` (several files
 are joined; a cell in a later file replaces the same cell of an earlier one).
@@ -95,6 +97,11 @@ def main(argv=None) -> int:
     by_run = M.run_by_run(list(cells.values()))
     if by_run["cells"]:
         print(M.run_by_run_text(by_run) + ".")
+    cal = M.limit_calibration(list(cells.values()))
+    if cal:
+        print("\nNamed first against the injected size over the run's own detection limit "
+              "(every size; runs with an infinite limit left out):\n")
+        print("\n".join(M.limit_calibration_text(cal)))
     return 0
 
 

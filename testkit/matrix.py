@@ -966,7 +966,8 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
           "false_runs": 0, "false": Counter(), "silent": 0, "identifiable": 0,
           "said_not_identifiable": 0, "within_2se": 0, "checked_2se": 0, "limits": [],
           "named_first_identifiable": 0, "named_or_said_not_identifiable": 0,
-          "sizes": [], "cpu_s": [], "errors": Counter(), "own": Counter(), "winds": []}
+          "sizes": [], "cpu_s": [], "errors": Counter(), "own": Counter(), "winds": [],
+          "per_run": []}
     draws = {} if draws is None else draws
     for run in range(n):
         key = (cell.source, run, seed)
@@ -1042,12 +1043,15 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
                 st["checked_2se"] += 1
                 st["within_2se"] += bool(ok)
         st["named_first_identifiable"] += ident and first
-        if any(k == "injected" for _, k in rest):
+        named_any = any(k == "injected" for _, k in rest)
+        if named_any:
             st["named_any"] += 1
             st["named_or_said_not_identifiable"] += not ident
         elif not ident:
             st["said_not_identifiable"] += bool(entries)
             st["named_or_said_not_identifiable"] += bool(entries)
+        st["per_run"].append({"size": float(size), "limit": float(limit),
+                              "named_first": first, "named_any": named_any})
     return st
 
 
@@ -1070,6 +1074,45 @@ def run_by_run(stats: list[dict]) -> dict:
         out["not_identifiable"] += n - st["identifiable"]
         out["named_or_said"] += st["named_or_said_not_identifiable"]
     return out
+
+
+#: Bins of the injected size over its detection limit in :func:`limit_calibration`.
+RATIO_BINS = (0.0, 0.5, 1.0, 1.5, 2.0, math.inf)
+
+
+def limit_calibration(stats: list[dict]) -> dict[str, list[list[int]]]:
+    """How often an effect is named first against its size over the detection limit the
+    same run gave (``per_run`` of :func:`run_cell`'s tallies, every size; runs whose limit
+    is infinite, said not identifiable at any size, are left out): per injection and
+    over all (``"all"``), [runs, named first] in each bin of :data:`RATIO_BINS`. The limit
+    is the size named with :data:`planner.identify.diagnose.limits.POWER` (80 %)
+    probability, so at 1–1.5 times it at least that share should be named, and below it
+    fewer."""
+    out: dict[str, list[list[int]]] = {}
+    edges = np.array(RATIO_BINS)
+    for st in stats:
+        for r in st.get("per_run", []):
+            lim = r["limit"]
+            if not (math.isfinite(lim) and lim > 0) or st.get("expect") is None:
+                continue
+            k = int(np.searchsorted(edges, abs(r["size"]) / lim, side="right")) - 1
+            for key in (st["injection"], "all"):
+                row = out.setdefault(key, [[0, 0] for _ in range(len(edges) - 1)])
+                row[k][0] += 1
+                row[k][1] += bool(r["named_first"])
+    return out
+
+
+def limit_calibration_text(cal: dict[str, list[list[int]]]) -> list[str]:
+    """:func:`limit_calibration` as a Markdown table: named first of runs, per bin."""
+    heads = [f"{a:g}–{b:g}×" if math.isfinite(b) else f"≥ {a:g}×"
+             for a, b in zip(RATIO_BINS[:-1], RATIO_BINS[1:])]
+    lines = ["| injection (size / limit) | " + " | ".join(heads) + " |",
+             "|---|" + "---|" * len(heads)]
+    for key in sorted(cal, key=lambda k: (k == "all", k)):
+        cells = [f"{f} of {n} ({100 * f / n:.0f} %)" if n else "–" for n, f in cal[key]]
+        lines.append(f"| {key} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def run_by_run_text(r: dict) -> str:

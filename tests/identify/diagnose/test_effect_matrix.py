@@ -11,6 +11,7 @@ the planner (checked below), so diagnose is examined on data its own models did 
 """
 
 import ast
+import math
 from pathlib import Path
 
 import pytest
@@ -57,6 +58,13 @@ def test_a_seeded_cell_of_the_effect_matrix_meets_the_criterion(cell, runs, draw
     if kind == "identifiable":
         assert st["named_first_identifiable"] >= 0.8 * st["identifiable"]
     assert max(st["cpu_s"]) < 5.0
+    if cell.injection != "clean":
+        # each run is kept, and adds up to the cell's tallies
+        runs_kept = st["per_run"]
+        assert len(runs_kept) == st["runs"]
+        assert sum(r["named_first"] for r in runs_kept) == st["named_first"]
+        assert sum(r["named_any"] for r in runs_kept) == st["named_any"]
+        assert [r["limit"] for r in runs_kept] == st["limits"]
     if cell.source == "log171" and cell.richness == "plain":
         # the real step is still reported, in every run, and only as the record's own
         assert st["own"] == {"payload_change": st["runs"]} and not st["false"]
@@ -271,7 +279,6 @@ def test_a_named_wind_is_set_against_the_flights_anemometer_wind(monkeypatch):
     standard error, and a named wind is that many combined standard errors from it: the
     flights' own weather within the 95 % radius of a 2-D normal (2.45), a false cause
     beyond."""
-    import math
 
     import numpy as np
     import pandas as pd
@@ -361,7 +368,6 @@ def test_an_injected_winds_truth_and_size_are_the_wind_the_record_holds():
     anemometer's): the truth is the vector sum, and the size set against the detection
     limit is its speed, not the injected speed alone. A 4 m/s wind from the north
     injected into flights in a 3 m/s wind from the south leaves 1 m/s from the north."""
-    import math
 
     injd = M.Injected(record=None, payload_kg=0.0,
                       truth={"wind_speed_ms": 4.0, "wind_from_deg": 0.0}, size=4.0)
@@ -385,7 +391,6 @@ def test_a_wind_on_other_m100_routes_is_sized_within_the_error_its_hovers_add(dr
     hover than these flights' does, and the hovers hold part of the evidence. The fit's
     error alone puts the truth (the injected wind plus the flights' anemometer wind)
     more than 2 SE away; with the bias the hovers' own power level shows, within 2 SE."""
-    import math
     import warnings
 
     import numpy as np
@@ -472,6 +477,30 @@ def test_the_criterion_read_run_by_run_counts_each_run_against_its_own_limit():
                                    named_or_said_not_identifiable=2)])
     assert (r["identifiable"], r["named_first"], r["not_identifiable"]) == (4, 3, 5)
     assert "named first in 3 (75 %)" in M.run_by_run_text(r)
+
+
+def test_the_limits_calibration_bins_each_run_by_its_size_over_its_own_limit():
+    """A run at exactly its limit is in the 1–1.5× bin (named with 80 % probability
+    there), one at 0.9× below it; a run whose limit is infinite (not identifiable at any
+    size) and clean cells are left out; a negative size (a payload picked up) counts by
+    its magnitude; each injection has its row and "all" sums them."""
+    def st(injection, runs, expect="x"):
+        return {"injection": injection, "expect": expect,
+                "per_run": [{"size": s, "limit": lim, "named_first": f, "named_any": f}
+                            for s, lim, f in runs]}
+
+    cal = M.limit_calibration([
+        st("payload", [(0.2, 0.2, True), (0.18, 0.2, False), (-0.5, 0.2, True),
+                       (0.3, math.inf, False)]),
+        st("wind", [(3.0, 2.0, False), (1.0, 4.0, False)]),
+        st("clean", [(0.0, 1.0, True)], expect=None)])
+    assert set(cal) == {"payload", "wind", "all"}
+    assert cal["payload"] == [[0, 0], [1, 0], [1, 1], [0, 0], [1, 1]]
+    assert cal["wind"] == [[1, 0], [0, 0], [0, 0], [1, 0], [0, 0]]
+    assert cal["all"] == [[1, 0], [1, 0], [1, 1], [1, 0], [1, 1]]
+    table = M.limit_calibration_text(cal)
+    assert table[0].startswith("| injection") and "1–1.5×" in table[0]
+    assert table[-1].startswith("| all |") and "1 of 1 (100 %)" in table[-1]
 
 
 def test_a_cold_pack_scales_each_packs_own_resistance_by_arrhenius():
