@@ -15,10 +15,6 @@ command that drives the power model with a log (``replay``, ``fit-aircraft``,
   at the pressure altitude; else the ISA density at the site altitude;
 * **specific force** — the magnitude of the accelerometer's specific force
   (``specific_force_ms2``) where the record has it: the measured thrust over mass;
-* **thrust per weight** (:func:`thrust_per_weight`) — what a multirotor's thrust must
-  be, over its weight, to give it its acceleration as well as carry it: the specific
-  force over g where the record has it, else read from the rate of change of the logged
-  climb rate and ground velocity (:func:`planner.physics.motion.thrust_per_weight`);
 * **flight phases** (:func:`flight_phases`) — *ground* where the power is below 30 % of
   the flight's 90th-percentile power; among airborne samples *climb* (vz > 0.5 m/s),
   *descent* (vz < −0.5 m/s), *cruise* (ground speed > 2 m/s) and *hover* (the rest);
@@ -39,7 +35,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["PHASES", "FlightState", "air_density_from_log", "fill_gaps", "flight_phases",
-           "from_record", "thrust_per_weight", "vertical_descent"]
+           "from_record", "vertical_descent"]
 
 #: Flight phases, in the order reports list them.
 PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent")
@@ -57,13 +53,6 @@ CRUISE_THRESHOLD_MS = 2.0
 TAKEOFF_S = 10.0
 #: Share of finite samples a channel needs to be used. [unitless]
 CHANNEL_COVERAGE = 0.5
-#: Window of the centred difference that reads the acceleration from the logged
-#: velocities (:func:`thrust_per_weight`). [s]
-KINEMATICS_WINDOW_S = 2.0
-#: Bounds of the thrust per weight read from a record: a multirotor's thrust neither
-#: vanishes nor reaches twice its weight in survey flight; beyond, a glitch of the
-#: velocities (a GPS jump) is held at the bound. [unitless]
-THRUST_PER_WEIGHT_BOUNDS = (0.5, 2.0)
 
 
 def vertical_descent(speed, climb_rate) -> np.ndarray:
@@ -139,12 +128,6 @@ class FlightState:
     axial_speed_ms : ndarray or None
         Velocity along the thrust axis where the record has it (gaps filled), else None:
         see :meth:`rotor_velocities`. [m/s]
-    thrust_per_weight : ndarray or None
-        A multirotor's thrust over its weight for its acceleration
-        (:func:`thrust_per_weight`); None: the weight (nothing in the record moves). The
-        power models of multirotors fly the mass times it. [unitless]
-    thrust_source : str
-        Where the thrust per weight came from, in words.
     """
 
     time_s: np.ndarray
@@ -157,8 +140,6 @@ class FlightState:
     density_source: str
     specific_force_ms2: np.ndarray | None = None
     axial_speed_ms: np.ndarray | None = None
-    thrust_per_weight: np.ndarray | None = None
-    thrust_source: str = "the weight (no velocity or accelerometer in the record)"
 
     def rotor_velocities(self) -> tuple[np.ndarray, np.ndarray]:
         r"""Speed in the plane of a multirotor's rotor disks and along their axis. [m/s]
@@ -193,62 +174,6 @@ def inplane_speed(horizontal, climb, axial):
     [m/s]"""
     speed2 = np.asarray(horizontal, float) ** 2 + np.asarray(climb, float) ** 2
     return np.sqrt(np.maximum(speed2 - np.asarray(axial, float) ** 2, 0.0))
-
-
-def thrust_per_weight(t, climb, groundspeed=None, course=None, specific_force=None
-                      ) -> tuple[np.ndarray | None, str]:
-    """A multirotor's thrust over its weight, sample by sample, and where it came from.
-
-    Its thrust carries it and gives it its acceleration (Newton,
-    :func:`planner.physics.motion.thrust_per_weight`; the body's drag aside, which the
-    power models add themselves). From the accelerometer's specific force over g where
-    ``specific_force`` is given (direct evidence first); else from the rate of change of
-    the climb rate and of the ground velocity over centred windows of
-    :data:`KINEMATICS_WINDOW_S` (:func:`planner.physics.motion.centred_rate`): the ground
-    velocity's vector where the course is known (or the aircraft still over ground) in
-    more than :data:`CHANNEL_COVERAGE` of the samples, else the ground speed's change
-    along the track. Within :data:`THRUST_PER_WEIGHT_BOUNDS`; None where nothing moves
-    (no climb rate, no ground speed).
-
-    Parameters
-    ----------
-    t : ndarray
-        Time, increasing. [s]
-    climb : ndarray
-        Climb rate, finite. [m/s]
-    groundspeed, course : ndarray, optional
-        Ground speed [m/s] and course over ground [deg], NaN where not logged.
-    specific_force : ndarray, optional
-        Magnitude of the accelerometer's specific force, gaps filled. [m/s²]
-    """
-    from planner.physics import motion
-
-    if specific_force is not None:
-        return (np.clip(np.asarray(specific_force, float) / atmosphere.G,
-                        *THRUST_PER_WEIGHT_BOUNDS), "the accelerometer's specific force")
-    t = np.asarray(t, float)
-    w = KINEMATICS_WINDOW_S
-    up = motion.centred_rate(t, climb, w)
-    gs = (np.abs(np.asarray(groundspeed, float)) if groundspeed is not None
-          else np.full(t.size, np.nan))
-    course = np.asarray(course, float) if course is not None else np.full(t.size, np.nan)
-    north = east = np.zeros(t.size)
-    words = "the rate of change of the climb rate"
-    if np.isfinite(gs).any():
-        known = np.isfinite(course) | (np.nan_to_num(gs, nan=1.0) < STILL_MS)
-        if known.mean() > CHANNEL_COVERAGE:
-            a = np.radians(np.where(np.isfinite(course), course, 0.0))
-            ok = known & np.isfinite(gs)
-            north = motion.centred_rate(t, fill_gaps(np.where(ok, gs * np.cos(a), np.nan)), w)
-            east = motion.centred_rate(t, fill_gaps(np.where(ok, gs * np.sin(a), np.nan)), w)
-            words += " and of the ground velocity"
-        else:
-            north = motion.centred_rate(t, fill_gaps(gs), w)
-            words += " and of the ground speed"
-    if not (np.any(up) or np.any(north) or np.any(east)):
-        return None, "the weight (nothing in the record moves)"
-    return (np.clip(motion.thrust_per_weight(up, north, east), *THRUST_PER_WEIGHT_BOUNDS),
-            words)
 
 
 def _plausible(x: np.ndarray, column: str) -> np.ndarray:
@@ -367,11 +292,8 @@ def from_record(exp: pd.DataFrame, site_altitude_m: float = 0.0) -> FlightState:
     force = fill_gaps(force) if np.isfinite(force).mean() > CHANNEL_COVERAGE else None
     axial = col("axial_speed_ms")
     axial = fill_gaps(axial) if np.isfinite(axial).mean() > CHANNEL_COVERAGE else None
-    load, load_source = thrust_per_weight(t, climb, col("groundspeed_ms"),
-                                          col("course_deg"), force)
     return FlightState(time_s=t, airspeed_ms=v, climb_rate_ms=climb,
                        air_density=np.asarray(rho, float), phase=phase,
                        measured_power_w=power, airspeed_source=source,
                        density_source=dsource, specific_force_ms2=force,
-                       axial_speed_ms=axial, thrust_per_weight=load,
-                       thrust_source=load_source)
+                       axial_speed_ms=axial)

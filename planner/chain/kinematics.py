@@ -537,7 +537,7 @@ def _navigate(plan: _LegPlan, aircraft: Aircraft, env: Environment, origin: list
         va = np.hypot(speed * u[:, 0] - w_e, speed * u[:, 1] - w_n)
         air[:, slot] = np.where(go, va, air[:, slot])
         gnd[:, slot] = np.where(go, speed, gnd[:, slot])
-        load[:, slot] = np.where(go, motion.thrust_per_weight(0.0, acc), load[:, slot])
+        load[:, slot] = np.where(go, np.sqrt(1.0 + (acc / atmosphere.G) ** 2), load[:, slot])
         rows_kind[:, slot] = np.where(go, "cruise", rows_kind[:, slot])
     # a dwell and a landing's slow stage hold position
     for slot in (3, 4):

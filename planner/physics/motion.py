@@ -21,10 +21,7 @@ vehicle's navigation:
 * :func:`landing` — the descent at one rate down to a height, then at a slower rate
   (ArduCopter ``LAND_SPEED`` below ``LAND_ALT_LOW``, ``ArduCopter/config.h`` and
   ``ArduCopter/Parameters.cpp``; PX4 ``MPC_LAND_SPEED`` below ``MPC_LAND_ALT2``,
-  ``FlightTaskAuto.cpp``);
-* :func:`thrust_per_weight` — the thrust a multirotor needs, over its weight, to give
-  itself an acceleration (the load factor of an accelerating, braking or turning
-  vehicle), and :func:`centred_rate`, the acceleration read from a logged velocity.
+  ``FlightTaskAuto.cpp``).
 
 The rest-to-rest minimum time (the constant-jerk seven-segment profile) is, with
 :math:`VJ \ge A^2` (the acceleration limit is reached before the speed limit):
@@ -49,10 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.physics.atmosphere import G
-
-__all__ = ["Move", "centred_rate", "landing", "speed_change", "straight_move", "takeoff",
-           "thrust_per_weight", "time_to_speed"]
+__all__ = ["Move", "landing", "speed_change", "straight_move", "takeoff", "time_to_speed"]
 
 #: Bisection steps of the peak speed of a move between two non-zero speeds (each halves
 #: the bracket: 60 steps reach the float resolution).
@@ -301,39 +295,3 @@ def landing(height, descent_rate, slow_height, slow_rate):
     h = np.maximum(np.asarray(height, float), 0.0)
     low = np.minimum(h, np.asarray(slow_height, float))
     return (h - low) / np.asarray(descent_rate, float), low / np.asarray(slow_rate, float)
-
-
-def thrust_per_weight(accel_up=0.0, accel_north=0.0, accel_east=0.0, gravity=G):
-    r"""Thrust over weight of a multirotor that gives itself the acceleration
-    :math:`\vec a` (up, north, east) [m/s²]: its thrust alone balances gravity and
-    accelerates it (the body's drag aside, which the power models add to the thrust
-    themselves), :math:`\vec T = m(\vec a + g\hat z)`, so
-
-    .. math:: \frac{T}{W} = \frac{\sqrt{(g + a_z)^2 + a_N^2 + a_E^2}}{g}
-
-    (Newton's second law; a level acceleration :math:`a` gives the load factor
-    :math:`\sqrt{1 + (a/g)^2}` of the thrust tilted to give it; the end of a climb, a
-    vertical deceleration, less than 1). What an accelerometer measures: the magnitude
-    of the specific force over :math:`g`, drag aside. All arguments broadcast.
-    [unitless]"""
-    up = np.asarray(accel_up, float)
-    return np.sqrt((gravity + up) ** 2 + np.asarray(accel_north, float) ** 2
-                   + np.asarray(accel_east, float) ** 2) / gravity
-
-
-def centred_rate(t, x, window_s: float) -> np.ndarray:
-    """Rate of change of a logged series ``x`` at each time of ``t`` [s] (increasing):
-    (x(t + w/2) − x(t − w/2)) / w over a centred window of ``window_s`` w, shortened to
-    one side at the ends of the series (linear interpolation between the samples; 0 for
-    a series shorter than two samples or with no time span). [unit of x per s]"""
-    t = np.asarray(t, float)
-    x = np.asarray(x, float)
-    if t.size < 2 or not t[-1] > t[0]:
-        return np.zeros(t.size)
-    half = 0.5 * window_s
-    a = np.clip(t - half, t[0], t[-1])
-    b = np.clip(t + half, t[0], t[-1])
-    width = b - a
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rate = (np.interp(b, t, x) - np.interp(a, t, x)) / width
-    return np.where(width > 0, rate, 0.0)

@@ -88,39 +88,6 @@ def test_flight_state_takes_the_airspeed_from_the_logged_wind():
     np.testing.assert_allclose(rho, 90000.0 / (287.05287 * 278.15), rtol=1e-9)
 
 
-def test_flight_state_reads_the_thrust_per_weight_from_the_accelerometer_else_the_velocities():
-    """Newton, T = m(a + g ẑ) (planner.physics.motion.thrust_per_weight). A climb at
-    3 m/s that slows to a hover over 3 s (−1 m/s²) needs 1 − 1/g of the weight; a leg
-    that starts east at 3 m/s² the load factor √(1 + (3/g)²); steady flight the weight.
-    A logged specific force is read first (direct evidence); a GPS jump is held at the
-    bound; a record in which nothing moves has none."""
-    from planner.physics.atmosphere import G
-
-    t = np.arange(0.0, 30.0, 0.1)
-    climb = np.interp(t, [8.0, 11.0], [3.0, 0.0])
-    gs = np.interp(t, [16.0, 19.0], [0.0, 9.0])
-    exp = pd.DataFrame({"time_s": t, "power_w": 200.0, "climb_rate_ms": climb,
-                        "groundspeed_ms": gs, "course_deg": 90.0})
-    state = flightstate.from_record(exp)
-    load = state.thrust_per_weight
-    assert "climb rate" in state.thrust_source and "ground velocity" in state.thrust_source
-    np.testing.assert_allclose(load[(t > 9.2) & (t < 9.8)], 1 - 1 / G)
-    np.testing.assert_allclose(load[(t > 17.1) & (t < 17.9)], np.hypot(1, 3 / G))
-    np.testing.assert_allclose(load[(t < 6.9) | ((t > 12.1) & (t < 14.9)) | (t > 20.1)], 1.0)
-
-    measured = flightstate.from_record(exp.assign(specific_force_ms2=9.0))
-    assert measured.thrust_source == "the accelerometer's specific force"
-    np.testing.assert_allclose(measured.thrust_per_weight, 9.0 / G)
-
-    jump = exp.copy()
-    jump.loc[200, "groundspeed_ms"] = 60.0
-    assert flightstate.from_record(jump).thrust_per_weight.max() == \
-        flightstate.THRUST_PER_WEIGHT_BOUNDS[1]
-
-    still = exp.assign(climb_rate_ms=0.0, groundspeed_ms=0.0)
-    assert flightstate.from_record(still).thrust_per_weight is None
-
-
 def test_a_logged_pressure_outside_the_atmosphere_is_read_as_missing():
     """Found by the fuzz campaign: a damaged ULog logged -9.3e18 Pa and replay stopped with
     "pressure_pa must be > 0" naming no file. Out-of-model pressures and temperatures are

@@ -15,9 +15,7 @@ tests must not use to make their own data): the physics is stated anew.
 * **Power level** — a direct re-statement of rotor momentum theory
   (:func:`momentum_power`, below: Glauert's induced velocity solved by bisection,
   profile power growing with advance ratio, parasite and climb power), flown
-  along a survey pattern with turbulence and sensor noise. The vehicle changes its
-  velocity over :data:`RAMP_S` (no step of speed or course), and its thrust gives it
-  that acceleration as well as carrying its weight (Newton: T = m |a + g|). The effects are
+  along a survey pattern with turbulence and sensor noise. The effects are
   changes of that physics: a steady ``wind`` (the log has only ground speed and
   course), ``air_density`` from the day's pressure and temperature (a clean
   data set logs them too but flies at standard density), a ``payload_change``
@@ -39,9 +37,6 @@ from planner.parameters import aircraft_from_mapping, battery_from_mapping
 
 G0 = 9.80665
 R_AIR = 287.05287
-#: Time over which the survey flights change speed, course or climb rate (a linear ramp:
-#: 12 m/s of change in 4 s is 3 m/s², a brisk multirotor's). [s]
-RAMP_S = 4.0
 
 # --------------------------------------------------------------------------- packs
 
@@ -268,23 +263,7 @@ def survey_flight(rng, duration_s, rate_hz, cruise=(3.0, 15.0), profile="survey"
     down = (t >= end) & (t < end + 40.0)
     climb[down] = -1.0
     airborne = (t >= ground) & (t < end + 40.0)
-    # the velocity changes over RAMP_S (a moving mean of the commanded steps: a ramp)
-    a = np.radians(np.nan_to_num(course))
-    box = np.ones(max(int(round(RAMP_S * rate_hz)), 1))
-    box /= box.size
-    vn, ve, climb = (np.convolve(x, box, mode="same") for x in (gs * np.cos(a),
-                                                                  gs * np.sin(a), climb))
-    gs = np.hypot(vn, ve)
-    course = np.where(gs > 0.05, np.degrees(np.arctan2(ve, vn)) % 360.0, np.nan)
     return t, gs, course, climb, airborne
-
-
-def thrust_per_weight(t, gs, course, climb):
-    """Thrust over weight of a vehicle flying the velocity (ground speed, course, climb
-    rate) over the times ``t``: Newton, T = m |a + g ẑ| with a its acceleration."""
-    a = np.radians(np.nan_to_num(course))
-    acc = [np.gradient(x, t) for x in (gs * np.cos(a), gs * np.sin(a), climb)]
-    return np.sqrt(acc[0] ** 2 + acc[1] ** 2 + (G0 + acc[2]) ** 2) / G0
 
 
 def power_dataset(effect: str | None = None, magnitude=None, *, n_flights: int = 4,
@@ -343,8 +322,7 @@ def power_dataset(effect: str | None = None, magnitude=None, *, n_flights: int =
                                    air_t[0] + 0.7 * (air_t[-1] - air_t[0])))
             mass = np.where(t >= tc, mass + eff["payload_change"], mass)
             truth_out["change_time_s"][f"flight{j}"] = tc
-        load = thrust_per_weight(t, gs, course, climb)
-        shaft = momentum_power(mass * load, rho, airspeed, climb, rotors=q["rotors"],
+        shaft = momentum_power(mass, rho, airspeed, climb, rotors=q["rotors"],
                                diameter=q["rotor_diameter_m"], fm=q["figure_of_merit"],
                                kappa=q["induced_factor"], drag_area=q["drag_area_m2"])
         ps = q["system_power_w"] + eff.get("system_power", 0.0)

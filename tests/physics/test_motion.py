@@ -2,8 +2,6 @@
 (the seven-segment profile's minimum time, research notes on ArduCopter's SCurve), the
 cases and their boundaries, and a numerical integration of the profile."""
 
-import math
-
 import numpy as np
 import pytest
 
@@ -124,35 +122,3 @@ def test_takeoff_and_landing():
     assert fast == pytest.approx(80 / 3) and slow == pytest.approx(20.0)
     fast, slow = landing(10.0, 3.0, 20.0, 1.0)          # below the slow height
     assert fast == 0.0 and slow == pytest.approx(10.0)
-
-
-def test_thrust_per_weight_is_newtons_second_law():
-    """T = m(a + g ẑ): a level acceleration of 3 m/s² needs the load factor √(1 + (a/g)²)
-    of the thrust tilted to give it (1.0457), the end of a climb that slows the ascent by
-    1 m/s² less than the weight (1 − 1/g), a push up of 1 m/s² more; all broadcast."""
-    from planner.physics.atmosphere import G
-    from planner.physics.motion import thrust_per_weight
-
-    assert thrust_per_weight(0.0, 3.0) == pytest.approx(math.sqrt(1 + (3.0 / G) ** 2))
-    assert thrust_per_weight(0.0, 0.0, 3.0) == pytest.approx(thrust_per_weight(0.0, 3.0))
-    assert thrust_per_weight(-1.0) == pytest.approx(1 - 1 / G)
-    assert thrust_per_weight(1.0) == pytest.approx(1 + 1 / G)
-    assert thrust_per_weight(np.array([0.0, -G])).tolist() == pytest.approx([1.0, 0.0])
-
-
-def test_centred_rate_reads_a_ramps_slope_and_shortens_its_window_at_the_ends():
-    """A speed ramping at 2 m/s² from 0 to 4 m/s over 2 s, logged at 10 Hz: the centred
-    difference over 1 s reads 2 m/s² inside the ramp, 0 a window away from it, half of
-    it where the window holds half the ramp, and the one-sided rate at both ends of a
-    linear series (no spike where the series starts or stops)."""
-    from planner.physics.motion import centred_rate
-
-    t = np.arange(0.0, 10.0, 0.1)
-    v = np.clip(2.0 * (t - 3.0), 0.0, 4.0)
-    a = centred_rate(t, v, 1.0)
-    assert a[(t > 3.6) & (t < 4.4)] == pytest.approx(2.0)
-    assert a[(t < 2.4) | (t > 5.6)] == pytest.approx(0.0)
-    assert a[30] == pytest.approx(1.0)                     # t = 3.0: half the window ramps
-    line = centred_rate(t, 5.0 * t, 2.0)
-    assert line == pytest.approx(5.0)
-    assert centred_rate([1.0], [2.0], 1.0).tolist() == [0.0]

@@ -186,28 +186,6 @@ by more than :data:`MAX_CLIMB_DISAGREEMENT_MS` RMS (the DJI M100 data's
 ``velocity_z`` is not a vertical speed in forward flight: it reads 1–3 m/s at
 constant altitude), the power model is driven by the altitude's rate of change
 (direct evidence first) and a note says so.
-
-Kinematics
-----------
-A multirotor's thrust does more than carry its weight: it accelerates and brakes the
-vehicle, :math:`\vec T = m(\vec a + g\hat z)` (the body's drag aside, which the rotor
-model adds itself). At the end of a climb the vehicle slows its ascent with less thrust
-than its weight; starting a leg it tilts and pushes harder. The rotor model flies each
-bin's mass times the thrust per weight this needs
-(:func:`planner.physics.motion.thrust_per_weight`, the load factor the mission chain
-gives its accelerating and braking legs): the accelerometer's specific force over g
-where the record has it (``specific_force_ms2``, direct evidence first), else read
-from the rate of change of the climb rate and of the ground velocity over
-:data:`KINEMATICS_WINDOW_S` windows. Without kinematics the clean DJI M100 flights
-(Rodrigues et al. 2021, CC BY 4.0; 16 a draw, seed 0 of
-``benchmarks/bench_effect_matrix.py``'s draws, 5 draws) ran some 40 W below the model
-over the last 8 s of each climb and 10–40 W above it after, where a payload released
-early in the flight falls; with it, the baseline's RMS residual falls from 52.5 to
-47.2 W (route R1, plain record), 45.7 to 39.9 W (R1, accelerometer), 40.4 to 34.5 W
-(the other routes, plain) and 39.3 to 32.5 W (other routes, accelerometer). The work of
-the acceleration along the path (the kinetic energy's rate) is not added, as in the
-mission chain: added (from the bins' mean accelerations), it raised the residual of the
-same flights by 14–16 %.
 """
 
 from __future__ import annotations
@@ -231,10 +209,8 @@ from planner.identify.diagnose.evidence import mode_changes
 from planner.chain.flightstate import (
     CLIMB_THRESHOLD_MS,
     STILL_MS,
-    fill_gaps,
     from_record,
     inplane_speed,
-    thrust_per_weight,
     vertical_descent,
 )
 from planner.physics.units import AS_PER_MAH
@@ -827,7 +803,6 @@ class PowerLevel:
         self.notes: list[str] = []
         s, spans = self._airborne_samples(exps, site_altitude_m)
         self._choose_climb(s)
-        self._kinematics(s)
         self.n_experiments = len(self.names)
         self.split = make_split(spans)
         bins = _Bins(s, self.split, spans)
@@ -850,11 +825,9 @@ class PowerLevel:
         power's 5th–95th percentiles (:attr:`ground_power_w`)."""
         self.names = []
         cols = {k: [] for k in ("exp", "t", "p", "gs", "course", "climb", "air", "wn", "we",
-                                "pres", "temp", "alt_rate", "climb_smooth", "axial",
-                                "load", "load_alt")}
+                                "pres", "temp", "alt_rate", "climb_smooth", "axial")}
         spans = []
         ground = []
-        self._load_sources: dict[str, list[str]] = {}
         #: Each experiment's changes of flight mode, (time [s], old, new) (``mode``).
         self.mode_changes: dict[str, list] = {}
         for name, sub in exps:
@@ -875,10 +848,6 @@ class PowerLevel:
             self.names.append(name)
             spans.append((float(t[ok][0]), float(t[ok][-1])))
             rate, smooth = _altitude_rate(t, _finite_col(sub, "altitude_m", n), climb)
-            load, load_alt, words = _thrust_per_weight(state, t, rate, sub, n)
-            for key, w in zip(("logged", "alt"), words):
-                if w:
-                    self._load_sources.setdefault(key, []).append(w)
             for key, x in (("exp", np.full(ok.sum(), e)), ("t", t), ("p", p),
                            ("gs", np.abs(np.nan_to_num(_finite_col(sub, "groundspeed_ms", n)))),
                            ("course", _finite_col(sub, "course_deg", n)), ("climb", climb),
@@ -888,8 +857,7 @@ class PowerLevel:
                            ("wn", _finite_col(sub, "wind_n_ms", n)),
                            ("we", _finite_col(sub, "wind_e_ms", n)),
                            ("pres", interp_nan(t, _finite_col(sub, "pressure_pa", n))),
-                           ("temp", interp_nan(t, _finite_col(sub, "ambient_temperature_c", n))),
-                           ("load", load), ("load_alt", load_alt)):
+                           ("temp", interp_nan(t, _finite_col(sub, "ambient_temperature_c", n)))):
                 cols[key].append(x if key == "exp" else x[ok])
         if not self.names:
             raise FitError("no airborne samples in the data")
@@ -920,26 +888,6 @@ class PowerLevel:
                 "direct measure of climbing, so the power model is driven by its rate of "
                 "change instead")
 
-    def _kinematics(self, s: dict) -> None:
-        """Each airborne sample's thrust per weight (``s["load"]``; module notes,
-        "Kinematics") for a multirotor: the flight state's
-        (:func:`planner.chain.flightstate.thrust_per_weight`), read from the altitude's
-        rate of change where that drives the model (:meth:`_choose_climb`); 1 for a
-        fixed wing, whose lift, not its thrust, carries the weight."""
-        #: Where the thrust per weight comes from, in words; None: the weight throughout.
-        self.kinematics_source = None
-        if not self.aircraft.is_multirotor:
-            s["load"] = np.ones(s["t"].size)
-            return
-        if self.climb_source != "logged climb rate":
-            s["load"] = s["load_alt"]
-        words = self._load_sources.get(
-            "alt" if self.climb_source != "logged climb rate" else "logged", [])
-        self.kinematics_source = " or ".join(dict.fromkeys(words)) or None
-        if self.kinematics_source:
-            self.notes.append("power level: the rotor model flies the thrust the vehicle's "
-                              f"acceleration needs, from {self.kinematics_source}")
-
     def _bin_flight_state(self, s: dict, bins: _Bins) -> None:
         """Bin means of the time, power, ground velocity, climb rate, airspeed and logged
         wind, and each bin's experiment, test unit and fold."""
@@ -963,8 +911,6 @@ class PowerLevel:
         self.measured = take(mean(s["p"])[0])
         self.gs = take(mean(s["gs"])[0])
         self.climb = take(mean(s["climb"])[0])
-        #: Thrust per weight of each bin (:meth:`_kinematics`). [unitless]
-        self.load = take(mean(s["load"])[0])
         self.course_known = take(kn) >= 0.5 * take(count.astype(float))
         self.vn = np.where(self.course_known, take(np.nan_to_num(vn)), 0.0)
         self.ve = np.where(self.course_known, take(np.nan_to_num(ve)), 0.0)
@@ -1016,8 +962,7 @@ class PowerLevel:
             v = np.where(self.course_known, np.hypot(self.vn - self.logged_wind_n,
                                                      self.ve - self.logged_wind_e), self.gs)
         self.base_inputs = {"airspeed": np.abs(v), "climb": self.climb,
-                            "air_density": self.rho_std, "mass": self.mass,
-                            "load": self.load}
+                            "air_density": self.rho_std, "mass": self.mass}
         axial, n_axial = bins.mean(s["axial"])
         self.rotor_axial = bool(self.aircraft.is_multirotor
                                 and np.isfinite(s["axial"]).mean() > 0.5)
@@ -1094,16 +1039,8 @@ class PowerLevel:
         if not self.aircraft.is_multirotor:
             v = np.maximum(v, self.v_min)
         return np.asarray(ac.battery_power(v, inputs["climb"][rows],
-                                           inputs["air_density"][rows],
-                                           self.thrust_mass(inputs, rows)), float)
-
-    @staticmethod
-    def thrust_mass(inputs: dict, rows) -> np.ndarray:
-        """The mass the rotor model flies at ``rows``: the all-up mass times the thrust per
-        weight its acceleration needs (:meth:`_kinematics`; module notes, "Kinematics").
-        [kg]"""
-        mass = inputs["mass"][rows]
-        return mass * inputs["load"][rows] if "load" in inputs else mass
+                                           inputs["air_density"][rows], inputs["mass"][rows]),
+                          float)
 
     def _inputs(self, effects, values, state) -> dict:
         inputs = self.base_inputs
@@ -1780,26 +1717,6 @@ def _altitude_rate(t: np.ndarray, alt: np.ndarray, climb: np.ndarray
     smooth = np.where(good, (np.interp(b, t, z) - np.interp(a, t, z)) / np.maximum(width, 1e-9),
                       np.nan)
     return rate, smooth
-
-
-def _thrust_per_weight(state, t, alt_rate, sub, n):
-    """One experiment's thrust per weight (:func:`planner.chain.flightstate.thrust_per_weight`)
-    as its flight state has it, and as the altitude's rate of change ``alt_rate`` gives
-    it where the record has no accelerometer (the climb rate :meth:`PowerLevel._choose_climb`
-    may choose instead), 1 where nothing moves; and where each came from, in words (None:
-    the weight)."""
-    ones = np.ones(n)
-    load = state.thrust_per_weight if state.thrust_per_weight is not None else ones
-    words = state.thrust_source if state.thrust_per_weight is not None else None
-    rate = fill_gaps(alt_rate)
-    if state.specific_force_ms2 is not None or rate is None:
-        return load, load, (words, words)
-    alt, alt_words = thrust_per_weight(t, rate, _finite_col(sub, "groundspeed_ms", n),
-                                       _finite_col(sub, "course_deg", n))
-    if alt is None:
-        return load, ones, (words, None)
-    return load, alt, (words, alt_words.replace("climb rate", "logged altitude's rate of "
-                                                "change", 1))
 
 
 def _climb_disagreement(climb: np.ndarray, rate: np.ndarray) -> float | None:

@@ -37,14 +37,10 @@ def _quad_file(folder: Path, efficiency: float) -> Path:
     return path
 
 
-def _flights(folder: Path, power_scale: float = 1.0, power_offset_w: float = 0.0) -> Path:
-    """Three synthetic flights of the test quad, their power (and current) logged
-    ``power_scale`` times and ``power_offset_w`` [W] off the truth."""
+def _flights(folder: Path, power_scale: float = 1.0) -> Path:
     df, _ = power_dataset(None, seed=3, n_flights=3, duration_s=600, rate_hz=2)
     for col in ("power_w", "current_a"):
         df[col] = df[col] * power_scale
-    df["power_w"] += power_offset_w
-    df["current_a"] += power_offset_w / df["voltage_v"]
     path = folder / "flights.csv"
     df.to_csv(path, index=False)
     return path
@@ -72,10 +68,10 @@ def test_a_good_fit_is_written_with_status_ok(tmp_path, capsys):
 
 
 def test_a_constant_load_on_its_bound_is_refit_held_as_diagnose_does(tmp_path, capsys):
-    """The same flights logged 20 W low (a power module's zero offset) with the constant
-    load free: their power wants a negative one, the fit ends on 0 W; it is done again
-    with the file's 12 W held, and the status names the free fit it replaces (exit 1)."""
-    rc, text, out = _fit_quad(tmp_path, capsys, _flights(tmp_path, power_offset_w=-20.0))
+    """The same flights with the constant load free: the flights' power wants a negative
+    one, the fit ends on 0 W; it is done again with the file's 12 W held, and the status
+    names the free fit it replaces (exit 1)."""
+    rc, text, out = _fit_quad(tmp_path, capsys, _flights(tmp_path))
     assert rc == 1
     status = yaml.safe_load(out.read_text())["fit_status"]
     assert "the free fit: system_power_w ended on its low bound" in status
