@@ -15,7 +15,10 @@ standard errors of the injected one (where named first), the median limit agains
 median size, and the CPU time per run; then the verdict against the issue's criterion
 at realistic size (``clean``: silent in ≥ 95 %, the record's own findings aside;
 ``identifiable``: named first in ≥ 80 %, within 2 SE in most; ``not identifiable``: said
-so wherever not named, false causes in ≤ 5 %).
+so wherever not named, false causes in ≤ 5 %). After the cells: the criterion read run by
+run (:func:`testkit.matrix.run_by_run`) and how often an effect is named first against its
+size over the run's own detection limit (:func:`testkit.matrix.limit_calibration`; each
+run's size, limit and outcome are in the JSON's ``per_run``).
 
 OpenBLAS runs one thread (``OPENBLAS_NUM_THREADS=1``, set here before numpy loads): the
 matrices are small, and on a shared 2-core machine its spinning threads cost more CPU
