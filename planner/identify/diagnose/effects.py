@@ -427,6 +427,20 @@ class CapacityFade(CapacityEffect):
                     f"use (at most {100 * MAX_FADE_SPAN:g} %)")
         return None
 
+    def alternatives(self, p, cap) -> list[str]:
+        """Where the cycles are only the experiments' order (no cycle count), what else
+        makes the pack give less as the experiments go on; none where the cycle count is
+        logged."""
+        if self.source == "cycle":
+            return []
+        cold = "later discharges colder than the first (a cold cell gives less"
+        cold += (", and the data have no pack temperature to tell)"
+                 if getattr(cap, "temperature", None) is None else ")")
+        return [cold,
+                "a change of charger, charge voltage or cut-off between the experiments",
+                "experiments not in the order the pack was used (the files' order), or of "
+                "more than one pack"]
+
     def cause(self, p, cap):
         """An ageing pack, in words, with φ [% per cycle or per experiment]."""
         f = 100 * p["fade_per_cycle"]

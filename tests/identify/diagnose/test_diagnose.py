@@ -157,11 +157,22 @@ def test_offset_without_rests_is_found_on_an_independent_power_channel():
 
 
 def test_fade_from_experiment_order_says_so():
+    """Without a cycle count the fade is read off the experiments' order, and the finding
+    lists what else lowers the later discharges' charge: colder cells (a P42A matrix run
+    with its cold discharges last named a fade so), a change of charger or cut-off, files
+    out of order. With the cycle count logged it lists none of them."""
     df, _ = capacity_dataset("capacity_fade", 1e-3, profile="aprbs", seed=2)
     res = diagnose(df.drop(columns="cycle"), battery())
     fade = next(f for f in res.findings if f["effect"] == "capacity_fade")
     assert fade["parameters"]["cycle_from_experiment_order"] == 1.0
     assert "order" in fade["cause"]
+    alternatives = " ".join(fade["alternatives"])
+    assert "colder" in alternatives and "charger" in alternatives and "order" in alternatives
+    assert "or: later discharges colder" in res.summary()
+    logged = diagnose(df, battery())
+    fade = next(f for f in logged.findings if f["effect"] == "capacity_fade")
+    assert fade["parameters"]["cycle_from_experiment_order"] == 0.0
+    assert fade["alternatives"] == []
 
 
 # ----------------------------------------------------------------------------- power
