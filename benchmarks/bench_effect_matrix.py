@@ -127,7 +127,10 @@ def main(argv=None) -> int:
     ap.add_argument("--injections", help="comma-separated injections (default: all)")
     ap.add_argument("--richness", help="comma-separated richness levels (default: all)")
     ap.add_argument("--timings", help="comma-separated timings of the payload change")
-    ap.add_argument("--sizes", default="realistic,2x")
+    ap.add_argument("--sizes", default="realistic,2x",
+                    help="comma-separated sizes of " + ", ".join(M.SIZES) + " (half and "
+                         "quarter probe the detection limits from beneath; only realistic is "
+                         "judged)")
     ap.add_argument("--json", help="write the cells' tallies here")
     ap.add_argument("--speed", action="store_true", help="the two speed figures only")
     ap.add_argument("--descent", choices=("file", "calibrated"), default="file",
@@ -136,6 +139,16 @@ def main(argv=None) -> int:
                          "not drawn (testkit.matrix.calibrated_aircraft)")
     args = ap.parse_args(argv)
     M.CALIBRATE_DESCENT = args.descent == "calibrated"
+    known = {"--sources": set(M.sources()), "--injections": set(M.EXPECT),
+             "--richness": set(M.RICHNESS), "--timings": set(M.TIMINGS),
+             "--sizes": set(M.SIZES)}
+    for opt, text in (("--sources", args.sources), ("--injections", args.injections),
+                      ("--richness", args.richness), ("--timings", args.timings),
+                      ("--sizes", args.sizes)):
+        bad = sorted(set(text.split(",")) - known[opt]) if text else []
+        if bad:
+            ap.error(f"{opt}: unknown {', '.join(bad)}; expected some of "
+                     f"{', '.join(sorted(known[opt]))}")
     if not M.available():
         print(f"skipped: the real data are not at {M.DATA}")
         return 0

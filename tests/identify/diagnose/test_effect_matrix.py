@@ -20,7 +20,7 @@ from testkit import matrix as M
 
 REPO = Path(__file__).resolve().parents[3]
 
-#: (cell, runs): real Molicel P42A discharges and 16 real DJI M100 flights.
+#: (cell, runs): real Molicel P42A and A123 discharges, 16 real DJI M100 flights, real logs.
 SAMPLE = [
     (M.Cell("p42a", "fade", "everything", None, "realistic"), 4),
     (M.Cell("p42a", "cold_cells", "everything", None, "realistic"), 4),
@@ -32,6 +32,10 @@ SAMPLE = [
     # findings"); with every channel a current offset against the power channel
     (M.Cell("log171", "clean", "plain", None, "realistic"), 2),
     (M.Cell("log171", "offset", "everything", None, "realistic"), 2),
+    # another day of the McGill hexarotor, its rests between three hovers; a short damaged
+    # ULog of another quadrotor
+    (M.Cell("mcgill_hovers", "offset", "plain", None, "realistic"), 2),
+    (M.Cell("px4_quad_v6xrt", "load", "plain", None, "realistic"), 2),
 ]
 
 
@@ -562,3 +566,40 @@ def test_a_linear_capacity_fade_is_sized_within_the_error_its_law_adds(draws):
     assert within >= 4
     # the linear law fits a smaller fade: the charge scale overshoots it
     assert all(s < 0 for s in shifts)
+
+
+@pytest.mark.parametrize("size", ["quarter", "half", "realistic", "2x"])
+def test_every_injection_scales_with_the_size_named(size, draws):
+    """The sizes below realistic probe the detection limits from beneath: each injection's
+    range (module notes of testkit.matrix, "Sizes") scales by the size's factor, the air
+    density's deficit too (log 171, CC BY-SA 3.0: one flight, always the changed one)."""
+    import numpy as np
+
+    from testkit import injections as inj
+
+    k = M.SIZES[size]
+    d = M.sources()["log171"].draw(np.random.default_rng(0))
+    for run in range(3):
+        rng = np.random.default_rng(run)
+        off = M.inject("offset", d, rng, k)
+        assert 0.3 * k <= off.truth["current_offset_a"] <= 0.8 * k
+        cold = M.inject("cold_pack", d, rng, k)
+        assert cold.truth["activation_energy_j_per_mol"] == pytest.approx(19_000.0 * k)
+        dens = M.inject("density", d, rng, k).record
+        rho = dens["pressure_pa"] / (inj.R_AIR * (dens["ambient_temperature_c"] + inj.T0_K))
+        # the site's density is the draw's (the sensors' noise: 30 Pa, 0.3 K)
+        deficit = 1.0 - float(np.median(rho)) / d.rho
+        assert 0.15 * k - 0.005 <= deficit <= 0.25 * k + 0.005, (size, deficit)
+
+
+def test_the_benchmark_names_an_unknown_size_or_source_and_what_it_expects():
+    import subprocess
+    import sys
+
+    for opt, bad in (("--sizes", "huge"), ("--sources", "m100,nowhere")):
+        run = subprocess.run([sys.executable, str(REPO / "benchmarks/bench_effect_matrix.py"),
+                              opt, bad], capture_output=True, text=True, cwd=REPO)
+        assert run.returncode == 2, run.stdout
+        line = run.stderr.strip().splitlines()[-1]
+        assert f"{opt}: unknown {bad.split(',')[-1]}; expected some of" in line
+        assert ("quarter" if opt == "--sizes" else "mcgill_hovers") in line
