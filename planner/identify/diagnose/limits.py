@@ -91,8 +91,11 @@ HELP = {
     "system_power": "flights over a wider range of power (climbs, fast and slow legs), or "
                     "the load measured with the rotors stopped on the ground",
     "efficiency_curve": "flights over a wider range of power (climbs, fast and slow legs)",
-    "current_offset": "the power logged independently of the current (a power module), or "
-                      "rests with the load off",
+    "current_offset": "the power logged independently of the current (a power module; rests "
+                      "with the load off then show the drift alone), or the sensor's zero read "
+                      "with the load off and the avionics unplugged (where the power is the "
+                      "logged V·I, a rest reads the avionics' draw plus the offset, and the "
+                      "model drawn by that power draws the offset too)",
     "temperature": "the pack temperature logged, flights or discharges at different "
                    "temperatures, current steps (the voltage sag then measures the "
                    "resistance) and discharges to the cut-off",

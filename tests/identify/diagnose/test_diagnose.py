@@ -504,3 +504,21 @@ def test_no_pack_and_no_voltage_names_the_data_file(tmp_path):
     with pytest.raises(InputError, match=r"no_voltage\.csv: no battery given and no pack "
                                          r"voltage \(voltage_v\)"):
         diagnose([path])
+
+
+def test_an_offset_behind_a_vi_power_is_not_said_to_need_rests_the_record_has():
+    """Flights with rests between them, the power the logged V·I (as the McGill
+    hexarotor's three hovers log it): the rests cannot show a current-sensor offset, for
+    a rest reads the avionics' draw plus the offset and the model driven by V·I draws the
+    offset too. The entry says what would: a power channel of its own, or the sensor's
+    zero read with the avionics unplugged, not rests alone."""
+    df, _ = capacity_dataset("current_offset", 0.3, profile="flights", seed=0)
+    df["power_w"] = df["voltage_v"] * df["current_a"]
+    assert (df["current_a"] < 0.05 * df["current_a"].median()).mean() > 0.01   # rests
+    res = diagnose(df, battery())
+    assert "current_offset" not in _names(res)
+    entries = [d for d in res.detection if d["effect"] == "current_offset"]
+    assert entries and not any(d["identifiable"] for d in entries)
+    for d in entries:
+        assert "avionics unplugged" in d["help"] and "power module" in d["help"]
+        assert "or rests with the load off" not in d["text"]
