@@ -26,7 +26,7 @@ than they save. Run::
 
     python benchmarks/bench_effect_matrix.py [--runs 10] [--seed 0] [--sources m100,p42a]
         [--injections payload,wind] [--richness plain] [--sizes realistic]
-        [--json matrix.json]
+        [--rate 1] [--json matrix.json]
     python benchmarks/bench_effect_matrix.py --speed     # 16 M100 flights; a 1-h 10-Hz flight
 """
 
@@ -37,6 +37,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
@@ -131,6 +132,9 @@ def main(argv=None) -> int:
                     help="comma-separated sizes of " + ", ".join(M.SIZES) + " (half and "
                          "quarter probe the detection limits from beneath; only realistic is "
                          "judged)")
+    ap.add_argument("--rate", type=float, metavar="HZ",
+                    help="the records as a telemetry stream at this rate carries them (each "
+                         "richness becomes e.g. plain@1Hz; the same injections)")
     ap.add_argument("--json", help="write the cells' tallies here")
     ap.add_argument("--speed", action="store_true", help="the two speed figures only")
     ap.add_argument("--descent", choices=("file", "calibrated"), default="file",
@@ -149,6 +153,9 @@ def main(argv=None) -> int:
         if bad:
             ap.error(f"{opt}: unknown {', '.join(bad)}; expected some of "
                      f"{', '.join(sorted(known[opt]))}")
+    if args.rate is not None and not (0.0 < args.rate <= 1000.0):
+        ap.error(f"--rate: {args.rate:g} Hz; expected a telemetry rate above 0 and at most "
+                 "1000 Hz")
     if not M.available():
         print(f"skipped: the real data are not at {M.DATA}")
         return 0
@@ -160,6 +167,9 @@ def main(argv=None) -> int:
     cells = [c for c in M.all_cells(sources, tuple(args.sizes.split(",")))
              if (not kinds or c.injection in kinds) and (not rich or c.richness in rich)
              and (not timings or c.timing is None or c.timing in timings)]
+    if args.rate is not None:
+        cells = [dataclasses.replace(c, richness=f"{c.richness}@{args.rate:g}Hz")
+                 for c in cells]
     print(f"effect matrix: {len(cells)} cells, {args.runs} runs a cell (deterministic "
           f"single-record sources fewer), seed {args.seed}, M100 descent weight: "
           f"{args.descent}")

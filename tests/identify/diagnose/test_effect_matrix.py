@@ -271,6 +271,13 @@ def test_verdict_follows_the_issue_criterion():
     assert M.verdict(dict(ident, named_first=7)) == ("identifiable", False)
     assert M.verdict(dict(ident, within_2se=3)) == ("identifiable", False)
     assert M.verdict(dict(ident, within_2se=4)) == ("identifiable", False)   # half is not most
+    # a cell whose limit calls half its runs identifiable is not called identifiable (one
+    # of two runs of a single log): its misses must be said not identifiable
+    split = dict(base, expect="current_offset", runs=2, silent=0, identifiable=1,
+                 named_first=1, named_any=1, within_2se=1, checked_2se=1,
+                 said_not_identifiable=1)
+    assert M.verdict(split) == ("not identifiable", True)
+    assert M.verdict(dict(split, said_not_identifiable=0)) == ("not identifiable", False)
     hidden = dict(base, expect="wind", said_not_identifiable=10)
     assert M.verdict(hidden) == ("not identifiable", True)
     assert M.verdict(dict(hidden, said_not_identifiable=9)) == ("not identifiable", False)
@@ -603,3 +610,36 @@ def test_the_benchmark_names_an_unknown_size_or_source_and_what_it_expects():
         line = run.stderr.strip().splitlines()[-1]
         assert f"{opt}: unknown {bad.split(',')[-1]}; expected some of" in line
         assert ("quarter" if opt == "--sizes" else "mcgill_hovers") in line
+
+
+def test_a_telemetry_rate_decimates_each_flight_from_its_own_start():
+    """``plain@0.5Hz``: the first sample of every 2-s interval of each experiment, counted
+    from that experiment's start; instantaneous values, never means."""
+    import numpy as np
+    import pandas as pd
+
+    t = np.r_[np.arange(0.0, 10.0, 0.1), np.arange(100.05, 105.0, 0.1)]
+    exp = ["a"] * 100 + ["b"] * 50
+    df = pd.DataFrame({"experiment": exp, "time_s": t, "voltage_v": t, "current_a": 1.0,
+                       "temperature_c": 20.0})
+    assert M.split_richness("plain@0.5Hz") == ("plain", 0.5)
+    assert M.split_richness("everything") == ("everything", None)
+    out = M.reduce(df, "minimal@0.5Hz")
+    assert list(out.columns) == ["experiment", "time_s", "voltage_v", "current_a"]
+    a = out[out["experiment"] == "a"]["time_s"].to_numpy()
+    b = out[out["experiment"] == "b"]["time_s"].to_numpy()
+    np.testing.assert_allclose(a, [0.0, 2.0, 4.0, 6.0, 8.0], atol=1e-9)
+    np.testing.assert_allclose(b, [100.05, 102.05, 104.05], atol=1e-9)
+    # values are the samples' own (the voltage column here is the time)
+    np.testing.assert_array_equal(out["voltage_v"].to_numpy(), out["time_s"].to_numpy())
+    assert len(M.reduce(df, "everything")) == len(df)
+
+
+def test_a_cell_at_a_telemetry_rate_reduces_the_same_injection(draws):
+    """A cell at ``plain@1Hz`` draws the same record and injection as at ``plain``, so the
+    rate alone differs between them (log 171, CC BY-SA 3.0)."""
+    at_rate = M.run_cell(M.Cell("log171", "offset", "plain@1Hz", None, "realistic"), 2, 0,
+                         draws)
+    native = M.run_cell(M.Cell("log171", "offset", "plain", None, "realistic"), 2, 0, draws)
+    assert at_rate["sizes"] == native["sizes"] and not at_rate["errors"]
+    assert at_rate["named_first"] == at_rate["runs"] == 1

@@ -206,3 +206,27 @@ def test_a_weak_wind_says_when_most_of_its_error_is_the_hovers():
     assert "vertical descents" not in why
     small = _weak_why(wind, {**p, "wind_speed_ms_hover_bias": 0.3}, 1.7, "power")
     assert "hovers" not in small
+
+
+def test_the_power_channels_offset_limit_is_named_in_80_percent_of_records():
+    """The limit is the size the sensors' test names with 80 % probability: a record
+    whose current reads that much too high against an independent power channel (a gain
+    error and 1 % noise of its own) passes the test (|z| ≥ 3 and 0.5 % of the median
+    current) in about 80 % of draws; at a limit set at the 2.80 standard errors of a test
+    at 5 %, which the sensors' test does not use, about half are named."""
+    import pandas as pd
+
+    from planner.identify.diagnose import evidence as EV
+
+    def record(rng, b):
+        n = 60
+        i = 20.0 + 4.0 * rng.standard_normal(n)
+        v = 22.0 - 0.02 * i
+        p = v * i * (1.0 + rng.normal(0.0, 0.002)) * (1.0 + rng.normal(0.0, 0.01, n))
+        return pd.DataFrame({"time_s": np.arange(n, dtype=float), "voltage_v": v,
+                             "current_a": i + b, "power_w": p})
+
+    rng = np.random.default_rng(7)
+    limit = np.median([EV.power_channel(record(rng, 0.0))["limit_a"] for _ in range(50)])
+    named = [EV.power_channel(record(rng, limit))["significant"] for _ in range(400)]
+    assert 0.72 <= np.mean(named) <= 0.88, (limit, np.mean(named))
