@@ -28,11 +28,11 @@ Sources (``../shared/data``, PROVENANCE.md in each folder)
 ``mcgill_hovers``
     The same hexarotor's three hovers of 2022-06-02 (no licence: validation only), the
     rotors stopped between them: rests within one record.
-``px4_octo``, ``px4_quad_v6c``, ``px4_quad_v6xrt``
-    Three short PX4 flights of other vehicles, 70–95 s each (an sdlog2 octocopter, an
-    indoor quadrotor, and a quadrotor whose ULog is damaged; no licence: validation
-    only), no aircraft file: a few percent of the pack, so that most effects must be said
-    not identifiable.
+``px4_octo``, ``px4_quad_v3``, ``px4_quad_v6c``, ``px4_quad_v6xrt``
+    Four short PX4 flights of other vehicles, 39–95 s each (an sdlog2 octocopter, a
+    quadrotor whose log starts in the air, an indoor quadrotor, and a quadrotor whose
+    ULog is damaged; no licence: validation only), no aircraft file: a few percent of
+    the pack, so that most effects must be said not identifiable.
 ``solar_surfer``
     Flight 3 of MIT's Solar Surfer (Sharpe & Hansman 2024, MIT licence), a PX4 topic
     export, ``aircraft/solar_surfer.yaml``.
@@ -59,8 +59,9 @@ its rotors carry its weight, :func:`testkit.injections.lifting`): ``early`` 0.10
 Sizes
 -----
 ``realistic`` as below, ``2x`` twice it; ``half`` and ``quarter`` probe the detection
-limits from beneath (every range below scaled by the factor; not judged by the criterion). Payload 0.2–0.4 kg (M100; 0.1–0.2 kg on the
-1.5-kg Solo, 0.5–1.0 kg on the 9.4-kg Solar Surfer), carried from take-off and released
+limits from beneath (every range below scaled by the factor; not judged by the
+criterion). Payload 0.2–0.4 kg (M100; 0.1–0.2 kg on the 1.5-kg Solo, 0.5–1.0 kg on
+the 9.4-kg Solar Surfer), carried from take-off and released
 (the real flight is the state after the release, so the masses stay physical). Steady
 wind 3–6 m/s from a random direction. Air density 75–85 % of the site's in half the
 flights (2×: 50–70 %). A constant load of 3.3–9 % of the median airborne power (15–40 W
@@ -1178,8 +1179,9 @@ def run_by_run_text(r: dict) -> str:
 
 def verdict(st: dict) -> tuple[str, bool | None]:
     """The issue's criterion for one realistic-size cell: (kind, met). Kinds: ``clean``
-    (silent in ≥ 95 %, the record's own findings aside), ``identifiable`` (the detection limit calls it so in most runs:
-    named first in ≥ 80 %, within 2 SE in most: more than half of those checked),
+    (silent in ≥ 95 %, the record's own findings aside), ``identifiable`` (the detection
+    limit calls it so in most runs, more than half: named first in ≥ 80 %, within 2 SE in
+    most: more than half of those checked),
     ``not identifiable`` (said so where not
     found, false causes in ≤ 5 %)."""
     n = max(st["runs"] - sum(st["errors"].values()), 1)
