@@ -450,7 +450,9 @@ def wind_against(named: dict, measured: dict) -> dict:
 def _log(name: str, battery_instance: int | None = None) -> pd.DataFrame:
     from planner.io.flightdata import load_flight_data
 
-    with warnings.catch_warnings():
+    # the reader's own warnings (a damaged log) are shown by its filter "default":
+    # recorded here, as the matrix reads each log once for every cell
+    with warnings.catch_warnings(record=True):
         warnings.simplefilter("ignore")
         df, _ = load_flight_data([LOGS / name if not name.startswith("/") else name],
                                  battery_instance=battery_instance)
