@@ -587,6 +587,13 @@ class PowerEffect(Effect):
         return pw.time
 
 
+#: Sample interval from which a wind's alternatives include a step the sampling cannot
+#: locate: on the M100 flights decimated to 0.5 and 0.25 Hz a release was no longer
+#: located and a wind took it up, at 1 Hz it was (docs/results.md, "At a telemetry
+#: rate"). [s]
+SPARSE_SAMPLE_S = 2.0
+
+
 class Wind(PowerEffect):
     r"""``wind``: a steady wind :math:`(w_N, w_E)` [m/s] turns the ground velocity into the
     airspeed :math:`|\vec v_g - \vec w|` (module notes)."""
@@ -798,6 +805,21 @@ class Wind(PowerEffect):
                 "differs from groundspeed, so the power depends on the direction of travel "
                 f"(check missions in it: {p['wind_speed_ms']:.1f} m/s from "
                 f"{p['wind_from_deg']:.0f}°)")
+
+    def alternatives(self, p, pw) -> list[str]:
+        """What else makes the power follow the course: a step of the mass or of a load
+        where the flights turn onto another leg, and, where the record is sampled too
+        sparsely (:data:`SPARSE_SAMPLE_S` or more between samples) to locate a step within
+        a flight, any such step."""
+        out = ["a change of mass or of an electrical load partway through the flights, where "
+               "they turn onto another leg (on a route flown in one order, a step in time "
+               "and a change of course look alike)"]
+        dt = float(getattr(pw, "sample_interval_s", 0.0) or 0.0)
+        if dt >= SPARSE_SAMPLE_S:
+            out.append(f"with one sample every {dt:.1f} s a step of the power within a flight "
+                       "cannot be located, and a wind may take it up: set the named wind "
+                       "against the flights' own weather (an anemometer, a forecast)")
+        return out
 
     def headline(self, p, pw):
         """``Wind: …`` in one line."""

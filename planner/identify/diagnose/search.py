@@ -807,6 +807,8 @@ class PowerLevel:
         self.split = make_split(spans)
         bins = _Bins(s, self.split, spans)
         self.bin_s = bins.width
+        #: Median interval between the record's samples. [s]
+        self.sample_interval_s = bins.med_dt
         self._bin_flight_state(s, bins)
         self._bin_air_density(s, bins, site_altitude_m)
         self.mass = np.full(bins.n, self.mass0)
