@@ -143,16 +143,14 @@ def main(argv=None) -> int:
                          "not drawn (testkit.matrix.calibrated_aircraft)")
     args = ap.parse_args(argv)
     M.CALIBRATE_DESCENT = args.descent == "calibrated"
-    known = {"--sources": set(M.sources()), "--injections": set(M.EXPECT),
-             "--richness": set(M.RICHNESS), "--timings": set(M.TIMINGS),
-             "--sizes": set(M.SIZES)}
-    for opt, text in (("--sources", args.sources), ("--injections", args.injections),
-                      ("--richness", args.richness), ("--timings", args.timings),
-                      ("--sizes", args.sizes)):
-        bad = sorted(set(text.split(",")) - known[opt]) if text else []
+    known = {"sources": M.sources(), "injections": M.EXPECT, "richness": M.RICHNESS,
+             "timings": M.TIMINGS, "sizes": M.SIZES}
+    for opt, names in known.items():
+        text = getattr(args, opt)
+        bad = sorted(set(text.split(",")) - set(names)) if text else []
         if bad:
-            ap.error(f"{opt}: unknown {', '.join(bad)}; expected some of "
-                     f"{', '.join(sorted(known[opt]))}")
+            ap.error(f"--{opt}: unknown {', '.join(bad)}; expected some of "
+                     f"{', '.join(sorted(names))}")
     if args.rate is not None and not (0.0 < args.rate <= 1000.0):
         ap.error(f"--rate: {args.rate:g} Hz; expected a telemetry rate above 0 and at most "
                  "1000 Hz")

@@ -569,6 +569,10 @@ def a123_discharges() -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True)
 
 
+#: What a log without an aircraft file can carry: diagnose's power level cannot run on it.
+CAPACITY_ONLY = ("clean", "offset", "load", "cold_pack")
+
+
 def sources() -> dict[str, Source]:
     """Every source of the matrix (module notes), by name."""
     from planner.parameters import load_aircraft
@@ -595,22 +599,22 @@ def sources() -> dict[str, Source]:
                           rotors=inj.Rotors(4, 0.305), carries=("clean", "payload", "offset",
                                                                  "load")),
         "mcgill_hover": Log("mcgill_hover", "px4_hexa_mcgill_2022-05-24_hover_to_critical.tlog",
-                            carries=("clean", "offset", "load", "cold_pack")),
+                            carries=CAPACITY_ONLY),
         # the same hexarotor on another day: three hovers with the rotors stopped between
         # them (rests), its pack at 25.5 V full and never near empty
         "mcgill_hovers": Log("mcgill_hovers", "px4_hexa_mcgill_2022-06-02_three_hovers.tlog",
-                             carries=("clean", "offset", "load", "cold_pack")),
+                             carries=CAPACITY_ONLY),
         # four short PX4 flights of other vehicles (39-95 s, a few percent of their
         # packs): whatever is injected, the data can tell little, and must say so
         "px4_octo": Log("px4_octo", "px4_octo_legacy_sdlog2_01_07_59.px4log",
-                        carries=("clean", "offset", "load", "cold_pack")),
-        "px4_quad_v6c": Log("px4_quad_v6c", "px4_quad_fmuv6c_indoor_quadrotor_local.ulg",
-                            carries=("clean", "offset", "load", "cold_pack")),
+                        carries=CAPACITY_ONLY),
         "px4_quad_v3": Log("px4_quad_v3", "px4_quad_fmuv3_esc_status_log.ulg",
-                           carries=("clean", "offset", "load", "cold_pack")),
+                           carries=CAPACITY_ONLY),
+        "px4_quad_v6c": Log("px4_quad_v6c", "px4_quad_fmuv6c_indoor_quadrotor_local.ulg",
+                            carries=CAPACITY_ONLY),
         "px4_quad_v6xrt": Log("px4_quad_v6xrt",
                               "px4_quad_fmuv6xrt_corrupt_unregistered_msg_id.ulg",
-                              carries=("clean", "offset", "load", "cold_pack")),
+                              carries=CAPACITY_ONLY),
         "solar_surfer": SolarSurfer(),
         "p42a": Cells("p42a"),
         "q30": Cells("q30"),
@@ -1183,9 +1187,8 @@ def verdict(st: dict) -> tuple[str, bool | None]:
     """The issue's criterion for one realistic-size cell: (kind, met). Kinds: ``clean``
     (silent in ≥ 95 %, the record's own findings aside), ``identifiable`` (the detection
     limit calls it so in most runs, more than half: named first in ≥ 80 %, within 2 SE in
-    most: more than half of those checked),
-    ``not identifiable`` (said so where not
-    found, false causes in ≤ 5 %)."""
+    most: more than half of those checked), ``not identifiable`` (said so where not found,
+    false causes in ≤ 5 %)."""
     n = max(st["runs"] - sum(st["errors"].values()), 1)
     if st["expect"] is None:
         return "clean", st["silent"] / n >= 0.95

@@ -435,7 +435,7 @@ class CapacityFade(CapacityEffect):
             return []
         cold = "later discharges colder than the first (a cold cell gives less"
         cold += (", and the data have no pack temperature to tell)"
-                 if getattr(cap, "temperature", None) is None else ")")
+                 if cap.temperature is None else ")")
         return [cold,
                 "a change of charger, charge voltage or cut-off between the experiments",
                 "experiments not in the order the pack was used (the files' order), or of "
@@ -814,7 +814,7 @@ class Wind(PowerEffect):
         out = ["a change of mass or of an electrical load partway through the flights, where "
                "they turn onto another leg (on a route flown in one order, a step in time "
                "and a change of course look alike)"]
-        dt = float(getattr(pw, "sample_interval_s", 0.0) or 0.0)
+        dt = pw.sample_interval_s
         if dt >= SPARSE_SAMPLE_S:
             out.append(f"with one sample every {dt:.1f} s a step of the power within a flight "
                        "cannot be located, and a wind may take it up: set the named wind "
