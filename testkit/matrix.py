@@ -249,6 +249,51 @@ def m100_flights(route_r1: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
     return df, r1
 
 
+def cruise_power_by_speed(route_r1: bool = True) -> dict:
+    """How the M100's level cruise power changes with its commanded speed across flights:
+    each flight's median battery power over its level cruise samples (|climb| < 0.3 m/s,
+    ground speed within 15 % of the commanded speed, above 80 % of the commanded
+    altitude), regressed on the commanded speed (one level per speed), the payload and the
+    altitude of the per-flight parameters table, with heteroskedasticity-robust (HC1)
+    standard errors. Across flights on many days the wind's effect averages out, which
+    no single flight's speeds do. Returns ``{speed: (power − power at 10 m/s, stderr)}``
+    [m/s]: ([W], [W]), with ``"payload_w_per_kg"`` and ``"flights"``."""
+    df, par = m100_flights(route_r1)
+    par = par.assign(altitude=pd.to_numeric(par["altitude"], errors="coerce")).set_index("flight")
+    rows = []
+    for f, g in df.groupby(df["experiment"].astype(int)):
+        p = par.loc[f]
+        if not np.isfinite(p["altitude"]):
+            continue
+        alt = g["altitude_m"].to_numpy(float)
+        first = alt[:50][np.isfinite(alt[:50])]
+        if not first.size:
+            continue
+        alt = alt - first.min()
+        climb = g["climb_rate_ms"].to_numpy(float)
+        gs = np.abs(g["groundspeed_ms"].to_numpy(float))
+        pw = g["power_w"].to_numpy(float)
+        ok = (np.abs(climb) < 0.3) & (np.abs(gs - p["speed"]) < 0.15 * p["speed"]) \
+            & (alt > 0.8 * p["altitude"]) & np.isfinite(pw)
+        if ok.sum() >= 50:
+            rows.append((p["speed"], p["payload"] / 1000.0, p["altitude"], np.median(pw[ok])))
+    t = np.array(rows)
+    speeds = sorted(set(t[:, 0]) - {10.0})
+    X = np.column_stack([np.ones(len(t))] + [(t[:, 0] == v).astype(float) for v in speeds]
+                        + [t[:, 1], t[:, 2]])
+    y = t[:, 3]
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    r = y - X @ coef
+    bread = np.linalg.inv(X.T @ X)
+    cov = bread @ ((X * r[:, None]).T @ (X * r[:, None])) @ bread * len(y) / (len(y) - X.shape[1])
+    se = np.sqrt(np.diag(cov))
+    out = {float(v): (float(coef[1 + i]), float(se[1 + i])) for i, v in enumerate(speeds)}
+    out[10.0] = (0.0, 0.0)
+    out["payload_w_per_kg"] = float(coef[1 + len(speeds)])
+    out["flights"] = len(t)
+    return out
+
+
 #: Diagnose the M100 draws with the slow-descent inflow weight calibrated on the flights
 #: not drawn (:func:`calibrated_aircraft`) instead of the aircraft file's (Leishman's
 #: curve); ``bench_effect_matrix.py --descent calibrated``.

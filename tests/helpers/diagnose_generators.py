@@ -270,8 +270,11 @@ def power_dataset(effect: str | None = None, magnitude=None, *, n_flights: int =
                   duration_s: float = 900.0, rate_hz: float = 5.0, seed: int = 0,
                   truth=None, turbulence: float = 0.03, pack_map=None,
                   profile: str = "survey",
-                  drivers: bool = True, with_battery: bool = True):
-    """Multirotor flights with ``effect`` hidden at ``magnitude``.
+                  drivers: bool = True, with_battery: bool = True,
+                  speed_response: float = 1.0):
+    """Multirotor flights with ``effect`` hidden at ``magnitude``; ``speed_response``: the
+    share of the rotor model's change of power with airspeed that the aircraft draws (1:
+    as the model says).
 
     ``wind`` — (speed m/s, from deg); ``air_density`` — density range factor (the
     days' density spans ±magnitude around standard, e.g. 0.12); ``payload_change`` —
@@ -325,6 +328,11 @@ def power_dataset(effect: str | None = None, magnitude=None, *, n_flights: int =
         shaft = momentum_power(mass, rho, airspeed, climb, rotors=q["rotors"],
                                diameter=q["rotor_diameter_m"], fm=q["figure_of_merit"],
                                kappa=q["induced_factor"], drag_area=q["drag_area_m2"])
+        if speed_response != 1.0:
+            still = momentum_power(mass, rho, np.zeros(n), climb, rotors=q["rotors"],
+                                   diameter=q["rotor_diameter_m"], fm=q["figure_of_merit"],
+                                   kappa=q["induced_factor"], drag_area=q["drag_area_m2"])
+            shaft = still + speed_response * (shaft - still)
         ps = q["system_power_w"] + eff.get("system_power", 0.0)
         electric = shaft / q["efficiency"]
         if "efficiency_curve" in eff:

@@ -136,6 +136,15 @@ MAX_FADE_SPAN = 0.3
 MAX_OFFSET_SHARE = 0.1
 #: Largest steady wind, as a share of the maximum airspeed (it must still make way). [unitless]
 MAX_WIND_SHARE = 0.8
+#: Standard errors by which the flights' scale on the model's change of power with
+#: airspeed must differ from 1, and stand above 0, for a wind to be read through it
+#: (:func:`speed_scale`). [unitless]
+SPEED_RESPONSE_Z = 2.0
+#: Share by which that scale must differ from 1 as well: on flights made by the tests'
+#: own rotor model, which the diagnosed model flies with bins and a noisy ground speed,
+#: it comes out 0.93–0.98 (± 0.01); within this share the model's change of power with
+#: airspeed is taken as the aircraft's. [unitless]
+SPEED_RESPONSE_FLOOR = 0.2
 #: Directions of a wind at which a route is checked for winds that are one step per
 #: flight (:meth:`Wind.passing_share`). [unitless]
 ROUTE_DIRECTIONS = 24
@@ -766,7 +775,12 @@ class Wind(PowerEffect):
         errors; whether it adds to the autopilot's logged wind. On a multirotor the
         speed's error adds in quadrature the bias the model's power in the hover can put
         into it (:meth:`planner.identify.diagnose.search.PowerLevel.hover_shift`; the shift
-        and the bias are kept), and each component its share of it."""
+        and the bias are kept), and each component its share of it. Where the flights'
+        power changes with airspeed otherwise than the model's (:func:`speed_scale`), the
+        wind is the one fitted with that change's scale free
+        (:meth:`planner.identify.diagnose.search.PowerLevel.speed_read`); the scale
+        (``speed_response``) and the model's own reading (``wind_speed_ms_model``) are
+        kept."""
         wn, we = values["wind_n_ms"], values["wind_e_ms"]
         sn, se = stderr["wind_n_ms"], stderr["wind_e_ms"]
         speed = math.hypot(wn, we)
@@ -783,13 +797,23 @@ class Wind(PowerEffect):
             sn, se = math.hypot(sn, bias * wn / speed), math.hypot(se, bias * we / speed)
             out = {"wind_speed_ms_hover_shift": values["wind_speed_ms_hover_shift"],
                    "wind_speed_ms_hover_bias": bias}
+        for k in ("speed_response", "speed_response_stderr", "wind_speed_ms_model"):
+            if k in values:
+                out[k] = values[k]
         return {"wind_n_ms": wn, "wind_n_ms_stderr": sn, "wind_e_ms": we,
                 "wind_e_ms_stderr": se, "wind_speed_ms": speed, "wind_speed_ms_stderr": s_speed,
                 "wind_from_deg": frm, "wind_from_deg_stderr": min(s_dir, 180.0),
                 "logged_wind_added": float(pw.has_logged_wind), **out}
 
     def implausible(self, p, pw):
-        """A wind above :data:`MAX_WIND_SHARE` of the maximum airspeed."""
+        """A wind above :data:`MAX_WIND_SHARE` of the maximum airspeed, or one whose speed
+        cannot be read (:func:`speed_scale`: the flights do not show their power changing
+        with airspeed)."""
+        k, sk = p.get("speed_response", 1.0), p.get("speed_response_stderr", 0.0)
+        if math.isnan(speed_scale(k, sk)):
+            return (f"these flights' power changes with airspeed {k:.2f} ± {sk:.2f} times as "
+                    "much as the calibrated model's, not clearly at all: the speed of a wind "
+                    "read through that change cannot be told")
         vmax = pw.aircraft.max_airspeed_ms
         if p["wind_speed_ms"] > MAX_WIND_SHARE * vmax:
             return (f"a steady wind of {p['wind_speed_ms']:.1f} m/s is more than "
@@ -800,11 +824,18 @@ class Wind(PowerEffect):
     def cause(self, p, pw):
         """A steady wind, in words, with its speed [m/s] and direction [deg]."""
         extra = " beyond the autopilot's own wind estimate" if pw.has_logged_wind else ""
-        return (f"Steady wind{extra}: {_pm(p['wind_speed_ms'], p['wind_speed_ms_stderr'], 1)} "
+        text = (f"Steady wind{extra}: {_pm(p['wind_speed_ms'], p['wind_speed_ms_stderr'], 1)} "
                 f"m/s from {p['wind_from_deg']:.0f}° ({_compass(p['wind_from_deg'])}); airspeed "
                 "differs from groundspeed, so the power depends on the direction of travel "
                 f"(check missions in it: {p['wind_speed_ms']:.1f} m/s from "
                 f"{p['wind_from_deg']:.0f}°)")
+        k = p.get("speed_response", 1.0)
+        if speed_scale(k, p.get("speed_response_stderr", 0.0)) != 1.0:
+            text += (f". These flights' power changes with airspeed "
+                     f"{_pm(k, p['speed_response_stderr'], 2)} times as much as the calibrated "
+                     f"model's; read through the model's own change it is "
+                     f"{p['wind_speed_ms_model']:.1f} m/s")
+        return text
 
     def alternatives(self, p, pw) -> list[str]:
         """What else makes the power follow the course: a step of the mass or of a load
@@ -825,6 +856,45 @@ class Wind(PowerEffect):
         """``Wind: …`` in one line."""
         return (f"Wind: {p['wind_speed_ms']:.1f} m/s from {p['wind_from_deg']:.0f}° "
                 f"({_compass(p['wind_from_deg'])}), power depends on the direction of travel")
+
+
+def speed_scale(k: float, k_stderr: float) -> float:
+    r"""What the flights' scale ``k`` ± ``k_stderr`` on the model's change of power with
+    airspeed (:class:`SpeedResponse`) makes of a wind read through it: 1 where :math:`k`
+    lies within :data:`SPEED_RESPONSE_Z` standard errors or :data:`SPEED_RESPONSE_FLOOR`
+    of 1 (the model's change is taken as the aircraft's); :math:`k` where it lies farther
+    and :data:`SPEED_RESPONSE_Z` standard errors above 0 (the wind is read with the
+    scale free, :meth:`Wind.parameters`); NaN where it lies farther and not clearly above
+    0 (the flights do not show their power changing with airspeed: a wind's speed cannot
+    be read). [unitless]"""
+    if not (math.isfinite(k) and math.isfinite(k_stderr)):
+        return 1.0
+    if abs(k - 1.0) <= max(SPEED_RESPONSE_Z * k_stderr, SPEED_RESPONSE_FLOOR):
+        return 1.0
+    return k if k - SPEED_RESPONSE_Z * k_stderr > 0.0 else math.nan
+
+
+class SpeedResponse(PowerEffect):
+    r"""``speed_response``: a free scale :math:`k` on the model's change of power with
+    airspeed, :math:`P = P_0 + k\,(P(V) - P_0)` with :math:`P_0` the model's power at the
+    same state with no airspeed; a linear column :math:`M - M_0` beside the mechanical
+    power :math:`M`, whose coefficient :math:`c` gives :math:`k = 1 + c\,\eta`. Not a
+    cause (it is not in the vocabulary): the wind is read with it (module notes of
+    :mod:`planner.identify.diagnose.search`, "Wind"). [unitless]"""
+    key = "speed_response"
+    name = "speed_response"
+    needs = ()
+    linear = ("speed_response_coefficient",)
+    driver_label = "model's change of power with airspeed [W]"
+
+    def columns(self, M, pw, state):
+        """The mechanical power less its value with no airspeed (the same state
+        otherwise, :meth:`planner.identify.diagnose.search.PowerLevel._evaluate`). [W per W]"""
+        return [M - state["still_mechanical_w"]]
+
+    def bin_driver(self, pw, state):
+        """The modelled battery power of each bin. [W]"""
+        return state.get("modelled_w", pw.measured)
 
 
 class AirDensity(PowerEffect):

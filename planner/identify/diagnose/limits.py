@@ -63,6 +63,7 @@ The limit falls as 1/√(number of flights) for the pooled tests.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -305,6 +306,8 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
         if e.name == "wind" and math.isfinite(lim.limit):
             lim, gate_why = _wind_gate(level, sig, nuisance, resid, groups, clusters,
                                        J.shape[1], mse_rows, lim)
+        if e.name == "wind" and math.isfinite(lim.limit):
+            lim, gate_why = _speed_scaled(level, res, base, lim)
         limit = lim.limit
         if e.name == "efficiency_curve":         # c1 → the slope η1 = −c1/c0²
             c0 = float(base.coef[0])
@@ -422,6 +425,59 @@ def _wind_gate(level, sig, nuisance, resid, groups, clusters, dof, mse, lim):
     out = stats.detectable_size(sig, nuisance, resid, groups, dof=dof, heldout_mse=mse,
                                 paired=True, power=p, clusters=clusters)
     return _with_units(out, sig, nuisance, level, resid, dof, power=p), ""
+
+
+def _speed_scaled(level, res, base, lim):
+    r"""The wind's limit on the flights' own change of power with airspeed, and why it is
+    infinite if it is.
+
+    A wind is read through the model's change of power with airspeed: a model whose
+    power changes twice as much as the aircraft's names a wind of half its speed, and
+    sees one of half the size it could. The scale :math:`k` on that change which the
+    flights choose (:meth:`planner.identify.diagnose.search.PowerLevel.speed_read`) is
+    read on the level's final fit with a steady wind in it (the one found, else one
+    fitted here beside the effects found): without it the airspeed is the ground speed,
+    whose spread a real wind blurs, and the scale comes out too small. Where it differs
+    from the model's (:func:`planner.identify.diagnose.effects.speed_scale`) the limit is
+    the model's divided by :math:`k` (the wind's power pattern is :math:`k` times the
+    model's, to first order), and there is none where :math:`k` is not clearly above 0."""
+    from planner.identify.diagnose.effects import speed_scale
+
+    fit, effects = _with_wind(level, res, base)
+    read = level.speed_read(fit, effects) if fit is not None else None
+    if read is None:
+        return lim, ""
+    k, se = read[0], read[1]
+    scale = speed_scale(k, se)
+    if scale == 1.0:
+        return lim, ""
+    if math.isnan(scale):
+        why = (f"these flights' power changes with airspeed {k:.2f} ± {se:.2f} times as much as "
+               "the calibrated model's, not clearly at all: a wind cannot be read from the "
+               "power's change with the direction of travel")
+        return stats.DetectionLimit(math.inf, math.inf, lim.practical, lim.stderr,
+                                    lim.visible_share, lim.design_effect), why
+    return stats.DetectionLimit(lim.limit / k, lim.statistical / k, lim.practical / k,
+                                lim.stderr / k, lim.visible_share, lim.design_effect), ""
+
+
+def _with_wind(level, res, base):
+    """The level's final fit with its effects where a wind is among them, else a steady
+    wind fitted on every bin beside the effects found (started from the final fit, or
+    ``base``); (None, []) where that fit fails."""
+    from planner.identify.diagnose.effects import Wind
+
+    chosen = [e for e, _ in res.selected]
+    if any(e.name == "wind" for e in chosen) and res.final_fit is not None:
+        return res.final_fit, chosen
+    effects = chosen + [Wind()]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return level.fit(effects, np.ones(level.n_rows, bool),
+                             start=res.final_fit or base), effects
+    except Exception:           # a fit that fails here leaves the model's limit
+        return None, []
 
 
 def _confused_with(effect, tested, sigs, J, resid, groups, top, clusters) -> list[str]:

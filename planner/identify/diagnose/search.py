@@ -178,6 +178,25 @@ the speed's standard error, each component taking its part
 takes the hover as a nuisance regime too. On flights the model flies right the bias is
 of the size of the fit's error.
 
+Both readings rest on the model's change of power with airspeed, and a model whose power
+changes twice as much as the aircraft's reads a wind of about half its speed. Where the
+flights move at several speeds they show their own: the wind is fitted once more with a
+free scale :math:`k` on that change, :math:`P = P_0 + k\,(P(V) - P_0)`, :math:`P_0` the
+model's power at the same state with no airspeed
+(:class:`~planner.identify.diagnose.effects.SpeedResponse`, a linear column;
+:meth:`PowerLevel.speed_read`). On the DJI M100's routes other than R1 (Rodrigues et al.
+2021) :math:`k` is about 0.5–0.8, two or more standard errors below 1. Across R1's 176
+flights at 4–12 m/s the level cruise power by commanded speed (net of payload and
+altitude; docs/results.md, "The M100's change of power with speed") falls 9 W from 4 to
+8 m/s and rises 48 ± 7 W from 10 to 12 m/s, where the rotor model calibrated on 16 of
+them falls 21–32 W and rises 76–90 W (three draws). Where :math:`k` lies more than
+:data:`~planner.identify.diagnose.effects.SPEED_RESPONSE_Z` standard errors and
+:data:`~planner.identify.diagnose.effects.SPEED_RESPONSE_FLOOR` from 1
+(:func:`~planner.identify.diagnose.effects.speed_scale`), the wind named is the one
+fitted with it free (the model's own reading is kept, ``wind_speed_ms_model``), and the
+detection limit is the model's divided by :math:`k`; where it is not clearly above 0, a
+wind's speed cannot be read, and none is named.
+
 Climb rate
 ----------
 Where the record has an altitude, the logged climb rate is checked against the
@@ -1068,6 +1087,11 @@ class PowerLevel:
         values = dict(zip(names, x))
         inputs = self._inputs(effects, values, state)
         shape = {k: values[k] for k in self.shape}
+        if any(e.name == "speed_response" for e in effects):
+            # the same state with no airspeed, for the speed response's column
+            still = dict(inputs)
+            still["airspeed"] = np.zeros_like(inputs["airspeed"])
+            state["still_mechanical_w"] = self.mechanical(shape, still, rows, table=False)
         return self.mechanical(shape, inputs, rows)
 
     def fit(self, effects, train: np.ndarray, start: Fit | None = None) -> Fit:
@@ -1512,6 +1536,35 @@ class PowerLevel:
         shift = step1 - step0
         return shift, math.sqrt(max(shift**2 - max(v1 - v0, 0.0), 0.0))
 
+    def speed_read(self, fit: Fit, effects) -> tuple[float, float, dict, dict] | None:
+        r"""The model ``fit`` of ``effects`` fitted once more with a free scale :math:`k` on
+        its change of power with airspeed (:class:`~planner.identify.diagnose.effects.SpeedResponse`,
+        module notes, "Wind"), started from it on its training bins: :math:`k`
+        [unitless], its standard error, and that fit's physical values and errors
+        (:meth:`physical`). None on a fixed wing, where fewer than
+        :data:`MIN_DESCENT_FLIGHTS` training flights move (ground speed at least
+        :data:`MOVING_MS`), or where the fit fails."""
+        from planner.identify.diagnose.effects import SpeedResponse
+
+        if not self.aircraft.is_multirotor:
+            return None
+        rows = np.flatnonzero(fit.train)
+        moving = self.gs[rows] >= MOVING_MS
+        if np.unique(self.exp[rows][moving]).size < MIN_DESCENT_FLIGHTS:
+            return None
+        free = list(effects) + [SpeedResponse()]
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                joint = self.fit(free, fit.train, start=fit)
+                jv, js = self.physical(joint, free)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        k, sk = jv.get("speed_response", math.nan), js.get("speed_response", math.nan)
+        if not (math.isfinite(k) and math.isfinite(sk)):
+            return None
+        return k, sk, jv, js
+
     def covariances(self, fit: Fit, jacobian):
         """Covariances of [nonlinear…, linear…] of an all-data fit, with those values:
         AR(1)-inflated within each flight and the flight-clustered sandwich, None with
@@ -1583,13 +1636,16 @@ class PowerLevel:
                 c = v[k + 1 + i]
                 if n == "efficiency_slope_coefficient":
                     out += [1.0 / a, -c / a**2]
+                elif n == "speed_response_coefficient":
+                    out.append(1.0 + c / a)         # the scale k (SpeedResponse)
                 else:
                     out.append(c)
             return out
 
         for n in extra:
             names += (["efficiency_at_reference", "efficiency_slope"]
-                      if n == "efficiency_slope_coefficient" else [n])
+                      if n == "efficiency_slope_coefficient" else
+                      ["speed_response"] if n == "speed_response_coefficient" else [n])
         vals, se = stats.delta_method(conv, x, cov)
         if clustered is not None:
             se = np.fmax(se, stats.delta_method(conv, x, clustered)[1])
@@ -1616,6 +1672,23 @@ class PowerLevel:
             # ... and the bias the model's power in the hover puts into a wind's speed
             # (module notes, "Wind"); the wind effect adds it to the speed's error
             values["wind_speed_ms_hover_shift"], values["wind_speed_ms_hover_bias"] = hover
+        read = self.speed_read(fit, effects) if "wind_n_ms" in values and \
+            not any(e.name == "speed_response" for e in effects) else None
+        if read is not None:
+            from planner.identify.diagnose.effects import speed_scale
+
+            # the flights' own change of power with airspeed (module notes, "Wind"): where
+            # it differs from the model's, the wind is the one fitted with it free
+            k, sk, jv, js = read
+            values["wind_speed_ms_model"] = math.hypot(values["wind_n_ms"], values["wind_e_ms"])
+            if math.isfinite(speed_scale(k, sk)) and speed_scale(k, sk) != 1.0:
+                for key in ("wind_n_ms", "wind_e_ms"):
+                    values[key], stderr[key] = jv[key], js[key]
+                for key in ("wind_speed_ms_hover_shift", "wind_speed_ms_hover_bias"):
+                    values.pop(key, None)
+                    if key in jv:
+                        values[key] = jv[key]
+            values["speed_response"], values["speed_response_stderr"] = k, sk
         groups = self.exp[np.flatnonzero(fit.train)]
         for e in effects:
             # how many flights carry each effect's estimate, and whether its error is the
