@@ -142,9 +142,9 @@ MAX_WIND_SHARE = 0.8
 SPEED_RESPONSE_Z = 2.0
 #: Share by which that scale must differ from 1 as well: on flights made by the tests'
 #: own rotor model, which the diagnosed model flies with bins and a noisy ground speed,
-#: it comes out 0.93–0.98 (± 0.01); within this share the model's change of power with
-#: airspeed is taken as the aircraft's. [unitless]
-SPEED_RESPONSE_FLOOR = 0.2
+#: it comes out 0.93–0.98 (± 0.01–0.014); within this share the model's change of power
+#: with airspeed is taken as the aircraft's. [unitless]
+SPEED_RESPONSE_FLOOR = 0.1
 #: Directions of a wind at which a route is checked for winds that are one step per
 #: flight (:meth:`Wind.passing_share`). [unitless]
 ROUTE_DIRECTIONS = 24

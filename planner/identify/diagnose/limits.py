@@ -465,6 +465,7 @@ def _with_wind(level, res, base):
     """The level's final fit with its effects where a wind is among them, else a steady
     wind fitted on every bin beside the effects found (started from the final fit, or
     ``base``); (None, []) where that fit fails."""
+    from planner.errors import PlannerError
     from planner.identify.diagnose.effects import Wind
 
     chosen = [e for e, _ in res.selected]
@@ -476,8 +477,8 @@ def _with_wind(level, res, base):
             warnings.simplefilter("ignore")
             return level.fit(effects, np.ones(level.n_rows, bool),
                              start=res.final_fit or base), effects
-    except Exception:           # a fit that fails here leaves the model's limit
-        return None, []
+    except (PlannerError, np.linalg.LinAlgError, ValueError):
+        return None, []         # a fit that fails here leaves the model's limit
 
 
 def _confused_with(effect, tested, sigs, J, resid, groups, top, clusters) -> list[str]:

@@ -1558,7 +1558,7 @@ class PowerLevel:
                 warnings.simplefilter("ignore")
                 joint = self.fit(free, fit.train, start=fit)
                 jv, js = self.physical(joint, free)
-        except (np.linalg.LinAlgError, ValueError):
+        except (FitError, ModelError, np.linalg.LinAlgError, ValueError):
             return None
         k, sk = jv.get("speed_response", math.nan), js.get("speed_response", math.nan)
         if not (math.isfinite(k) and math.isfinite(sk)):

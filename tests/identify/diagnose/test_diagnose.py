@@ -574,7 +574,7 @@ def test_a_wind_is_read_through_the_flights_own_change_of_power_with_airspeed():
 
 
 def test_a_wind_is_read_through_the_flights_scale_only_where_it_differs_from_the_models():
-    """speed_scale: within 2 standard errors or a fifth of 1 the model's change of power
+    """speed_scale: within 2 standard errors or a tenth of 1 the model's change of power
     with airspeed stands; farther, the flights' scale; not clearly above 0, none (a wind
     read through it is withheld as one whose speed cannot be told)."""
     from planner.identify.diagnose.effects import Wind, speed_scale
