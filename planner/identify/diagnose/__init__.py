@@ -1118,6 +1118,7 @@ def _power_step(df: pd.DataFrame, pack: BatteryPack, aircraft: Aircraft | None, 
     base = level.physical(res.base_fit, [])
     _withhold_on_impossible_baseline(res, base[0], run.notes)
     _note_descent_misfit(level, res, run.notes)
+    _note_speed_response(level, res, run.notes)
     run.add("power", level, res, lambda: _as_given_power(level, aircraft), base,
             effects=effects)
 
@@ -1176,6 +1177,25 @@ def _note_descent_misfit(level: S.PowerLevel, res: S.LevelResult, notes: list[st
         f"{'less' if d['misfit_w'] < 0 else 'more'} than the model, whose power in slow "
         "descent (the vortex-ring state, an empirical curve) is uncertain; an effect "
         "whose change falls where these descents begin would take part of this up")
+
+
+def _note_speed_response(level: S.PowerLevel, res: S.LevelResult, notes: list[str]) -> None:
+    """A note where the flights' power changes with airspeed otherwise than the calibrated
+    model's (:func:`planner.identify.diagnose.limits.speed_response_of`,
+    :func:`planner.identify.diagnose.effects.speed_scale`): a model-form misfit that the
+    wind is read through and that a mission at other speeds is predicted with."""
+    from planner.identify.diagnose.effects import speed_scale
+
+    read = LIM.speed_response_of(level, res)
+    if read is None or speed_scale(*read) == 1.0:
+        return
+    k, se = read
+    notes.append(
+        f"power level: these flights' power changes with airspeed {k:.2f} ± {se:.2f} times as "
+        "much as the calibrated model's (a free scale on the model's change of power with "
+        "airspeed, fitted with a steady wind): a mission flown at speeds other than these "
+        "flights' is predicted with that error, and a wind is read through the flights' own "
+        "change")
 
 
 def _withhold_on_impossible_baseline(res: S.LevelResult, base_values: dict,

@@ -443,11 +443,10 @@ def _speed_scaled(level, res, base, lim):
     model's, to first order), and there is none where :math:`k` is not clearly above 0."""
     from planner.identify.diagnose.effects import speed_scale
 
-    fit, effects = _with_wind(level, res, base)
-    read = level.speed_read(fit, effects) if fit is not None else None
+    read = speed_response_of(level, res, base)
     if read is None:
         return lim, ""
-    k, se = read[0], read[1]
+    k, se = read
     scale = speed_scale(k, se)
     if scale == 1.0:
         return lim, ""
@@ -459,6 +458,18 @@ def _speed_scaled(level, res, base, lim):
                                     lim.visible_share, lim.design_effect), why
     return stats.DetectionLimit(lim.limit / k, lim.statistical / k, lim.practical / k,
                                 lim.stderr / k, lim.visible_share, lim.design_effect), ""
+
+
+def speed_response_of(level, res, base=None) -> tuple[float, float] | None:
+    """The flights' scale on the model's change of power with airspeed and its standard
+    error (:meth:`planner.identify.diagnose.search.PowerLevel.speed_read`), read on the
+    level's final fit with a steady wind in it (:func:`_with_wind`), once per level
+    result (kept in its ``speed_response``); None where it cannot be read."""
+    if res.speed_response is False:
+        fit, effects = _with_wind(level, res, base or res.base_fit)
+        read = level.speed_read(fit, effects) if fit is not None else None
+        res.speed_response = None if read is None else (read[0], read[1])
+    return res.speed_response
 
 
 def _with_wind(level, res, base):

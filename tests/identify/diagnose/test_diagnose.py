@@ -558,18 +558,20 @@ def test_a_wind_is_read_through_the_flights_own_change_of_power_with_airspeed():
                        payload_kg=truth["payload_kg"])
         f = next(f for f in res.findings if f["effect"] == "wind")
         entry = next(e for e in res.detection if e["effect"] == "wind")
-        return f, entry
+        note = any("changes with airspeed" in n for n in res.notes)
+        return f, entry, note
 
-    f, entry = wind(0.5)
+    f, entry, note = wind(0.5)
     p = f["parameters"]
     assert 0.35 < p["speed_response"] < 0.6
     assert p["wind_speed_ms_model"] < 6.0 - 3 * p["wind_speed_ms_stderr"]
     assert abs(p["wind_speed_ms"] - 6.0) < 2 * p["wind_speed_ms_stderr"]
     assert "times as much as the calibrated model's" in f["cause"]
-    same, same_entry = wind(1.0)
+    assert note                       # a model-form misfit, said as such
+    same, same_entry, same_note = wind(1.0)
     q = same["parameters"]
     assert q["wind_speed_ms"] == q["wind_speed_ms_model"]
-    assert "times as much" not in same["cause"]
+    assert "times as much" not in same["cause"] and not same_note
     assert entry["limit"] > 1.8 * same_entry["limit"]
 
 

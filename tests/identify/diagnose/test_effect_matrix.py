@@ -692,7 +692,9 @@ def test_the_m100s_cruise_power_changes_with_speed_less_than_the_calibrated_mode
     flat from 4 to 10 m/s and 48 ± 7 W higher at 12 m/s; the rotor model diagnose
     calibrates on 16 of them (seed 0's first clean draw) rises from 10 to 12 m/s by more
     than 1.5 times that, and falls from 4 to 8 m/s by more than twice the flights' fall:
-    the reason a wind read through the model comes out slow (search, "Wind")."""
+    the reason a wind read through the model comes out slow (search, "Wind"). diagnose
+    reads the same on those flights (a scale on the model's change well under 1) and
+    says so in a note."""
     import warnings
 
     import numpy as np
@@ -721,3 +723,8 @@ def test_the_m100s_cruise_power_changes_with_speed_less_than_the_calibrated_mode
                              table=False) / values["efficiency"]
     assert model[3] - model[2] > 1.5 * rise
     assert model[0] - model[1] > 2.0 * (data[4.0][0] - data[8.0][0])
+    # diagnose reads it on the same 16 flights: a free scale on the model's change of
+    # power with airspeed, fitted with a steady wind, well under 1, and a note says so
+    k, se = report.result.speed_response
+    assert 0.0 < k < 0.8 and k + 2 * se < 1.0
+    assert any("changes with airspeed" in n for n in res.notes)
