@@ -1187,15 +1187,15 @@ def _note_speed_response(level: S.PowerLevel, res: S.LevelResult, notes: list[st
     from planner.identify.diagnose.effects import speed_scale
 
     read = LIM.speed_response_of(level, res)
-    if read is None or speed_scale(*read) == 1.0:
+    if read is None or speed_scale(read[0], read[1]) == 1.0:
         return
-    k, se = read
+    k, se, wind = read
     notes.append(
         f"power level: these flights' power changes with airspeed {k:.2f} ± {se:.2f} times as "
         "much as the calibrated model's (a free scale on the model's change of power with "
-        "airspeed, fitted with a steady wind): a mission flown at speeds other than these "
-        "flights' is predicted with that error, and a wind is read through the flights' own "
-        "change")
+        f"airspeed{', fitted with a steady wind' if wind else ''}): a mission flown at speeds "
+        "other than these flights' is predicted with that error"
+        + (", and a wind is read through the flights' own change" if wind else ""))
 
 
 def _withhold_on_impossible_baseline(res: S.LevelResult, base_values: dict,

@@ -446,7 +446,7 @@ def _speed_scaled(level, res, base, lim):
     read = speed_response_of(level, res, base)
     if read is None:
         return lim, ""
-    k, se = read
+    k, se, _ = read
     scale = speed_scale(k, se)
     if scale == 1.0:
         return lim, ""
@@ -460,34 +460,37 @@ def _speed_scaled(level, res, base, lim):
                                 lim.stderr / k, lim.visible_share, lim.design_effect), ""
 
 
-def speed_response_of(level, res, base=None) -> tuple[float, float] | None:
-    """The flights' scale on the model's change of power with airspeed and its standard
-    error (:meth:`planner.identify.diagnose.search.PowerLevel.speed_read`), read on the
-    level's final fit with a steady wind in it (:func:`_with_wind`), once per level
-    result (kept in its ``speed_response``); None where it cannot be read."""
+def speed_response_of(level, res, base=None) -> tuple[float, float, bool] | None:
+    """The flights' scale on the model's change of power with airspeed, its standard
+    error (:meth:`planner.identify.diagnose.search.PowerLevel.speed_read`) and whether a
+    steady wind was in the fit it was read on (:func:`_with_wind`), once per level result
+    (kept in its ``speed_response``); None where it cannot be read."""
     if res.speed_response is False:
         fit, effects = _with_wind(level, res, base or res.base_fit)
         read = level.speed_read(fit, effects) if fit is not None else None
-        res.speed_response = None if read is None else (read[0], read[1])
+        res.speed_response = None if read is None else (
+            read[0], read[1], any(e.name == "wind" for e in effects))
     return res.speed_response
 
 
 def _with_wind(level, res, base):
-    """The level's final fit with its effects where a wind is among them, else a steady
-    wind fitted on every bin beside the effects found (started from the final fit, or
-    ``base``); (None, []) where that fit fails."""
+    """The level's final fit with its effects where a wind is among them; else, where the
+    record can show a wind (:meth:`planner.identify.diagnose.effects.Wind.data_reason`:
+    a course, no measured airspeed), a steady wind fitted on every bin beside the effects
+    found (started from the final fit, or ``base``); else the final fit as it is. (None,
+    []) where a fit fails."""
     from planner.errors import PlannerError
     from planner.identify.diagnose.effects import Wind
 
     chosen = [e for e, _ in res.selected]
-    if any(e.name == "wind" for e in chosen) and res.final_fit is not None:
-        return res.final_fit, chosen
+    final = res.final_fit or base
+    if any(e.name == "wind" for e in chosen) or Wind().data_reason(level) is not None:
+        return final, chosen
     effects = chosen + [Wind()]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return level.fit(effects, np.ones(level.n_rows, bool),
-                             start=res.final_fit or base), effects
+            return level.fit(effects, np.ones(level.n_rows, bool), start=final), effects
     except (PlannerError, np.linalg.LinAlgError, ValueError):
         return None, []         # a fit that fails here leaves the model's limit
 

@@ -2015,11 +2015,12 @@ class LevelResult:
     #: Rival effects that each passed alone but that the held-out data cannot tell apart
     #: (:func:`_rival_step`): one dict per tie, ``candidates``, ``why``.
     confused: list[dict] = field(default_factory=list)
-    #: The flights' scale on the model's change of power with airspeed and its standard
-    #: error, read on the final fit with a steady wind in it (:meth:`PowerLevel.speed_read`,
+    #: The flights' scale on the model's change of power with airspeed, its standard
+    #: error and whether a steady wind was in the fit it was read on
+    #: (:meth:`PowerLevel.speed_read`,
     #: :func:`planner.identify.diagnose.limits.speed_response_of`); False until read, None
     #: where it cannot be.
-    speed_response: tuple[float, float] | None | bool = False
+    speed_response: tuple[float, float, bool] | None | bool = False
 
 
 def _promising(cmp: Comparison) -> bool:

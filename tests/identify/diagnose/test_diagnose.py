@@ -589,3 +589,16 @@ def test_a_wind_is_read_through_the_flights_scale_only_where_it_differs_from_the
     why = Wind().implausible({"speed_response": 0.1, "speed_response_stderr": 0.1,
                               "wind_speed_ms": 3.0}, None)
     assert "cannot be told" in why
+
+
+def test_a_record_without_a_course_reads_the_speed_response_without_a_wind():
+    """Eight flights without wind whose aircraft draws half the rotor model's change of
+    power with airspeed, the course not logged: no wind can be fitted, and the note on
+    the model's misfit says the scale without one (search, "Wind")."""
+    df, truth = power_dataset(None, None, seed=1, n_flights=8, speed_response=0.5, **FLIGHTS)
+    res = diagnose(df.drop(columns=["course_deg"]), battery(PACK_6S), aircraft_file(**WRONG),
+                   payload_kg=truth["payload_kg"])
+    k, se, wind = res.levels["power"].result.speed_response
+    assert not wind and abs(k - 0.5) < 0.1 and se < 0.05
+    note = next(n for n in res.notes if "changes with airspeed" in n)
+    assert "steady wind" not in note
