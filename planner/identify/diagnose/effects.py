@@ -885,16 +885,11 @@ class SpeedResponse(PowerEffect):
     name = "speed_response"
     needs = ()
     linear = ("speed_response_coefficient",)
-    driver_label = "model's change of power with airspeed [W]"
 
     def columns(self, M, pw, state):
         """The mechanical power less its value with no airspeed (the same state
         otherwise, :meth:`planner.identify.diagnose.search.PowerLevel._evaluate`). [W per W]"""
         return [M - state["still_mechanical_w"]]
-
-    def bin_driver(self, pw, state):
-        """The modelled battery power of each bin. [W]"""
-        return state.get("modelled_w", pw.measured)
 
 
 class AirDensity(PowerEffect):
