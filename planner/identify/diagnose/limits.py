@@ -62,6 +62,7 @@ The limit falls as 1/√(number of flights) for the pooled tests.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from typing import Any
@@ -419,8 +420,7 @@ def _wind_gate(level, sig, nuisance, resid, groups, clusters, dof, mse, lim):
                f"{100 * CONFOUND_R**2:.0f} % of its variation), which a mass change at that "
                f"point fits as well, so at no size would a wind of unknown direction be "
                f"named in {100 * POWER:.0f} % of cases")
-        return stats.DetectionLimit(math.inf, math.inf, lim.practical, lim.stderr,
-                                    lim.visible_share, lim.design_effect), why
+        return _none(lim), why
     p = POWER / q
     out = stats.detectable_size(sig, nuisance, resid, groups, dof=dof, heldout_mse=mse,
                                 paired=True, power=p, clusters=clusters)
@@ -454,10 +454,15 @@ def _speed_scaled(level, res, base, lim):
         why = (f"these flights' power changes with airspeed {k:.2f} ± {se:.2f} times as much as "
                "the calibrated model's, not clearly at all: a wind cannot be read from the "
                "power's change with the direction of travel")
-        return stats.DetectionLimit(math.inf, math.inf, lim.practical, lim.stderr,
-                                    lim.visible_share, lim.design_effect), why
-    return stats.DetectionLimit(lim.limit / k, lim.statistical / k, lim.practical / k,
-                                lim.stderr / k, lim.visible_share, lim.design_effect), ""
+        return _none(lim), why
+    return dataclasses.replace(lim, limit=lim.limit / k, statistical=lim.statistical / k,
+                               practical=lim.practical / k, stderr=lim.stderr / k), ""
+
+
+def _none(lim):
+    """``lim`` with no size at which the effect is named (a gate that withholds it at any
+    size)."""
+    return dataclasses.replace(lim, limit=math.inf, statistical=math.inf)
 
 
 def speed_response_of(level, res, base=None) -> tuple[float, float, bool] | None:

@@ -1543,7 +1543,14 @@ class PowerLevel:
         [unitless], its standard error, and that fit's physical values and errors
         (:meth:`physical`). None on a fixed wing, where fewer than
         :data:`MIN_DESCENT_FLIGHTS` training flights move (ground speed at least
-        :data:`MOVING_MS`), or where the fit fails."""
+        :data:`MOVING_MS`), or where the fit fails. Read once per fit and effects (kept in
+        the fit's state): the wind's parameters and the level's note both ask for it."""
+        key = ("speed_read", tuple(e.name for e in effects))
+        if key not in fit.state:
+            fit.state[key] = self._speed_read(fit, effects)
+        return fit.state[key]
+
+    def _speed_read(self, fit: Fit, effects) -> tuple[float, float, dict, dict] | None:
         from planner.identify.diagnose.effects import SpeedResponse
 
         if not self.aircraft.is_multirotor:
@@ -1681,7 +1688,8 @@ class PowerLevel:
             # it differs from the model's, the wind is the one fitted with it free
             k, sk, jv, js = read
             values["wind_speed_ms_model"] = math.hypot(values["wind_n_ms"], values["wind_e_ms"])
-            if math.isfinite(speed_scale(k, sk)) and speed_scale(k, sk) != 1.0:
+            scale = speed_scale(k, sk)
+            if math.isfinite(scale) and scale != 1.0:
                 for key in ("wind_n_ms", "wind_e_ms"):
                     values[key], stderr[key] = jv[key], js[key]
                 for key in ("wind_speed_ms_hover_shift", "wind_speed_ms_hover_bias"):
