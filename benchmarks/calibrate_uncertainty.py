@@ -86,7 +86,8 @@ def predictive_energy(aircraft, samples, fit, mass_of, rng, discrepancy_sd=0.0,
         chain = MissionChain(with_params(aircraft, dict(zip(names, theta))), None)
         mass = own if payloads is None else (
             bare_kg + rng.choice(payloads, len(flights))[flight_of])
-        p = chain.power_at(samples.airspeed, samples.climb_rate, samples.air_density, mass)
+        p = chain.power_at(samples.airspeed, samples.climb_rate, samples.air_density, mass,
+                           disk_frame=samples.disk_frame)
         e = np.bincount(flight_of, weights=p * samples.dt, minlength=len(flights))
         out.append(e / 3600.0)
     e = np.array(out).T                                  # flights × draws

@@ -32,6 +32,15 @@ _UNITS = [("_mah", "mAh"), ("_kg", "kg"), ("_ms", "m/s"), ("_m2", "m²"), ("_w",
           ("_k_per_w", "K/W"), ("_j_per_k", "J/K")]
 
 
+def _default_text(entry) -> str:
+    """A navigation default as the table shows it: ``–`` where the autopilot has none (the
+    key's fallback holds)."""
+    if entry is None:
+        return "–"
+    value = entry[0]
+    return f"{value!s}".lower() if isinstance(value, bool) else f"{value:g}"
+
+
 def _unit(key: str) -> str:
     best = ""
     for suffix, unit in _UNITS:
@@ -100,11 +109,10 @@ def sections() -> dict[str, str]:
         + "\n".join(["| key | " + " | ".join(f"`{a}`" for a in aircraft.AUTOPILOTS) + " |",
                      "|---|" + "---|" * len(aircraft.AUTOPILOTS)]
                     + [f"| `{k}` | " + " | ".join(
-                        f"{aircraft.NAVIGATION_DEFAULTS[a][k][0]!s}".lower()
-                        if isinstance(aircraft.NAVIGATION_DEFAULTS[a][k][0], bool)
-                        else f"{aircraft.NAVIGATION_DEFAULTS[a][k][0]:g}"
+                        _default_text(aircraft.NAVIGATION_DEFAULTS[a].get(k))
                         for a in aircraft.AUTOPILOTS) + " |"
-                       for k in aircraft.NAVIGATION_DEFAULTS[aircraft.AUTOPILOTS[0]]]),
+                       for k in dict.fromkeys(k for a in aircraft.AUTOPILOTS
+                                              for k in aircraft.NAVIGATION_DEFAULTS[a])]),
         "pack": key_table(pack.BATTERY_KEYS),
         "model": key_table(pack.MODEL_KEYS, "model."),
         "circuit": key_table(blocks.CIRCUIT_KEYS, "circuit."),

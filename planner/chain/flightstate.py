@@ -153,10 +153,18 @@ class FlightState:
         its in-plane speed :math:`\sqrt{V^2 + \dot h^2 - v_{ax}^2}` (the speed is the
         same in both frames); otherwise they are the airspeed and the climb rate.
         """
-        if self.axial_speed_ms is None:
+        if not self.disk_frame:
             return self.airspeed_ms, self.climb_rate_ms
         ax = self.axial_speed_ms
         return inplane_speed(self.airspeed_ms, self.climb_rate_ms, ax), ax
+
+    @property
+    def disk_frame(self) -> bool:
+        """True where :meth:`rotor_velocities` gives the disks' measured in-plane and
+        axial speed (the record has the axial speed), false where it gives the airspeed
+        and the climb rate (the power model then flies the tilt of the aircraft file's
+        ``tilt_drag_area_m2`` where it has one). [unitless]"""
+        return self.axial_speed_ms is not None
 
     def __len__(self) -> int:
         return len(self.time_s)

@@ -73,6 +73,11 @@ ADDED_RETURN_ORIGIN = "return home (added)"
 BELOW_HOME_TOLERANCE_M = 0.5
 MIN_ALT_CHANGE_M = 0.01
 
+#: Suffix of the origin of the row in which a straight leg gains its speed, and of the
+#: row in which it loses it (the rows between fly the leg at constant speed).
+ACCELERATING = " (accelerating)"
+BRAKING = " (braking)"
+
 
 def flyable_legs(mission: Mission, aircraft: Aircraft) -> tuple[Mission, str | None]:
     """The mission's legs checked and bounded as the aircraft flies them.
@@ -514,8 +519,9 @@ def _navigate(plan: _LegPlan, aircraft: Aircraft, env: Environment, origin: list
         next_v = np.concatenate((np.where(cruise, v, 0.0)[1:], [0.0]))
         v0, v1 = np.minimum(v, prev_v), np.minimum(v, next_v)
     go = cruise & (v > 0) & (plan.distance > 0)
+    brake_a, brake_j = nav.brake_limits
     m = motion.straight_move(plan.distance, np.where(go, v, 1.0), nav.horizontal_accel_ms2,
-                             nav.horizontal_jerk_ms3, v0, v1)
+                             nav.horizontal_jerk_ms3, v0, v1, brake_a, brake_j)
     dur[:, 0] = np.where(go, m.accel_time_s, dur[:, 0])
     dur[:, 1] = np.where(go, m.cruise_time_s, dur[:, 1])
     dur[:, 2] = np.where(go, m.brake_time_s, 0.0)
@@ -569,8 +575,8 @@ def _navigate(plan: _LegPlan, aircraft: Aircraft, env: Environment, origin: list
     leg_of = np.repeat(np.arange(n), k)[flat]
     slot_of = np.tile(np.arange(k), n)[flat]
     names = [o or f"leg {i + 1}" for i, o in enumerate(origin)]
-    suffix = ("", "", " (braking)", " (landing slow stage)", " (waypoint dwell)")
-    first = np.where(from_ground, " (spin-up)", np.where(cruise, " (accelerating)", ""))
+    suffix = ("", "", BRAKING, " (landing slow stage)", " (waypoint dwell)")
+    first = np.where(from_ground, " (spin-up)", np.where(cruise, ACCELERATING, ""))
     row_origin = [names[i] + (first[i] if s == 0 else suffix[s])
                   for i, s in zip(leg_of.tolist(), slot_of.tolist())]
     main_row = {int(i): int(r) for r, (i, s) in enumerate(zip(leg_of, slot_of)) if s == 1}
@@ -668,8 +674,10 @@ def return_home_points(table: LegTable, aircraft: Aircraft, env: Environment, te
     nav = ac.navigation if ac.is_multirotor else None
     if nav is not None:
         # the autopilot's move home (from and to rest) and its two-rate landing
+        brake_a, brake_j = nav.brake_limits
         move = motion.straight_move(dist, np.where(gs > 0, gs, 1.0), nav.horizontal_accel_ms2,
-                                    nav.horizontal_jerk_ms3)
+                                    nav.horizontal_jerk_ms3, brake_accel=brake_a,
+                                    brake_jerk=brake_j)
         t_back = np.where(home | ~(gs > 0), t_back, move.time_s)
         fast, slow = motion.landing(alt_pos, nav.descent_rate_ms, nav.landing_slow_height_m,
                                     nav.landing_descent_rate_ms)

@@ -809,8 +809,10 @@ class MissionChain:
         # a multirotor flies its rotor disks' in-plane and axial speed (FlightState notes)
         v, climb = (state.rotor_velocities() if ac.is_multirotor
                     else (state.airspeed_ms, state.climb_rate_ms))
+        disk = ac.is_multirotor and state.disk_frame
         if not ac.has_rotor_losses:
-            return self.power_at(v, climb, state.air_density, mass_kg, on_ground=on_ground)
+            return self.power_at(v, climb, state.air_density, mass_kg, on_ground=on_ground,
+                                 disk_frame=disk)
         lead = float(ac.multirotor.power_lead_s or 0.0)
         t = np.asarray(state.time_s, float)
 
@@ -822,21 +824,23 @@ class MissionChain:
         force = state.specific_force_ms2
         thrust = None if force is None else mass * later(force)
         return self.power_at(later(v), later(climb), later(state.air_density), mass,
-                             on_ground=on_ground, thrust=thrust)
+                             on_ground=on_ground, thrust=thrust, disk_frame=disk)
 
     def power_at(self, airspeed_ms, climb_rate_ms, air_density, mass_kg, *,
-                 on_ground=False, thrust=None) -> np.ndarray:
+                 on_ground=False, thrust=None, disk_frame=False) -> np.ndarray:
         """The aircraft's battery power at measured flight states (all broadcast).
 
         A fixed-wing aircraft's airspeed is held at its minimum airspeed
         (:attr:`planner.parameters.Aircraft.min_airspeed_ms`): below it the polar's
         induced term has no meaning. On the ground only ``system_power_w`` is drawn.
-        ``thrust`` (measured, N) is read by the ``rotor_losses`` model only. [W]
+        ``thrust`` (measured, N) is read by the ``rotor_losses`` model only; where
+        ``disk_frame`` is true the speeds are the rotor disks' in-plane and axial speed
+        (:meth:`planner.parameters.Aircraft.battery_power`). [W]
         """
         ac = self.aircraft
         v = (np.asarray(airspeed_ms, float) if ac.is_multirotor
              else np.maximum(airspeed_ms, ac.min_airspeed_ms))
         extra = {} if thrust is None else {"thrust": thrust}
-        power = np.asarray(ac.battery_power(v, climb_rate_ms, air_density, mass_kg, **extra),
-                           float)
+        power = np.asarray(ac.battery_power(v, climb_rate_ms, air_density, mass_kg,
+                                            disk_frame=disk_frame, **extra), float)
         return np.where(on_ground, ac.system_power_w, power)

@@ -8,7 +8,8 @@ to the measured electric power of the airborne samples by least squares
 
 * multirotor — efficiency η (electrical → shaft), body drag area f and the
   system load P_S (the figure of merit stays as given: in hover it is not
-  separable from η);
+  separable from η); where the flights log the axial speed, also the drag the rotor
+  disks' tilt balances (:func:`tilt_drag_area`);
 * fixed-wing — C_D0, K, η and P_S (η is separable from the polar only
   through climbs and descents; a poorly determined parameter is reported). This steady
   fit suits flights flown by the steady model (the fleet's simulated flights); the
@@ -37,6 +38,9 @@ fitted by :func:`fit_rotor_losses`:
   training data are one flight);
 * the lead of the power channel over the state channels (``power_lead_s``) is chosen
   among :data:`LEADS_S` by the training RMS alone;
+* as for the ``momentum`` model, where the flights log the axial speed the drag the rotor
+  disks' tilt balances (``tilt_drag_area_m2``) is read from it (:func:`tilt_drag_area`),
+  the tilt every plan then flies; a fit of named ``parameters`` holds the file's;
 * a parameter that ends on one of its bounds is reported as a misfit of the model's form
   (``at_bound``), not as a value.
 
@@ -82,6 +86,7 @@ from planner.io import record
 from planner.chain.mission_chain import MissionChain
 from planner.errors import FitError, InputError
 from planner.parameters import Aircraft
+from planner.parameters.aircraft import MODEL_ONLY_KEYS
 from planner.physics.power.rotor_losses import (
     RotorLossesPower,
     battery_power_from_unit_terms,
@@ -185,6 +190,9 @@ class Samples:
     measured_w: np.ndarray
     dt: np.ndarray
     specific_force: np.ndarray | None = None
+    #: True where ``airspeed`` and ``climb_rate`` are the rotor disks' measured in-plane
+    #: and axial speed (:attr:`planner.chain.flightstate.FlightState.disk_frame`).
+    disk_frame: np.ndarray | None = None
 
     def subset(self, mask: np.ndarray) -> Samples:
         """The samples where ``mask`` is true (an optional channel that is None stays
@@ -218,12 +226,12 @@ def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
         ok = airborne_mask(exp, state, airborne_height_m) & np.isfinite(p) & np.isfinite(v)
         dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
         parts.append((np.full(ok.sum(), str(exp_id), dtype=object), t[ok], v[ok], climb[ok],
-                      rho[ok], p[ok], dt[ok]))
+                      rho[ok], p[ok], dt[ok], np.full(ok.sum(), state.disk_frame)))
     parts = [part for part in parts if len(part[1])]
     if not parts:
         raise InputError("no airborne samples in the data (ground tests only?)")
-    cols = [np.concatenate([part[i] for part in parts]) for i in range(7)]
-    return Samples(*cols)
+    cols = [np.concatenate([part[i] for part in parts]) for i in range(8)]
+    return Samples(*cols[:7], disk_frame=cols[7])
 
 
 def vertical_descent(s: Samples) -> tuple[float, int]:
@@ -263,15 +271,16 @@ def _descent_weight_freed(names: list[str], parameters, s_trn: Samples,
 def _predict(aircraft: Aircraft, s: Samples, mass: np.ndarray) -> np.ndarray:
     chain = MissionChain(aircraft, None)
     force = s.specific_force
+    disk = False if s.disk_frame is None else s.disk_frame
     if force is None or not aircraft.has_rotor_losses:
-        return chain.power_at(s.airspeed, s.climb_rate, s.air_density, mass)
+        return chain.power_at(s.airspeed, s.climb_rate, s.air_density, mass, disk_frame=disk)
     ok = np.isfinite(force)
     measured = chain.power_at(s.airspeed, s.climb_rate, s.air_density, mass,
-                              thrust=mass * np.where(ok, force, 9.80665))
+                              thrust=mass * np.where(ok, force, 9.80665), disk_frame=disk)
     if ok.all():
         return measured
     return np.where(ok, measured, chain.power_at(s.airspeed, s.climb_rate, s.air_density,
-                                                 mass))
+                                                 mass, disk_frame=disk))
 
 
 def sample_masses(s: Samples, mass_kg) -> np.ndarray:
@@ -447,7 +456,10 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "ground_power": ground, "held": held,
     }
     result.update(_status(misfit, free, aircraft))
-    result.update(_scores(aircraft, fitted, s, s, trn, val, mass_kg))
+    if parameters is None and reads_tilt(aircraft):
+        result = with_tilt(result, aircraft, _states(data, site_altitude_m), mass_kg,
+                           airborne_height_m)
+    result.update(_scores(aircraft, result["aircraft"], s, s, trn, val, mass_kg))
     return result
 
 
@@ -654,6 +666,106 @@ def airborne_mask(exp: pd.DataFrame, state, airborne_height_m: float | None) -> 
         return _height(exp) > airborne_height_m
 
 
+#: Steady level flight, where the tilt is read (:func:`tilt_drag_area`): climbing or
+#: descending slower than this [m/s], ...
+TILT_LEVEL_CLIMB_MS = 0.3
+#: ... faster than this (below, the tilt's axial speed, under 0.1 m/s on the M100, is
+#: within the channel's offset: its median in hover is 0.03 m/s) [m/s], ...
+TILT_MIN_SPEED_MS = 3.0
+#: ... and changing speed by less than this (an acceleration tilts the disks further).
+#: [m/s²]
+TILT_STEADY_ACCEL_MS2 = 0.3
+#: Fewest such samples the tilt is read on. [count]
+TILT_MIN_SAMPLES = 100
+
+
+def tilt_drag_area(states, mass_kg, experiments, airborne_height_m: float | None = None
+                   ) -> dict[str, Any]:
+    r"""The drag area the rotor disks' measured tilt balances (``tilt_drag_area_m2``).
+
+    In steady level flight the thrust's forward component balances the body drag,
+    :math:`T\sin\alpha = D`, :math:`T\cos\alpha = W`, so the axial speed through the
+    disks, :math:`V_z = V\sin\alpha`, gives the drag :math:`D = W\tan\alpha` and the
+    power spent on it :math:`DV` (Leishman 2006 ch. 5; the model's
+    :func:`planner.physics.power.momentum.tilted_disk_velocities`). On the steady level
+    samples (:data:`TILT_LEVEL_CLIMB_MS`, :data:`TILT_MIN_SPEED_MS`,
+    :data:`TILT_STEADY_ACCEL_MS2`) of the ``experiments`` whose record has the axial
+    speed, least squares through the origin of :math:`DV` on :math:`\tfrac12\rho V^3`
+    (in watts, so the fast samples, whose power the tilt moves most, weigh most); the
+    standard error cluster-robust, one cluster per flight.
+
+    Returns ``{"value": f_t [m²], "stderr": [m²], "samples", "flights"}``, or
+    ``{"reason": …}`` where the flights do not show it.
+    """
+    from planner.physics.atmosphere import G
+
+    xs, ys, groups = [], [], []
+    with_axial = 0
+    for exp_id, exp, st in states:
+        if exp_id not in experiments or not st.disk_frame:
+            continue
+        with_axial += 1
+        t, v, vc = st.time_s, st.airspeed_ms, st.climb_rate_ms
+        accel = np.gradient(v, t) if t.size > 2 else np.zeros_like(v)
+        speed = np.hypot(v, vc)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sin = np.clip(st.axial_speed_ms / speed, -0.95, 0.95)
+            ok = (airborne_mask(exp, st, airborne_height_m) & (np.abs(vc) < TILT_LEVEL_CLIMB_MS)
+                  & (v > TILT_MIN_SPEED_MS) & (np.abs(accel) < TILT_STEADY_ACCEL_MS2)
+                  & np.isfinite(sin) & np.isfinite(st.air_density))
+        if not ok.any():
+            continue
+        m = float(mass_kg[exp_id]) if isinstance(mass_kg, dict) else float(mass_kg)
+        drag = m * G * sin[ok] / np.sqrt(1.0 - sin[ok] ** 2)
+        xs.append(0.5 * st.air_density[ok] * v[ok] ** 3)
+        ys.append(drag * v[ok])
+        groups.append(np.full(ok.sum(), exp_id, dtype=object))
+    if not with_axial:
+        return {"reason": "the flights have no axial speed (axial_speed_ms)"}
+    n = sum(x.size for x in xs)
+    if n < TILT_MIN_SAMPLES:
+        return {"reason": f"{n} steady level samples faster than {TILT_MIN_SPEED_MS:g} m/s "
+                          f"(fewer than {TILT_MIN_SAMPLES})"}
+    x, y, g = np.concatenate(xs), np.concatenate(ys), np.concatenate(groups)
+    f = float(x @ y / (x @ x))
+    cov = stats.cluster_covariance(x[:, None], y - f * x, g)
+    return {"value": f, "stderr": float(np.sqrt(cov.matrix[0, 0])), "samples": int(n),
+            "flights": int(np.unique(g).size)}
+
+
+def reads_tilt(aircraft: Aircraft) -> bool:
+    """Whether the aircraft's power model flies a tilt (``tilt_drag_area_m2``: the
+    ``momentum`` and ``rotor_losses`` multirotor models)."""
+    return aircraft.is_multirotor and aircraft.multirotor.power_model in \
+        MODEL_ONLY_KEYS["tilt_drag_area_m2"]
+
+
+def with_tilt(result: dict[str, Any], aircraft: Aircraft, states, mass_kg,
+              airborne_height_m: float | None) -> dict[str, Any]:
+    """The fit's ``result`` with the tilt read on its training flights
+    (:func:`tilt_drag_area`) in its aircraft, parameters and standard errors, or, where
+    the flights do not show it, the file's tilt held (in ``held``, with the reason).
+    Read only by a fit of every parameter (no ``parameters`` list) and only for a model
+    that flies one (:func:`reads_tilt`)."""
+    if not reads_tilt(aircraft):
+        return result
+    tilt = tilt_drag_area(states, mass_kg, set(map(str, result["train_experiments"])),
+                          airborne_height_m)
+    given = aircraft.multirotor.tilt_drag_area_m2
+    if "reason" in tilt:
+        if given is not None:
+            result.setdefault("held", {})["tilt_drag_area_m2"] = (
+                f"held at the file's {given:g} m²: {tilt['reason']}")
+        result["tilt"] = tilt
+        return result
+    result["aircraft"] = with_params(result["aircraft"], {"tilt_drag_area_m2": tilt["value"]})
+    result["parameters"]["tilt_drag_area_m2"] = tilt["value"]
+    result["stderr"]["tilt_drag_area_m2"] = tilt["stderr"]
+    result["start"]["tilt_drag_area_m2"] = math.nan if given is None else float(given)
+    result["tilt"] = tilt
+    return result
+
+
 def rotor_losses_samples(states, lead_s: float = 0.0,
                          airborne_height_m: float | None = None) -> Samples:
     """Airborne samples with the flight state read ``lead_s`` after each power sample
@@ -673,11 +785,12 @@ def rotor_losses_samples(states, lead_s: float = 0.0,
         dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
         parts.append((np.full(ok.sum(), exp_id, dtype=object), t[ok],
                       later(v)[ok], later(climb)[ok],
-                      later(st.air_density)[ok], st.measured_power_w[ok], dt[ok], force[ok]))
+                      later(st.air_density)[ok], st.measured_power_w[ok], dt[ok], force[ok],
+                      np.full(ok.sum(), st.disk_frame)))
     parts = [part for part in parts if len(part[1])]
     if not parts:
         raise InputError("no airborne samples in the data (ground tests only?)")
-    return Samples(*(np.concatenate([part[i] for part in parts]) for i in range(8)))
+    return Samples(*(np.concatenate([part[i] for part in parts]) for i in range(9)))
 
 
 def stopped_power(states, airborne_power_w: float) -> tuple[float | None, int]:
@@ -705,11 +818,14 @@ def _unit_terms(aircraft: Aircraft, s: Samples, mass: np.ndarray, drag_area: flo
     with the arguments :meth:`Aircraft.rotor_losses_power` passes and the measured thrust
     where the samples have a specific force, as :func:`_predict`."""
     m = aircraft.multirotor
+    airspeed, climb = aircraft.disk_velocities(
+        s.airspeed, s.climb_rate, s.air_density, mass,
+        disk_frame=False if s.disk_frame is None else s.disk_frame)
 
     def at(thrust):
         return rotor_losses_components(
-            mass, s.air_density, m.rotors, m.rotor_diameter_m, 1.0, airspeed=s.airspeed,
-            climb_rate=s.climb_rate, drag_area=drag_area, induced_factor=m.induced_factor,
+            mass, s.air_density, m.rotors, m.rotor_diameter_m, 1.0, airspeed=airspeed,
+            climb_rate=climb, drag_area=drag_area, induced_factor=m.induced_factor,
             profile_power_ratio=1.0, tip_speed=m.tip_speed_ms, no_load_power=1.0,
             copper_loss_power=1.0, reference_mass=m.reference_mass_kg, thrust=thrust,
             descent_inflow_weight=m.descent_inflow_weight)
@@ -805,8 +921,10 @@ def fit_rotor_losses(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "fit_status": "ok" if not misfit else "misfit: " + "; ".join(
             f"{m['parameter']} {m['why']} ({m['cause']})" for m in misfit),
     }
-    result.update(_scores(aircraft, fitted, samples[given_lead], samples[lead], trn, val,
-                          mass_kg))
+    if parameters is None:
+        result = with_tilt(result, aircraft, states, mass_kg, airborne_height_m)
+    result.update(_scores(aircraft, result["aircraft"], samples[given_lead], samples[lead],
+                          trn, val, mass_kg))
     return result
 
 

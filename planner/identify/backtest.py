@@ -28,7 +28,11 @@ Measured, over the flight (first to last sample drawing more than
 :data:`FLYING_POWER_FRACTION` of the median airborne power, so the rotors' spin-up and
 the landing are in it): the energy ∫P dt [Wh], the charge ∫I dt [mAh], the flight time
 [s], the lowest voltage [V]; the landing charge is the pack's usable charge less the
-charge drawn (as the check counts it, from a full pack). A flight that cannot be scored
+charge drawn (as the check counts it, from a full pack). And leg by leg, the power of
+the level cruise at constant speed, which a long mission spends most of its charge in and
+these short flights little: the median power of the samples in level flight at the
+plan's speed (:func:`measured_cruise_power`) against the check's level legs flown at
+constant speed (:func:`predicted_cruise_power`). A flight that cannot be scored
 (never airborne, too short, no plan, no payload or forecast where the tables give others
 one) keeps its row with the ``reason``; the others are scored.
 """
@@ -45,6 +49,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from planner.chain.kinematics import ACCELERATING, BRAKING
 from planner.chain.mission_chain import MissionChain
 from planner.chain.uncertainty import Spreads, monte_carlo
 from planner.errors import InputError, PlannerError
@@ -87,6 +92,13 @@ TURN_TOLERANCE_M = 10.0
 MIN_LEG_M = 5.0
 #: Moving = faster than this over ground. [m/s]
 MOVING_MS = 1.0
+#: Level cruise, where the cruise power is scored: climbing or descending slower than
+#: this [m/s], ...
+CRUISE_CLIMB_MS = 0.3
+#: ... at the plan's speed within this share of it, ... [unitless]
+CRUISE_SPEED_TOLERANCE = 0.15
+#: ... for at least this long in all. [s]
+MIN_CRUISE_S = 5.0
 #: Metres per degree of latitude (WGS-84 mean, about 111.2 km; the tracks span < 1 km,
 #: an equirectangular projection about the take-off point is exact to < 0.1 %). [m/deg]
 M_PER_DEG = 6_371_008.8 * math.pi / 180.0
@@ -102,6 +114,7 @@ ROW_COLUMNS = (
     "measured_time_s", "predicted_time_s", "time_error_pct",
     "measured_landing_mah", "predicted_landing_mah",
     "measured_min_voltage_v", "predicted_min_voltage_v", "verdict", "landed_with_reserve",
+    "measured_cruise_power_w", "predicted_cruise_power_w", "cruise_power_error_pct",
     "energy_p5_wh", "energy_p95_wh", "energy_inside_band", "charge_p5_mah", "charge_p95_mah",
     "charge_inside_band")
 
@@ -135,6 +148,10 @@ class BacktestOptions:
         calibrated model's own per-flight energy error on the fold's training flights
         (``energy_error_sd``) — and the row says whether the measured energy and charge
         fell inside its P5–P95 band. [count]
+    tilt : with False the calibrated aircraft flies without the rotor disks' tilt its
+        training flights show (``tilt_drag_area_m2``, read by
+        :func:`~planner.identify.aircraft_fit.fit_aircraft` where they log the axial
+        speed): the model as it was before it read one, to measure what the tilt gains.
     """
 
     folds: int = 5
@@ -147,6 +164,7 @@ class BacktestOptions:
     parameters: tuple[str, ...] | None = None
     kinematics: str = "fitted"
     uncertainty_samples: int = 0
+    tilt: bool = True
 
 
 # ------------------------------------------------------------------------- folds
@@ -200,6 +218,8 @@ def calibrate_fold(aircraft: Aircraft, train_record: pd.DataFrame, options: Back
                            parameters=list(options.parameters) if options.parameters
                            else None, train=ids, site_altitude_m=options.site_altitude_m)
     fitted = fit["aircraft"]
+    if not options.tilt and fitted.is_multirotor:
+        fitted = replace(fitted, multirotor=replace(fitted.multirotor, tilt_drag_area_m2=None))
     if options.kinematics == "none":
         return replace(fitted, navigation=None)
     if options.kinematics == "fitted":
@@ -260,6 +280,43 @@ def measured(exp: pd.DataFrame) -> dict[str, float] | str:
         if np.isfinite(v).any():
             out["measured_min_voltage_v"] = float(np.nanmin(v))
     return out
+
+
+def measured_cruise_power(exp: pd.DataFrame, speed_ms: float) -> float:
+    """Median battery power of the flight's level cruise at the plan's speed: airborne
+    (:func:`_flying`), climbing or descending slower than :data:`CRUISE_CLIMB_MS`, ground
+    speed within :data:`CRUISE_SPEED_TOLERANCE` of ``speed_ms``; NaN with less than
+    :data:`MIN_CRUISE_S` of it or without the channels. [W]"""
+    fly = _flying(exp) if record.has_power(exp) else None
+    if fly is None or not {"climb_rate_ms", "groundspeed_ms"} <= set(exp.columns) \
+            or not np.isfinite(speed_ms) or speed_ms <= 0:
+        return float("nan")
+    t, mask = fly
+    p = exp["power_w"].to_numpy(float)
+    gs = np.abs(exp["groundspeed_ms"].to_numpy(float))
+    with np.errstate(invalid="ignore"):
+        ok = (mask & (np.abs(exp["climb_rate_ms"].to_numpy(float)) < CRUISE_CLIMB_MS)
+              & (np.abs(gs - speed_ms) < CRUISE_SPEED_TOLERANCE * speed_ms) & np.isfinite(p))
+    dt = np.gradient(t) if t.size > 1 else np.zeros_like(t)
+    if float(np.sum(dt[ok])) < MIN_CRUISE_S:
+        return float("nan")
+    return float(np.median(p[ok]))
+
+
+def predicted_cruise_power(res) -> float:
+    """Duration-weighted mean battery power of the check's level legs flown at constant
+    speed (kind ``cruise``, climbing slower than :data:`CRUISE_CLIMB_MS`, not an
+    acceleration or a braking row of the navigation); NaN where it has none. [W]"""
+    lc = res.leg_columns
+    kind = np.asarray(lc["kind"]).astype(str)
+    origin = [str(o) for o in lc["origin"]]
+    steady = np.array([not o.endswith((ACCELERATING, BRAKING)) for o in origin], bool)
+    d = np.asarray(lc["duration_s"], float)
+    ok = ((kind == "cruise") & steady & (np.abs(np.asarray(lc["climb_rate_ms"], float))
+                                        < CRUISE_CLIMB_MS) & (d > 0))
+    if not ok.any():
+        return float("nan")
+    return float(np.sum(np.asarray(lc["power_w"], float)[ok] * d[ok]) / np.sum(d[ok]))
 
 
 # --------------------------------------------------------------------- forecast
@@ -472,10 +529,13 @@ def predict_flight(aircraft: Aircraft, pack: BatteryPack, exp: pd.DataFrame,
                predicted_min_voltage_v=res.min_voltage_v, verdict=res.verdict,
                measured_landing_mah=res.usable_mah - row["measured_charge_mah"])
     row["landed_with_reserve"] = bool(row["measured_landing_mah"] >= res.reserve_mah)
-    for name in ("energy", "charge", "time"):
-        unit = {"energy": "wh", "charge": "mah", "time": "s"}[name]
+    row["measured_cruise_power_w"] = measured_cruise_power(exp, row["speed_ms"])
+    row["predicted_cruise_power_w"] = predicted_cruise_power(res)
+    for name in ("energy", "charge", "time", "cruise"):
+        unit = {"energy": "wh", "charge": "mah", "time": "s", "cruise": "power_w"}[name]
         m, p = row[f"measured_{name}_{unit}"], row[f"predicted_{name}_{unit}"]
-        row[f"{name}_error_pct"] = 100.0 * (p - m) / m if m and np.isfinite(m) else float("nan")
+        error = 100.0 * (p - m) / m if m and np.isfinite(m) else float("nan")
+        row["cruise_power_error_pct" if name == "cruise" else f"{name}_error_pct"] = error
     if options.uncertainty_samples:
         row.update(_band(aircraft, pack, mission, environment, payload_kg, options, row))
     row["status"] = "scored"
@@ -623,6 +683,14 @@ def summarise(table: pd.DataFrame, worst: int = 5) -> dict[str, Any]:
     out["left_out_reasons"] = {str(k): int(v) for k, v in reasons.value_counts().items()}
     for name in ("energy", "charge", "time"):
         out[name] = _stats(ok[f"{name}_error_pct"])
+    cruise = ok["cruise_power_error_pct"].astype(float)
+    out["cruise_power"] = _stats(cruise)
+    if cruise.notna().any():
+        g = cruise.groupby(ok["speed_ms"].astype(float).round(1))
+        out["cruise_power_against_speed"] = {
+            str(k): {"n": int(v.notna().sum()), "bias_pct": float(v.mean()),
+                     "median_abs_pct": float(v.abs().median())}
+            for k, v in g if v.notna().any()}
     if len(ok):
         w = ok.reindex(ok["energy_error_pct"].abs().sort_values(ascending=False).index)
         out["worst"] = [{"experiment": r.experiment, "energy_error_pct": r.energy_error_pct,

@@ -30,6 +30,9 @@ The record (:mod:`planner.io.record`): ``experiment``, ``time_s``, ``groundspeed
   from below :data:`REST_SPEED_MS` to its plateau ``V``, the median speed above 80 % of
   the move's top): the times from rest to 10 %, 50 % and 90 % of ``V`` are fitted by
   :func:`planner.physics.motion.time_to_speed` (robust least squares, ``soft_l1``);
+* **horizontal deceleration and jerk of the stops**: the same fit on every stop, time
+  reversed (from the first sample at rest after a move back to 10, 50 and 90 % of its
+  ``V``): an autopilot may brake harder than it starts (the DJI M100 does);
 * **dwell**: the median length of the rests at altitude between two moves, less the
   part of the two speed ramps below :data:`REST_SPEED_MS` that the profile already
   counts;
@@ -91,9 +94,25 @@ def _crossing_time(t, x, level, start, end):
     return out
 
 
+def _stops(t, gs, a, b, v):
+    """The moves' stops at rest, ``(V, t10, t50, t90)`` per move that ends at rest: the
+    times from the first sample at rest after the move back to the last time the speed
+    was 10, 50 and 90 % of ``V`` — a start from rest with time reversed (the jerk-limited
+    profile is the same backwards). [m/s], [s]"""
+    n = len(t)
+    ends = b < n                                   # the move ends at rest in the record
+    if not ends.any():
+        return np.zeros((0, 4))
+    a, b, v = a[ends], b[ends], v[ends]
+    tr, gr = -t[::-1], gs[::-1]
+    lead = n - 1 - b                               # the first sample at rest after it
+    times = [_crossing_time(tr, gr, q * v, lead, n - a) - tr[lead] for q in (0.1, 0.5, 0.9)]
+    return np.column_stack([v, *times])
+
+
 def _flight(t, gs, vz, alt, p):
-    """The per-flight measures (NaN where the flight does not show them) and its starts
-    from rest ``(V, t10, t50, t90)`` and its rests between moves [s]."""
+    """The per-flight measures (NaN where the flight does not show them), its starts
+    from rest and its stops ``(V, t10, t50, t90)`` and its rests between moves [s]."""
     nan = np.nan
     out = {"spinup_s": nan, "climb_rate_ms": nan, "descent_rate_ms": nan,
            "landing_descent_rate_ms": nan, "landing_slow_height_m": nan,
@@ -101,7 +120,7 @@ def _flight(t, gs, vz, alt, p):
            "vertical_accel_ms2": nan, "moves": 0, "rests": 0}
     air = alt > LIFTOFF_HEIGHT_M
     if air.sum() < 10:
-        return out, np.zeros((0, 4)), np.zeros(0)
+        return out, np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(0)
     lift = int(np.argmax(air))
     p_air = float(np.median(p[air]))
     on = np.flatnonzero(p[:lift + 1] > SPINUP_POWER_SHARE * p_air)
@@ -150,7 +169,7 @@ def _flight(t, gs, vz, alt, p):
             out["landing_descent_rate_ms"] = float(np.median(w[h > LIFTOFF_HEIGHT_M]))
             out["slow_descent_top_m"] = top
     # starts from rest: V, times from the move's start to 10, 50 and 90 % of V
-    starts = np.zeros((0, 4))
+    starts = stops = np.zeros((0, 4))
     rests = np.zeros(0)
     if a.size:
         top_speed = np.maximum.reduceat(gs, a)   # rests between moves are slower
@@ -160,13 +179,14 @@ def _flight(t, gs, vz, alt, p):
         lead = np.maximum(a - 1, 0)                 # from the last sample at rest
         times = [_crossing_time(t, gs, q * v, lead, b) - t0 for q in (0.1, 0.5, 0.9)]
         starts = np.column_stack([v, *times])
+        stops = _stops(t, gs, a, b, v)
         out["moves"] = int(a.size)
         # rests at altitude between two moves
         gap = t[a[1:]] - t[np.maximum(b[:-1] - 1, 0)]
         between = np.array([np.all(air[j:i]) for j, i in zip(b[:-1], a[1:])], bool)
         rests = gap[between]
         out["rests"] = int(rests.size)
-    return out, starts, rests
+    return out, starts, stops, rests
 
 
 def navigation_measures(record: pd.DataFrame) -> tuple[dict[str, float], dict[str, int],
@@ -193,18 +213,23 @@ def navigation_measures(record: pd.DataFrame) -> tuple[dict[str, float], dict[st
     if missing:
         raise InputError("the navigation fit needs the flight-record columns "
                          + ", ".join(missing))
-    rows, starts, rests = [], [], []
+    rows, starts, stops, rests = [], [], [], []
     for exp, g in record.groupby("experiment", sort=False):   # one step per flight
         g = g.sort_values("time_s")
         cols = [g[c].to_numpy(float) for c in ("time_s", "groundspeed_ms", "climb_rate_ms",
                                                  "altitude_m", "power_w")]
-        m, s, r = _flight(*cols)
+        m, s, e, r = _flight(*cols)
         rows.append({"experiment": exp, **m})
         starts.append(s)
+        stops.append(e)
         rests.append(r)
     flights = pd.DataFrame(rows)
-    st = np.concatenate(starts) if starts else np.zeros((0, 4))
-    st = st[np.all(np.isfinite(st), axis=1) & (st[:, 0] > 2 * REST_SPEED_MS)]
+
+    def usable(parts):
+        x = np.concatenate(parts) if parts else np.zeros((0, 4))
+        return x[np.all(np.isfinite(x), axis=1) & (x[:, 0] > 2 * REST_SPEED_MS)]
+
+    st, sp = usable(starts), usable(stops)
     rest = np.concatenate(rests) if rests else np.zeros(0)
     if flights.empty or flights["climb_rate_ms"].notna().sum() == 0:
         raise InputError("the navigation fit found no flight that takes off and climbs "
@@ -237,6 +262,9 @@ def navigation_measures(record: pd.DataFrame) -> tuple[dict[str, float], dict[st
     a, j = _fit_accel_jerk(st)
     values["horizontal_accel_ms2"], values["horizontal_jerk_ms3"] = a, j
     counts["horizontal_accel_ms2"] = counts["horizontal_jerk_ms3"] = int(len(st))
+    ab, jb = _fit_accel_jerk(sp)
+    values["horizontal_brake_accel_ms2"], values["horizontal_brake_jerk_ms3"] = ab, jb
+    counts["horizontal_brake_accel_ms2"] = counts["horizontal_brake_jerk_ms3"] = int(len(sp))
     moves = int(flights["moves"].sum())
     stops = int(flights["rests"].sum())
     after_first = moves - int((flights["moves"] > 0).sum())
@@ -246,7 +274,9 @@ def navigation_measures(record: pd.DataFrame) -> tuple[dict[str, float], dict[st
     if np.isfinite(a) and np.isfinite(j) and rest.size:
         v_typ = np.median(st[:, 0]) if len(st) else 2 * REST_SPEED_MS
         ramp = float(motion.time_to_speed(REST_SPEED_MS, v_typ, a, j))
-        values["waypoint_dwell_s"] = max(float(np.median(rest)) - 2.0 * ramp, 0.0)
+        brake = (float(motion.time_to_speed(REST_SPEED_MS, v_typ, ab, jb))
+                 if np.isfinite(ab) and np.isfinite(jb) else ramp)
+        values["waypoint_dwell_s"] = max(float(np.median(rest)) - ramp - brake, 0.0)
     else:
         values["waypoint_dwell_s"] = float(np.median(rest)) if rest.size else 0.0
     counts["waypoint_dwell_s"] = int(rest.size)
@@ -286,13 +316,18 @@ def fit_navigation(record: pd.DataFrame, source: str) -> Navigation:
         message names it).
     """
     values, counts, _ = navigation_measures(record)
-    lacking = [k for k, v in values.items() if not np.isfinite(v)]
+    for key in ("horizontal_brake_accel_ms2", "horizontal_brake_jerk_ms3"):
+        if not np.isfinite(values[key]):    # no stops: the starts' limits hold for them
+            values[key] = None
+            counts.pop(key)
+    lacking = [k for k, v in values.items() if v is not None and not np.isfinite(v)]
     if lacking:
         raise InputError(f"{source}: the flights do not show the navigation's "
                          + ", ".join(lacking))
     stop = bool(values.pop("stop_at_waypoints"))
     counted = "; ".join(f"{k} from {counts[k]} "
-                        + ("starts" if k.startswith("horizontal") else
+                        + ("stops" if k.startswith("horizontal_brake") else
+                           "starts" if k.startswith("horizontal") else
                            "rests" if k == "waypoint_dwell_s" else
                            "moves" if k == "stop_at_waypoints" else "flights")
                         for k in counts)

@@ -138,6 +138,12 @@ MULTIROTOR_KEYS = {
         "static power coefficient C_P = P/(ρ n³ D⁵) (`propeller` model)")),
     "drag_area_m2": S.non_negative(default=0.0, high=L.DRAG_AREA_MAX_M2, unit="m²",
                                    meaning="body drag area f = C_D A"),
+    "tilt_drag_area_m2": S.non_negative(high=L.DRAG_AREA_MAX_M2, unit="m²", meaning=(
+        "drag area f_t the rotor disks' forward tilt balances in steady flight "
+        "(T sin α = ½ρV²f_t), read by `fit-aircraft` from flights with the axial speed "
+        "(`momentum`, `rotor_losses`): where given, a flight state without a measured axial "
+        "speed is flown at the disks' velocities this tilt gives, as a record with one is, "
+        "and `drag_area_m2` is the drag the tilt does not show")),
     "power_model": S.text("`propeller` (needs `ct`, `cp`), `momentum` or `rotor_losses`; "
                           "absent: `propeller` when `ct` and `cp` are given, else `momentum`",
                           choices=("propeller", "momentum", "rotor_losses")),
@@ -198,6 +204,11 @@ NAVIGATION_KEYS = {
         "acceleration limit A of straight legs")),
     "horizontal_jerk_ms3": S.positive(high=L.NAV_JERK_MAX_MS3, unit="m/s³", meaning=(
         "jerk limit J of straight legs")),
+    "horizontal_brake_accel_ms2": S.positive(high=L.NAV_ACCEL_MAX_MS2, unit="m/s²", meaning=(
+        "deceleration limit of straight legs where it differs from the acceleration's "
+        "(absent: `horizontal_accel_ms2`)")),
+    "horizontal_brake_jerk_ms3": S.positive(high=L.NAV_JERK_MAX_MS3, unit="m/s³", meaning=(
+        "jerk limit of the slowing down where it differs (absent: `horizontal_jerk_ms3`)")),
     "vertical_accel_ms2": S.positive(high=L.NAV_ACCEL_MAX_MS2, unit="m/s²", meaning=(
         "vertical acceleration limit of climbs")),
     "stop_at_waypoints": S.Key(S.BOOL, meaning=(
@@ -258,15 +269,20 @@ NAVIGATION_DEFAULTS: dict[str, dict[str, tuple[Any, str]]] = {
         "landing_descent_rate_ms": (1.03, "measured, M100: 180 flights"),
         "horizontal_accel_ms2": (2.03, "measured, M100: 523 starts from rest"),
         "horizontal_jerk_ms3": (1.65, "measured, M100: 523 starts from rest"),
+        "horizontal_brake_accel_ms2": (3.78, "measured, M100: 523 stops"),
+        "horizontal_brake_jerk_ms3": (2.95, "measured, M100: 523 stops"),
         "vertical_accel_ms2": (0.94, "measured, M100: 182 climbs"),
         "stop_at_waypoints": (True, "measured: the M100 stops at every route vertex (the "
                                     "OSDK waypoint traceMode 0, point to point: "
                                     "dji-sdk/Onboard-SDK dji_mission_type.hpp)"),
-        "waypoint_dwell_s": (0.14, "measured, M100: 341 rests between moves"),
+        "waypoint_dwell_s": (0.34, "measured, M100: 341 rests between moves"),
     },
 }
 
 _NAV_FIELDS = tuple(k for k in NAVIGATION_KEYS if k not in ("defaults", "source"))
+#: Navigation keys a block may leave out (None: the key each names holds instead).
+_NAV_OPTIONAL = {"horizontal_brake_accel_ms2": "horizontal_accel_ms2",
+                 "horizontal_brake_jerk_ms3": "horizontal_jerk_ms3"}
 
 
 @dataclass(frozen=True)
@@ -287,6 +303,15 @@ class Navigation:
     stop_at_waypoints: bool
     waypoint_dwell_s: float
     source: str | None = None
+    horizontal_brake_accel_ms2: float | None = None
+    horizontal_brake_jerk_ms3: float | None = None
+
+    @property
+    def brake_limits(self) -> tuple[float, float]:
+        """Deceleration [m/s²] and jerk [m/s³] limits of the slowing down of straight legs
+        (the acceleration's where the block gives none)."""
+        return (self.horizontal_brake_accel_ms2 or self.horizontal_accel_ms2,
+                self.horizontal_brake_jerk_ms3 or self.horizontal_jerk_ms3)
 
     @classmethod
     def defaults(cls, autopilot: str) -> Navigation:
@@ -303,7 +328,8 @@ class Navigation:
     def to_mapping(self) -> dict[str, Any]:
         """The block as a YAML-ready mapping (the keys of :data:`NAVIGATION_KEYS`)."""
         out: dict[str, Any] = {k: (bool(v) if isinstance(v, (bool, np.bool_)) else float(v))
-                               for k in _NAV_FIELDS for v in [getattr(self, k)]}
+                               for k in _NAV_FIELDS for v in [getattr(self, k)]
+                               if v is not None}
         if self.source:
             out["source"] = self.source
         return out
@@ -316,7 +342,8 @@ ROTOR_LOSSES_KEYS = ("no_load_power_w", "copper_loss_power_w", "drive_efficiency
 #: Keys of MULTIROTOR_KEYS only some power models read, and which: a file giving one to
 #: another model is refused, and the object holds None there (written back without it).
 MODEL_ONLY_KEYS = {**{key: ("rotor_losses",) for key in ROTOR_LOSSES_KEYS},
-                   "descent_inflow_weight": ("momentum", "rotor_losses")}
+                   "descent_inflow_weight": ("momentum", "rotor_losses"),
+                   "tilt_drag_area_m2": ("momentum", "rotor_losses")}
 
 #: Keys each multirotor power model needs (besides rotors and diameter).
 POWER_MODEL_KEYS = {"propeller": ("ct", "cp"), "momentum": (), "rotor_losses": ()}
@@ -370,6 +397,7 @@ class Multirotor:
     ct: float | None = None
     cp: float | None = None
     drag_area_m2: float = _MR["drag_area_m2"]
+    tilt_drag_area_m2: float | None = None
     cruise_speed_ms: float = _MR["cruise_speed_ms"]
     max_airspeed_ms: float = _MR["max_airspeed_ms"]
     induced_factor: float = _MR["induced_factor"]
@@ -476,7 +504,7 @@ class Aircraft:
         return fw.stall_speed_ms or 0.5 * fw.cruise_airspeed_ms
 
     def battery_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0,
-                      thrust=None):
+                      thrust=None, disk_frame=False):
         """Electric power drawn from the pack in steady flight.
 
         Thin wrapper: passes the stored parameters to the pure power models
@@ -498,12 +526,20 @@ class Aircraft:
         thrust : numeric, optional
             Measured total thrust (mass × accelerometer specific force), read by the
             ``rotor_losses`` model only; default the trim thrust. [N]
+        disk_frame : bool or array of bool
+            Where true, ``airspeed`` and ``climb_rate`` are already the rotor disks'
+            in-plane and axial speed (a record's measured axial speed,
+            :meth:`planner.chain.flightstate.FlightState.rotor_velocities`). Elsewhere a
+            multirotor with ``tilt_drag_area_m2`` flies the disks' velocities its tilt gives
+            (:func:`planner.physics.power.momentum.tilted_disk_velocities`). [unitless]
 
         Returns
         -------
         power : numeric
             Battery power. [W]
         """
+        airspeed, climb_rate = self.disk_velocities(airspeed, climb_rate, air_density, mass,
+                                                    load_factor, disk_frame)
         if self.has_rotor_losses:
             return self.rotor_losses_power(airspeed, climb_rate, air_density, mass,
                                            load_factor, thrust=thrust)
@@ -514,6 +550,23 @@ class Aircraft:
         return load_dependent_battery_power(power, self.efficiency, self.system_power_w,
                                             self.efficiency_slope,
                                             self.efficiency_reference_power_w)
+
+    def disk_velocities(self, airspeed, climb_rate, air_density, mass, load_factor=1.0,
+                        disk_frame=False):
+        """The speeds the power model flies (:meth:`battery_power`): the rotor disks'
+        in-plane and axial speed from the tilt ``tilt_drag_area_m2`` where it is given
+        and ``disk_frame`` is false; ``airspeed`` and ``climb_rate`` as they are
+        elsewhere (and for a fixed wing). [m/s]"""
+        tilt = self.multirotor.tilt_drag_area_m2 if self.is_multirotor else None
+        if tilt is None or np.all(disk_frame):
+            return airspeed, climb_rate
+        from planner.physics.numeric import like_inputs
+        from planner.physics.power.momentum import tilted_disk_velocities
+        inplane, axial = tilted_disk_velocities(airspeed, climb_rate, air_density, mass,
+                                                tilt, load_factor)
+        keep = np.asarray(disk_frame, bool)
+        return (like_inputs(np.where(keep, airspeed, inplane), airspeed, climb_rate),
+                like_inputs(np.where(keep, climb_rate, axial), airspeed, climb_rate))
 
     def rotor_losses_power(self, airspeed, climb_rate, air_density, mass, load_factor=1.0,
                            thrust=None, rotors_turning=True):
@@ -673,7 +726,7 @@ def _navigation(data: Any, where: str, problems: S.Problems) -> Navigation | Non
         return None
     base = (Navigation.defaults(d["defaults"]).__dict__ if d["defaults"] else {})
     values = {k: (d[k] if d[k] is not None else base.get(k)) for k in _NAV_FIELDS}
-    missing = [k for k, v in values.items() if v is None]
+    missing = [k for k, v in values.items() if v is None and k not in _NAV_OPTIONAL]
     if missing:
         problems.add("navigation needs " + ", ".join(f"'navigation.{k}'" for k in missing)
                      + " (or 'navigation.defaults': " + ", ".join(AUTOPILOTS) + ")")

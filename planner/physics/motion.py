@@ -176,7 +176,8 @@ class Move:
     brake_mean_accel_ms2: np.ndarray
 
 
-def straight_move(length, speed, accel, jerk, start_speed=0.0, end_speed=0.0) -> Move:
+def straight_move(length, speed, accel, jerk, start_speed=0.0, end_speed=0.0,
+                  brake_accel=None, brake_jerk=None) -> Move:
     """The minimum-time jerk-limited straight move (see the module's formulas).
 
     Parameters
@@ -192,36 +193,50 @@ def straight_move(length, speed, accel, jerk, start_speed=0.0, end_speed=0.0) ->
     start_speed, end_speed : array_like, default 0
         Speeds at the ends (0: from or to rest; at most ``speed``). A move too short to
         change from one to the other is flown at the mean of the two. [m/s]
+    brake_accel, brake_jerk : array_like, optional
+        Limits of the slowing down where they differ from the speeding up (a DJI M100
+        brakes harder than it starts: :data:`planner.parameters.aircraft.NAVIGATION_DEFAULTS`);
+        default ``accel`` and ``jerk``. [m/s²], [m/s³]
 
     Returns
     -------
     Move
         All fields broadcast to the shape of the inputs.
     """
-    L, V, A, J, v0, v1 = np.broadcast_arrays(*(np.asarray(x, float) for x in (
-        length, speed, accel, jerk, start_speed, end_speed)))
+    L, V, A, J, v0, v1, Ab, Jb = np.broadcast_arrays(*(np.asarray(x, float) for x in (
+        length, speed, accel, jerk, start_speed, end_speed,
+        accel if brake_accel is None else brake_accel,
+        jerk if brake_jerk is None else brake_jerk)))
     v0, v1 = np.minimum(v0, V), np.minimum(v1, V)
     rest = (v0 == 0.0) & (v1 == 0.0)
+    symmetric = (Ab == A) & (Jb == J)
+
+    def change(a, b):       # speeding up from a to b < a slows down: the brake's limits
+        up = b >= a
+        t_up, d_up = speed_change(a, b, A, J)
+        t_dn, d_dn = speed_change(a, b, Ab, Jb)
+        return np.where(up, t_up, t_dn), np.where(up, d_up, d_dn)
+
     # general ends: bisection on the peak speed between max(v0, v1) and V
     lo = np.maximum(v0, v1)
     hi = V.copy()
-    _, d_lo1 = speed_change(v0, lo, A, J)
-    _, d_lo2 = speed_change(lo, v1, A, J)
+    _, d_lo1 = change(v0, lo)
+    _, d_lo2 = change(lo, v1)
     too_short = (d_lo1 + d_lo2) >= L        # not even the change of speed fits
     for _ in range(PEAK_BISECTION_STEPS):
         mid = 0.5 * (lo + hi)
-        _, d1 = speed_change(v0, mid, A, J)
-        _, d2 = speed_change(mid, v1, A, J)
+        _, d1 = change(v0, mid)
+        _, d2 = change(mid, v1)
         over = (d1 + d2) > L
         hi = np.where(over, mid, hi)
         lo = np.where(over, lo, mid)
-    _, d1 = speed_change(v0, V, A, J)
-    _, d2 = speed_change(V, v1, A, J)
+    _, d1 = change(v0, V)
+    _, d2 = change(V, v1)
     peak = np.where((d1 + d2) <= L, V, lo)
-    peak = np.where(rest, _rest_to_rest_peak(L, V, A, J), peak)
+    peak = np.where(rest & symmetric, _rest_to_rest_peak(L, V, A, J), peak)
     peak = np.where(too_short & ~rest, np.maximum(v0, v1), peak)
-    t1, d1 = speed_change(v0, peak, A, J)
-    t3, d3 = speed_change(peak, v1, A, J)
+    t1, d1 = change(v0, peak)
+    t3, d3 = change(peak, v1)
     d_cruise = np.maximum(L - d1 - d3, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         t2 = np.where(peak > 0.0, d_cruise / peak, 0.0)

@@ -33,9 +33,11 @@ def flight(name, v, sides, alt=60.0, p=TRUE):
     gs, vz = [np.zeros(n_idle + n_spin), vz_climb], [np.zeros(n_idle + n_spin), vz_climb]
     gs[1] = np.zeros_like(vz_climb)
     r = ramp(v, p["A"], p["J"])
+    ab, jb = p.get("Ab", p["A"]), p.get("Jb", p["J"])
+    rb = ramp(v, ab, jb)
     for L in sides:
-        d_ramps = v * (v / p["A"] + p["A"] / p["J"])
-        acc = np.concatenate([r, np.zeros(int(round((L - d_ramps) / v / DT))), -r])
+        d_ramps = 0.5 * v * (v / p["A"] + p["A"] / p["J"] + v / ab + ab / jb)
+        acc = np.concatenate([r, np.zeros(int(round((L - d_ramps) / v / DT))), -rb])
         speed = np.clip(np.cumsum(acc) * DT, 0, None)
         n_dwell = int(round(p["dwell"] / DT))
         gs += [speed, np.zeros(n_dwell)]
@@ -74,6 +76,28 @@ def test_recovers_known_parameters(record):
     assert nav.waypoint_dwell_s == pytest.approx(2.0, abs=0.3)
     assert nav.stop_at_waypoints is True
     assert "6 flights" in nav.source and "18 starts" in nav.source
+    # it stops as it starts
+    assert nav.horizontal_brake_accel_ms2 == pytest.approx(2.0, rel=0.05)
+    assert nav.horizontal_brake_jerk_ms3 == pytest.approx(1.0, rel=0.1)
+
+
+def test_a_vehicle_that_brakes_harder_than_it_starts():
+    """Moves that start at A = 2 m/s², J = 1 m/s³ and stop at 3.5 m/s², 3.5 m/s³ (as the
+    DJI M100 brakes about twice as hard as it starts): the stops, read time reversed,
+    give the brake's limits, the starts keep theirs, and the dwell between moves is
+    still the hover alone."""
+    hard = dict(TRUE, Ab=3.5, Jb=3.5)
+    rng = np.random.default_rng(7)
+    rec = pd.concat([flight(f"f{k}", v, rng.uniform(120, 400, 3), p=hard)
+                     for k, v in enumerate([4.0, 6.0, 8.0, 10.0, 12.0, 6.0])],
+                    ignore_index=True)
+    nav = fit_navigation(rec, "built flights")
+    assert nav.horizontal_brake_accel_ms2 == pytest.approx(3.5, rel=0.1)
+    # the jerk within 20 %: its phases last 1 s here, ten samples of the built ramp
+    assert nav.horizontal_brake_jerk_ms3 == pytest.approx(3.5, rel=0.2)
+    assert nav.horizontal_accel_ms2 == pytest.approx(2.0, rel=0.05)
+    assert nav.waypoint_dwell_s == pytest.approx(2.0, abs=0.3)
+    assert "18 stops" in nav.source
 
 
 def test_flights_that_never_descend_fast_give_a_slow_descent_from_their_height():
@@ -123,3 +147,5 @@ def test_real_m100_climb_and_descent(shared_data):
     assert nav.landing_descent_rate_ms == pytest.approx(1.0, abs=0.1)
     assert nav.stop_at_waypoints is True
     assert 1.0 < nav.horizontal_accel_ms2 < 4.0
+    # it brakes harder than it starts (3.8 against 2.0 m/s² on the 182 R1 flights)
+    assert nav.horizontal_brake_accel_ms2 > 1.4 * nav.horizontal_accel_ms2

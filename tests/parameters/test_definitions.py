@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from planner.errors import InputError
@@ -89,6 +90,37 @@ def test_the_descent_inflow_weight_is_read_by_the_rotor_models_only(tmp_path):
                             "p.yaml"))
     with pytest.raises(InputError, match="descent_inflow_weight"):
         load_aircraft(write(tmp_path, base % ", descent_inflow_weight: 3", "b.yaml"))
+
+
+def test_a_file_with_the_disks_tilt_flies_it_wherever_no_axial_speed_is_measured(tmp_path):
+    """``tilt_drag_area_m2``: a flight state given as airspeed and climb is flown at the
+    rotor disks' velocities the tilt gives (planner.physics.power.momentum
+    .tilted_disk_velocities), exactly as the same velocities given as measured
+    (``disk_frame``); those are never tilted again. The tilt raises the power with speed
+    and leaves hover alone; a propeller-coefficient model (no inflow) refuses the key; it
+    is written back."""
+    from planner.physics.power.momentum import tilted_disk_velocities
+
+    base = ("name: q\ntype: multirotor\nempty_mass_kg: 2\nefficiency: 0.5\n"
+            "multirotor: {rotors: 4, rotor_diameter_m: 0.33, drag_area_m2: 0.02%s}\n")
+    plain = load_aircraft(write(tmp_path, base % ""))
+    ac = load_aircraft(write(tmp_path, base % ", tilt_drag_area_m2: 0.086", "t.yaml"))
+    v, rho, m = np.array([0.0, 5.0, 10.0, 14.0]), 1.19, 2.6
+    inplane, axial = tilted_disk_velocities(v, 0.0, rho, m, 0.086)
+    tilted = ac.battery_power(v, 0.0, rho, m)
+    np.testing.assert_allclose(tilted, plain.battery_power(inplane, axial, rho, m),
+                               rtol=1e-12)
+    np.testing.assert_allclose(ac.battery_power(inplane, axial, rho, m, disk_frame=True),
+                               tilted, rtol=1e-12)
+    np.testing.assert_allclose(ac.battery_power(v, 0.0, rho, m, disk_frame=True),
+                               plain.battery_power(v, 0.0, rho, m), rtol=1e-12)
+    assert tilted[0] == pytest.approx(plain.battery_power(0.0, 0.0, rho, m))
+    assert tilted[-1] > plain.battery_power(14.0, 0.0, rho, m) + 20.0
+    assert ac.to_mapping()["multirotor"]["tilt_drag_area_m2"] == 0.086
+    assert "tilt_drag_area_m2" not in plain.to_mapping()["multirotor"]
+    with pytest.raises(InputError, match="tilt_drag_area_m2.*propeller"):
+        load_aircraft(write(tmp_path, base % ", ct: 0.1, cp: 0.04, tilt_drag_area_m2: 0.1",
+                            "p.yaml"))
 
 
 def test_k_from_aspect_ratio_and_oswald(tmp_path):

@@ -122,3 +122,37 @@ def test_takeoff_and_landing():
     assert fast == pytest.approx(80 / 3) and slow == pytest.approx(20.0)
     fast, slow = landing(10.0, 3.0, 20.0, 1.0)          # below the slow height
     assert fast == 0.0 and slow == pytest.approx(10.0)
+
+
+def test_a_harder_brake_shortens_the_move_by_the_difference_of_the_two_ramps():
+    """With its own deceleration and jerk limits, a rest-to-rest move that reaches its
+    speed takes the start's ramp at (A, J), the stop's at (A_b, J_b) and the rest at V:
+    T = L/V + (V/A + A/J)/2 + (V/A_b + A_b/J_b)/2 (each ramp covers V times half its
+    time); the brake's time is its own, and the default (no brake limits) is the
+    symmetric move."""
+    L, V, A, J, Ab, Jb = 300.0, 10.0, 2.0, 1.6, 3.8, 3.0
+    m = straight_move(L, V, A, J, brake_accel=Ab, brake_jerk=Jb)
+    expected = L / V + 0.5 * (V / A + A / J) + 0.5 * (V / Ab + Ab / Jb)
+    assert float(m.time_s) == pytest.approx(expected, rel=1e-9)
+    assert float(m.brake_time_s) == pytest.approx(V / Ab + Ab / Jb, rel=1e-9)
+    assert float(m.accel_time_s) == pytest.approx(V / A + A / J, rel=1e-9)
+    assert float(m.accel_distance_m + m.cruise_distance_m + m.brake_distance_m) == \
+        pytest.approx(L)
+    same = straight_move(L, V, A, J, brake_accel=A, brake_jerk=J)
+    assert float(same.time_s) == pytest.approx(float(straight_move(L, V, A, J).time_s))
+
+
+def test_a_short_move_with_a_harder_brake_peaks_where_its_two_ramps_fill_the_leg():
+    """A leg too short to reach V: the peak speed is where the start's ramp (A, J) and
+    the stop's (A_b, J_b) together cover the leg, higher than with the symmetric brake,
+    and the move is quicker."""
+    L, V, A, J, Ab, Jb = 20.0, 12.0, 2.0, 1.6, 3.8, 3.0
+    m = straight_move(L, V, A, J, brake_accel=Ab, brake_jerk=Jb)
+    peak = float(m.peak_speed_ms)
+    _, d1 = speed_change(0.0, peak, A, J)
+    _, d3 = speed_change(peak, 0.0, Ab, Jb)
+    assert float(d1 + d3) == pytest.approx(L, rel=1e-6)
+    assert float(m.cruise_time_s) == pytest.approx(0.0, abs=1e-6)
+    sym = straight_move(L, V, A, J)
+    assert peak > float(sym.peak_speed_ms)
+    assert float(m.time_s) < float(sym.time_s)

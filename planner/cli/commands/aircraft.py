@@ -154,7 +154,7 @@ def render(r, mass) -> str:
     width = max([19] + [len(k) for k in (*r["parameters"], *r.get("held", {}))])
     lines.append(f"{'parameter':<{width}} {'start':>10} {'fitted':>10} {'± stderr':>10}")
     units = {"no_load_power_w": "W", "copper_loss_power_w": "W", "drag_area_m2": "m²",
-             "system_power_w": "W"}
+             "tilt_drag_area_m2": "m²", "system_power_w": "W"}
     for k, v in r["parameters"].items():
         if k in r.get("at_bound", ()):
             lines.append(f"{k:<{width}} {fmt(r['start'][k], 4, 10)} {'—':>10} {'—':>10}  "
@@ -166,6 +166,11 @@ def render(r, mass) -> str:
                      f"{fmt(r['stderr'][k], 4, 10)} {units.get(k, ''):<2}{flag}")
     for k, why in r.get("held", {}).items():
         lines.append(f"{k:<{width}} {why}")
+    tilt = r.get("tilt", {})
+    if "value" in tilt:
+        lines.append(f"tilt_drag_area_m2: the drag the rotor disks' measured tilt balances, "
+                     f"read on {tilt['samples']} steady level samples of {tilt['flights']} "
+                     "flight(s) (axial speed); drag_area_m2 is the drag the tilt does not show")
     if "stopped_power" in r:
         sp = r["stopped_power"]
         lines.append(f"system_power_w (rotors stopped) {sp['value_w']:.1f} W: {sp['source']}")

@@ -269,6 +269,9 @@ def render(s: dict) -> str:
              "prediction error (predicted − measured, % of measured):",
              _line("energy", s["energy"]), _line("charge", s["charge"]),
              _line("flight time", s["time"])]
+    if s.get("cruise_power", {}).get("n"):
+        lines.append(_line("cruise power", s["cruise_power"])
+                     + ": level legs at constant speed")
     for name, b in s.get("band", {}).items():
         lines.append(f"{name} inside the P5-P95 band of check --uncertainty: {b['inside']} of "
                      f"{b['n']} flights ({b['coverage_pct']:.0f} %)")
@@ -290,5 +293,10 @@ def render(s: dict) -> str:
             lines += ["", f"energy error by {title} [{unit}]:"] + [
                 f"  {k:>6}  n {g['n']:3d}  bias {g['bias_pct']:+6.1f} %  median |error| "
                 f"{g['median_abs_pct']:5.1f} %" for k, g in groups.items()]
+        if col == "speed_ms" and s.get("cruise_power_against_speed"):
+            lines += ["", "cruise power error by speed [m/s]:"] + [
+                f"  {k:>6}  n {g['n']:3d}  bias {g['bias_pct']:+6.1f} %  median |error| "
+                f"{g['median_abs_pct']:5.1f} %"
+                for k, g in s["cruise_power_against_speed"].items()]
     lines += ["", f"wall time {s['elapsed_s']:.1f} s"]
     return "\n".join(lines)

@@ -747,7 +747,8 @@ def _as_given_power(level, aircraft) -> tuple[float, float]:
     rows = np.arange(level.n_rows)
     pred = np.asarray(aircraft.battery_power(
         np.maximum(level.base_inputs["airspeed"], getattr(level, "v_min", 0.0)),
-        level.base_inputs["climb"], level.rho_std, level.mass), float)
+        level.base_inputs["climb"], level.rho_std, level.mass,
+        disk_frame=getattr(level, "rotor_axial", False)), float)
     r = level.measured - pred
     finals = []
     for e in range(level.n_experiments):

@@ -1060,7 +1060,8 @@ class PowerLevel:
         if not self.aircraft.is_multirotor:
             v = np.maximum(v, self.v_min)
         return np.asarray(ac.battery_power(v, inputs["climb"][rows],
-                                           inputs["air_density"][rows], inputs["mass"][rows]),
+                                           inputs["air_density"][rows], inputs["mass"][rows],
+                                           disk_frame=getattr(self, "rotor_axial", False)),
                           float)
 
     def _inputs(self, effects, values, state) -> dict:

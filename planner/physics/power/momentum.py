@@ -530,6 +530,61 @@ def rotor_shaft_terms(mass, air_density, rotors, diameter, airspeed, climb_rate,
             "floor": r**3 * weight * vh_weight * (kappa + r0), "profile_power_ratio": r0}
 
 
+def tilted_disk_velocities(airspeed, climb_rate, air_density, mass, tilt_drag_area,
+                           load_factor=1.0, gravity=G):
+    r"""
+    The rotor disks' in-plane and axial speed in steady flight, with the disks tilted
+    against a body drag area.
+
+    Parameters
+    ----------
+    airspeed : numeric
+        Horizontal airspeed :math:`V`. [m/s]
+    climb_rate : numeric
+        Vertical speed :math:`V_c`, up positive. [m/s]
+    air_density : numeric
+        [kg m⁻³]
+    mass : numeric
+        All-up mass. [kg]
+    tilt_drag_area : numeric
+        Drag area :math:`f_t` the disks' forward tilt balances. [m²]
+    load_factor : numeric, default 1
+        Lift over weight (turns). [unitless]
+    gravity : float
+        [m s⁻²]
+
+    Returns
+    -------
+    inplane, axial : ndarray
+        :math:`V_{xy}` and :math:`V_z`. [m/s]
+
+    Notes
+    -----
+    In steady flight the thrust's forward component balances the body drag
+    :math:`D_t = \tfrac12\rho V^2 f_t` and its vertical component the weight,
+    :math:`T = \sqrt{(nW)^2 + D_t^2}`; the free stream's component along the tilted
+    thrust axis is then :math:`V_z = (D_t V + W V_c)/T` and the in-plane one
+    :math:`V_{xy} = \sqrt{V^2 + V_c^2 - V_z^2}` (Leishman 2006 ch. 5, the energy
+    method: :math:`T V_z` is the power to overcome the drag and to climb) [1]_.
+    These are the velocities a record's ``axial_speed_ms`` gives
+    (:meth:`planner.chain.flightstate.FlightState.rotor_velocities`): a power model fed
+    them flies the predicted tilt as it flies a measured one. With :math:`f_t = 0` and
+    :math:`n = 1` they are :math:`(V, V_c)`.
+    """
+    v = require(airspeed, "airspeed", ge=0.0, unit="m/s")
+    vc = np.asarray(climb_rate, dtype=float)
+    rho = require(air_density, "air_density", gt=0.0, unit="kg/m³")
+    m = require(mass, "mass", gt=0.0, unit="kg")
+    f = require(tilt_drag_area, "tilt_drag_area", ge=0.0, unit="m²")
+    n = require(load_factor, "load_factor", ge=1.0)
+    weight = m * gravity
+    drag = 0.5 * rho * v**2 * f
+    thrust = np.sqrt((n * weight) ** 2 + drag**2)
+    axial = (drag * v + weight * vc) / thrust
+    inplane = np.sqrt(np.maximum(v**2 + vc**2 - axial**2, 0.0))
+    return inplane, axial
+
+
 def terms_like_inputs(terms: dict, battery, inputs) -> dict:
     """Each term broadcast against the battery power and given the kind of the inputs
     (:func:`planner.physics.numeric.like_inputs`); units unchanged."""

@@ -35,6 +35,10 @@ def test_backtest_writes_the_table_the_report_and_the_plot(sample, tmp_path, cap
     assert report["scored"] == 5 and report["calibration"] == "3-fold by flight"
     scored = table[table.status == "scored"]
     assert report["energy"]["bias_pct"] == pytest.approx(scored.energy_error_pct.mean())
+    # leg by leg: the level legs at constant speed, against the flights' level cruise
+    assert report["cruise_power"]["n"] == 5
+    assert "cruise power bias" in text and "cruise power error by speed [m/s]:" in text
+    assert scored.cruise_power_error_pct.notna().all()
     assert (out / "report.txt").read_text().startswith("Backtest of 9 flight(s)")
     assert (out / "predicted_vs_measured.png").read_bytes()[:4] == b"\x89PNG"
 

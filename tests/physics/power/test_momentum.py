@@ -219,3 +219,25 @@ def test_the_descent_weight_changes_only_the_axial_descent_and_stays_continuous(
 def test_a_descent_weight_outside_its_range_is_refused(weight):
     with pytest.raises(ModelError, match="descent_inflow_weight"):
         mt.momentum_power_components(**QUAD, climb_rate=-1.0, descent_inflow_weight=weight)
+
+
+def test_the_tilted_disks_carry_the_drag_power_through_their_axial_inflow():
+    """The disks tilted against a drag area f_t in steady level flight: the axial
+    inflow V_z = V sin α with tan α = D/W, so T·V_z = D·V (Leishman 2006 ch. 5, the
+    energy method) and V_xy² + V_z² = V²; in hover and in a vertical climb the axial
+    speed is the climb rate; with no drag area the velocities are the flight's."""
+    from planner.physics.power.momentum import tilted_disk_velocities
+
+    rho, m, f, g = 1.19, 2.6, 0.086, 9.80665
+    v = np.array([0.0, 4.0, 8.0, 12.0])
+    inplane, axial = tilted_disk_velocities(v, 0.0, rho, m, f, gravity=g)
+    drag = 0.5 * rho * v**2 * f
+    thrust = np.hypot(m * g, drag)
+    np.testing.assert_allclose(thrust * axial, drag * v, rtol=1e-12)
+    np.testing.assert_allclose(inplane**2 + axial**2, v**2, rtol=1e-12, atol=1e-12)
+    assert axial[-1] == pytest.approx(12.0 * np.sin(np.arctan(drag[-1] / (m * g))))
+    _, up = tilted_disk_velocities(0.0, 2.5, rho, m, f)
+    assert up == pytest.approx(2.5)
+    flat = tilted_disk_velocities(v, 1.5, rho, m, 0.0)
+    np.testing.assert_allclose(flat[0], v)
+    np.testing.assert_allclose(flat[1], 1.5)
