@@ -22,7 +22,9 @@ For every flight (experiment) of a flight record:
    flight at its own take-off mass) on the flights of the other groups
    (:func:`calibrate_fold`). A list of held-out flights instead makes one fold.
 4. **The prediction** is the pre-flight check's (:meth:`MissionChain.check`, the chain of
-   ``endurance check``) at the flight's take-off mass (empty + pack + its payload).
+   ``endurance check``) at the flight's take-off mass (empty + pack + its payload); with
+   ``uncertainty_samples`` also its Monte Carlo band, the power model's error drawn with
+   the spread of the fold's own plans on its training flights (:func:`with_plan_error`).
 
 Measured, over the flight (first to last sample drawing more than
 :data:`FLYING_POWER_FRACTION` of the median airborne power, so the rotors' spin-up and
@@ -574,12 +576,48 @@ def _fold_rows(aircraft, pack, data, train, test, options, masses, payloads, sou
     except PlannerError as exc:
         return [{**base, "experiment": e, "status": "left out",
                  "reason": f"calibration on the other flights failed: {exc}"} for e in test]
+    if options.uncertainty_samples:
+        calibrated = with_plan_error(calibrated, pack, by_id, train, payloads, options,
+                                     sources)
     rows = []
     for e in test:
         exp = by_id[e].reset_index(drop=True)
         rows.append({**base, **predict_flight(calibrated, pack, exp, e, payloads[e], options,
                                               sources.get(e))})
     return rows
+
+
+#: Most training flights the plans' own error is measured on (:func:`with_plan_error`),
+#: evenly spaced among them. [count]
+PLAN_ERROR_FLIGHTS = 60
+#: Fewest training flights it needs; with fewer the aircraft's own spread stays.
+MIN_PLAN_ERROR_FLIGHTS = 3
+
+
+def with_plan_error(calibrated: Aircraft, pack: BatteryPack, by_id: dict, train: list[str],
+                    payloads: dict, options: BacktestOptions, sources: dict) -> Aircraft:
+    """The calibrated aircraft with the spread of its plans' energy error as its
+    ``energy_error_sd``: the root mean square of (predicted − measured) / measured energy
+    of up to :data:`PLAN_ERROR_FLIGHTS` training flights, each predicted from its plan and
+    its forecast as the held-out ones are. ``fit-aircraft``'s ``energy_error_sd`` is the
+    error of the power model driven by each flight's measured state; a plan adds what
+    the plan, the navigation and the forecast get wrong, and ``check --uncertainty``'s band
+    for a plan draws it. Training flights only: the flights predicted are never in it."""
+    usable = [e for e in train if e in payloads]
+    pick = [usable[i] for i in np.unique(np.linspace(
+        0, len(usable) - 1, min(PLAN_ERROR_FLIGHTS, len(usable))).round().astype(int))] \
+        if usable else []
+    plain = replace(options, uncertainty_samples=0)
+    errors = []
+    for e in pick:
+        row = predict_flight(calibrated, pack, by_id[e].reset_index(drop=True), e,
+                             payloads[e], plain, sources.get(e))
+        err = row.get("energy_error_pct")
+        if row.get("status") == "scored" and err is not None and np.isfinite(err):
+            errors.append(err / 100.0)
+    if len(errors) < MIN_PLAN_ERROR_FLIGHTS:
+        return calibrated
+    return replace(calibrated, energy_error_sd=float(np.sqrt(np.mean(np.square(errors)))))
 
 
 def _payloads(data: pd.DataFrame, payload_kg: float | None) -> tuple[dict, dict]:

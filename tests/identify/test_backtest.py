@@ -3,6 +3,7 @@ from a track, a forecast from before take-off only, what a flight measured, and 
 sample of the DJI Matrice 100 flights (Rodrigues et al., Scientific Data 8, 155, 2021)."""
 
 import itertools
+from dataclasses import replace
 import math
 import warnings
 from pathlib import Path
@@ -336,3 +337,39 @@ def test_the_tilt_read_per_fold_puts_the_cruise_power_right(m100_sample):
     s = summarise(runs[True].reset_index())
     assert s["cruise_power"]["n"] == 5 and set(s["cruise_power_against_speed"]) == {
         "4.0", "6.0", "8.0", "10.0", "12.0"}
+
+
+def test_the_band_draws_the_spread_of_the_plans_own_error_on_the_training_flights(
+        m100_sample, monkeypatch):
+    """With uncertainty samples each fold's aircraft carries, as its ``energy_error_sd``,
+    the RMS of its training flights' energy error predicted from their plans (what the
+    band of a plan must hold: the plan, the navigation and the forecast besides the power
+    model), never of a flight it predicts; without them the fit's own spread stays."""
+    ac, pack = load_aircraft_and_battery(M100)
+    seen = []
+    real = bt.with_plan_error
+
+    def spy(calibrated, pack_, by_id, train, payloads, options, sources):
+        out = real(calibrated, pack_, by_id, train, payloads, options, sources)
+        rows = [bt.predict_flight(calibrated, pack_, by_id[e].reset_index(drop=True), e,
+                                  payloads[e], replace(options, uncertainty_samples=0))
+                for e in train if e in payloads]
+        err = np.array([r["energy_error_pct"] for r in rows if r["status"] == "scored"])
+        seen.append((set(train), out.energy_error_sd, err, calibrated.energy_error_sd))
+        return out
+
+    monkeypatch.setattr(bt, "with_plan_error", spy)
+    table = run_backtest(m100_sample, ac, pack, BacktestOptions(
+        folds=3, site_altitude_m=300, uncertainty_samples=40))
+    assert len(seen) == 3
+    assert any(err.size >= bt.MIN_PLAN_ERROR_FLIGHTS for _, _, err, _ in seen)
+    for (train, sd, err, own), (_, rows) in zip(seen, table.dropna(subset=["fold"])
+                                                .groupby("fold")):
+        assert not train & set(rows["experiment"])
+        if err.size >= bt.MIN_PLAN_ERROR_FLIGHTS:
+            assert sd == pytest.approx(np.sqrt(np.mean((err / 100.0) ** 2)))
+        else:
+            assert sd == own
+    seen.clear()
+    run_backtest(m100_sample, ac, pack, BacktestOptions(folds=3, site_altitude_m=300))
+    assert not seen
