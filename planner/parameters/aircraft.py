@@ -280,9 +280,9 @@ NAVIGATION_DEFAULTS: dict[str, dict[str, tuple[Any, str]]] = {
 }
 
 _NAV_FIELDS = tuple(k for k in NAVIGATION_KEYS if k not in ("defaults", "source"))
-#: Navigation keys a block may leave out (None: the key each names holds instead).
-_NAV_OPTIONAL = {"horizontal_brake_accel_ms2": "horizontal_accel_ms2",
-                 "horizontal_brake_jerk_ms3": "horizontal_jerk_ms3"}
+#: Navigation keys a block may leave out (None: :attr:`Navigation.brake_limits` falls back
+#: to the acceleration's).
+_NAV_OPTIONAL = ("horizontal_brake_accel_ms2", "horizontal_brake_jerk_ms3")
 
 
 @dataclass(frozen=True)

@@ -210,11 +210,14 @@ def straight_move(length, speed, accel, jerk, start_speed=0.0, end_speed=0.0,
     v0, v1 = np.minimum(v0, V), np.minimum(v1, V)
     rest = (v0 == 0.0) & (v1 == 0.0)
     symmetric = (Ab == A) & (Jb == J)
+    one_limit = bool(np.all(symmetric))
 
-    def change(a, b):       # speeding up from a to b < a slows down: the brake's limits
-        up = b >= a
+    def change(a, b):       # a change to a lower speed is a braking: the brake's limits
         t_up, d_up = speed_change(a, b, A, J)
+        if one_limit:
+            return t_up, d_up
         t_dn, d_dn = speed_change(a, b, Ab, Jb)
+        up = b >= a
         return np.where(up, t_up, t_dn), np.where(up, d_up, d_dn)
 
     # general ends: bisection on the peak speed between max(v0, v1) and V
