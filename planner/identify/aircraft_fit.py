@@ -695,7 +695,11 @@ def tilt_drag_area(states, mass_kg, experiments, airborne_height_m: float | None
     standard error cluster-robust, one cluster per flight.
 
     Returns ``{"value": f_t [m²], "stderr": [m²], "samples", "flights"}``, or
-    ``{"reason": …}`` where the flights do not show it.
+    ``{"reason": …}`` where the flights do not show it (no axial speed, fewer than
+    :data:`TILT_MIN_SAMPLES` samples, or a tilt within two standard errors of none: on
+    the ArduCopter 3.1.3 flights of ``../shared/data/logs``, hovering and drifting at
+    3–7 m/s in an unknown wind, the attitude and the GPS velocity give 0.008 and
+    −0.04 m²).
     """
     from planner.physics.atmosphere import G
 
@@ -729,8 +733,12 @@ def tilt_drag_area(states, mass_kg, experiments, airborne_height_m: float | None
     x, y, g = np.concatenate(xs), np.concatenate(ys), np.concatenate(groups)
     f = float(x @ y / (x @ x))
     cov = stats.cluster_covariance(x[:, None], y - f * x, g)
-    return {"value": f, "stderr": float(np.sqrt(cov.matrix[0, 0])), "samples": int(n),
-            "flights": int(np.unique(g).size)}
+    se = float(np.sqrt(cov.matrix[0, 0]))
+    if not f > 2.0 * se:
+        return {"reason": f"the steady level samples show no tilt beyond its error "
+                          f"({f:.3g} ± {se:.2g} m² on {n} samples: too slow, or a wind the "
+                          "ground speed does not show)"}
+    return {"value": f, "stderr": se, "samples": int(n), "flights": int(np.unique(g).size)}
 
 
 def reads_tilt(aircraft: Aircraft) -> bool:

@@ -279,3 +279,22 @@ def test_the_tilt_is_read_from_the_axial_speed_and_held_without_it():
     assert read["parameters"]["tilt_drag_area_m2"] == pytest.approx(0.09, rel=0.03)
     assert read["aircraft"].multirotor.tilt_drag_area_m2 == \
         read["parameters"]["tilt_drag_area_m2"]
+
+
+def test_a_tilt_within_its_error_of_none_is_not_read():
+    """Flights whose axial speed is noise about zero (a vehicle drifting in a wind its
+    ground speed does not show): no tilt beyond two standard errors, so none is read and
+    the reason says so; a negative drag area is never written."""
+    import pandas as pd
+
+    from planner.chain import flightstate
+    from planner.identify.aircraft_fit import tilt_drag_area
+
+    rng = np.random.default_rng(11)
+    rec = pd.concat([_tilted_flight(f"f{k}", 0.0, rng) for k in range(3)], ignore_index=True)
+    rec["axial_speed_ms"] = rng.normal(0.0, 0.3, len(rec))
+    states = [(str(e), g.reset_index(drop=True),
+               flightstate.from_record(g.reset_index(drop=True), 0.0))
+              for e, g in rec.groupby("experiment")]
+    got = tilt_drag_area(states, 2.6, {"f0", "f1", "f2"}, airborne_height_m=5.0)
+    assert "value" not in got and "no tilt beyond its error" in got["reason"]
