@@ -82,10 +82,8 @@ def show(name: str, table: pd.DataFrame, wall: float, cpu: float) -> None:
         print(f"  {what.replace('_', ' '):<12} bias {e['bias_pct']:+6.1f} %  median |error| "
               f"{e['median_abs_pct']:5.1f} %  P90 {e['p90_abs_pct']:5.1f} %  "
               f"max {e['max_abs_pct']:5.1f} %  ({e['n']} flights)")
-    for what, key in (("energy", "energy_error_against"),
-                      ("cruise power", "cruise_power_against_speed")):
-        by = s.get(key, {})
-        by = by.get("speed_ms", {}) if what == "energy" else by
+    for what, by in (("energy", s.get("energy_error_against", {}).get("speed_ms")),
+                     ("cruise power", s.get("cruise_power_against_speed"))):
         if by:
             print(f"  {what} bias by speed: " + ", ".join(
                 f"{k} m/s {g['bias_pct']:+.1f} %" for k, g in by.items()))

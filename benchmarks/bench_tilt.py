@@ -37,6 +37,7 @@ from planner.identify.aircraft_fit import tilt_drag_area  # noqa: E402
 from planner.identify.backtest import BacktestOptions, forecast  # noqa: E402
 from planner.io import record  # noqa: E402
 from planner.io.flightdata import load_flight_data  # noqa: E402
+from testkit.matrix import level_cruise  # noqa: E402
 
 ENERGY = REPO.parent / "shared" / "data" / "energy"
 FILES = ("m100_flights_part1_flights001-149.csv.gz", "m100_flights_part2_flights150-279.csv.gz")
@@ -52,18 +53,10 @@ def level_axial_speeds(data: pd.DataFrame, par: pd.DataFrame) -> pd.Series:
     rows = []
     for f, g in data.groupby(data["experiment"].astype(int)):
         p = par.loc[f]
-        alt_cmd = pd.to_numeric(p["altitude"], errors="coerce")
-        if p["route"] != "R1" or not np.isfinite(alt_cmd):
+        if p["route"] != "R1":
             continue
-        alt = g["altitude_m"].to_numpy(float)
-        first = alt[:50][np.isfinite(alt[:50])]
-        if not first.size:
-            continue
-        alt = alt - first.min()
-        gs = np.abs(g["groundspeed_ms"].to_numpy(float))
-        ok = ((np.abs(g["climb_rate_ms"].to_numpy(float)) < 0.3)
-              & (np.abs(gs - p["speed"]) < 0.15 * p["speed"]) & (alt > 0.8 * alt_cmd))
-        if ok.sum() >= 50:
+        ok = level_cruise(g, p["speed"], pd.to_numeric(p["altitude"], errors="coerce"))
+        if ok is not None and ok.sum() >= 50:
             rows.append((p["speed"], float(np.nanmedian(g["axial_speed_ms"].to_numpy(float)[ok]))))
     t = pd.DataFrame(rows, columns=["speed", "axial"])
     return t.groupby("speed")["axial"].median()

@@ -249,6 +249,22 @@ def m100_flights(route_r1: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
     return df, r1
 
 
+def level_cruise(flight: pd.DataFrame, speed_ms: float, altitude_m: float):
+    """The samples of an M100 flight in level cruise at its commanded speed ``speed_ms``
+    and altitude ``altitude_m``: climbing slower than 0.3 m/s, ground speed within 15 % of
+    the commanded, above 80 % of the commanded altitude (over the lowest of its first 50
+    samples); None where the altitude is unknown. [bool array]"""
+    alt = flight["altitude_m"].to_numpy(float)
+    first = alt[:50][np.isfinite(alt[:50])]
+    if not np.isfinite(altitude_m) or not first.size:
+        return None
+    gs = np.abs(flight["groundspeed_ms"].to_numpy(float))
+    with np.errstate(invalid="ignore"):
+        return ((np.abs(flight["climb_rate_ms"].to_numpy(float)) < 0.3)
+                & (np.abs(gs - speed_ms) < 0.15 * speed_ms)
+                & (alt - first.min() > 0.8 * altitude_m))
+
+
 def cruise_power_by_speed(route_r1: bool = True) -> dict:
     """How the M100's level cruise power changes with its commanded speed across flights:
     each flight's median battery power over its level cruise samples (|climb| < 0.3 m/s,
@@ -263,18 +279,11 @@ def cruise_power_by_speed(route_r1: bool = True) -> dict:
     rows = []
     for f, g in df.groupby(df["experiment"].astype(int)):
         p = par.loc[f]
-        if not np.isfinite(p["altitude"]):
-            continue
-        alt = g["altitude_m"].to_numpy(float)
-        first = alt[:50][np.isfinite(alt[:50])]
-        if not first.size:
-            continue
-        alt = alt - first.min()
-        climb = g["climb_rate_ms"].to_numpy(float)
-        gs = np.abs(g["groundspeed_ms"].to_numpy(float))
         pw = g["power_w"].to_numpy(float)
-        ok = (np.abs(climb) < 0.3) & (np.abs(gs - p["speed"]) < 0.15 * p["speed"]) \
-            & (alt > 0.8 * p["altitude"]) & np.isfinite(pw)
+        ok = level_cruise(g, p["speed"], p["altitude"])
+        if ok is None:
+            continue
+        ok &= np.isfinite(pw)
         if ok.sum() >= 50:
             rows.append((p["speed"], p["payload"] / 1000.0, p["altitude"], np.median(pw[ok])))
     t = np.array(rows)

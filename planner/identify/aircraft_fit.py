@@ -212,20 +212,18 @@ def _check_fittable(exp_id, exp: pd.DataFrame) -> None:
 
 
 def airborne_samples(data: pd.DataFrame, site_altitude_m: float = 0.0,
-                     airborne_height_m: float | None = None) -> Samples:
+                     airborne_height_m: float | None = None, states=None) -> Samples:
     """Flight state and measured power of the airborne samples of every experiment
-    (:func:`airborne_mask`)."""
+    (:func:`airborne_mask`); ``states``: the experiments' flight states where the caller
+    has them already (:func:`_states` of ``data``)."""
     parts = []
-    for exp_id, exp in record.experiments(data):
-        exp = exp.reset_index(drop=True)
-        _check_fittable(exp_id, exp)
+    for exp_id, exp, state in (_states(data, site_altitude_m) if states is None else states):
         t = exp["time_s"].to_numpy(float)
         p = exp["power_w"].to_numpy(float)
-        state = flightstate.from_record(exp, site_altitude_m)
         (v, climb), rho = state.rotor_velocities(), state.air_density
         ok = airborne_mask(exp, state, airborne_height_m) & np.isfinite(p) & np.isfinite(v)
         dt = np.gradient(t) if len(t) > 1 else np.ones_like(t)
-        parts.append((np.full(ok.sum(), str(exp_id), dtype=object), t[ok], v[ok], climb[ok],
+        parts.append((np.full(ok.sum(), exp_id, dtype=object), t[ok], v[ok], climb[ok],
                       rho[ok], p[ok], dt[ok], np.full(ok.sum(), state.disk_frame)))
     parts = [part for part in parts if len(part[1])]
     if not parts:
@@ -411,7 +409,8 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
     if unknown:
         raise InputError(f"cannot fit {sorted(unknown)} for a {aircraft.type}; "
                          f"expected some of {', '.join(table)}")
-    s = airborne_samples(data, site_altitude_m, airborne_height_m)
+    states = _states(data, site_altitude_m)
+    s = airborne_samples(data, airborne_height_m=airborne_height_m, states=states)
     trn, val, how = _fit_split(s, validate, train)
     s_trn, s_val = s.subset(trn), s.subset(val)
     mass_trn = sample_masses(s_trn, mass_kg)
@@ -456,9 +455,8 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         "ground_power": ground, "held": held,
     }
     result.update(_status(misfit, free, aircraft))
-    if parameters is None and reads_tilt(aircraft):
-        result = with_tilt(result, aircraft, _states(data, site_altitude_m), mass_kg,
-                           airborne_height_m)
+    if parameters is None:
+        result = with_tilt(result, aircraft, states, mass_kg, airborne_height_m)
     result.update(_scores(aircraft, result["aircraft"], s, s, trn, val, mass_kg))
     return result
 
@@ -741,21 +739,15 @@ def tilt_drag_area(states, mass_kg, experiments, airborne_height_m: float | None
     return {"value": f, "stderr": se, "samples": int(n), "flights": int(np.unique(g).size)}
 
 
-def reads_tilt(aircraft: Aircraft) -> bool:
-    """Whether the aircraft's power model flies a tilt (``tilt_drag_area_m2``: the
-    ``momentum`` and ``rotor_losses`` multirotor models)."""
-    return aircraft.is_multirotor and aircraft.multirotor.power_model in \
-        MODEL_ONLY_KEYS["tilt_drag_area_m2"]
-
-
 def with_tilt(result: dict[str, Any], aircraft: Aircraft, states, mass_kg,
               airborne_height_m: float | None) -> dict[str, Any]:
     """The fit's ``result`` with the tilt read on its training flights
     (:func:`tilt_drag_area`) in its aircraft, parameters and standard errors, or, where
     the flights do not show it, the file's tilt held (in ``held``, with the reason).
     Read only by a fit of every parameter (no ``parameters`` list) and only for a model
-    that flies one (:func:`reads_tilt`)."""
-    if not reads_tilt(aircraft):
+    that flies one (``momentum``, ``rotor_losses``)."""
+    if not aircraft.is_multirotor or aircraft.multirotor.power_model not in \
+            MODEL_ONLY_KEYS["tilt_drag_area_m2"]:
         return result
     tilt = tilt_drag_area(states, mass_kg, set(map(str, result["train_experiments"])),
                           airborne_height_m)

@@ -259,6 +259,15 @@ _KINEMATICS = {"fitted": "with the navigation fitted per fold on the training fl
                "none": "at constant speed, leg by leg (no navigation model)"}
 
 
+def _by(title: str, groups: dict | None) -> list[str]:
+    """A table of errors by group (n, bias and median |error| in %), none without groups."""
+    if not groups:
+        return []
+    return ["", f"{title}:"] + [
+        f"  {k:>6}  n {g['n']:3d}  bias {g['bias_pct']:+6.1f} %  median |error| "
+        f"{g['median_abs_pct']:5.1f} %" for k, g in groups.items()]
+
+
 def render(s: dict) -> str:
     """The report: the errors, who was left out and why, the worst flights, and the
     energy error against speed, payload, altitude and wind."""
@@ -288,15 +297,10 @@ def render(s: dict) -> str:
             f"{w['time_error_pct']:+6.1f} %  plan {w['plan']}" for w in s["worst"]]
     for col, title, unit in (("speed_ms", "speed", "m/s"), ("payload_kg", "payload", "kg"),
                              ("altitude_m", "altitude", "m"), ("wind_ms", "wind", "m/s")):
-        groups = s.get("energy_error_against", {}).get(col)
-        if groups:
-            lines += ["", f"energy error by {title} [{unit}]:"] + [
-                f"  {k:>6}  n {g['n']:3d}  bias {g['bias_pct']:+6.1f} %  median |error| "
-                f"{g['median_abs_pct']:5.1f} %" for k, g in groups.items()]
-        if col == "speed_ms" and s.get("cruise_power_against_speed"):
-            lines += ["", "cruise power error by speed [m/s]:"] + [
-                f"  {k:>6}  n {g['n']:3d}  bias {g['bias_pct']:+6.1f} %  median |error| "
-                f"{g['median_abs_pct']:5.1f} %"
-                for k, g in s["cruise_power_against_speed"].items()]
+        lines += _by(f"energy error by {title} [{unit}]",
+                     s.get("energy_error_against", {}).get(col))
+        if col == "speed_ms":
+            lines += _by("cruise power error by speed [m/s]",
+                         s.get("cruise_power_against_speed"))
     lines += ["", f"wall time {s['elapsed_s']:.1f} s"]
     return "\n".join(lines)
