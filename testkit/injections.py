@@ -62,7 +62,9 @@ Loads (:func:`constant_load`, :func:`copper_loss`)
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -112,6 +114,15 @@ def experiments(df: pd.DataFrame):
     return list(df.groupby("experiment", sort=False).groups.items())
 
 
+def mass_of(mass_kg, g: pd.DataFrame) -> float:
+    """The all-up mass of the experiment ``g``: ``mass_kg`` itself, or where the flights
+    differ (a mapping from each experiment's id, as a string, to its mass) the one of
+    ``g``'s experiment. [kg]"""
+    if not isinstance(mass_kg, Mapping):
+        return float(mass_kg)
+    return float(mass_kg[str(g["experiment"].iloc[0])])
+
+
 def integrate_mah(t: np.ndarray, i: np.ndarray) -> np.ndarray:
     """Trapezoid integral of a current from the first sample. [mAh]"""
     q = np.concatenate(([0.0], np.cumsum(0.5 * (i[1:] + i[:-1]) * np.diff(t))))
@@ -136,8 +147,9 @@ def airborne(g: pd.DataFrame) -> np.ndarray:
 LIFT_MEDIAN_SAMPLES = 5
 
 
-def lifting(g: pd.DataFrame, mass_kg: float, rho: float, area_m2: float) -> np.ndarray:
-    """Samples of one experiment at which a multirotor of ``mass_kg`` is flying: its
+def lifting(g: pd.DataFrame, mass_kg, rho: float, area_m2: float) -> np.ndarray:
+    """Samples of one experiment at which a multirotor of ``mass_kg`` (:func:`mass_of`) is
+    flying: its
     electric power (a running median of :data:`LIFT_MEDIAN_SAMPLES`) at least the ideal
     induced and climb power of its weight at its speed (:func:`ideal_rotor_power`), which
     no rotor carrying that weight can undercut (its efficiency is below 1), and the
@@ -149,7 +161,8 @@ def lifting(g: pd.DataFrame, mass_kg: float, rho: float, area_m2: float) -> np.n
     p = _col(g, "power_w", np.nan)
     steady = pd.Series(p).rolling(LIFT_MEDIAN_SAMPLES, center=True,
                                   min_periods=1).median().to_numpy()
-    floor = ideal_rotor_power(mass_kg, rho, area_m2, speed_of(g), _col(g, "climb_rate_ms"))
+    floor = ideal_rotor_power(mass_of(mass_kg, g), rho, area_m2, speed_of(g),
+                              _col(g, "climb_rate_ms"))
     with np.errstate(invalid="ignore"):
         return np.isfinite(p) & (p >= floor) & (steady >= floor)
 
@@ -262,17 +275,19 @@ def change_times(df: pd.DataFrame, fractions, flying=airborne) -> dict:
     return out
 
 
-def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg: float, *,
+def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg, *,
                  rho: float, pack_resistance_ohm: float, rotors: Rotors | None = None,
                  wing: Wing | None = None, power_logged: bool = False) -> pd.DataFrame:
     """The record with the mass changed by ``dm_kg`` (negative: a drop) at each
     experiment's time in ``times`` while airborne (module notes, "Mass"). ``mass_kg``:
-    the all-up mass before the change. [kg], [s]"""
+    the all-up mass before the change (:func:`mass_of`). [kg], [s]"""
     dp = np.zeros(len(df))
+    every = mass_kg
     for key, idx in experiments(df):
         if key not in times:
             continue
         g = df.loc[idx]
+        mass_kg = mass_of(every, g)
         pos = df.index.get_indexer(idx)
         up = lifting(g, mass_kg, rho, rotors.area_m2) if rotors is not None else airborne(g)
         after = up & (g["time_s"].to_numpy(float) >= times[key])
@@ -297,14 +312,20 @@ def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg: float, *,
 @dataclass(frozen=True)
 class SpeedLaw:
     r""":math:`P(V) = a\,\pi_i(V) + b V^3 + c` [W] of a source's level flight (module notes),
-    with :math:`\pi_i` the ideal induced power [W] at ``mass_kg`` and ``rho``."""
+    with :math:`\pi_i` the ideal induced power [W] at ``mass_kg`` and ``rho``; where the
+    flights' masses differ (``mass_kg`` a mapping, :func:`mass_of`), :meth:`of` gives
+    each flight's law."""
 
     a: float
     b: float
     c: float
-    mass_kg: float
+    mass_kg: float | Mapping
     rho: float
     area_m2: float
+
+    def of(self, g: pd.DataFrame) -> "SpeedLaw":
+        """The law of the experiment ``g``, at its own mass."""
+        return dataclasses.replace(self, mass_kg=mass_of(self.mass_kg, g))
 
     def rotor(self, v) -> np.ndarray:
         """The rotor (induced and profile) part :math:`a\\,\\pi_i(V)`. [W]"""
@@ -322,7 +343,7 @@ class SpeedLaw:
         return lifting(g, self.mass_kg, self.rho, self.area_m2)
 
 
-def fit_speed_law(df: pd.DataFrame, mass_kg: float, rho: float, rotors: Rotors) -> SpeedLaw:
+def fit_speed_law(df: pd.DataFrame, mass_kg, rho: float, rotors: Rotors) -> SpeedLaw:
     """:class:`SpeedLaw` by least squares on the level flying samples of ``df`` (|climb|
     < 0.5 m/s, :func:`lifting`); the coefficients are kept non-negative (a and b by
     NNLS)."""
@@ -334,7 +355,8 @@ def fit_speed_law(df: pd.DataFrame, mass_kg: float, rho: float, rotors: Rotors) 
         level = np.abs(_col(g, "climb_rate_ms")) < 0.5
         ok = lifting(g, mass_kg, rho, rotors.area_m2) & level
         v = speed_of(g)[ok]
-        xs.append(np.column_stack([ideal_rotor_power(mass_kg, rho, rotors.area_m2, v), v**3,
+        xs.append(np.column_stack([ideal_rotor_power(mass_of(mass_kg, g), rho, rotors.area_m2,
+                                                     v), v**3,
                                    np.ones(v.size)]))
         ys.append(_col(g, "power_w")[ok])
     X, y = np.vstack(xs), np.concatenate(ys)
@@ -378,7 +400,8 @@ def steady_wind(df: pd.DataFrame, speed_ms: float, from_deg: float, *, law: Spee
         vn, ve = ground_velocity(g)
         before = np.hypot(vn, ve)
         after = np.hypot(vn - wn, ve - we)
-        dp[pos] = np.where(law.flying(g), law(after) - law(before), 0.0)
+        own = law.of(g)
+        dp[pos] = np.where(own.flying(g), own(after) - own(before), 0.0)
     return add_power(out, dp, pack_resistance_ohm, power_logged)
 
 

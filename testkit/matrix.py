@@ -17,6 +17,11 @@ Sources (``../shared/data``, PROVENANCE.md in each folder)
 ``m100_routes``
     16 of the 22 M100 flights without payload on every other route (A1–A3, H, R2–R7):
     what the ``m100`` draws hold fixed (one route flown in one order) varies here.
+``m100_mixed``
+    16 route-R1 flights of any payload class, mixed in one draw, each flight's own
+    payload given to diagnose as the record's ``payload_kg`` column (:func:`given`) and
+    each flown by the injection laws at its own mass: what the ``m100`` draws hold
+    fixed — one mass for every flight — varies here.
 ``log171``
     ArduCopter log 171 (a 3DR-Solo-like quad; CC BY-SA 3.0), ``aircraft/solo_survey.yaml``.
 ``ac313_2004``, ``ac313_2044``
@@ -203,8 +208,10 @@ class Draw:
     record: pd.DataFrame
     pack: object
     aircraft: object | None
-    payload_kg: float = 0.0
-    mass_kg: float = 0.0
+    #: the payload given to diagnose and the all-up mass, one for every flight or, where
+    #: the flights differ, a mapping from each flight's id to its own [kg]
+    payload_kg: float | dict = 0.0
+    mass_kg: float | dict = 0.0
     site_altitude_m: float = 0.0
     rho: float = 1.225
     pack_resistance_ohm: float = 0.0
@@ -393,13 +400,16 @@ class M100(Source):
         cls = float(rng.choice([0.0, 250.0, 500.0]))
         return self._sixteen(rng, df, par, cls)
 
-    def _sixteen(self, rng, df, par, payload_g: float) -> Draw:
+    def _sixteen(self, rng, df, par, payload_g: float | None) -> Draw:
         """16 flights of ``df`` (at most as many as there are) that carried ``payload_g``
-        [g], drawn with ``rng``, with the M100's definitions; the flights not drawn, each
-        with its mass, to calibrate on (:func:`calibrated_aircraft`, which takes their
-        record from ``df`` only when it calibrates)."""
+        [g] (None: any payload, each flight's own given to diagnose), drawn with ``rng``,
+        with the M100's definitions; the flights not drawn, each with its mass, to
+        calibrate on (:func:`calibrated_aircraft`, which takes their record from ``df``
+        only when it calibrates)."""
         have = set(df["experiment"].astype(int).unique())
-        ids = [f for f in par.loc[par["payload"] == payload_g, "flight"] if f in have]
+        carried = par["payload"] == payload_g if payload_g is not None else \
+            par["payload"].notna()
+        ids = [f for f in par.loc[carried, "flight"] if f in have]
         pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
         rec = df[df["experiment"].astype(str).isin(pick)].reset_index(drop=True)
         pack, ac = _definitions("aircraft/dji_m100.yaml")
@@ -412,8 +422,14 @@ class M100(Source):
             "flights": rest, "data": df,
             "mass_kg": {f: ac.empty_mass_kg + pack.total_mass_kg + payload_of[f]
                         for f in rest}}
-        payload = payload_g / 1000.0
-        return Draw(rec, pack, ac, payload, ac.empty_mass_kg + pack.total_mass_kg + payload,
+        base = ac.empty_mass_kg + pack.total_mass_kg
+        if payload_g is None:
+            payload = {f: payload_of[f] for f in pick}
+            mass = {f: base + m for f, m in payload.items()}
+        else:
+            payload = payload_g / 1000.0
+            mass = base + payload
+        return Draw(rec, pack, ac, payload, mass,
                     site_altitude_m=300.0, rho=_isa(300.0), pack_resistance_ohm=0.05,
                     rotors=inj.Rotors(4, ac.multirotor.rotor_diameter_m),
                     extra={"calibration": calibration})
@@ -428,6 +444,19 @@ class M100Routes(M100):
 
     def draw(self, rng) -> Draw:
         return self._sixteen(rng, *m100_flights(route_r1=False), 0.0)
+
+
+class M100Mixed(M100):
+    """16 route-R1 flights of any payload class (0, 250 and 500 g mixed in one draw),
+    each flight's own payload given to diagnose (a ``payload_kg`` column, as a record
+    that names each flight's payload carries it): what the ``m100`` draws hold fixed —
+    one mass for every flight — varies here."""
+
+    name = "m100_mixed"
+
+    def draw(self, rng) -> Draw:
+        df, par = m100_flights()
+        return self._sixteen(rng, df, par, None)
 
 
 def _isa(h: float) -> float:
@@ -635,6 +664,7 @@ def sources() -> dict[str, Source]:
     return {
         "m100": M100(),
         "m100_routes": M100Routes(),
+        "m100_mixed": M100Mixed(),
         # The log switches LOITER → ACRO at 206 s (from its first sample), comes down from
         # 8.6 m to 1.2 m by 228 s and sits there drawing 333 W against 225 W in the hover
         # before (the means of 230–243 s and 100–200 s): without the ``mode`` channel
@@ -683,7 +713,7 @@ class Injected:
     """A run's record and the truth of what was injected."""
 
     record: pd.DataFrame
-    payload_kg: float
+    payload_kg: float | dict
     truth: dict            # parameter name → injected value (diagnose's units)
     size: float            # the injected size in the detection limit's unit
     fraction: float | None = None     # where in the flights a change falls (median)
@@ -702,7 +732,7 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
     if kind == "clean":
         return Injected(rec, d.payload_kg, {}, 0.0)
     if kind == "payload":
-        scale = d.mass_kg / 2.955               # the M100 with its mid payload: 0.2-0.4 kg
+        scale = _mean(d.mass_kg) / 2.955        # the M100 with its mid payload: 0.2-0.4 kg
         dm = _uniform(rng, 0.2, 0.4, size * scale)
         lo, hi = TIMINGS[timing]
         fr = rng.uniform(lo, hi, len(d.flights)) if timing == "random" else \
@@ -712,7 +742,9 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
         # flown dm heavier (the real flight is the state after the release)
         out = _carry_until(rec, dm, times, d)
         t0 = {str(k): float(rec.loc[idx, "time_s"].iloc[0]) for k, idx in inj.experiments(rec)}
-        return Injected(out, d.payload_kg + dm, {"mass_step_kg": -dm}, dm,
+        carried = {k: m + dm for k, m in d.payload_kg.items()} \
+            if isinstance(d.payload_kg, dict) else d.payload_kg + dm
+        return Injected(out, carried, {"mass_step_kg": -dm}, dm,
                         float(np.median(fr)),
                         change_times={str(k): t - t0[str(k)] for k, t in times.items()})
     if kind == "wind":
@@ -763,6 +795,22 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
     if kind in ("fade", "cold_cells", "real_cold"):
         return _cell_injection(kind, d, rng, size)
     raise ValueError(kind)
+
+
+def _mean(x) -> float:
+    """A mass, or the mean of a draw's per-flight masses. [kg]"""
+    return float(np.mean(list(x.values()))) if isinstance(x, dict) else float(x)
+
+
+def given(record: pd.DataFrame, payload_kg) -> tuple[pd.DataFrame, dict]:
+    """The record and diagnose's payload option for ``payload_kg``: one value for every
+    flight, or each flight's own (a mapping) as the record's ``payload_kg`` column, which
+    diagnose reads per flight when no payload is given."""
+    if not isinstance(payload_kg, dict):
+        return record, {"payload_kg": payload_kg}
+    out = record.copy()
+    out["payload_kg"] = out["experiment"].astype(str).map(payload_kg).astype(float)
+    return out, {"payload_kg": None}
 
 
 def _carry_until(rec, dm, times, d: Draw) -> pd.DataFrame:
@@ -984,10 +1032,9 @@ def clean_parameters(d: Draw, richness: str, effect: str) -> dict | None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = diagnose(reduce(d.record, richness), d.pack,
-                           diagnosed_aircraft(d, richness),
-                           payload_kg=d.payload_kg, site_altitude_m=d.site_altitude_m,
-                           effects=[effect])
+            record, payload = given(reduce(d.record, richness), d.payload_kg)
+            res = diagnose(record, d.pack, diagnosed_aircraft(d, richness),
+                           site_altitude_m=d.site_altitude_m, effects=[effect], **payload)
             lv = res.levels["power"].result.level
             e = make_effects([effect])[0]
             if e.skip_reason(lv):
@@ -1091,8 +1138,8 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
         except Exception as exc:            # a source that cannot carry this injection
             st["errors"][f"inject: {type(exc).__name__}: {exc}"[:160]] += 1
             continue
-        record = reduce(injd.record, cell.richness)
-        opts = {"payload_kg": injd.payload_kg, "site_altitude_m": d.site_altitude_m}
+        record, payload = given(reduce(injd.record, cell.richness), injd.payload_kg)
+        opts = {**payload, "site_altitude_m": d.site_altitude_m}
         t0 = time.process_time()
         try:
             with warnings.catch_warnings():

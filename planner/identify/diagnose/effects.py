@@ -158,6 +158,9 @@ MAX_DROP_SHARE = 0.5
 MAX_SYSTEM_SHARE = 0.5
 #: Allowance above the ground power for a constant load (sensor noise, heaters). [W]
 GROUND_POWER_MARGIN_W = 5.0
+#: Standard errors a constant load may stand above the ground power's bound before it is
+#: no constant load: the two a finding must stand from none. [unitless]
+GROUND_BOUND_Z = 2.0
 
 
 def _compass(deg: float) -> str:
@@ -1331,7 +1334,8 @@ class SystemPower(PowerEffect):
         if ground is not None:
             # a constant load is drawn at every moment, the rotors stopped or idle: every
             # ground sample bounds it, the low percentile the most tightly
-            high = ground[0] + 3.0 * (se if math.isfinite(se) else 0.0) + GROUND_POWER_MARGIN_W
+            high = ground[0] + GROUND_BOUND_Z * (se if math.isfinite(se) else 0.0) \
+                + GROUND_POWER_MARGIN_W
             if ps > high:
                 return (f"a constant load of {ps:.0f} W where the aircraft draws "
                         f"{ground[0]:.0f}–{ground[1]:.0f} W on the ground (rotors stopped or "

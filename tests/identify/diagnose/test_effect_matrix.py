@@ -28,6 +28,8 @@ SAMPLE = [
     (M.Cell("p42a", "offset", "minimal", None, "realistic"), 3),
     (M.Cell("a123", "real_cold", "everything", None, "realistic"), 1),
     (M.Cell("m100", "clean", "plain", None, "realistic"), 2),
+    # route R1 with the payload classes mixed in one draw, each flight given its own
+    (M.Cell("m100_mixed", "payload", "plain", "mid", "realistic"), 2),
     # log 171's plain record carries a real power step (testkit.matrix, "The record's own
     # findings"); with every channel a current offset against the power channel
     (M.Cell("log171", "clean", "plain", None, "realistic"), 2),
@@ -728,3 +730,47 @@ def test_the_m100s_cruise_power_changes_with_speed_less_than_the_calibrated_mode
     k, se, wind = report.result.speed_response
     assert wind and 0.0 < k < 0.8 and k + 2 * se < 1.0
     assert any("changes with airspeed" in n for n in res.notes)
+
+
+def test_a_draw_of_mixed_payloads_flies_each_flight_at_its_own_mass(draws):
+    """The ``m100_mixed`` draws (route R1, Rodrigues et al. 2021, CC BY 4.0) mix the
+    data set's payload classes in one draw: each flight's own payload (its
+    ``m100_parameters.csv`` entry) goes to diagnose as the record's ``payload_kg``
+    column, and the injection laws fly each flight at its own mass, as they fly a draw
+    of one class."""
+    import numpy as np
+    import pandas as pd
+
+    from testkit import injections as inj
+
+    d = M.M100Mixed().draw(np.random.default_rng(0))
+    par = pd.read_csv(M.ENERGY / "m100_parameters.csv").set_index("flight")
+    assert len(d.flights) == 16 and len(set(d.payload_kg.values())) > 1
+    for f in d.flights:
+        assert d.payload_kg[str(f)] == par.loc[int(f), "payload"] / 1000.0
+        assert d.mass_kg[str(f)] - d.payload_kg[str(f)] == pytest.approx(
+            d.aircraft.empty_mass_kg + d.pack.total_mass_kg)
+    record, opts = M.given(M.reduce(d.record, "plain"), d.payload_kg)
+    assert opts == {"payload_kg": None}
+    for f, g in record.groupby("experiment"):
+        assert (g["payload_kg"] == d.payload_kg[str(f)]).all()
+    # the law fitted per flight's mass, and a mass step at each flight's own mass
+    flying = M._flying(d)
+    times = inj.change_times(d.record, np.full(16, 0.5), flying=flying)
+    out = inj.payload_step(d.record, -0.3, times, d.mass_kg, rho=d.rho,
+                           pack_resistance_ohm=0.0, rotors=d.rotors)
+    for key, idx in inj.experiments(d.record):
+        g = d.record.loc[idx]
+        alone = inj.payload_step(g, -0.3, {key: times[key]}, d.mass_kg[str(key)], rho=d.rho,
+                                 pack_resistance_ohm=0.0, rotors=d.rotors)
+        np.testing.assert_allclose(out.loc[idx, "power_w"], alone["power_w"])
+    heavy = max(d.flights, key=lambda f: d.mass_kg[str(f)])
+    light = min(d.flights, key=lambda f: d.mass_kg[str(f)])
+    law = M._speed_law(d)
+    g_h, g_l = (d.record[d.record["experiment"] == f] for f in (heavy, light))
+    # a heavier multirotor needs less extra induced power per m/s of airspeed at cruise
+    # but more in hover: its law differs from the light flight's
+    assert law.of(g_h)(0.0) > law.of(g_l)(0.0)
+    injd = M.inject("payload", d, np.random.default_rng(1), 1.0, "mid")
+    dm = -injd.truth["mass_step_kg"]
+    assert {k: v - dm for k, v in injd.payload_kg.items()} == pytest.approx(d.payload_kg)
