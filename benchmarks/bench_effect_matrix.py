@@ -26,7 +26,7 @@ than they save. Run::
 
     python benchmarks/bench_effect_matrix.py [--runs 10] [--seed 0] [--sources m100,p42a]
         [--injections payload,wind] [--richness plain] [--sizes realistic]
-        [--rate 1] [--json matrix.json]
+        [--rate 1] [--flights 16] [--json matrix.json]
     python benchmarks/bench_effect_matrix.py --speed     # 16 M100 flights; a 1-h 10-Hz flight
 """
 
@@ -135,6 +135,9 @@ def main(argv=None) -> int:
     ap.add_argument("--rate", type=float, metavar="HZ",
                     help="the records as a telemetry stream at this rate carries them (each "
                          "richness becomes e.g. plain@1Hz; the same injections)")
+    ap.add_argument("--flights", type=int, default=M.FLIGHTS,
+                    help="flights an M100 draw holds (default %(default)s; the detection "
+                         "limits scale with their number)")
     ap.add_argument("--json", help="write the cells' tallies here")
     ap.add_argument("--speed", action="store_true", help="the two speed figures only")
     ap.add_argument("--descent", choices=("file", "calibrated"), default="file",
@@ -143,6 +146,10 @@ def main(argv=None) -> int:
                          "not drawn (testkit.matrix.calibrated_aircraft)")
     args = ap.parse_args(argv)
     M.CALIBRATE_DESCENT = args.descent == "calibrated"
+    if not 3 <= args.flights <= 60:
+        ap.error(f"--flights: {args.flights}; expected 3 to 60 flights (a payload class "
+                 "of route R1 has about 60)")
+    M.FLIGHTS = args.flights
     known = {"sources": M.sources(), "injections": M.EXPECT, "richness": M.RICHNESS,
              "timings": M.TIMINGS, "sizes": M.SIZES}
     for opt, names in known.items():
@@ -170,7 +177,7 @@ def main(argv=None) -> int:
                  for c in cells]
     print(f"effect matrix: {len(cells)} cells, {args.runs} runs a cell (deterministic "
           f"single-record sources fewer), seed {args.seed}, M100 descent weight: "
-          f"{args.descent}")
+          f"{args.descent}, {M.FLIGHTS} flights an M100 draw")
     print("columns: runs, % named first, % named anywhere, % with a false cause, % the "
           "detection limit calls identifiable, % said not identifiable where not named, "
           "within 2 SE / checked, median size and limit (the detection entry's unit), "

@@ -315,6 +315,9 @@ def cruise_power_by_speed(route_r1: bool = True) -> dict:
 #: curve); ``bench_effect_matrix.py --descent calibrated``.
 CALIBRATE_DESCENT = False
 
+#: Flights an M100 draw holds (``bench_effect_matrix.py --flights``): 16, the issue's.
+FLIGHTS = 16
+
 #: Most flights ``fit-aircraft`` calibrates a draw's descent weight on
 #: (:func:`calibrated_aircraft`), evenly spaced among those not drawn.
 CALIBRATION_FLIGHTS = 48
@@ -401,8 +404,9 @@ class M100(Source):
         return self._sixteen(rng, df, par, cls)
 
     def _sixteen(self, rng, df, par, payload_g: float | None) -> Draw:
-        """16 flights of ``df`` (at most as many as there are) that carried ``payload_g``
-        [g] (None: any payload, each flight's own given to diagnose), drawn with ``rng``,
+        """:data:`FLIGHTS` flights of ``df`` (at most as many as there are) that carried
+        ``payload_g`` [g] (None: any payload, each flight's own given to diagnose), drawn
+        with ``rng``,
         with the M100's definitions; the flights not drawn, each with its mass, to
         calibrate on (:func:`calibrated_aircraft`, which takes their record from ``df``
         only when it calibrates)."""
@@ -410,7 +414,7 @@ class M100(Source):
         carried = par["payload"] == payload_g if payload_g is not None else \
             par["payload"].notna()
         ids = [f for f in par.loc[carried, "flight"] if f in have]
-        pick = [str(x) for x in rng.choice(ids, size=min(16, len(ids)), replace=False)]
+        pick = [str(x) for x in rng.choice(ids, size=min(FLIGHTS, len(ids)), replace=False)]
         rec = df[df["experiment"].astype(str).isin(pick)].reset_index(drop=True)
         pack, ac = _definitions("aircraft/dji_m100.yaml")
         rest = sorted(have - {int(x) for x in pick})

@@ -636,7 +636,8 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                     # rather than that none was found
                     drop[e.name] = {"effect": e.name, "level": level.name, "kind": "weak",
                                     "why": _weak_why(e, params, z, level.name, few),
-                                    "where": e.driver_label, "parameters": params}
+                                    "where": e.driver_label, "parameters": params,
+                                    "help": _regime_help(e, params)}
                     continue
                 why = e.implausible(params, level)
                 if why:
@@ -701,7 +702,7 @@ def _weak_why(effect, params: dict, z: float, level_name: str,
         why += (f", and its evidence comes from {few[0]:.1f} flights in effect: too few to "
                 "tell one shared effect from each flight's own, it needs "
                 f"{few[1]:.1f} (Student's t with {max(few[0] - 1, 1):.1f} degrees of freedom)")
-    for regime, whose, moves, reason in _REGIME_BIAS:
+    for regime, whose, moves, reason, _ in _REGIME_BIAS:
         bias = params.get(f"{effect.key}_{regime}_bias")
         if bias is not None and bias > 0.5 * se:
             why += (f"; most of that error is {whose}: {moves} by "
@@ -712,14 +713,32 @@ def _weak_why(effect, params: dict, z: float, level_name: str,
 
 #: The regimes whose own power level shows a bias in a parameter (``<key>_<regime>_shift``
 #: and ``_bias``: PowerLevel.descent_shift, PowerLevel.hover_shift), in the words of
-#: :func:`_weak_why`: the regime, whose error, what moves, and why the model is unsure there.
+#: :func:`_weak_why`: the regime, whose error, what moves, why the model is unsure there,
+#: and what would make the effect identifiable where that bias is most of its error
+#: (:func:`_regime_help`; None: the effect's usual help).
 _REGIME_BIAS = (
     ("descent", "the vertical descents'", "the step moves",
-     "the rotor model's power in slow descent is an empirical curve"),
+     "the rotor model's power in slow descent is an empirical curve",
+     "the slow vertical descents modelled on flights like these (fit-aircraft frees the "
+     "aircraft's descent_inflow_weight where flights descend vertically), or a change away "
+     "from the final descents; more flights do not shrink the part of its error that the "
+     "descents' misfit makes"),
     ("hover", "the hovers'", "the wind's speed moves",
      "there the wind is the whole airspeed, and its effect the rotor model's fall of power "
-     "from the hover"),
+     "from the hover", None),
 )
+
+
+def _regime_help(effect, params: dict) -> str | None:
+    """What would make a withheld effect identifiable where the bias a regime puts into
+    its key parameter is more than half of its error variance (:data:`_REGIME_BIAS`): then
+    more flights, which shrink only the rest, are not the remedy; else None."""
+    se = params.get(effect.key + "_stderr", math.nan)
+    for regime, _, _, _, remedy in _REGIME_BIAS:
+        bias = params.get(f"{effect.key}_{regime}_bias")
+        if remedy and bias is not None and math.isfinite(se) and bias**2 > 0.5 * se**2:
+            return remedy
+    return None
 
 
 def _as_given_capacity(level, pack) -> tuple[float, float]:

@@ -148,25 +148,27 @@ def entry(effect: str, level: str, *, found: bool, identifiable: bool,
           limit: float | None = None, why: str = "", n: int = 0, by_position=None,
           stderr: float | None = None, per: str | None = None,
           confused_with: list[str] | None = None,
-          design_effect: float = 1.0) -> dict[str, Any]:
+          design_effect: float = 1.0, help_text: str | None = None) -> dict[str, Any]:
     """One detection entry (fields: docs/commands.md, Diagnose): ``effect``, ``level``,
     ``parameter``, ``unit``, ``found``, ``identifiable``, ``limit`` (in the parameter's
-    unit; None when not identifiable), ``by_position``, ``why``, ``help`` and ``text``."""
+    unit; None when not identifiable), ``by_position``, ``why``, ``help`` (``help_text``,
+    default the effect's :data:`HELP`) and ``text``."""
     key, unit, scale, _ = PARAMETER.get((level, effect), (None, "", 1.0, 3))
     noun = NOUN[effect]
+    remedy = help_text or HELP[effect]
     if found and confused_with:
         text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level, but these data "
                 f"cannot tell it from {' or '.join(confused_with)}: against them none "
                 f"smaller than {in_unit(level, effect, limit)} could be seen; read the finding "
-                f"as either. Telling them apart needs {HELP[effect]}")
+                f"as either. Telling them apart needs {remedy}")
         identifiable = True
     elif not identifiable and found:
         text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level, but one of "
                 f"another size or direction would not be identifiable with these data: "
-                f"{why}. It would be with {HELP[effect]}")
+                f"{why}. It would be with {remedy}")
     elif not identifiable:
         text = f"{noun[0].upper() + noun[1:]}: not identifiable with these data: {why}. " \
-               f"It would be with {HELP[effect]}"
+               f"It would be with {remedy}"
     elif found:
         text = (f"{noun[0].upper() + noun[1:]}: found at the {level} level (these data show "
                 f"one down to {in_unit(level, effect, limit)})")
@@ -180,7 +182,7 @@ def entry(effect: str, level: str, *, found: bool, identifiable: bool,
                 else ""
         text = (f"None found: {noun} smaller than {in_unit(level, effect, limit)}{where} cannot "
                 f"be seen in {_things(level, n)} (below it, it is not identifiable with these "
-                f"data). A smaller one needs {HELP[effect]}")
+                f"data). A smaller one needs {remedy}")
     if per == "experiment order":
         unit = "%/experiment"
         text = text.replace("%/cycle", "%/experiment")
@@ -188,7 +190,7 @@ def entry(effect: str, level: str, *, found: bool, identifiable: bool,
            "scale_to_unit": scale, "found": bool(found), "identifiable": bool(identifiable),
            "limit": (float(limit) if identifiable and limit is not None
                      and math.isfinite(limit) else None),
-           "why": why, "help": HELP[effect], "text": text}
+           "why": why, "help": remedy, "text": text}
     if stderr is not None:
         out["stderr"] = float(stderr)
     if by_position:
@@ -329,9 +331,11 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
             ident = False
             why = f"the fit that explains the misfit is withheld: {w['why']}"
         per = getattr(level, "cycle_source", None) if e.name == "capacity_fade" else None
+        remedy = withheld[e.name].get("help") if e.name in withheld else None
         out.append(entry(e.name, report.name, found=e.name in found, identifiable=ident,
                          limit=limit, why=why, n=level.n_experiments, stderr=lim.stderr,
-                         per=per, confused_with=confused, design_effect=lim.design_effect))
+                         per=per, confused_with=confused, design_effect=lim.design_effect,
+                         help_text=remedy))
     return out
 
 
@@ -605,9 +609,11 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     if ident and best > top:
         ident, why = False, beyond_physics("payload_change", "power", best, top)
     withheld = {w["effect"]: w for w in report.result.withheld}
+    remedy = None
     if "payload_change" in withheld and not found:
         ident, why = False, ("the fit that explains the misfit is withheld: "
                              + withheld["payload_change"]["why"])
+        remedy = withheld["payload_change"].get("help")
     return entry("payload_change", "power", found=found, identifiable=ident, limit=best,
                  why=why, n=level.n_experiments, by_position=by, stderr=se_mid,
-                 design_effect=deff_mid)
+                 design_effect=deff_mid, help_text=remedy)

@@ -153,6 +153,12 @@ def test_a_step_the_descents_leave_within_2_se_of_none_is_withheld_and_said_why(
     entry = next(e for e in res.detection if e["effect"] == "payload_change")
     assert not entry["identifiable"] and "vertical descents" in entry["text"]
     assert "payload_change not named" in res.unexplained()
+    # the descents' bias is most of the step's error variance: more flights, which shrink
+    # only the rest, are not what the entry asks for, a model of the descents is
+    assert p["mass_step_kg_descent_bias"] ** 2 > 0.5 * p["mass_step_kg_stderr"] ** 2
+    assert "descent_inflow_weight" in entry["help"]
+    assert "more flights do not shrink" in entry["text"]
+    assert "limit falls as 1/√" not in entry["text"]
 
 
 def test_the_air_density_of_other_days_is_sized_within_the_flight_clustered_error(draws):
