@@ -310,6 +310,72 @@ def cruise_power_by_speed(route_r1: bool = True) -> dict:
     return out
 
 
+def _hc1(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares of ``y`` on ``X`` with heteroskedasticity-robust (HC1) standard
+    errors: (coefficients, standard errors)."""
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    r = y - X @ coef
+    bread = np.linalg.inv(X.T @ X)
+    cov = bread @ ((X * r[:, None]).T @ (X * r[:, None])) @ bread * len(y) / (
+        len(y) - X.shape[1])
+    return coef, np.sqrt(np.diag(cov))
+
+
+#: Vertical flight of an M100 flight: ground speed below this, above 5 m of height. [m/s]
+VERTICAL_GROUNDSPEED_MS = 1.0
+
+
+def power_per_payload_by_regime() -> dict:
+    """How the M100's battery power changes with its payload in each regime it flies, across
+    route R1's flights (0, 250 and 500 g on many days): each flight's median power in level
+    cruise at its commanded speed (:func:`level_cruise`), in its vertical climb (climb
+    above 1.5 m/s) and in its vertical descent (below −1 m/s; ground speed under
+    :data:`VERTICAL_GROUNDSPEED_MS`, more than 5 m up, 20 samples or more), regressed on
+    the payload: cruise with a level and a payload slope per commanded speed and the
+    altitude, climb and descent with the flight's median vertical speed; HC1 errors.
+    Returns ``{regime: (W per kg, stderr, flights)}``, regimes ``"cruise 4 m/s"`` … and
+    ``"climb"``, ``"descent"``, each with its median vertical speed under
+    ``"<regime> rate"`` [m/s]."""
+    df, par = m100_flights(True)
+    par = par.assign(altitude=pd.to_numeric(par["altitude"], errors="coerce")
+                     ).set_index("flight")
+    cruise, vertical = [], {"climb": [], "descent": []}
+    for f, g in df.groupby(df["experiment"].astype(int)):
+        p = par.loc[f]
+        pw = g["power_w"].to_numpy(float)
+        ok = level_cruise(g, p["speed"], p["altitude"])
+        if ok is not None and (ok & np.isfinite(pw)).sum() >= 50:
+            cruise.append((p["speed"], p["payload"] / 1000.0, p["altitude"],
+                           np.median(pw[ok & np.isfinite(pw)])))
+        climb = g["climb_rate_ms"].to_numpy(float)
+        alt = g["altitude_m"].to_numpy(float)
+        first = alt[:50][np.isfinite(alt[:50])]
+        if not first.size:
+            continue
+        with np.errstate(invalid="ignore"):
+            still = ((np.abs(g["groundspeed_ms"].to_numpy(float)) < VERTICAL_GROUNDSPEED_MS)
+                     & (alt - first.min() > 5.0) & np.isfinite(pw))
+            for name, m in (("climb", still & (climb > 1.5)), ("descent", still & (climb < -1.0))):
+                if m.sum() >= 20:
+                    vertical[name].append((p["payload"] / 1000.0, np.median(np.abs(climb[m])),
+                                           np.median(pw[m])))
+    out = {}
+    t = np.array(cruise)
+    speeds = sorted(set(t[:, 0]))
+    X = np.column_stack([(t[:, 0] == v).astype(float) for v in speeds]
+                        + [(t[:, 0] == v) * t[:, 1] for v in speeds] + [t[:, 2]])
+    coef, se = _hc1(X, t[:, 3])
+    for i, v in enumerate(speeds):
+        n = len(speeds) + i
+        out[f"cruise {v:g} m/s"] = (float(coef[n]), float(se[n]), int((t[:, 0] == v).sum()))
+    for name, rows in vertical.items():
+        t = np.array(rows)
+        coef, se = _hc1(np.column_stack([np.ones(len(t)), t[:, 0], t[:, 1]]), t[:, 2])
+        out[name] = (float(coef[1]), float(se[1]), len(t))
+        out[f"{name} rate"] = float(np.median(t[:, 1]))
+    return out
+
+
 #: Diagnose the M100 draws with the slow-descent inflow weight calibrated on the flights
 #: not drawn (:func:`calibrated_aircraft`) instead of the aircraft file's (Leishman's
 #: curve); ``bench_effect_matrix.py --descent calibrated``.
