@@ -272,6 +272,17 @@ def level_cruise(flight: pd.DataFrame, speed_ms: float, altitude_m: float):
                 & (alt - first.min() > 0.8 * altitude_m))
 
 
+def _hc1(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares of ``y`` on ``X`` with heteroskedasticity-robust (HC1) standard
+    errors: (coefficients, standard errors)."""
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    r = y - X @ coef
+    bread = np.linalg.inv(X.T @ X)
+    cov = bread @ ((X * r[:, None]).T @ (X * r[:, None])) @ bread * len(y) / (
+        len(y) - X.shape[1])
+    return coef, np.sqrt(np.diag(cov))
+
+
 def cruise_power_by_speed(route_r1: bool = True) -> dict:
     """How the M100's level cruise power changes with its commanded speed across flights:
     each flight's median battery power over its level cruise samples (|climb| < 0.3 m/s,
@@ -297,28 +308,12 @@ def cruise_power_by_speed(route_r1: bool = True) -> dict:
     speeds = sorted(set(t[:, 0]) - {10.0})
     X = np.column_stack([np.ones(len(t))] + [(t[:, 0] == v).astype(float) for v in speeds]
                         + [t[:, 1], t[:, 2]])
-    y = t[:, 3]
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    r = y - X @ coef
-    bread = np.linalg.inv(X.T @ X)
-    cov = bread @ ((X * r[:, None]).T @ (X * r[:, None])) @ bread * len(y) / (len(y) - X.shape[1])
-    se = np.sqrt(np.diag(cov))
+    coef, se = _hc1(X, t[:, 3])
     out = {float(v): (float(coef[1 + i]), float(se[1 + i])) for i, v in enumerate(speeds)}
     out[10.0] = (0.0, 0.0)
     out["payload_w_per_kg"] = float(coef[1 + len(speeds)])
     out["flights"] = len(t)
     return out
-
-
-def _hc1(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares of ``y`` on ``X`` with heteroskedasticity-robust (HC1) standard
-    errors: (coefficients, standard errors)."""
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    r = y - X @ coef
-    bread = np.linalg.inv(X.T @ X)
-    cov = bread @ ((X * r[:, None]).T @ (X * r[:, None])) @ bread * len(y) / (
-        len(y) - X.shape[1])
-    return coef, np.sqrt(np.diag(cov))
 
 
 #: Vertical flight of an M100 flight: ground speed below this, above 5 m of height. [m/s]
