@@ -55,8 +55,9 @@ voltage, current. A richness may name a telemetry rate, ``plain@1Hz``: the recor
 stream at that rate carries it (:func:`decimate`; ``bench_effect_matrix.py --rate``), the
 same injection as at the source's own rate.
 
-Timing (the payload change only; the other effects last the whole record)
---------------------------------------------------------------------------
+Timing (the payload change only, released or picked up; the other effects last the whole
+record)
+------------------------------------------------------------------------------------------
 The change falls at a fraction of each flight's span in the air (a multirotor's: where
 its rotors carry its weight, :func:`testkit.injections.lifting`): ``early`` 0.10–0.25,
 ``mid`` 0.40–0.60, ``late`` 0.75–0.90, ``random`` 0.10–0.90 drawn per flight.
@@ -67,7 +68,9 @@ Sizes
 limits from beneath (every range below scaled by the factor; not judged by the
 criterion). Payload 0.2–0.4 kg (M100; 0.1–0.2 kg on the 1.5-kg Solo, 0.5–1.0 kg on
 the 9.4-kg Solar Surfer), carried from take-off and released
-(the real flight is the state after the release, so the masses stay physical). Steady
+(the real flight is the state after the release, so the masses stay physical); on the
+M100 flights also the same mass picked up (``pickup``: the record after the change
+flown heavier by the same law), the direction a model's misfit does not help. Steady
 wind 3–6 m/s from a random direction. Air density 75–85 % of the site's in half the
 flights (2×: 50–70 %). A constant load of 3.3–9 % of the median airborne power (15–40 W
 on the M100). A copper loss R·I² of 3–8 % of the power at the median current. A current
@@ -159,7 +162,7 @@ TIMINGS = {"early": (0.10, 0.25), "mid": (0.40, 0.60), "late": (0.75, 0.90),
 SIZES = {"realistic": 1.0, "2x": 2.0, "half": 0.5, "quarter": 0.25}
 
 #: injection → the effect diagnose should name.
-EXPECT = {"clean": None, "payload": "payload_change", "wind": "wind",
+EXPECT = {"clean": None, "payload": "payload_change", "pickup": "payload_change", "wind": "wind",
           "density": "air_density", "load": "system_power", "copper": "efficiency_curve",
           "offset": "current_offset", "cold_pack": "temperature", "fade": "capacity_fade",
           "cold_cells": "temperature", "real_cold": "temperature"}
@@ -457,7 +460,8 @@ class Source:
 
 class M100(Source):
     name = "m100"
-    carries = ("clean", "payload", "wind", "density", "load", "copper", "offset", "cold_pack")
+    carries = ("clean", "payload", "pickup", "wind", "density", "load", "copper", "offset",
+               "cold_pack")
 
     def draw(self, rng) -> Draw:
         df, par = m100_flights()
@@ -812,6 +816,20 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
         return Injected(out, carried, {"mass_step_kg": -dm}, dm,
                         float(np.median(fr)),
                         change_times={str(k): t - t0[str(k)] for k, t in times.items()})
+    if kind == "pickup":
+        # the same mass, picked up in flight: the record after the change is flown dm
+        # heavier, the take-off payload the flights' own
+        scale = _mean(d.mass_kg) / 2.955
+        dm = _uniform(rng, 0.2, 0.4, size * scale)
+        lo, hi = TIMINGS[timing]
+        fr = rng.uniform(lo, hi, len(d.flights)) if timing == "random" else \
+            np.full(len(d.flights), rng.uniform(lo, hi))
+        times = inj.change_times(rec, fr, flying=_flying(d))
+        out = inj.payload_step(rec, dm, times, d.mass_kg, rho=d.rho, pack_resistance_ohm=r,
+                               rotors=d.rotors, wing=d.wing)
+        t0 = {str(k): float(rec.loc[idx, "time_s"].iloc[0]) for k, idx in inj.experiments(rec)}
+        return Injected(out, d.payload_kg, {"mass_step_kg": dm}, dm, float(np.median(fr)),
+                        change_times={str(k): t - t0[str(k)] for k, t in times.items()})
     if kind == "wind":
         w = _uniform(rng, 3.0, 6.0, size)
         frm = _uniform(rng, 0.0, 360.0)
@@ -1017,7 +1035,7 @@ def all_cells(source_names=None, sizes=("realistic", "2x")) -> list[Cell]:
         if source_names and name not in source_names:
             continue
         for kind in src.carries:
-            timings = list(TIMINGS) if kind == "payload" else [None]
+            timings = list(TIMINGS) if kind in ("payload", "pickup") else [None]
             for rich in RICHNESS:
                 for timing in timings:
                     for size in (("realistic",) if kind in ("clean", "real_cold") else sizes):
@@ -1036,7 +1054,8 @@ def _detail_seed(cell: Cell, run: int, seed: int) -> int:
 
 
 #: The parameter (diagnose's detection entries) each injection's size is given in.
-SIZE_KEY = {"payload": "mass_step_kg", "wind": "wind_speed_ms", "density": "density_exponent",
+SIZE_KEY = {"payload": "mass_step_kg", "pickup": "mass_step_kg", "wind": "wind_speed_ms",
+            "density": "density_exponent",
             "load": "system_power_w", "copper": "efficiency_slope",
             "offset": "current_offset_a", "cold_pack": "activation_energy_j_per_mol",
             "fade": "fade_per_cycle", "cold_cells": "temperature_coefficient_per_c",

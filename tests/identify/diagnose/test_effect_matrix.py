@@ -817,3 +817,33 @@ def test_the_m100s_power_rises_with_its_payload_alike_in_every_regime_unlike_the
         assert climb > 1.35 * fast, (name, climb, fast)
         # the flights' climb and fast cruise differ by less than a tenth
         assert abs(real["climb"][0] - real["cruise 10 m/s"][0]) < 0.1 * mean
+
+
+def test_a_payload_picked_up_is_the_release_flown_the_other_way(draws):
+    """The ``pickup`` injection (DJI M100 route R1, Rodrigues et al. 2021, CC BY 4.0): the
+    same mass law as a release, the record after the change flown heavier where a release
+    flies the record before it heavier; diagnose is given the flights' own take-off
+    payload and the truth is a positive step."""
+    import numpy as np
+
+    from testkit import injections as inj
+
+    d = M.sources()["m100"].draw(np.random.default_rng(3))
+    up = M.inject("pickup", d, np.random.default_rng(4), 1.0, "mid")
+    down = M.inject("payload", d, np.random.default_rng(4), 1.0, "mid")
+    dm = up.truth["mass_step_kg"]
+    assert dm > 0 and down.truth["mass_step_kg"] == pytest.approx(-dm)
+    assert up.payload_kg == d.payload_kg and down.payload_kg == pytest.approx(d.payload_kg + dm)
+    assert up.change_times == pytest.approx(down.change_times)
+    p0 = d.record["power_w"].to_numpy(float)
+    t = d.record["time_s"].to_numpy(float)
+    for key, idx in inj.experiments(d.record):
+        pos = d.record.index.get_indexer(idx)
+        after = t[pos] - t[pos][0] >= up.change_times[str(key)]
+        gain_up = up.record["power_w"].to_numpy(float)[pos] - p0[pos]
+        gain_down = down.record["power_w"].to_numpy(float)[pos] - p0[pos]
+        # heavier after the pick-up, heavier before the release, by the same law
+        assert np.all(np.abs(gain_up[~after]) < 1e-6) and np.all(np.abs(gain_down[after]) < 1e-6)
+        assert gain_up[after].max() > 20.0 and gain_down[~after].max() > 20.0
+        assert np.median(gain_up[after & (gain_up > 1.0)]) == pytest.approx(
+            np.median(gain_down[~after & (gain_down > 1.0)]), rel=0.3)
