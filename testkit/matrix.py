@@ -69,8 +69,8 @@ limits from beneath (every range below scaled by the factor; not judged by the
 criterion). Payload 0.2–0.4 kg (M100; 0.1–0.2 kg on the 1.5-kg Solo, 0.5–1.0 kg on
 the 9.4-kg Solar Surfer), carried from take-off and released
 (the real flight is the state after the release, so the masses stay physical); on the
-M100 flights also the same mass picked up (``pickup``: the record after the change
-flown heavier by the same law), the direction a model's misfit does not help. Steady
+M100 flights, log 171 and the Solar Surfer also the same mass picked up (``pickup``: the
+record after the change flown heavier by the same law). Steady
 wind 3–6 m/s from a random direction. Air density 75–85 % of the site's in half the
 flights (2×: 50–70 %). A constant load of 3.3–9 % of the median airborne power (15–40 W
 on the M100). A copper loss R·I² of 3–8 % of the power at the median current. A current
@@ -623,8 +623,8 @@ class Log(Source):
         self.real = tuple(real)
         self.battery_yaml, self.rotors, self.payload = battery, rotors, payload
         self.resistance = resistance
-        self.carries = carries or ("clean", "payload", "wind", "density", "load", "copper",
-                                   "offset", "cold_pack")
+        self.carries = carries or ("clean", "payload", "pickup", "wind", "density", "load",
+                                   "copper", "offset", "cold_pack")
 
     def draw(self, rng) -> Draw:
         rec = _log(self.file).copy()
@@ -640,7 +640,8 @@ class Log(Source):
 
 class SolarSurfer(Source):
     name = "solar_surfer"
-    carries = ("clean", "payload", "wind", "density", "load", "copper", "offset", "cold_pack")
+    carries = ("clean", "payload", "pickup", "wind", "density", "load", "copper", "offset",
+               "cold_pack")
     runs_scale = 0.5
 
     def draw(self, rng) -> Draw:
