@@ -149,12 +149,11 @@ LIFT_MEDIAN_SAMPLES = 5
 
 def lifting(g: pd.DataFrame, mass_kg, rho: float, area_m2: float) -> np.ndarray:
     """Samples of one experiment at which a multirotor of ``mass_kg`` (:func:`mass_of`) is
-    flying: its
-    electric power (a running median of :data:`LIFT_MEDIAN_SAMPLES`) at least the ideal
-    induced and climb power of its weight at its speed (:func:`ideal_rotor_power`), which
-    no rotor carrying that weight can undercut (its efficiency is below 1), and the
-    sample's own power as well. The height
-    above the first sample (:func:`airborne`) misses what this catches: idle rotors
+    flying: its electric power (a running median of :data:`LIFT_MEDIAN_SAMPLES`) at least
+    the ideal induced and climb power of its weight at its speed
+    (:func:`ideal_rotor_power`), which no rotor carrying that weight can undercut (its
+    efficiency is below 1), and the sample's own power as well. The height above the
+    first sample (:func:`airborne`) misses what this catches: idle rotors
     after a landing whose barometric altitude has drifted above the take-off's, ground
     tests with no altitude, and records that start in the air (a hover whose altitude
     then reads below its first sample)."""
@@ -282,25 +281,24 @@ def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg, *,
     experiment's time in ``times`` while airborne (module notes, "Mass"). ``mass_kg``:
     the all-up mass before the change (:func:`mass_of`). [kg], [s]"""
     dp = np.zeros(len(df))
-    every = mass_kg
     for key, idx in experiments(df):
         if key not in times:
             continue
         g = df.loc[idx]
-        mass_kg = mass_of(every, g)
+        m = mass_of(mass_kg, g)
         pos = df.index.get_indexer(idx)
-        up = lifting(g, mass_kg, rho, rotors.area_m2) if rotors is not None else airborne(g)
+        up = lifting(g, m, rho, rotors.area_m2) if rotors is not None else airborne(g)
         after = up & (g["time_s"].to_numpy(float) >= times[key])
         v = speed_of(g)
         climb = _col(g, "climb_rate_ms")
         if rotors is not None:
-            k = electric_per_ideal(g, mass_kg, rho, rotors, up)
-            gain = k * (ideal_rotor_power(mass_kg + dm_kg, rho, rotors.area_m2, v, climb)
-                        - ideal_rotor_power(mass_kg, rho, rotors.area_m2, v, climb))
+            k = electric_per_ideal(g, m, rho, rotors, up)
+            gain = k * (ideal_rotor_power(m + dm_kg, rho, rotors.area_m2, v, climb)
+                        - ideal_rotor_power(m, rho, rotors.area_m2, v, climb))
         else:
             vv = np.maximum(v, 1.0)
             q = 0.5 * rho * vv**2
-            di = ((G * (mass_kg + dm_kg)) ** 2 - (G * mass_kg) ** 2) / (
+            di = ((G * (m + dm_kg)) ** 2 - (G * m) ** 2) / (
                 q * math.pi * wing.oswald * wing.span_m**2)
             gain = (di * vv + dm_kg * G * climb) / wing.propulsive_efficiency
         dp[pos] = np.where(after, gain, 0.0)

@@ -259,20 +259,27 @@ def m100_flights(route_r1: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
     return df, r1
 
 
+def _height(flight: pd.DataFrame):
+    """An M100 flight's height over the lowest of its first 50 altitude samples, or None
+    where they are all unknown. [m]"""
+    alt = flight["altitude_m"].to_numpy(float)
+    first = alt[:50][np.isfinite(alt[:50])]
+    return alt - first.min() if first.size else None
+
+
 def level_cruise(flight: pd.DataFrame, speed_ms: float, altitude_m: float):
     """The samples of an M100 flight in level cruise at its commanded speed ``speed_ms``
     and altitude ``altitude_m``: climbing slower than 0.3 m/s, ground speed within 15 % of
-    the commanded, above 80 % of the commanded altitude (over the lowest of its first 50
-    samples); None where the altitude is unknown. [bool array]"""
-    alt = flight["altitude_m"].to_numpy(float)
-    first = alt[:50][np.isfinite(alt[:50])]
-    if not np.isfinite(altitude_m) or not first.size:
+    the commanded, above 80 % of the commanded altitude (:func:`_height`); None where the
+    altitude is unknown. [bool array]"""
+    height = _height(flight)
+    if not np.isfinite(altitude_m) or height is None:
         return None
     gs = np.abs(flight["groundspeed_ms"].to_numpy(float))
     with np.errstate(invalid="ignore"):
         return ((np.abs(flight["climb_rate_ms"].to_numpy(float)) < 0.3)
                 & (np.abs(gs - speed_ms) < 0.15 * speed_ms)
-                & (alt - first.min() > 0.8 * altitude_m))
+                & (height > 0.8 * altitude_m))
 
 
 def _hc1(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -346,13 +353,12 @@ def power_per_payload_by_regime() -> dict:
             cruise.append((p["speed"], p["payload"] / 1000.0, p["altitude"],
                            np.median(pw[ok & np.isfinite(pw)])))
         climb = g["climb_rate_ms"].to_numpy(float)
-        alt = g["altitude_m"].to_numpy(float)
-        first = alt[:50][np.isfinite(alt[:50])]
-        if not first.size:
+        height = _height(g)
+        if height is None:
             continue
         with np.errstate(invalid="ignore"):
             still = ((np.abs(g["groundspeed_ms"].to_numpy(float)) < VERTICAL_GROUNDSPEED_MS)
-                     & (alt - first.min() > 5.0) & np.isfinite(pw))
+                     & (height > 5.0) & np.isfinite(pw))
             for name, m in (("climb", still & (climb > 1.5)), ("descent", still & (climb < -1.0))):
                 if m.sum() >= 20:
                     vertical[name].append((p["payload"] / 1000.0, np.median(np.abs(climb[m])),
@@ -471,10 +477,9 @@ class M100(Source):
     def _sixteen(self, rng, df, par, payload_g: float | None) -> Draw:
         """:data:`FLIGHTS` flights of ``df`` (at most as many as there are) that carried
         ``payload_g`` [g] (None: any payload, each flight's own given to diagnose), drawn
-        with ``rng``,
-        with the M100's definitions; the flights not drawn, each with its mass, to
-        calibrate on (:func:`calibrated_aircraft`, which takes their record from ``df``
-        only when it calibrates)."""
+        with ``rng``, with the M100's definitions; the flights not drawn, each with its
+        mass, to calibrate on (:func:`calibrated_aircraft`, which takes their record from
+        ``df`` only when it calibrates)."""
         have = set(df["experiment"].astype(int).unique())
         carried = par["payload"] == payload_g if payload_g is not None else \
             par["payload"].notna()
@@ -802,35 +807,22 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
     if kind == "clean":
         return Injected(rec, d.payload_kg, {}, 0.0)
     if kind == "payload":
-        scale = _mean(d.mass_kg) / 2.955        # the M100 with its mid payload: 0.2-0.4 kg
-        dm = _uniform(rng, 0.2, 0.4, size * scale)
-        lo, hi = TIMINGS[timing]
-        fr = rng.uniform(lo, hi, len(d.flights)) if timing == "random" else \
-            np.full(len(d.flights), rng.uniform(lo, hi))
-        times = inj.change_times(rec, fr, flying=_flying(d))
+        dm, times, fraction, since_start = _mass_change(d, rng, size, timing)
         # carried from take-off, released at the change: the record before the change is
         # flown dm heavier (the real flight is the state after the release)
         out = _carry_until(rec, dm, times, d)
-        t0 = {str(k): float(rec.loc[idx, "time_s"].iloc[0]) for k, idx in inj.experiments(rec)}
         carried = {k: m + dm for k, m in d.payload_kg.items()} \
             if isinstance(d.payload_kg, dict) else d.payload_kg + dm
-        return Injected(out, carried, {"mass_step_kg": -dm}, dm,
-                        float(np.median(fr)),
-                        change_times={str(k): t - t0[str(k)] for k, t in times.items()})
+        return Injected(out, carried, {"mass_step_kg": -dm}, dm, fraction,
+                        change_times=since_start)
     if kind == "pickup":
         # the same mass, picked up in flight: the record after the change is flown dm
         # heavier, the take-off payload the flights' own
-        scale = _mean(d.mass_kg) / 2.955
-        dm = _uniform(rng, 0.2, 0.4, size * scale)
-        lo, hi = TIMINGS[timing]
-        fr = rng.uniform(lo, hi, len(d.flights)) if timing == "random" else \
-            np.full(len(d.flights), rng.uniform(lo, hi))
-        times = inj.change_times(rec, fr, flying=_flying(d))
+        dm, times, fraction, since_start = _mass_change(d, rng, size, timing)
         out = inj.payload_step(rec, dm, times, d.mass_kg, rho=d.rho, pack_resistance_ohm=r,
                                rotors=d.rotors, wing=d.wing)
-        t0 = {str(k): float(rec.loc[idx, "time_s"].iloc[0]) for k, idx in inj.experiments(rec)}
-        return Injected(out, d.payload_kg, {"mass_step_kg": dm}, dm, float(np.median(fr)),
-                        change_times={str(k): t - t0[str(k)] for k, t in times.items()})
+        return Injected(out, d.payload_kg, {"mass_step_kg": dm}, dm, fraction,
+                        change_times=since_start)
     if kind == "wind":
         w = _uniform(rng, 3.0, 6.0, size)
         frm = _uniform(rng, 0.0, 360.0)
@@ -879,6 +871,22 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
     if kind in ("fade", "cold_cells", "real_cold"):
         return _cell_injection(kind, d, rng, size)
     raise ValueError(kind)
+
+
+def _mass_change(d: Draw, rng, size: float, timing: str):
+    """A payload change's draw (module notes, "Sizes" and "Timing"): its mass [kg]
+    (0.2–0.4 kg × ``size`` on the M100 with its mid payload, in proportion to the
+    aircraft's mass elsewhere), each flight's change time [s of the record's time], the
+    median fraction of the airborne span it falls at, and each change time from its
+    flight's first sample [s]."""
+    dm = _uniform(rng, 0.2, 0.4, size * _mean(d.mass_kg) / 2.955)
+    lo, hi = TIMINGS[timing]
+    fr = rng.uniform(lo, hi, len(d.flights)) if timing == "random" else \
+        np.full(len(d.flights), rng.uniform(lo, hi))
+    times = inj.change_times(d.record, fr, flying=_flying(d))
+    t0 = {str(k): float(d.record.loc[idx, "time_s"].iloc[0])
+          for k, idx in inj.experiments(d.record)}
+    return dm, times, float(np.median(fr)), {str(k): t - t0[str(k)] for k, t in times.items()}
 
 
 def _mean(x) -> float:

@@ -326,12 +326,13 @@ def level_limits(report, effects, found: set[str]) -> list[dict[str, Any]]:
             ident, why = False, beyond_physics(e.name, report.name, limit, top)
         if e.name in found and not (ident and limit <= top) and not gate_why:
             confused = _confused_with(e, tested, sigs, J, resid, groups, top, clusters)
+        remedy = None
         if e.name in withheld and e.name not in found:
             w = withheld[e.name]
             ident = False
             why = f"the fit that explains the misfit is withheld: {w['why']}"
+            remedy = w.get("help")
         per = getattr(level, "cycle_source", None) if e.name == "capacity_fade" else None
-        remedy = withheld[e.name].get("help") if e.name in withheld else None
         out.append(entry(e.name, report.name, found=e.name in found, identifiable=ident,
                          limit=limit, why=why, n=level.n_experiments, stderr=lim.stderr,
                          per=per, confused_with=confused, design_effect=lim.design_effect,
