@@ -336,6 +336,27 @@ def project_out(columns: np.ndarray, nuisance: np.ndarray | None) -> np.ndarray:
     return cols - (X / np.linalg.norm(X, axis=0)) @ coef
 
 
+def step_robust_long_run_variance(r) -> float:
+    """Long-run variance σ²(1+ρ)/(1−ρ) of a residual series, robust to a step in it: the
+    noise a change point is located against (:meth:`planner.identify.diagnose.search.PowerLevel._scan`)
+    and the detection limit of a change predicts it with
+    (:func:`planner.identify.diagnose.limits._payload`), so that a change not yet fitted
+    does not count as noise. [unit of r²]
+
+    σ² from differences at a lag beyond the short-range correlation, ρ from the lag-1
+    differences; a single step touches only a few of either.
+    """
+    r = np.asarray(r, float)
+    n = len(r)
+    lag = max(1, min(10, n // 4))
+    s2 = float(np.mean((r[lag:] - r[:-lag]) ** 2)) / 2.0
+    if s2 <= 0:
+        return 0.0
+    v1 = float(np.mean(np.diff(r) ** 2))
+    rho = min(max(1.0 - v1 / (2.0 * s2), 0.0), 0.95)
+    return s2 * (1 + rho) / (1 - rho)
+
+
 def long_run_variance(resid, groups=None, dof: int = 0) -> float:
     r"""σ²(1 + ρ)/(1 − ρ) of a residual series: the variance per row that a sum over
     autocorrelated rows carries (AR(1), :func:`ar1_inflation`); σ² = RSS/(n − dof).

@@ -111,3 +111,21 @@ def test_effective_clusters_count_the_flights_that_carry_an_estimate():
     weights = np.where(groups == 0, 10.0, 1.0)
     assert stats.effective_clusters(np.column_stack([level, x * weights]), [0, 1],
                                     groups) < 3
+
+
+def test_a_step_not_yet_fitted_does_not_count_as_noise_in_the_step_robust_variance():
+    """A change point is located against the noise, and its detection limit predicted
+    with it: a step still in the residual must not raise that noise (else the larger a
+    change, the higher its own limit). On white noise of unit variance with a step of
+    4 in the middle, the RSS-based long-run variance counts the step (about 4 + the
+    inflation its autocorrelation brings: 40 here); the step-robust one stays below 2 (the
+    step touches a few of its differences at a lag), and near the RSS-based one where
+    there is no step."""
+    rng = np.random.default_rng(3)
+    noise = rng.normal(0.0, 1.0, 400)
+    stepped = noise + np.where(np.arange(400) >= 200, 4.0, 0.0)
+    stepped -= stepped.mean()
+    assert stats.long_run_variance(stepped) > 20.0
+    assert 0.7 < stats.step_robust_long_run_variance(stepped) < 2.0
+    assert stats.step_robust_long_run_variance(noise) == pytest.approx(
+        stats.long_run_variance(noise), rel=0.3)

@@ -1185,9 +1185,16 @@ class PayloadChange(PowerEffect):
         dp = p.get("power_step_w", math.nan)
         size = f"{abs(dp):.0f} W " if math.isfinite(dp) else ""
         on = "switched off" if dm < 0 else "switched on"
-        return ["a change of how the aircraft is flown there (flight mode, height above "
-                "ground, speed) that the power model does not follow",
-                f"a load of {size}{on} (lights, a gimbal, a heater)"]
+        out = ["a change of how the aircraft is flown there (flight mode, height above "
+               "ground, speed) that the power model does not follow",
+               f"a load of {size}{on} (lights, a gimbal, a heater)"]
+        # a wind not tested because the route turns it into one step per flight fits
+        # the same step (Wind.route_reason)
+        wind = Wind()
+        if wind.data_reason(pw) is None and wind.route_reason(pw) is not None:
+            out.append("a steady wind: on this route it changes the airspeed within each "
+                       "flight as one step (the legs are flown in one order)")
+        return out
 
     def headline(self, p, pw):
         """``Power step … (a … kg payload drop or pick-up, or …)`` in one line."""

@@ -55,8 +55,14 @@ A payload change needs more: it is located flight by flight, where its step must
 a threshold of 2 ln n long-run variances (module notes of ``search``), so its limit is
 the larger of the pooled one (net of each flight's own constant mass, the climb and
 descent regimes and the other candidates) and the size at which the median flight
-locates it with 80 % power; both depend on where in the flights it happens, and the
-limit is given by position (``by_position``: fraction of each flight's airborne span).
+locates it with 80 % power. The search locates a change net of the climbs' and
+descents' power levels pooled over the flights; the flight's own location is here taken
+net of them within the flight (a change inside a climb or a descent is told from the
+regime's level only by the bins of the regime on its other side), and its noise is the
+long-run variance robust to a step (:func:`planner.identify.stats.step_robust_long_run_variance`),
+so that a change present but not fitted does not raise its own limit. Both depend on
+where in the flights it happens, and the limit is given by position (``by_position``:
+fraction of each flight's airborne span).
 The limit falls as 1/√(number of flights) for the pooled tests.
 """
 
@@ -571,9 +577,11 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     nuisance = np.column_stack([J, per_flight, regime] + others)
     within = stats.within_groups(resid, exp)
     floor = MIN_MASS_STEP * level.mass0
-    # per flight: the long-run variance and the noncentrality at which its change point
-    # beats the 2 ln n threshold of the search with 80 % power
-    s2 = {f: stats.long_run_variance(within[exp == f]) for f in flights}
+    # per flight: the long-run variance (robust to a step not yet fitted, as the search's)
+    # and the noncentrality at which its change point beats the 2 ln n threshold of the
+    # search with 80 % power; the search locates net of the climbs' and descents' levels,
+    # which a flight's step is here taken net of within the flight (module notes)
+    s2 = {f: stats.step_robust_long_run_variance(within[exp == f]) for f in flights}
     lam = {f: stats.noncentrality_for_power(1, critical=2.0 * math.log(max((exp == f).sum(), 3)))
            for f in flights}
     by = {}
@@ -594,7 +602,7 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
         located = []
         for f in flights:
             m = exp == f
-            gf = stats.project_out(g[m][:, None], s[m][:, None])[:, 0]
+            gf = stats.project_out(g[m][:, None], np.column_stack([s[m], regime[m]]))[:, 0]
             ss = float(np.dot(gf, gf))
             if ss <= 0:
                 located.append(math.inf)

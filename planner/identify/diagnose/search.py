@@ -32,7 +32,8 @@ start of each held-out segment (experiment or block) [mAh].
 
 Power level: the airborne samples (phases of :func:`planner.chain.flightstate.flight_phases`
 other than ground and take-off) averaged over bins of B seconds (at least 1 s;
-longer when there are more than :data:`MAX_BINS` bins; at most 10 s), within
+longer when there are more than :data:`MAX_BINS` bins, or
+:data:`MIN_BINS_PER_EXPERIMENT` a flight if that is more; at most 10 s), within
 the test units. The baseline's free parameters are the efficiency η and the
 shape parameters (multirotor drag area; fixed-wing C_D0, K); the system load
 stays at the aircraft file's value (fitting it is the ``system_power`` effect).
@@ -131,7 +132,23 @@ placed only where it lowers that squared error by more than :math:`k \ln(n)`
 long-run residual variances (a BIC-like threshold, :math:`\ln n` per fitted
 parameter: :math:`k = 2` for the time and the size, :math:`k = 1` on a held-out
 flight, whose step size was learned on the other flights), else the flight has
-none.
+none; the variance is taken from differences at a lag, so that the change itself does
+not count as noise (:func:`planner.identify.stats.step_robust_long_run_variance`).
+
+The residual is first taken net of a power level of the climbs' and of the descents'
+own (climb rate beyond ±:data:`~planner.chain.flightstate.CLIMB_THRESHOLD_MS`), pooled
+over the flights. The power model misses these regimes by tens of watts (on 32 clean
+route-R1 flights of the DJI M100 data, Rodrigues et al. 2021, the residual of the model
+without a step is +15 to +21 W in level cruise, −21 to −28 W in the final descents and
+−13 W in the climb): located on the raw residual, the change from cruise to descent
+looks like a drop, so a release is found late or at the descent and a pick-up not at
+all. The levels are fitted beside each flight's own constant mass and the step, and the
+steps located again on the residual net of them, for up to :data:`LOCATE_ROUNDS` rounds
+(until the located changes no longer move). Before any change is located, the step's
+column is its expectation under a change time uniform over each flight (the share of
+the flight elapsed, × :math:`s`): else the levels take up a change that happens in every
+flight, and none is located. A held-out flight is
+located net of the levels learned on the training flights.
 
 The step's standard error is the larger of the fit's (AR(1)-inflated, within flights)
 and the spread of **placebo steps**: the same step fitted on the final model's residual
@@ -252,6 +269,11 @@ MIN_TEST_UNITS = 6
 TARGET_WINDOWS = 500
 #: Most power bins before the bin width grows (up to 10 s). [unitless]
 MAX_BINS = 1000
+#: Bins an experiment keeps on average however many there are (the bins are then
+#: allowed beyond :data:`MAX_BINS`): a change point is located flight by flight, and
+#: wider bins leave each flight fewer to place it with (module notes, "Change points").
+#: [unitless]
+MIN_BINS_PER_EXPERIMENT = 60
 #: β is fitted only when some experiment draws this share of the nominal charge. [unitless]
 FIT_BETA_MIN_DEPTH = 0.1
 #: Shortest experiment used. [s]
@@ -285,6 +307,9 @@ PLACEBO_POSITIONS = tuple(round(0.10 + 0.05 * i, 2) for i in range(17))
 PLACEBO_EXCLUSION = 0.1
 #: Fewer placebo positions than this give no placebo spread. [count]
 MIN_PLACEBOS = 5
+#: Rounds in which the climbs' and descents' power levels and the change times are
+#: located in turn (:meth:`PowerLevel._locate`). [count]
+LOCATE_ROUNDS = 3
 
 
 # ============================================================================ split
@@ -353,22 +378,6 @@ def make_split(spans: list[tuple[float, float]]) -> Split:
 
 
 # ============================================================================ helpers
-
-def _long_run_variance(r: np.ndarray) -> float:
-    """Long-run variance σ²(1+ρ)/(1−ρ) of a residual series, robust to a step in it.
-
-    σ² from differences at a lag beyond the short-range correlation, ρ from the lag-1
-    differences; a single step touches only a few of either.
-    """
-    n = len(r)
-    lag = max(1, min(10, n // 4))
-    s2 = float(np.mean((r[lag:] - r[:-lag]) ** 2)) / 2.0
-    if s2 <= 0:
-        return 0.0
-    v1 = float(np.mean(np.diff(r) ** 2))
-    rho = min(max(1.0 - v1 / (2.0 * s2), 0.0), 0.95)
-    return s2 * (1 + rho) / (1 - rho)
-
 
 def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
@@ -749,15 +758,17 @@ def _finite_col(sub, name: str, n: int) -> np.ndarray:
 class _Bins:
     """Bins of B seconds within the test units of the power level (module notes): B at
     least 1 s and the median sample interval, longer when there would be more than
-    :data:`MAX_BINS`, at most 10 s; bins with fewer than half the median count of samples
-    are dropped (:attr:`keep`)."""
+    :data:`MAX_BINS` (or :data:`MIN_BINS_PER_EXPERIMENT` a flight, if that is more), at
+    most 10 s; bins with fewer than half the median count of samples are dropped
+    (:attr:`keep`)."""
 
     def __init__(self, s: dict, split: Split, spans):
         self.unit = split.assign(s["exp"], s["t"])
         total = sum(b - a for a, b in spans)
         dts = np.diff(s["t"])
         self.med_dt = float(np.median(dts[dts > 0])) if np.any(dts > 0) else 1.0
-        self.width = min(max(1.0, self.med_dt, total / MAX_BINS), 10.0)
+        most = max(MAX_BINS, MIN_BINS_PER_EXPERIMENT * np.unique(s["exp"]).size)
+        self.width = min(max(1.0, self.med_dt, total / most), 10.0)
         u0 = np.array([split.units[u].t0 for u in self.unit])
         key = self.unit.astype(np.int64) * 10**7 + \
             np.floor((s["t"] - u0) / self.width).astype(np.int64)
@@ -1113,7 +1124,7 @@ class PowerLevel:
         if start is not None:
             sv = start.values()
             x0 = np.array([sv.get(k, warm.get(k, x0[i])) for i, k in enumerate(names)])
-            keep = ("reference_mechanical_w", "change_time_s", "step_mask")
+            keep = ("reference_mechanical_w", "change_time_s", "step_mask", "regime_levels_w")
             state.update({k: v for k, v in start.state.items() if k in keep})
             reuse_steps = "change_time_s" in start.state
         x0 = np.clip(x0, lo + 1e-9 * scale, hi - 1e-9 * scale)
@@ -1195,7 +1206,11 @@ class PowerLevel:
 
     def _locate(self, payload, effects, names, x, state, rows, y, groups, fixed_step,
                 coef=None, step_known=False):
-        """Locate the change time in each experiment with training rows (see the module notes)."""
+        """Locate the change time in each experiment with training rows (see the module
+        notes): on the residual of the model without the step, net of the climbs' and
+        descents' own power levels, pooled over the flights and fitted with the step
+        (:meth:`_regime_columns`); a held-out flight (``step_known``) takes the levels
+        learned on the training flights."""
         base = [e for e in effects if e.name != "payload_change"]
         bnames = [k for k in names if k != "mass_step_kg"]
         xb = np.array([x[names.index(k)] for k in bnames])
@@ -1213,21 +1228,74 @@ class PowerLevel:
         bumped = dict(inputs)
         bumped["mass"] = inputs["mass"] + dm
         s = (self.mechanical(shape, bumped, rows) - M) / dm * coef[0]
-        times = state.get("change_time_s", {})
-        change = self._scan(rows, r, s, groups, fixed_step, step_known)
-        times = dict(times)
+        Z = self._regime_columns(rows)
+        if step_known:
+            levels = np.asarray(state.get("regime_levels_w", ()), float)
+            net = r - Z @ levels if levels.size == Z.shape[1] else r
+            change = self._scan(rows, net, s, groups, fixed_step, step_known)
+        else:
+            # the levels fitted beside each flight's own mass and, before any change is
+            # located, the step's expected column under a change time uniform over the
+            # flight (the airborne share of the flight elapsed × s): else the levels take
+            # up the steps and no change is located (module notes, "Change points")
+            own_mass = np.column_stack([np.where(groups == e, s, 0.0)
+                                        for e in np.unique(groups)])
+            ramp = self._elapsed_share(rows)
+            step = ramp * s
+            change: dict = {}
+            for _ in range(LOCATE_ROUNDS):
+                if not Z.shape[1]:
+                    levels = np.zeros(0)
+                    break
+                levels = _lstsq(np.column_stack([Z, own_mass, step]), r)[:Z.shape[1]]
+                found = self._scan(rows, r - Z @ levels, s, groups, fixed_step, step_known)
+                if found == change:
+                    break
+                change = found
+                located = np.isin(groups, [self.names.index(k) for k, v in change.items()
+                                           if v is not None])
+                step = np.where(located, self._step_mask_rows(change, rows), ramp) * s
+            net = r - Z @ levels
+            change = self._scan(rows, net, s, groups, fixed_step, step_known)
+            state["regime_levels_w"] = [float(v) for v in levels]
+        times = dict(state.get("change_time_s", {}))
         times.update(change)
         state["change_time_s"] = times
         state["step_mask"] = self._step_mask(times)
         if fixed_step is None:
-            num = den = 0.0
-            for e, tc in change.items():
-                if tc is None:
-                    continue
-                m = (self.exp[rows] == self.names.index(e)) & (self.time[rows] >= tc)
-                num += float(np.dot(s[m], r[m]))
-                den += float(np.dot(s[m], s[m]))
-            state["initial_step"] = num / den if den > 0 else 0.0
+            m = self._step_mask_rows(change, rows) > 0
+            den = float(np.dot(s[m], s[m]))
+            state["initial_step"] = float(np.dot(s[m], net[m])) / den if den > 0 else 0.0
+
+    def _regime_columns(self, rows: np.ndarray) -> np.ndarray:
+        """Indicator columns of the climbs and the descents (climb rate beyond
+        ±:data:`~planner.chain.flightstate.CLIMB_THRESHOLD_MS`) among ``rows``, each where
+        it can have a power level of its own (:meth:`has_own_level`): the regimes the
+        change is located net of, as the detection limit takes them
+        (:func:`planner.identify.diagnose.limits._payload`)."""
+        cols = [regime[rows].astype(float)
+                for regime in (self.climb > CLIMB_THRESHOLD_MS, self.climb < -CLIMB_THRESHOLD_MS)
+                if self.has_own_level(regime, rows)]
+        return np.column_stack(cols) if cols else np.zeros((rows.size, 0))
+
+    def _elapsed_share(self, rows: np.ndarray) -> np.ndarray:
+        """Share of its flight's span among ``rows`` elapsed at each of ``rows``: the
+        expected indicator of a change whose time is uniform over the flight. [unitless]"""
+        out = np.zeros(rows.size)
+        for e in np.unique(self.exp[rows]):
+            m = self.exp[rows] == e
+            t = self.time[rows][m]
+            out[m] = (t - t.min()) / max(float(t.max() - t.min()), 1e-9)
+        return out
+
+    def _step_mask_rows(self, change: dict, rows: np.ndarray) -> np.ndarray:
+        """1 on the ``rows`` at or after their flight's located change time, else 0."""
+        out = np.zeros(rows.size)
+        for name, tc in change.items():
+            if tc is not None:
+                m = (self.exp[rows] == self.names.index(name)) & (self.time[rows] >= tc)
+                out[m] = 1.0
+        return out
 
     def _scan(self, rows, r, s, groups, fixed_step, step_known=False
               ) -> dict[str, float | None]:
@@ -1259,7 +1327,8 @@ class PowerLevel:
             # variance inflated for autocorrelation (else noise always "finds" one)
             # (per fitted parameter ln(n): the time and the size; only the time when the
             # size was learned on other flights, step_known)
-            penalty = (1.0 if step_known else 2.0) * math.log(n) * _long_run_variance(rp)
+            penalty = ((1.0 if step_known else 2.0) * math.log(n)
+                       * stats.step_robust_long_run_variance(rp))
             per[e] = (m, num, den, lo, hi, penalty)
         step = fixed_step
         for it in range(3 if fixed_step is None else 1):
