@@ -1357,13 +1357,8 @@ class PowerLevel:
         return out
 
     def _step_mask(self, times: dict) -> np.ndarray:
-        mask = np.zeros(self.n_rows)
-        for name, tc in times.items():
-            if tc is None:
-                continue
-            e = self.names.index(name)
-            mask[(self.exp == e) & (self.time >= tc)] = 1.0
-        return mask
+        """1 on every bin at or after its flight's change time in ``times``, else 0."""
+        return self._step_mask_rows(times, np.arange(self.n_rows))
 
     def predict(self, fit: Fit, effects, rows: np.ndarray) -> np.ndarray:
         """Predicted electric power of the bins ``rows``. [W]"""
