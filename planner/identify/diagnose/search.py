@@ -1228,12 +1228,15 @@ class PowerLevel:
         bumped = dict(inputs)
         bumped["mass"] = inputs["mass"] + dm
         s = (self.mechanical(shape, bumped, rows) - M) / dm * coef[0]
-        Z = self._regime_columns(rows)
         if step_known:
-            levels = np.asarray(state.get("regime_levels_w", ()), float)
-            net = r - Z @ levels if levels.size == Z.shape[1] else r
+            learned = state.get("regime_levels_w", {})
+            Z = self._regime_columns(rows, tuple(learned))
+            net = r - Z @ np.array(list(learned.values()), float).reshape(-1)
             change = self._scan(rows, net, s, groups, fixed_step, step_known)
         else:
+            names = tuple(k for k, regime in self._regimes().items()
+                          if self.has_own_level(regime, rows))
+            Z = self._regime_columns(rows, names)
             # the levels fitted beside each flight's own mass and, before any change is
             # located, the step's expected column under a change time uniform over the
             # flight (the airborne share of the flight elapsed × s): else the levels take
@@ -1257,7 +1260,7 @@ class PowerLevel:
                 step = np.where(located, self._step_mask_rows(change, rows), ramp) * s
             net = r - Z @ levels
             change = self._scan(rows, net, s, groups, fixed_step, step_known)
-            state["regime_levels_w"] = [float(v) for v in levels]
+            state["regime_levels_w"] = {k: float(v) for k, v in zip(names, levels)}
         times = dict(state.get("change_time_s", {}))
         times.update(change)
         state["change_time_s"] = times
@@ -1267,15 +1270,20 @@ class PowerLevel:
             den = float(np.dot(s[m], s[m]))
             state["initial_step"] = float(np.dot(s[m], net[m])) / den if den > 0 else 0.0
 
-    def _regime_columns(self, rows: np.ndarray) -> np.ndarray:
-        """Indicator columns of the climbs and the descents (climb rate beyond
-        ±:data:`~planner.chain.flightstate.CLIMB_THRESHOLD_MS`) among ``rows``, each where
-        it can have a power level of its own (:meth:`has_own_level`): the regimes the
-        change is located net of, as the detection limit takes them
-        (:func:`planner.identify.diagnose.limits._payload`)."""
-        cols = [regime[rows].astype(float)
-                for regime in (self.climb > CLIMB_THRESHOLD_MS, self.climb < -CLIMB_THRESHOLD_MS)
-                if self.has_own_level(regime, rows)]
+    def _regimes(self) -> dict[str, np.ndarray]:
+        """The climbs and the descents (climb rate beyond
+        ±:data:`~planner.chain.flightstate.CLIMB_THRESHOLD_MS`), a boolean per bin: the
+        regimes a change is located net of (on the training flights, each where it can
+        have a power level of its own, :meth:`has_own_level`), as the detection limit
+        takes them (:func:`planner.identify.diagnose.limits._payload`)."""
+        return {"climb": self.climb > CLIMB_THRESHOLD_MS,
+                "descent": self.climb < -CLIMB_THRESHOLD_MS}
+
+    def _regime_columns(self, rows: np.ndarray, names) -> np.ndarray:
+        """The indicator columns of the regimes ``names`` (:meth:`_regimes`) among
+        ``rows``."""
+        regimes = self._regimes()
+        cols = [regimes[k][rows].astype(float) for k in names]
         return np.column_stack(cols) if cols else np.zeros((rows.size, 0))
 
     def _elapsed_share(self, rows: np.ndarray) -> np.ndarray:
