@@ -63,6 +63,14 @@ def vertical_descent(speed, climb_rate) -> np.ndarray:
         (np.asarray(climb_rate, float) < -CLIMB_THRESHOLD_MS)
 
 
+def climb_regimes(climb_rate) -> dict[str, np.ndarray]:
+    """Where a sample climbs and where it descends, whatever its ground speed: the
+    vertical speed beyond ±:data:`CLIMB_THRESHOLD_MS`, as the flight phases count a climb
+    and a descent. [m/s] in, bool out (``{"climb": …, "descent": …}``)."""
+    climb = np.asarray(climb_rate, float)
+    return {"climb": climb > CLIMB_THRESHOLD_MS, "descent": climb < -CLIMB_THRESHOLD_MS}
+
+
 def flight_phases(power_w, climb_rate_ms=None, groundspeed_ms=None, time_s=None,
                   altitude_m=None) -> np.ndarray:
     """Label every sample with a flight phase (see the module notes).

@@ -1066,15 +1066,14 @@ class PayloadChange(PowerEffect):
         """Share of the variance of a step indicator ``mask`` over the airborne bins of the
         flights ``located`` that the regime indicators (climbing, descending) explain
         (:meth:`regime_confound`); NaN without variation. [unitless]"""
-        from planner.chain.flightstate import CLIMB_THRESHOLD_MS
+        from planner.chain.flightstate import climb_regimes
 
         rows = np.isin(pw.exp, located)
         y = np.asarray(mask, float)[rows]
         if np.var(y) <= 0:
             return math.nan
-        climb = pw.climb[rows]
-        X = np.column_stack([np.ones(y.size), climb > CLIMB_THRESHOLD_MS,
-                             climb < -CLIMB_THRESHOLD_MS]).astype(float)
+        X = np.column_stack([np.ones(y.size)]
+                            + list(climb_regimes(pw.climb[rows]).values())).astype(float)
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         return float(1.0 - np.var(y - X @ coef) / np.var(y))
 

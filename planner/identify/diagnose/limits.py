@@ -563,7 +563,7 @@ def _hover_level(level) -> np.ndarray:
 
 def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> dict:
     """The payload change's limit by position (module notes)."""
-    from planner.chain.flightstate import CLIMB_THRESHOLD_MS
+    from planner.chain.flightstate import climb_regimes
     from planner.identify.diagnose.effects import MIN_MASS_STEP, PayloadChange
 
     s = sigs["payload_change"][:, 0]
@@ -571,8 +571,7 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     flights = np.unique(exp)
     per_flight = np.column_stack([np.where(exp == f, s, 0.0) for f in flights] +
                                  [(exp == f).astype(float) for f in flights])
-    regime = np.column_stack([(level.climb > CLIMB_THRESHOLD_MS).astype(float),
-                              (level.climb < -CLIMB_THRESHOLD_MS).astype(float)])
+    regime = np.column_stack([r.astype(float) for r in climb_regimes(level.climb).values()])
     others = [sigs[o.name] for o in tested if o.name != "payload_change"]
     nuisance = np.column_stack([J, per_flight, regime] + others)
     within = stats.within_groups(resid, exp)

@@ -248,6 +248,7 @@ from planner.identify.diagnose.evidence import mode_changes
 from planner.chain.flightstate import (
     CLIMB_THRESHOLD_MS,
     STILL_MS,
+    climb_regimes,
     from_record,
     inplane_speed,
     vertical_descent,
@@ -1231,7 +1232,7 @@ class PowerLevel:
         bumped = dict(inputs)
         bumped["mass"] = inputs["mass"] + dm
         s = (self.mechanical(shape, bumped, rows) - M) / dm * coef[0]
-        names = tuple(k for k, regime in self._regimes().items()
+        names = tuple(k for k, regime in climb_regimes(self.climb).items()
                       if self.has_own_level(regime, rows))
         if step_known:
             # the training flights' levels, where the held-out flights are numerous enough
@@ -1277,19 +1278,12 @@ class PowerLevel:
             den = float(np.dot(s[m], s[m]))
             state["initial_step"] = float(np.dot(s[m], net[m])) / den if den > 0 else 0.0
 
-    def _regimes(self) -> dict[str, np.ndarray]:
-        """The climbs and the descents (climb rate beyond
-        ±:data:`~planner.chain.flightstate.CLIMB_THRESHOLD_MS`), a boolean per bin: the
-        regimes a change is located net of (on the training flights, each where it can
-        have a power level of its own, :meth:`has_own_level`), as the detection limit
-        takes them (:func:`planner.identify.diagnose.limits._payload`)."""
-        return {"climb": self.climb > CLIMB_THRESHOLD_MS,
-                "descent": self.climb < -CLIMB_THRESHOLD_MS}
-
     def _regime_columns(self, rows: np.ndarray, names) -> np.ndarray:
-        """The indicator columns of the regimes ``names`` (:meth:`_regimes`) among
-        ``rows``."""
-        regimes = self._regimes()
+        """The indicator columns of the regimes ``names``
+        (:func:`planner.chain.flightstate.climb_regimes`: the regimes a change is located
+        net of, on the training flights each where it can have a power level of its own,
+        :meth:`has_own_level`, as the detection limit takes them) among ``rows``."""
+        regimes = climb_regimes(self.climb)
         cols = [regimes[k][rows].astype(float) for k in names]
         return np.column_stack(cols) if cols else np.zeros((rows.size, 0))
 
