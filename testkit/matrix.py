@@ -464,10 +464,14 @@ class Source:
         raise NotImplementedError
 
 
+#: The injections a source of flights carries (M100 flights, logs, the Solar Surfer).
+FLIGHT_INJECTIONS = ("clean", "payload", "pickup", "wind", "density", "load", "copper",
+                     "offset", "cold_pack")
+
+
 class M100(Source):
     name = "m100"
-    carries = ("clean", "payload", "pickup", "wind", "density", "load", "copper", "offset",
-               "cold_pack")
+    carries = FLIGHT_INJECTIONS
 
     def draw(self, rng) -> Draw:
         df, par = m100_flights()
@@ -628,8 +632,7 @@ class Log(Source):
         self.real = tuple(real)
         self.battery_yaml, self.rotors, self.payload = battery, rotors, payload
         self.resistance = resistance
-        self.carries = carries or ("clean", "payload", "pickup", "wind", "density", "load",
-                                   "copper", "offset", "cold_pack")
+        self.carries = carries or FLIGHT_INJECTIONS
 
     def draw(self, rng) -> Draw:
         rec = _log(self.file).copy()
@@ -645,8 +648,7 @@ class Log(Source):
 
 class SolarSurfer(Source):
     name = "solar_surfer"
-    carries = ("clean", "payload", "pickup", "wind", "density", "load", "copper", "offset",
-               "cold_pack")
+    carries = FLIGHT_INJECTIONS
     runs_scale = 0.5
 
     def draw(self, rng) -> Draw:
