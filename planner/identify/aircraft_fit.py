@@ -382,7 +382,7 @@ def fit_aircraft(data: pd.DataFrame, aircraft: Aircraft, *, mass_kg: float,
         Site altitude for the ISA density when the record has no pressure. [m]
     airborne_height_m : float, optional
         Airborne = more than this above the experiment's first sample (default: the
-        flight phases other than ground and take-off). [m]
+        flight phases other than ground, take-off and landing). [m]
     **kwargs
         Passed to :func:`scipy.optimize.least_squares`.
 
@@ -655,9 +655,9 @@ def _height(exp: pd.DataFrame) -> np.ndarray:
 def airborne_mask(exp: pd.DataFrame, state, airborne_height_m: float | None) -> np.ndarray:
     """Airborne samples: more than ``airborne_height_m`` above the first sample (the
     Choudhry et al. 2021 benchmark's definition), else the flight phases other than
-    ``ground`` and ``takeoff`` (:func:`planner.chain.flightstate.flight_phases`)."""
+    ``ground``, ``takeoff`` and ``landing`` (:func:`planner.chain.flightstate.flight_phases`)."""
     if airborne_height_m is None:
-        return (state.phase != "ground") & (state.phase != "takeoff")
+        return ~np.isin(state.phase, ("ground", "takeoff", "landing"))
     if "altitude_m" not in exp:
         raise InputError("an airborne height needs altitude_m in the flight record")
     with np.errstate(invalid="ignore"):

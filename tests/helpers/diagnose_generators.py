@@ -312,10 +312,12 @@ def power_dataset(effect: str | None = None, magnitude=None, *, n_flights: int =
         pressure = rng.uniform(88_000.0, 102_000.0)
         rho_day = pressure / (R_AIR * (t_air + 273.15))
         if "air_density" in eff:
-            # flights spread over sites/days whose density spans ±magnitude around standard
+            # flights spread over sites/days whose density spans ±magnitude around standard,
+            # flown at the density of the air the record logs at the aircraft's height
             rho_day = 1.225 * (1 + eff["air_density"] * (2 * j / max(n_flights - 1, 1) - 1))
             pressure = rho_day * R_AIR * (t_air + 273.15)
-            rho = np.full(n, rho_day)
+            height = np.cumsum(climb) / rate_hz
+            rho = (pressure - 12.0 * height) / (R_AIR * (t_air - 0.0065 * height + 273.15))
         else:
             rho = np.full(n, 1.225)
         mass = np.full(n, q["empty_mass_kg"] + pack.mass_kg + truth_out["payload_kg"])

@@ -208,7 +208,8 @@ def save(fig, path, option: str = "--plot"):
 
 
 _PHASE_COLOURS = {"ground": "#eeeeee", "takeoff": "#fde0c5", "climb": "#fbe3d6",
-                  "cruise": "#e5f0fa", "hover": "#e8f5e0", "descent": "#f2e6f7"}
+                  "cruise": "#e5f0fa", "hover": "#e8f5e0", "descent": "#f2e6f7",
+                  "landing": "#f6d5d5"}
 
 
 def _shade_phases(ax, t, phase):

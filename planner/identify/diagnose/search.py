@@ -31,7 +31,7 @@ value). Held-out error: the cumulative residual :math:`C - \hat C` from the
 start of each held-out segment (experiment or block) [mAh].
 
 Power level: the airborne samples (phases of :func:`planner.chain.flightstate.flight_phases`
-other than ground and take-off) averaged over bins of B seconds (at least 1 s;
+other than ground, take-off and landing) averaged over bins of B seconds (at least 1 s;
 longer when there are more than :data:`MAX_BINS` bins, or
 :data:`MIN_BINS_PER_EXPERIMENT` a flight if that is more; at most 10 s), within
 the test units. The baseline's free parameters are the efficiency η and the
@@ -856,8 +856,8 @@ class PowerLevel:
 
     # ---------------------------------------------------------------- construction
     def _airborne_samples(self, exps, site_altitude_m: float):
-        """The airborne samples of every experiment with 10 or more (other than ground
-        and take-off), stacked as columns; each experiment's airborne span; the ground
+        """The airborne samples of every experiment with 10 or more (other than ground,
+        take-off and landing), stacked as columns; each experiment's airborne span; the ground
         power's 5th–95th percentiles (:attr:`ground_power_w`)."""
         self.names = []
         cols = {k: [] for k in ("exp", "t", "p", "gs", "course", "climb", "air", "wn", "we",
@@ -874,7 +874,7 @@ class PowerLevel:
             t = t - t[0]
             state = from_record(sub.assign(time_s=t), site_altitude_m)
             p, phase, climb = state.measured_power_w, state.phase, state.climb_rate_ms
-            ok = (phase != "ground") & (phase != "takeoff") & np.isfinite(p)
+            ok = ~np.isin(phase, ("ground", "takeoff", "landing")) & np.isfinite(p)
             ground.append(p[(phase == "ground") & np.isfinite(p)])
             if ok.sum() < 10:
                 self.notes.append(f"experiment {name}: no airborne samples, not used at the power "
