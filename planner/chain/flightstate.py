@@ -35,8 +35,8 @@ from planner.physics.wind import airspeed_from_ground
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["PHASES", "FlightState", "air_density_from_log", "fill_gaps", "flight_phases",
-           "from_record", "vertical_descent"]
+__all__ = ["NOT_FLOWN", "PHASES", "FlightState", "air_density_from_log", "fill_gaps",
+           "flight_phases", "flown", "from_record", "vertical_descent"]
 
 #: Flight phases, in the order reports list them.
 PHASES = ("ground", "takeoff", "climb", "cruise", "hover", "descent", "landing")
@@ -63,8 +63,17 @@ TAKEOFF_S = 10.0
 #: Rodrigues et al. 2021, the last 2 s read 53 W below the calibrated model, the rest of
 #: the final descent 5–25 W). [s]
 LANDING_S = 3.0
+#: Phases whose power no flight model describes (on the ground, the take-off, the
+#: landing): the fits and the diagnosis leave them out (:func:`flown`).
+NOT_FLOWN = ("ground", "takeoff", "landing")
 #: Share of finite samples a channel needs to be used. [unitless]
 CHANNEL_COVERAGE = 0.5
+
+
+def flown(phase) -> np.ndarray:
+    """Samples of :func:`flight_phases`' ``phase`` in flight the power model describes:
+    none of :data:`NOT_FLOWN`. [bool]"""
+    return ~np.isin(np.asarray(phase, dtype=object), NOT_FLOWN)
 
 
 def vertical_descent(speed, climb_rate) -> np.ndarray:

@@ -315,8 +315,8 @@ def _fill(row, path, models, key, pack_id, pack_id_source, cycle, payload_kg, sa
         if not airborne_mask(df, state, None).any():
             row.pop("_samples", None)
             raise NotAirborne(f"not airborne: no airborne sample in {row['duration_s']:.1f} s "
-                              "(flight phases ground and take-off only); left out of the "
-                              "accuracy and the aircraft calibration")
+                              "(flight phases ground, take-off and landing only); left out "
+                              "of the accuracy and the aircraft calibration")
 
 
 def _replayable(df: pd.DataFrame, path) -> tuple[pd.DataFrame, np.ndarray]:

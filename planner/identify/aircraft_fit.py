@@ -657,7 +657,7 @@ def airborne_mask(exp: pd.DataFrame, state, airborne_height_m: float | None) -> 
     Choudhry et al. 2021 benchmark's definition), else the flight phases other than
     ``ground``, ``takeoff`` and ``landing`` (:func:`planner.chain.flightstate.flight_phases`)."""
     if airborne_height_m is None:
-        return ~np.isin(state.phase, ("ground", "takeoff", "landing"))
+        return flightstate.flown(state.phase)
     if "altitude_m" not in exp:
         raise InputError("an airborne height needs altitude_m in the flight record")
     with np.errstate(invalid="ignore"):

@@ -249,6 +249,7 @@ from planner.chain.flightstate import (
     CLIMB_THRESHOLD_MS,
     STILL_MS,
     climb_regimes,
+    flown,
     from_record,
     inplane_speed,
     vertical_descent,
@@ -874,7 +875,7 @@ class PowerLevel:
             t = t - t[0]
             state = from_record(sub.assign(time_s=t), site_altitude_m)
             p, phase, climb = state.measured_power_w, state.phase, state.climb_rate_ms
-            ok = ~np.isin(phase, ("ground", "takeoff", "landing")) & np.isfinite(p)
+            ok = flown(phase) & np.isfinite(p)
             ground.append(p[(phase == "ground") & np.isfinite(p)])
             if ok.sum() < 10:
                 self.notes.append(f"experiment {name}: no airborne samples, not used at the power "
