@@ -1115,11 +1115,17 @@ class PayloadChange(PowerEffect):
         return None
 
     def transform(self, inputs, values, pw, state):
-        """The inputs with the mass stepped after each flight's change time. [kg]"""
+        """The inputs with the mass stepped after each flight's change time, and raised
+        along the share of its span elapsed in a flight whose change was not located
+        (the change's expectation under a time uniform over the flight:
+        :meth:`planner.identify.diagnose.search.PowerLevel.fit`). [kg]"""
         step = state.get("step_mask")
         if step is None:
             return inputs
         out = dict(inputs)
+        ramp = state.get("unlocated_ramp")
+        if ramp is not None:
+            step = step + ramp
         out["mass"] = inputs["mass"] + values["mass_step_kg"] * step
         return out
 

@@ -86,13 +86,14 @@ def test_a_late_release_on_real_m100_flights_is_named_only_where_the_descents_le
     the residual they are fitted to); fitted once more with a power level of the
     descents' own, the step moves by 0.1–0.27 kg, and that shift is part of its error.
     Where the step then stands less than 2 standard errors from none it is withheld and
-    the output says why (not "none found"); where it is named (1 of 5, seed 0), the truth
-    lies within 2 SE of it; the cell meets the criterion."""
+    the output says why (not "none found"); where it is named, the truth lies within 2 SE
+    of it; the cell meets the criterion (seed 0: none of 5 named, each said not
+    identifiable)."""
     cell = M.Cell("m100", "payload", "everything", "late", "realistic")
     st = M.run_cell(cell, 5, seed=0, draws=draws)
     kind, met = M.verdict(st)
     assert met, (kind, st)
-    assert st["named_first"] >= 1 and st["within_2se"] == st["checked_2se"] == st["named_first"]
+    assert st["within_2se"] == st["checked_2se"] == st["named_first"]
     assert st["said_not_identifiable"] == st["runs"] - st["named_any"]
 
 
@@ -122,21 +123,38 @@ def test_a_late_release_on_other_m100_routes_is_sized_within_the_error_its_desce
         draws):
     """A payload released late (75–90 %) on 16 real DJI M100 flights of the routes other
     than R1 (Rodrigues et al. 2021, CC BY 4.0), plain record, seed 0's first draw. The
-    step is found 18 % large (−0.37 against −0.31 kg), for it has taken up the vertical
-    descents' misfit: fitted with a power level of the descents' own it moves by some
-    0.05 kg, more than the fit's error (0.02 kg) and the placebo steps' spread (0.035
-    kg), and more than the step misses by beyond them; with that shift in its error the
-    truth lies within 2 SE."""
+    step is found 10 % large (−0.34 against −0.31 kg): it takes up part of the vertical
+    descents' misfit. Fitted once more with a power level of the descents' own it moves,
+    and that shift (beyond what noise alone would move it) is part of its error, in
+    quadrature with the larger of the fit's error and the placebo steps' spread; with
+    it the truth lies within 2 SE."""
     res, truth = _late_release("m100_routes", "plain", 0, draws)
     first = res.findings[0]
     assert first["effect"] == "payload_change"
     p = first["parameters"]
     without = max(p["mass_step_kg_fit_stderr"], p["mass_step_kg_placebo_sd"])
+    assert p["mass_step_kg_descent_bias"] > 0.5 * without
+    assert p["mass_step_kg_stderr"] == pytest.approx(
+        math.hypot(without, p["mass_step_kg_descent_bias"]), rel=1e-9)
     miss = abs(p["mass_step_kg"] - truth["mass_step_kg"])
-    assert miss > without                           # beyond the error without the descents
-    assert p["mass_step_kg_descent_bias"] > max(without, miss - without)
     assert miss < 2 * p["mass_step_kg_stderr"]
     assert M.within_2se("payload_change", p, truth)
+
+
+def test_a_pick_up_on_other_m100_routes_is_sized_with_its_unlocated_flights_expectation(
+        draws):
+    """A payload picked up mid-flight in 16 real DJI M100 flights of the routes other than
+    R1 (Rodrigues et al. 2021, CC BY 4.0), plain record, five draws (seed 0). Some
+    flights' changes are not located; fitted at their given mass all flight they carried
+    the change in the efficiency the flights share, and the step came out small: named in
+    3 of 5 (0.12 against 0.19 kg in one draw). Fitted with the change's expectation under
+    a time uniform over each such flight (search, "Change points"), the pick-up is named
+    in at least 4 of 5 and sized within 2 SE in at least 4."""
+    cell = M.Cell("m100_routes", "pickup", "plain", "mid", "realistic")
+    st = M.run_cell(cell, 5, seed=0, draws=draws)
+    kind, met = M.verdict(st)
+    assert met and kind == "identifiable", (kind, st)
+    assert st["named_first"] >= 4 and st["within_2se"] >= 4, st
 
 
 def _located(kind, size, runs, draws):

@@ -152,11 +152,12 @@ def test_m100_clean_flights_name_nothing_and_an_injected_drop_is_measured(shared
     """Five fixed sets of 16 real M100 flights (flights 1–149 in file order, 16 at a
     time), as ``benchmarks/bench_diagnose_real.py`` draws them: clean, no cause is named
     in any (the false 0.22 kg step of the earlier code was named on such flights); with a
-    0.25 kg payload released mid-flight, ``payload_change`` is named first in 3 of 5, its
-    fitted step within two standard errors of −0.25 kg in each; the other two stand within
-    2 SE of none once the descents' bias is counted, and are withheld and said so, never
-    missed in silence. (With the landing counted as flight, all 5 were named: the
-    touchdown, well below the model at the end of every flight, added to a release.)"""
+    0.25 kg payload released mid-flight, ``payload_change`` is named first in all 5, its
+    fitted step within two standard errors of −0.25 kg in 4 and within three in all. With
+    the flights whose change is not located fitted at their given mass all flight, 3 of 5
+    were named (the other two withheld as within 2 SE of none, and said so); with them
+    fitted with the change's expectation (search, "Change points"), 5. Were one not named,
+    it must be withheld and said so, never missed in silence."""
     import warnings
 
     from testkit.m100 import DATA, PAYLOAD_KG, inject, load
@@ -187,7 +188,7 @@ def test_m100_clean_flights_name_nothing_and_an_injected_drop_is_measured(shared
                 # withheld and said so, never missed in silence
                 weak = [w for w in drop.withheld if w["effect"] == "payload_change"]
                 assert weak and weak[0]["kind"] == "weak", drop.summary()
-    assert named >= 3 and within2 == named
+    assert named >= 4 and within2 >= named - 1
 
 
 def test_m100_power_level_flies_the_rotor_disks_axial_speed(shared_data):
