@@ -280,6 +280,43 @@ def test_a_flight_flown_heavier_throughout_has_no_change_point():
     assert out["f"] is not None and abs(out["f"] - 250) <= 5
 
 
+def test_a_change_too_small_to_locate_is_expected_where_its_record_points():
+    """A 0.02 kg drop at 20 % of a flight beats no threshold on its own (5 W noise, 20
+    draws): the flight has no change point. Its expected mass step is the posterior
+    probability that the change has happened (Smith, Biometrika 62, 407, 1975): on average
+    0.6–0.8 from a third to three fifths of the flight, where a change uniform over the
+    flight (the share elapsed) is 0.33–0.6; with the record silent (no step) the posterior
+    is that uniform share."""
+    from planner.identify.diagnose.search import PowerLevel
+
+    class Level(_Flights):
+        _change_posterior = staticmethod(PowerLevel._change_posterior)
+        _expected_mask = PowerLevel._expected_mask
+
+    n = 400
+    t = np.arange(n, dtype=float)
+    s = 60.0 * (1 + 0.1 * np.sin(t / 30))        # W per kg, as the mass sensitivity
+    level = Level(np.zeros(n), np.zeros(n, int), t, ["f"])
+    rows, groups = np.arange(n), np.zeros(n, int)
+    share = (t + 1) / n
+    expected = []
+    for seed in range(20):
+        r = np.where(t >= 80, -0.02 * s, 0.0) + 5.0 * np.random.default_rng(seed).standard_normal(n)
+        post: dict = {}
+        out = PowerLevel._scan(level, rows, r, s, groups, fixed_step=-0.02, posterior=post)
+        assert out["f"] is None
+        e = level._expected_mask(post, rows)
+        assert np.all(np.diff(e) >= 0) and 0.0 <= e.min() and e.max() <= 1.0 + 1e-12
+        expected.append(e)
+    mean = np.mean(expected, axis=0)
+    after = (t >= 130) & (t < 240)
+    assert np.all(mean[after] - share[after] > 0.15), (mean[after] - share[after]).min()
+    assert mean[t < 40].max() < 0.15
+    post = {}
+    PowerLevel._scan(level, rows, np.zeros(n), s, groups, fixed_step=-0.02, posterior=post)
+    assert np.allclose(level._expected_mask(post, rows), share)
+
+
 def test_no_offset_or_load_entry_where_the_power_is_measured_on_its_own():
     """The 'current offset or constant load' entry holds only where the power is V·I."""
     import pandas as pd
