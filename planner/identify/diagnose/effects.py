@@ -1116,9 +1116,9 @@ class PayloadChange(PowerEffect):
 
     def transform(self, inputs, values, pw, state):
         """The inputs with the mass stepped after each flight's change time, and raised
-        along the share of its span elapsed in a flight whose change was not located
-        (the change's expectation under a time uniform over the flight:
-        :meth:`planner.identify.diagnose.search.PowerLevel.fit`). [kg]"""
+        by the step × the posterior probability that the change has happened in a flight
+        whose change was not located (the change's expectation given its record:
+        :meth:`planner.identify.diagnose.search.PowerLevel._change_posterior`). [kg]"""
         step = state.get("step_mask")
         if step is None:
             return inputs
