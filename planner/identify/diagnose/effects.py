@@ -1123,9 +1123,9 @@ class PayloadChange(PowerEffect):
         if step is None:
             return inputs
         out = dict(inputs)
-        ramp = state.get("unlocated_ramp")
-        if ramp is not None:
-            step = step + ramp
+        expected = state.get("unlocated_expectation")
+        if expected is not None:
+            step = step + expected
         out["mass"] = inputs["mass"] + values["mass_step_kg"] * step
         return out
 

@@ -1151,7 +1151,7 @@ class PowerLevel:
             sv = start.values()
             x0 = np.array([sv.get(k, warm.get(k, x0[i])) for i, k in enumerate(names)])
             keep = ("reference_mechanical_w", "change_time_s", "step_mask", "regime_levels_w",
-                    "unlocated_ramp")
+                    "unlocated_expectation")
             state.update({k: v for k, v in start.state.items() if k in keep})
             reuse_steps = "change_time_s" in start.state
         x0 = np.clip(x0, lo + 1e-9 * scale, hi - 1e-9 * scale)
@@ -1307,7 +1307,7 @@ class PowerLevel:
         if step_known:
             state["change_posterior"] = unlocated
         else:
-            state["unlocated_ramp"] = self._expected_mask(
+            state["unlocated_expectation"] = self._expected_mask(
                 {k: v for k, v in unlocated.items() if times.get(k) is None},
                 np.arange(self.n_rows))
         if fixed_step is None:
