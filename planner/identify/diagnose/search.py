@@ -1307,9 +1307,8 @@ class PowerLevel:
         if step_known:
             state["change_posterior"] = unlocated
         else:
-            state["unlocated_expectation"] = self._expected_mask(
-                {k: v for k, v in unlocated.items() if times.get(k) is None},
-                np.arange(self.n_rows))
+            state["unlocated_expectation"] = self._expected_mask(unlocated,
+                                                                 np.arange(self.n_rows))
         if fixed_step is None:
             m = self._step_mask_rows(change, rows) > 0
             den = float(np.dot(s[m], s[m]))
@@ -1350,6 +1349,7 @@ class PowerLevel:
         of its change time is put there too (:meth:`_change_posterior`)."""
         out: dict[str, float | None] = {}
         per: dict[int, tuple] = {}
+        variance: dict[int, float] = {}       # each flight's long-run residual variance
         for e in np.unique(groups):
             m = np.flatnonzero(groups == e)
             n = len(m)
@@ -1357,9 +1357,6 @@ class PowerLevel:
             hi = n - max(3, int(0.05 * n))
             if hi <= lo:
                 out[self.names[e]] = None
-                if posterior is not None:      # too short to say: the uniform prior
-                    posterior[self.names[e]] = self._change_posterior(
-                        self.time[rows[m]], np.zeros(n), 1.0)
                 continue
             # against a mass that differs for the whole flight: the step's column
             # s·1{t ≥ t_c} and the residual are both taken net of the flight's own
@@ -1370,9 +1367,6 @@ class PowerLevel:
             ss = float(np.dot(sm, sm))
             if ss <= 0:
                 out[self.names[e]] = None
-                if posterior is not None:
-                    posterior[self.names[e]] = self._change_posterior(
-                        self.time[rows[m]], np.zeros(n), 1.0)
                 continue
             rp = rm - sm * (float(np.dot(sm, rm)) / ss)
             num = np.cumsum((sm * rp)[::-1])[::-1]
@@ -1382,8 +1376,8 @@ class PowerLevel:
             # variance inflated for autocorrelation (else noise always "finds" one)
             # (per fitted parameter ln(n): the time and the size; only the time when the
             # size was learned on other flights, step_known)
-            penalty = ((1.0 if step_known else 2.0) * math.log(n)
-                       * stats.step_robust_long_run_variance(rp))
+            variance[e] = stats.step_robust_long_run_variance(rp)
+            penalty = (1.0 if step_known else 2.0) * math.log(n) * variance[e]
             per[e] = (m, num, den, lo, hi, penalty)
         step = fixed_step
         for it in range(3 if fixed_step is None else 1):
@@ -1410,10 +1404,15 @@ class PowerLevel:
                         tot_d += den[j]
                 step = tot_n / tot_d if tot_d > 0 else step
         if posterior is not None:
-            for e, (m, num, den, lo, hi, penalty) in per.items():
-                k = (1.0 if step_known else 2.0) * math.log(len(m))
-                posterior[self.names[e]] = self._change_posterior(
-                    self.time[rows[m]], 2 * step * num - step**2 * den, penalty / k)
+            for e in np.unique(groups):
+                if e in per:
+                    m, num, den = per[e][:3]
+                    posterior[self.names[e]] = self._change_posterior(
+                        self.time[rows[m]], 2 * step * num - step**2 * den, variance[e])
+                else:                           # too short to say: the uniform prior
+                    m = np.flatnonzero(groups == e)
+                    posterior[self.names[e]] = self._change_posterior(
+                        self.time[rows[m]], np.zeros(m.size), 1.0)
         return out
 
     @staticmethod
