@@ -43,7 +43,11 @@ class Faults:
     reboot_at_s : float or None
         Log time at which the vehicle reboots. [s]
     mission_change_at_s : float or None
-        Log time at which the mission is replaced by ``new_mission``. [s]
+        Log time at which the mission is replaced by ``new_mission``, or, where the
+        watcher has not yet acknowledged the mission held then, the first message after
+        it has: a mission changed in flight replaces one the ground station holds (the
+        log plays many times faster than it was flown, and on a busy machine the first
+        download through the faults may take longer than the log leaves it). [s]
     second_vehicle : bool
         Send every battery and position message again as system ``system_id + 1``, with
         other values.
@@ -225,7 +229,8 @@ class FakeVehicle:
                     consumed_shift = msg.current_consumed
                 if msg.current_consumed >= 0:
                     msg.current_consumed = max(msg.current_consumed - consumed_shift, 0)
-            if f.mission_change_at_s is not None and not changed and tl >= f.mission_change_at_s:
+            if f.mission_change_at_s is not None and not changed and \
+                    tl >= f.mission_change_at_s and (self.acked or not self.items):
                 changed = True
                 self.items = list(self.new_mission)
                 self.acked = False
