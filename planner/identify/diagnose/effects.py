@@ -204,6 +204,17 @@ class Effect:
         """Why the effect cannot be tested on this level's data (None = testable)."""
         return None
 
+    #: Effects that an effect skipped as not identifiable (:meth:`rival_reason`) still
+    #: explains as well on these data: it is fitted in their place wherever one of them
+    #: passes, as their rival (:func:`planner.identify.diagnose.search.search`).
+    rival_of: ClassVar[tuple[str, ...]] = ()
+
+    def rival_reason(self, level) -> str | None:
+        """Why the effect, skipped, cannot be named on these data although it can be
+        fitted to them (None = it is not a rival only): it is then held against the
+        effects of :attr:`rival_of` and never named itself."""
+        return None
+
     def practical(self, fits, level) -> str | None:
         """Why the fitted extension is too small to matter physically (None = it is not)."""
         return None
@@ -644,6 +655,15 @@ class Wind(PowerEffect):
             return ("the aircraft flew in one direction only (course concentration "
                     f"{r:.2f}): a wind cannot be told from the calibration")
         return None
+
+    #: On a route where a wind is one step per flight, a payload step is its rival.
+    rival_of: ClassVar[tuple[str, ...]] = ("payload_change",)
+
+    def rival_reason(self, pw) -> str | None:
+        """A wind that the data could show but the route turns into one step per flight
+        (:meth:`route_reason`) is not named, but a payload step it explains as well is
+        not either (:func:`planner.identify.diagnose.search.search`)."""
+        return None if self.data_reason(pw) else self.route_reason(pw)
 
     def route_reason(self, pw) -> str | None:
         """Why this route cannot tell a wind from a change in time within the flights

@@ -115,6 +115,14 @@ it too. The one that adds to its rival while the rival adds
 nothing to it is taken; where neither adds to the other the data cannot tell them apart,
 neither is named, and both are withheld as confounded (``LevelResult.confused``).
 
+An effect skipped because these data cannot name it but can fit it — a wind on a route
+flown in one order, where it changes the airspeed as one step per flight — is still the
+rival of what it would be mistaken for (``Effect.rival_of``: a payload step): it is
+fitted in each round where that effect passes and held against it the same way. It is
+never named; where it ties with the step or is preferred to it, neither is named. Without
+it, a 5.2 m/s wind on sixteen M100 route-R1 flights was named as a −0.18 kg step
+(docs/results.md, "A wind on route R1 is held against the step it makes").
+
 Change points (``payload_change``)
 ----------------------------------
 The change time of an experiment is located on the data of it the fit may see:
@@ -2313,13 +2321,59 @@ def _rival_step(level, chosen, current, passing, candidates, promising=()):
     return lead, None
 
 
+def _score(level, chosen, current, e, candidates, failed):
+    """``(e, score, comparison)`` of ``e`` added to ``chosen`` (entered in ``candidates``),
+    or None where its fit fails (entered in ``failed``)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sc = cross_validate(level, chosen + [e], base=current)
+    except (FitError, ModelError, np.linalg.LinAlgError, ValueError) as exc:
+        failed[e.name] = str(exc)
+        return None
+    cmp = compare(e, current, sc, level)
+    cmp.against = tuple(c.name for c in chosen)
+    key = e.name if not chosen else f"{e.name} (after {' + '.join(cmp.against)})"
+    candidates[key] = cmp
+    return e, sc, cmp
+
+
+def _rivals_due(rivals, passing, round_scores, failed) -> list:
+    """The rivals (:func:`search`) of an effect that passes this round, not yet scored."""
+    names = {v[0].name for v in passing}
+    return [r for r in rivals if names & set(r.rival_of)
+            and r.name not in round_scores and r.name not in failed]
+
+
+def _rival_lead(level, pick, passing) -> dict:
+    """The tie (``candidates``, ``why``) where a rival that cannot be named
+    (:func:`search`) predicts the held-out data better than the effects it rivals: none
+    of them is named."""
+    r, _, cr = pick
+    beaten = [v for v in passing if v[0].name in r.rival_of]
+    names = " or ".join(v[0].name for v in beaten)
+    gains = " and ".join(f"{v[2].gain_pct:.1f} %" for v in beaten)
+    why = (f"{r.name} predicts the held-out data at least as well as {names} (held-out "
+           f"gain {cr.gain_pct:.1f} % against {gains}), and {r.name} cannot be named here "
+           f"({r.rival_reason(level)}): these data cannot tell them apart")
+    return {"candidates": [r.name] + [v[0].name for v in beaten], "why": why}
+
+
 def search(level, effects: list) -> LevelResult:
-    """Calibrate the baseline, then add effects greedily (see the module notes)."""
-    skipped, testable = {}, []
+    """Calibrate the baseline, then add effects greedily (see the module notes).
+
+    An effect skipped because these data cannot name it, but which they can fit (a wind
+    on a route that makes it one step per flight, ``Effect.rival_reason``), is fitted in
+    each round where an effect it rivals (``Effect.rival_of``) passes, and held against
+    it as any rival is (:func:`_rival_step`): where the held-out data cannot tell the two
+    apart, or prefer the rival, neither is named."""
+    skipped, testable, rivals = {}, [], []
     for e in effects:
         why = e.skip_reason(level)
         if why:
             skipped[e.name] = why
+            if e.rival_of and e.rival_reason(level):
+                rivals.append(e)
         else:
             testable.append(e)
     baseline = cross_validate(level, [])
@@ -2332,18 +2386,9 @@ def search(level, effects: list) -> LevelResult:
     while remaining:
         round_scores = {}
         for e in remaining:
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    sc = cross_validate(level, chosen + [e], base=current)
-            except (FitError, ModelError, np.linalg.LinAlgError, ValueError) as exc:
-                failed[e.name] = str(exc)
-                continue
-            cmp = compare(e, current, sc, level)
-            cmp.against = tuple(c.name for c in chosen)
-            round_scores[e.name] = (e, sc, cmp)
-            key = e.name if not chosen else f"{e.name} (after {' + '.join(cmp.against)})"
-            candidates[key] = cmp
+            scored = _score(level, chosen, current, e, candidates, failed)
+            if scored is not None:
+                round_scores[e.name] = scored
         passing = [v for v in round_scores.values() if v[2].significant]
         if not passing:
             pair = _pair_step(level, chosen, current, round_scores, candidates)
@@ -2355,12 +2400,22 @@ def search(level, effects: list) -> LevelResult:
             current = pair[1]
             remaining = [r for r in remaining if r not in chosen and r.name not in failed]
             continue
+        for r in _rivals_due(rivals, passing, round_scores, failed):
+            scored = _score(level, chosen, current, r, candidates, failed)
+            if scored is not None:
+                round_scores[r.name] = scored
+                if scored[2].significant:
+                    passing.append(scored)
         promising = [v for v in round_scores.values() if _promising(v[2])]
         pick, tied = _rival_step(level, chosen, current, passing, candidates, promising)
+        if pick is not None and pick[0] in rivals:     # a rival that cannot be named leads
+            tied = _rival_lead(level, pick, passing)
+            pick = None
         if pick is None:                # the leading ones cannot be told apart: name neither
             confused.append(tied)
             remaining = [r for r in remaining if r.name not in tied["candidates"]
                          and r.name not in failed]
+            rivals = [r for r in rivals if r.name not in tied["candidates"]]
             continue
         e, sc, cmp = pick
         selected.append((e, cmp))
