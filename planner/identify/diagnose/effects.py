@@ -1214,9 +1214,8 @@ class PayloadChange(PowerEffect):
                "ground, speed) that the power model does not follow",
                f"a load of {size}{on} (lights, a gimbal, a heater)"]
         # a wind not tested because the route turns it into one step per flight fits
-        # the same step (Wind.route_reason)
-        wind = Wind()
-        if wind.data_reason(pw) is None and wind.route_reason(pw) is not None:
+        # the same step (Wind.rival_reason)
+        if Wind().rival_reason(pw) is not None:
             out.append("a steady wind: on this route it changes the airspeed within each "
                        "flight as one step (the legs are flown in one order)")
         return out

@@ -2345,17 +2345,17 @@ def _rivals_due(rivals, passing, round_scores, failed) -> list:
             and r.name not in round_scores and r.name not in failed]
 
 
-def _rival_lead(level, pick, passing) -> dict:
+def _rival_lead(pick, passing, reason: str) -> dict:
     """The tie (``candidates``, ``why``) where a rival that cannot be named
-    (:func:`search`) predicts the held-out data better than the effects it rivals: none
-    of them is named."""
+    (:func:`search`), for ``reason``, predicts the held-out data better than the effects
+    it rivals: none of them is named."""
     r, _, cr = pick
     beaten = [v for v in passing if v[0].name in r.rival_of]
     names = " or ".join(v[0].name for v in beaten)
     gains = " and ".join(f"{v[2].gain_pct:.1f} %" for v in beaten)
     why = (f"{r.name} predicts the held-out data at least as well as {names} (held-out "
            f"gain {cr.gain_pct:.1f} % against {gains}), and {r.name} cannot be named here "
-           f"({r.rival_reason(level)}): these data cannot tell them apart")
+           f"({reason}): these data cannot tell them apart")
     return {"candidates": [r.name] + [v[0].name for v in beaten], "why": why}
 
 
@@ -2372,7 +2372,7 @@ def search(level, effects: list) -> LevelResult:
         why = e.skip_reason(level)
         if why:
             skipped[e.name] = why
-            if e.rival_of and e.rival_reason(level):
+            if e.rival_of and e.rival_reason(level):    # its skip reason, as a rival
                 rivals.append(e)
         else:
             testable.append(e)
@@ -2409,7 +2409,7 @@ def search(level, effects: list) -> LevelResult:
         promising = [v for v in round_scores.values() if _promising(v[2])]
         pick, tied = _rival_step(level, chosen, current, passing, candidates, promising)
         if pick is not None and pick[0] in rivals:     # a rival that cannot be named leads
-            tied = _rival_lead(level, pick, passing)
+            tied = _rival_lead(pick, passing, skipped[pick[0].name])
             pick = None
         if pick is None:                # the leading ones cannot be told apart: name neither
             confused.append(tied)
