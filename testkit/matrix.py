@@ -103,6 +103,10 @@ never a false cause, and silence and "named first" are judged on the other findi
 (:func:`classify`). Where the injection is the same effect (a payload released on log
 171), the injected change must be found at its own time: within 15 s of it and nearer to
 it than to the record's step; a change located anywhere else counts as a false cause.
+Where diagnose locates the record's own change instead, the flight holds it: diagnose
+locates one change a flight, and the injected one's detection limit is then the one its
+output gives for a second change in that flight (``second_change``: the located step's
+size), not the one for a flight without a change.
 
 What is scored (per run)
 ------------------------
@@ -1284,6 +1288,11 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
             # without a cycle count the fade is per experiment (logs in date order)
             size *= injd.cycle_spacing
         limit = min([limit_at(e, injd.fraction) for e in entries], default=math.inf)
+        if any(f["effect"] == expect and k == "own" for f, k in zip(res.findings, kinds)):
+            # the record's own change holds the flight: a second one there is seen only
+            # where larger than it (the entry's ``second_change``)
+            limit = max([limit] + [e["second_change"]["limit"] for e in entries
+                                   if e.get("second_change")])
         st["limits"].append(limit)
         st["sizes"].append(size)
         ident = math.isfinite(limit) and abs(size) >= limit

@@ -64,6 +64,15 @@ so that a change present but not fitted does not raise its own limit. Both depen
 where in the flights it happens, and the limit is given by position (``by_position``:
 fraction of each flight's airborne span).
 The limit falls as 1/√(number of flights) for the pooled tests.
+
+A second change in a flight
+---------------------------
+The search locates one change a flight (module notes of ``search``): in a flight where
+a change is located, a second one (a pick-up and a later drop, or a step of the record's
+own beside a payload's) is seen only where it explains more than the located one, and
+then in its place. Where a payload change is found, its entry says so
+(``second_change``: the located step's size as the limit below which a second change in
+those flights is not identifiable).
 """
 
 from __future__ import annotations
@@ -622,6 +631,32 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
         ident, why = False, ("the fit that explains the misfit is withheld: "
                              + withheld["payload_change"]["why"])
         remedy = withheld["payload_change"].get("help")
-    return entry("payload_change", "power", found=found, identifiable=ident, limit=best,
-                 why=why, n=level.n_experiments, by_position=by, stderr=se_mid,
-                 design_effect=deff_mid, help_text=remedy)
+    out = entry("payload_change", "power", found=found, identifiable=ident, limit=best,
+                why=why, n=level.n_experiments, by_position=by, stderr=se_mid,
+                design_effect=deff_mid, help_text=remedy)
+    second = _second_change(report) if found else None
+    if second is not None:
+        out["second_change"] = second
+        out["text"] += " " + second["text"]
+    return out
+
+
+def _second_change(report) -> dict[str, Any] | None:
+    """What a flight with a located change shows of a second one (module notes, "A second
+    change in a flight"): ``limit`` [kg], the located step's size, below which a second
+    change there is not located; ``flights``, those with a change located; ``text``. None
+    where no change is located."""
+    fit = report.result.final_fit
+    if fit is None:
+        return None
+    times = {k: v for k, v in fit.state.get("change_time_s", {}).items() if v is not None}
+    dm = fit.values().get("mass_step_kg", math.nan)
+    if not times or not math.isfinite(dm):
+        return None
+    n = len(times)
+    where = "the flight" if n == 1 else f"the {n} flights"
+    return {"limit": abs(float(dm)), "flights": n,
+            "text": (f"One change a flight is located: a second change in {where} with one "
+                     f"located (a pick-up and a drop in one flight) is not identifiable with "
+                     f"these data below the located step ({abs(dm):.2f} kg); a larger one "
+                     "would be located in its place")}

@@ -140,8 +140,11 @@ placed only where it lowers that squared error by more than :math:`k \ln(n)`
 long-run residual variances (a BIC-like threshold, :math:`\ln n` per fitted
 parameter: :math:`k = 2` for the time and the size, :math:`k = 1` on a held-out
 flight, whose step size was learned on the other flights), else the flight has
-none; the variance is taken from differences at a lag, so that the change itself does
-not count as noise (:func:`planner.identify.stats.step_robust_long_run_variance`).
+none. One change is located a flight, the one that lowers the error most: a second in
+the same flight is not (the detection limit says so,
+:mod:`planner.identify.diagnose.limits`, "A second change in a flight"). The variance
+is taken from differences at a lag, so that the change itself does not count as noise
+(:func:`planner.identify.stats.step_robust_long_run_variance`).
 
 The residual is first taken net of a power level of the climbs' and of the descents'
 own (climb rate beyond ±:data:`~planner.chain.flightstate.CLIMB_THRESHOLD_MS`), pooled

@@ -1006,3 +1006,44 @@ def test_a_release_on_route_r1_that_its_rival_wind_fits_worse_is_named_beside_it
     step = next(f for f in res.findings if f["effect"] == "payload_change")
     assert step["parameters"]["mass_step_kg"] < 0
     assert any(a.startswith("a steady wind") for a in step["alternatives"]), step
+
+
+def test_a_pick_up_in_the_flight_that_holds_log_171s_own_step_is_said_not_identifiable(
+        draws):
+    """diagnose locates one change a flight. On log 171's plain record it locates the
+    record's own +110 W step at 228 s; a 0.19 kg pick-up injected at 45 % of the flight
+    (seed 1, run 0: its limit in a flight without a change is 0.19 kg) is then not located.
+    The output says a second change in that flight is not identifiable below the located
+    step, and the matrix takes that as the run's limit: the miss is said, not silent."""
+    cell = M.Cell("log171", "pickup", "plain", "mid", "realistic")
+    st = M.run_cell(cell, 1, seed=1, draws=draws)
+    assert st["own"] == {"payload_change": 1} and not st["false"]
+    assert st["named_any"] == 0
+    (limit,), (size,) = st["limits"], st["sizes"]
+    assert size < limit
+    assert st["said_not_identifiable"] == 1 and st["named_or_said_not_identifiable"] == 1
+
+    import warnings
+
+    import numpy as np
+
+    from planner.identify.diagnose import diagnose
+
+    d = draws[("log171", 0, 1)]
+    injd = M.inject("pickup", d, np.random.default_rng(M._detail_seed(cell, 0, 1)),
+                    M.SIZES["realistic"], "mid")
+    record, payload = M.given(M.reduce(injd.record, "plain"), injd.payload_kg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = diagnose(record, d.pack, M.diagnosed_aircraft(d, "plain"), **payload,
+                       site_altitude_m=d.site_altitude_m)
+    (found,) = [f for f in res.findings if f["effect"] == "payload_change"]
+    (entry,) = M.detection_of(res, "payload_change", "mass_step_kg")
+    second = entry["second_change"]
+    assert second["flights"] == 1
+    assert second["limit"] == pytest.approx(abs(found["parameters"]["mass_step_kg"]))
+    assert second["limit"] == pytest.approx(limit) and second["limit"] > injd.size
+    # the limit for a flight without a change would have called the pick-up identifiable
+    assert M.limit_at(entry, injd.fraction) <= injd.size
+    assert "second change in the flight" in entry["text"]
+    assert "not identifiable" in second["text"]
