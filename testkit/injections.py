@@ -21,6 +21,12 @@ Mass (:func:`payload_step`, multirotor)
     power per ideal induced power is the flight's own: the median ratio over its slowest
     level flying samples (hover, where nearly all the power is induced). A mass change
     changes only that part; profile and parasite power stay.
+Mass, measured (:func:`payload_step` with ``w_per_kg``, multirotor)
+    The battery power changes by a measured amount per kilogram, the same in every regime
+    where the rotors carry the weight: what an aircraft's own flights at several payloads
+    show where momentum theory's dependence on the regime does not hold (the DJI M100:
+    about 200 W/kg in level cruise at 4–12 m/s, in the vertical climb and in the vertical
+    descent alike, where the law above gives 190–395 W/kg by regime on the same flights).
 Flying (:func:`lifting`, multirotor)
     Every multirotor law acts only where the aircraft flies, where it draws at least
     the ideal power above (no rotor carrying its weight undercuts it). Height above the
@@ -276,10 +282,13 @@ def change_times(df: pd.DataFrame, fractions, flying=airborne) -> dict:
 
 def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg, *,
                  rho: float, pack_resistance_ohm: float, rotors: Rotors | None = None,
-                 wing: Wing | None = None, power_logged: bool = False) -> pd.DataFrame:
+                 wing: Wing | None = None, power_logged: bool = False,
+                 w_per_kg: float | None = None) -> pd.DataFrame:
     """The record with the mass changed by ``dm_kg`` (negative: a drop) at each
     experiment's time in ``times`` while airborne (module notes, "Mass"). ``mass_kg``:
-    the all-up mass before the change (:func:`mass_of`). [kg], [s]"""
+    the all-up mass before the change (:func:`mass_of`). ``w_per_kg``: a multirotor's
+    measured change of battery power per kilogram, the same wherever its rotors carry it
+    (module notes, "Mass, measured"), in place of momentum theory. [kg], [s], [W/kg]"""
     dp = np.zeros(len(df))
     for key, idx in experiments(df):
         if key not in times:
@@ -291,7 +300,9 @@ def payload_step(df: pd.DataFrame, dm_kg: float, times: dict, mass_kg, *,
         after = up & (g["time_s"].to_numpy(float) >= times[key])
         v = speed_of(g)
         climb = _col(g, "climb_rate_ms")
-        if rotors is not None:
+        if rotors is not None and w_per_kg is not None:
+            gain = np.full(len(g), w_per_kg * dm_kg)
+        elif rotors is not None:
             k = electric_per_ideal(g, m, rho, rotors, up)
             gain = k * (ideal_rotor_power(m + dm_kg, rho, rotors.area_m2, v, climb)
                         - ideal_rotor_power(m, rho, rotors.area_m2, v, climb))

@@ -22,6 +22,13 @@ Sources (``../shared/data``, PROVENANCE.md in each folder)
     payload given to diagnose as the record's ``payload_kg`` column (:func:`given`) and
     each flown by the injection laws at its own mass: what the ``m100`` draws hold
     fixed — one mass for every flight — varies here.
+``m100_measured``
+    The ``m100`` draws, run by run the same flights, sizes and times, with a payload
+    injected by the M100's own measured change of battery power per kilogram
+    (:func:`measured_w_per_kg`: across route R1's flights at 0, 250 and 500 g, about
+    200 W/kg in level cruise at every speed, in the climb and in the descent alike) in
+    place of momentum theory, which gives 190–395 W/kg by regime on the same flights:
+    what every other multirotor source holds fixed, the mass law, varies here.
 ``log171``
     ArduCopter log 171 (a 3DR-Solo-like quad; CC BY-SA 3.0), ``aircraft/solo_survey.yaml``.
 ``ac313_2004``, ``ac313_2044``
@@ -225,6 +232,9 @@ class Draw:
     rotors: inj.Rotors | None = None
     wing: inj.Wing | None = None
     cells_kind: str | None = None
+    #: a multirotor's measured change of battery power per kilogram of payload, the mass
+    #: law of its injections in place of momentum theory (None: momentum theory) [W/kg]
+    w_per_kg: float | None = None
     extra: dict = field(default_factory=dict)
 
     @property
@@ -541,6 +551,32 @@ class M100Mixed(M100):
         return self._sixteen(rng, df, par, None)
 
 
+class M100Measured(M100):
+    """The ``m100`` draws (route R1, one payload class a draw) with a payload injected by
+    the M100's own measured change of power per kilogram (:func:`measured_w_per_kg`) in
+    place of momentum theory: what every other M100 source holds fixed, the mass law,
+    varies here."""
+
+    name = "m100_measured"
+    carries = ("clean", "payload", "pickup")
+
+    def draw(self, rng) -> Draw:
+        return dataclasses.replace(super().draw(rng), w_per_kg=measured_w_per_kg()[0])
+
+
+@functools.lru_cache(maxsize=1)
+def measured_w_per_kg() -> tuple[float, float]:
+    """The DJI M100's change of battery power per kilogram of payload, one for every
+    regime: the inverse-variance mean of :func:`power_per_payload_by_regime`'s slopes
+    (level cruise at each commanded speed, the vertical climb and descent; each lies within
+    two standard errors of it), and its standard error. [W/kg]"""
+    real = power_per_payload_by_regime()
+    slopes = np.array([v[0] for k, v in real.items() if not k.endswith("rate")])
+    se = np.array([v[1] for k, v in real.items() if not k.endswith("rate")])
+    w = se**-2
+    return float(np.sum(w * slopes) / np.sum(w)), float(np.sum(w) ** -0.5)
+
+
 def _isa(h: float) -> float:
     from planner.physics import atmosphere
 
@@ -746,6 +782,7 @@ def sources() -> dict[str, Source]:
         "m100": M100(),
         "m100_routes": M100Routes(),
         "m100_mixed": M100Mixed(),
+        "m100_measured": M100Measured(),
         # The log switches LOITER → ACRO at 206 s (from its first sample), comes down from
         # 8.6 m to 1.2 m by 228 s and sits there drawing 333 W against 225 W in the hover
         # before (the means of 230–243 s and 100–200 s): without the ``mode`` channel
@@ -826,7 +863,7 @@ def inject(kind: str, d: Draw, rng, size: float, timing: str | None = None) -> I
         # heavier, the take-off payload the flights' own
         dm, times, fraction, since_start = _mass_change(d, rng, size, timing)
         out = inj.payload_step(rec, dm, times, d.mass_kg, rho=d.rho, pack_resistance_ohm=r,
-                               rotors=d.rotors, wing=d.wing)
+                               rotors=d.rotors, wing=d.wing, w_per_kg=d.w_per_kg)
         return Injected(out, d.payload_kg, {"mass_step_kg": dm}, dm, fraction,
                         change_times=since_start)
     if kind == "wind":
@@ -918,7 +955,8 @@ def _carry_until(rec, dm, times, d: Draw) -> pd.DataFrame:
     was dm heavier all along."""
     heavy_from_start = {k: -np.inf for k in times}
     heavy = inj.payload_step(rec, dm, heavy_from_start, d.mass_kg, rho=d.rho,
-                             pack_resistance_ohm=0.0, rotors=d.rotors, wing=d.wing)
+                             pack_resistance_ohm=0.0, rotors=d.rotors, wing=d.wing,
+                             w_per_kg=d.w_per_kg)
     dp_all = heavy["power_w"].to_numpy(float) - rec["power_w"].to_numpy(float)
     t = rec["time_s"].to_numpy(float)
     before = np.zeros(len(rec), bool)
@@ -1058,13 +1096,19 @@ def all_cells(source_names=None, sizes=("realistic", "2x")) -> list[Cell]:
     return out
 
 
+#: Sources that draw the same flights and inject the same sizes at the same times as
+#: another, by another law: their runs pair with that source's run by run.
+SAME_DRAWS = {"m100_measured": "m100"}
+
+
 def _seed(cell: Cell, run: int, seed: int) -> int:
-    return zlib.crc32(f"{cell.source}|{run}|{seed}".encode())
+    return zlib.crc32(f"{SAME_DRAWS.get(cell.source, cell.source)}|{run}|{seed}".encode())
 
 
 def _detail_seed(cell: Cell, run: int, seed: int) -> int:
     # a telemetry rate reduces the same injection: the seed of the richness without it
-    base = dataclasses.replace(cell, richness=split_richness(cell.richness)[0])
+    base = dataclasses.replace(cell, richness=split_richness(cell.richness)[0],
+                               source=SAME_DRAWS.get(cell.source, cell.source))
     return zlib.crc32(f"{base.name}|{run}|{seed}".encode())
 
 

@@ -30,6 +30,8 @@ SAMPLE = [
     (M.Cell("m100", "clean", "plain", None, "realistic"), 2),
     # route R1 with the payload classes mixed in one draw, each flight given its own
     (M.Cell("m100_mixed", "payload", "plain", "mid", "realistic"), 2),
+    # route R1 with a release injected by the M100's own measured power per kilogram
+    (M.Cell("m100_measured", "payload", "plain", "random", "realistic"), 2),
     # log 171's plain record carries a real power step (testkit.matrix, "The record's own
     # findings"); with every channel a current offset against the power channel
     (M.Cell("log171", "clean", "plain", None, "realistic"), 2),
@@ -1047,3 +1049,49 @@ def test_a_pick_up_in_the_flight_that_holds_log_171s_own_step_is_said_not_identi
     assert M.limit_at(entry, injd.fraction) <= injd.size
     assert "second change in the flight" in entry["text"]
     assert "not identifiable" in second["text"]
+
+
+def test_the_measured_mass_law_adds_the_m100s_own_power_per_kg_in_every_regime(draws):
+    """The ``m100_measured`` source (DJI M100 route R1, Rodrigues et al. 2021, CC BY 4.0)
+    draws the ``m100`` source's flights, sizes and change times run by run, and injects a
+    pick-up by the M100's own measured change of battery power per kilogram (the
+    inverse-variance mean of its regimes' slopes across the 0, 250 and 500 g flights, about
+    200 W/kg): the same in the climb, the cruise and the descent, where momentum theory's
+    law on the same flights changes by regime, and nothing where the rotors do not carry
+    the aircraft."""
+    import numpy as np
+
+    from testkit import injections as inj
+
+    w, se = M.measured_w_per_kg()
+    assert 180.0 < w < 220.0 and 0.0 < se < 10.0
+    cell = M.Cell("m100_measured", "pickup", "plain", "mid", "realistic")
+    twin = M.Cell("m100", "pickup", "plain", "mid", "realistic")
+    assert M._seed(cell, 0, 0) == M._seed(twin, 0, 0)
+    assert M._detail_seed(cell, 0, 0) == M._detail_seed(twin, 0, 0)
+    d = M.sources()["m100_measured"].draw(np.random.default_rng(M._seed(cell, 0, 0)))
+    d0 = M.sources()["m100"].draw(np.random.default_rng(M._seed(twin, 0, 0)))
+    assert d.flights == d0.flights and d.w_per_kg == w and d0.w_per_kg is None
+    got = M.inject("pickup", d, np.random.default_rng(M._detail_seed(cell, 0, 0)), 1.0, "mid")
+    ref = M.inject("pickup", d0, np.random.default_rng(M._detail_seed(twin, 0, 0)), 1.0, "mid")
+    assert got.truth == ref.truth and got.change_times == pytest.approx(ref.change_times)
+    dm = got.truth["mass_step_kg"]
+    # the law itself, at the terminals (no pack resistance): w × dm after the change
+    # wherever the rotors carry the weight
+    rec = d.record
+    step = inj.payload_step(rec, dm, {k: -np.inf for k in d.flights}, d.mass_kg, rho=d.rho,
+                            pack_resistance_ohm=0.0, rotors=d.rotors, w_per_kg=w)
+    momentum = inj.payload_step(rec, dm, {k: -np.inf for k in d.flights}, d.mass_kg,
+                                rho=d.rho, pack_resistance_ohm=0.0, rotors=d.rotors)
+    gain = step["power_w"].to_numpy(float) - rec["power_w"].to_numpy(float)
+    gain_m = momentum["power_w"].to_numpy(float) - rec["power_w"].to_numpy(float)
+    lifted = np.abs(gain) > 1e-9
+    assert np.allclose(gain[lifted], w * dm)
+    assert lifted.mean() > 0.5 and np.array_equal(lifted, np.abs(gain_m) > 1e-9)
+    climb = rec["climb_rate_ms"].to_numpy(float)
+    speed = rec["groundspeed_ms"].to_numpy(float)
+    per_kg = {name: np.median(gain_m[lifted & m]) / dm for name, m in (
+        ("climb", (climb > 1.5) & (speed < 1.0)), ("descent", (climb < -1.0) & (speed < 1.0)),
+        ("fast cruise", (np.abs(climb) < 0.3) & (speed > 9.0)))}
+    # momentum theory's law is not the M100's: it changes by regime, by far more than w
+    assert per_kg["climb"] > 1.5 * per_kg["fast cruise"] and per_kg["climb"] > w + 100.0
