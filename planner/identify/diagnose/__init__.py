@@ -313,6 +313,8 @@ class DiagnoseResult:
                 lines.append(f"     {f['cause']}")
                 for alt in f.get("alternatives", ()):
                     lines.append(f"     or: {alt}")
+                for h in f.get("evidence", {}).get("held_against", ()):
+                    lines.append(f"     held against {h['rival']}: {h['text']}")
         elif self.levels:
             lines.append("No significant effect: the calibrated model explains the data as well "
                          "as any tested extension.")
@@ -784,12 +786,15 @@ def _findings(name: str, lv_result: S.LevelResult, level, values, stderr) -> lis
     for e, step in lv_result.selected:
         params = e.parameters(values, stderr, level, state)
         alone = lv_result.candidates.get(e.name, step)
+        # the rivals fitted in its place and the tests they lost: evidence of the finding
+        held = lv_result.held_against.get(e.name, [])
         out.append({
             "effect": e.name,
             "level": name,
             "cause": e.cause(params, level),
             "parameters": params,
-            "evidence": step.evidence() | {"gain_alone_pct": alone.gain_pct},
+            "evidence": step.evidence() | {"gain_alone_pct": alone.gain_pct}
+            | ({"held_against": [dict(h) for h in held]} if held else {}),
             "added_after": list(step.against),
             "heldout": _heldout(step),
             "unit": level.unit,

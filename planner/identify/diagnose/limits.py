@@ -637,7 +637,7 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
     second = _second_change(report) if found else None
     if second is not None:
         out["second_change"] = second
-        out["text"] += " " + second["text"]
+        out["text"] = out["text"].rstrip(".") + ". " + second["text"]
     return out
 
 

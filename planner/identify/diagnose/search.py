@@ -113,7 +113,10 @@ then, where that does not decide, by fitting both and testing each on top of the
 (the encompassing principle); a rival that fails only the paired test is held against
 it too. The one that adds to its rival while the rival adds
 nothing to it is taken; where neither adds to the other the data cannot tell them apart,
-neither is named, and both are withheld as confounded (``LevelResult.confused``).
+neither is named, and both are withheld as confounded (``LevelResult.confused``). The
+one taken keeps the test each rival lost (``LevelResult.held_against``), which its
+finding quotes as evidence (``held_against`` of its ``evidence``): the rival's held-out
+gain, the paired test's p, and the gains and p on top of each other where that decided.
 
 An effect skipped because these data cannot name it but can fit it — a wind on a route
 flown in one order, where it changes the airspeed as one step per flight — is still the
@@ -2190,6 +2193,9 @@ class LevelResult:
     #: Rival effects that each passed alone but that the held-out data cannot tell apart
     #: (:func:`_rival_step`): one dict per tie, ``candidates``, ``why``.
     confused: list[dict] = field(default_factory=list)
+    #: The rivals each named effect was held against and the test it won
+    #: (:func:`_held_against`), by the effect's name.
+    held_against: dict[str, list[dict]] = field(default_factory=dict)
     #: The flights' scale on the model's change of power with airspeed, its standard
     #: error and whether a steady wind was in the fit it was read on
     #: (:meth:`PowerLevel.speed_read`,
@@ -2254,7 +2260,7 @@ def _pair_step(level, chosen, current, round_scores, candidates):
 MAX_RIVALS = 2
 
 
-def _rival_step(level, chosen, current, passing, candidates, promising=()):
+def _rival_step(level, chosen, current, passing, candidates, promising=(), held=None):
     r"""The candidate of a round that the held-out data prefer among those that pass alone,
     and None; or None and the tie (``candidates``, ``why``) when the leading one and a
     rival cannot be told apart (module notes, "Rival effects").
@@ -2282,7 +2288,11 @@ def _rival_step(level, chosen, current, passing, candidates, promising=()):
     Econometrica 54 (1986) 657–678; R. Davidson and J. G. MacKinnon, "Several tests for
     model specification in the presence of alternative hypotheses", Econometrica 49
     (1981) 781–793.
+
+    ``held``, where given, receives the tests each candidate won against a rival, by the
+    winner's name (:func:`_held_against`): the evidence its finding quotes.
     """
+    held = {} if held is None else held
     ranked = sorted(passing, key=lambda v: -v[2].gain_pct)
     lead = ranked[0]
     near = sorted((v for v in promising if not v[2].significant),
@@ -2298,9 +2308,11 @@ def _rival_step(level, chosen, current, passing, candidates, promising=()):
         else:
             p_a = p_b = 1.0
         if p_b < 0.5 * ALPHA_HELDOUT and passed:
+            held.setdefault(b.name, []).append(_held_against(b, a, cb, ca, p_b))
             lead = rival
             continue
         if p_a < 0.5 * ALPHA_HELDOUT:
+            held.setdefault(a.name, []).append(_held_against(a, b, ca, cb, p_a))
             continue
         fitted = _fit_together(level, chosen, current, (a, sa), (b, sb))
         if fitted is None:
@@ -2308,10 +2320,14 @@ def _rival_step(level, chosen, current, passing, candidates, promising=()):
         _, a_on_b, b_on_a = fitted
         for c in (a_on_b, b_on_a):
             candidates[f"{c.effect} (after {' + '.join(c.against)})"] = c
-        if a_on_b.significant:
-            continue                                 # a adds to b: a leads (b may follow)
-        if b_on_a.significant and passed:
-            lead = rival                             # b explains a's misfit, not reverse
+        if a_on_b.significant:                       # a adds to b: a leads (b may follow)
+            held.setdefault(a.name, []).append(
+                _held_against(a, b, ca, cb, p_a, on_top=a_on_b, under=b_on_a))
+            continue
+        if b_on_a.significant and passed:            # b explains a's misfit, not reverse
+            held.setdefault(b.name, []).append(
+                _held_against(b, a, cb, ca, p_b, on_top=b_on_a, under=a_on_b))
+            lead = rival
             continue
         alone = "each pass alone" if passed else \
             f"{a.name} passes alone, {b.name} all but the paired test"
@@ -2322,6 +2338,30 @@ def _rival_step(level, chosen, current, passing, candidates, promising=()):
                f"paired p = {a_on_b.paired_p_value:.2g}): these data cannot tell them apart")
         return None, {"candidates": [a.name, b.name], "why": why}
     return lead, None
+
+
+def _held_against(winner, rival, c_win: Comparison, c_rival: Comparison, paired_p: float,
+                  on_top: Comparison | None = None, under: Comparison | None = None) -> dict:
+    """The test by which ``winner`` was preferred to ``rival`` (:func:`_rival_step`): their
+    held-out gains alone [%], the paired test of their held-out losses (``paired_p``: that
+    the winner predicts no better), and where that did not decide, the winner's gain on top
+    of the rival and the rival's on top of the winner [%] with their paired p; ``text``
+    in words."""
+    out = {"rival": rival.name, "gain_pct": c_win.gain_pct,
+           "rival_gain_pct": c_rival.gain_pct, "paired_p": paired_p}
+    if on_top is None:
+        text = (f"fitted in its place, {rival.name} predicts the held-out data worse "
+                f"(held-out gain {c_rival.gain_pct:.1f} % against {c_win.gain_pct:.1f} %, "
+                f"paired p = {paired_p:.2g})")
+    else:
+        out.update(on_top_gain_pct=on_top.gain_pct, on_top_p=on_top.paired_p_value,
+                   under_gain_pct=under.gain_pct, under_p=under.paired_p_value)
+        text = (f"fitted with it, {rival.name} adds nothing on top of it "
+                f"({under.gain_pct:+.1f} %, paired p = {under.paired_p_value:.2g}) while it "
+                f"adds {on_top.gain_pct:+.1f} % on top of {rival.name} (paired p = "
+                f"{on_top.paired_p_value:.2g})")
+    out["text"] = text
+    return out
 
 
 def _score(level, chosen, current, e, candidates, failed):
@@ -2385,6 +2425,7 @@ def search(level, effects: list) -> LevelResult:
     failed: dict[str, str] = {}
     selected: list[tuple[Any, Comparison]] = []
     confused: list[dict] = []
+    held: dict[str, list[dict]] = {}
     remaining = list(testable)
     while remaining:
         round_scores = {}
@@ -2410,7 +2451,8 @@ def search(level, effects: list) -> LevelResult:
                 if scored[2].significant:
                     passing.append(scored)
         promising = [v for v in round_scores.values() if _promising(v[2])]
-        pick, tied = _rival_step(level, chosen, current, passing, candidates, promising)
+        pick, tied = _rival_step(level, chosen, current, passing, candidates, promising,
+                                 held)
         if pick is not None and pick[0] in rivals:     # a rival that cannot be named leads
             tied = _rival_lead(pick, passing, skipped[pick[0].name])
             pick = None
@@ -2426,4 +2468,6 @@ def search(level, effects: list) -> LevelResult:
         current = sc
         remaining = [r for r in remaining if r is not e and r.name not in failed]
     return LevelResult(level, baseline, current, selected, candidates, skipped, failed,
-                       confused=confused)
+                       confused=confused,
+                       held_against={e.name: held[e.name] for e, _ in selected
+                                     if e.name in held})

@@ -225,6 +225,23 @@ def test_hidden_power_effect_is_named_first(effect, magnitude, seed, profile):
         assert p["efficiency_slope"] < 0 and p["efficiency_at_high"] < p["efficiency_at_low"]
 
 
+def test_a_finding_quotes_the_test_its_rival_lost():
+    """A 60 W constant load: an efficiency curve explains much of the same misfit and
+    passes alone, and is held against it (search, "Rival effects"); the load is named,
+    and its evidence quotes the rival and the paired test of their held-out losses that
+    the rival lost, in the JSON and in the summary."""
+    res, _ = _power("system_power", 60.0, 1, profile="survey")
+    assert _names(res)[:1] == ["system_power"], res.summary()
+    first = res.findings[0]
+    cands = res.levels["power"].result.candidates
+    (held,) = [h for h in first["evidence"]["held_against"] if h["rival"] == "efficiency_curve"]
+    assert held["rival_gain_pct"] == pytest.approx(cands["efficiency_curve"].gain_pct)
+    assert held["gain_pct"] == pytest.approx(cands["system_power"].gain_pct)
+    assert held["rival_gain_pct"] >= S.MIN_GAIN_PCT > 0
+    assert held["paired_p"] < 0.5 * S.ALPHA_HELDOUT
+    assert f"held against efficiency_curve: {held['text']}" in res.summary()
+
+
 @pytest.mark.parametrize("seed, profile", [(20, "survey"), (21, "lawnmower")])
 def test_clean_power_data_gives_no_findings(seed, profile):
     res, _ = _power(None, None, seed, profile=profile)

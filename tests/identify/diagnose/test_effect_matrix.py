@@ -987,7 +987,8 @@ def test_a_release_on_route_r1_that_its_rival_wind_fits_worse_is_named_beside_it
     flights (Rodrigues et al. 2021, CC BY 4.0), plain record, seed 0's first draw: the
     wind the route turns into one step per flight is fitted as the step's rival, the
     held-out data prefer the step, and the step is named, with the wind among what else
-    makes the same step; the wind itself is not named."""
+    makes the same step and the test the wind lost among the step's evidence; the wind
+    itself is not named."""
     import warnings
 
     import numpy as np
@@ -1008,6 +1009,17 @@ def test_a_release_on_route_r1_that_its_rival_wind_fits_worse_is_named_beside_it
     step = next(f for f in res.findings if f["effect"] == "payload_change")
     assert step["parameters"]["mass_step_kg"] < 0
     assert any(a.startswith("a steady wind") for a in step["alternatives"]), step
+    # the rival contest is quoted: the wind fitted in the step's place, and the paired
+    # test of their held-out losses that it lost
+    from planner.identify.diagnose import search as S
+
+    (held,) = step["evidence"]["held_against"]
+    wind = res.levels["power"].result.candidates["wind"]
+    assert held["rival"] == "wind" and held["rival_gain_pct"] == pytest.approx(wind.gain_pct)
+    assert held["gain_pct"] > held["rival_gain_pct"]
+    assert held["paired_p"] < 0.5 * S.ALPHA_HELDOUT
+    assert f"paired p = {held['paired_p']:.2g}" in held["text"]
+    assert f"held against wind: {held['text']}" in res.summary()
 
 
 def test_a_pick_up_in_the_flight_that_holds_log_171s_own_step_is_said_not_identifiable(
