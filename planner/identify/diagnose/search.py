@@ -2451,8 +2451,9 @@ def search(level, effects: list) -> LevelResult:
                 if scored[2].significant:
                     passing.append(scored)
         promising = [v for v in round_scores.values() if _promising(v[2])]
+        won: dict[str, list[dict]] = {}
         pick, tied = _rival_step(level, chosen, current, passing, candidates, promising,
-                                 held)
+                                 won)
         if pick is not None and pick[0] in rivals:     # a rival that cannot be named leads
             tied = _rival_lead(pick, passing, skipped[pick[0].name])
             pick = None
@@ -2466,8 +2467,8 @@ def search(level, effects: list) -> LevelResult:
         selected.append((e, cmp))
         chosen.append(e)
         current = sc
+        if e.name in won:               # the tests it won in the round it was taken
+            held[e.name] = won[e.name]
         remaining = [r for r in remaining if r is not e and r.name not in failed]
     return LevelResult(level, baseline, current, selected, candidates, skipped, failed,
-                       confused=confused,
-                       held_against={e.name: held[e.name] for e, _ in selected
-                                     if e.name in held})
+                       confused=confused, held_against=held)
