@@ -2308,11 +2308,11 @@ def _rival_step(level, chosen, current, passing, candidates, promising=(), held=
         else:
             p_a = p_b = 1.0
         if p_b < 0.5 * ALPHA_HELDOUT and passed:
-            held.setdefault(b.name, []).append(_held_against(b, a, cb, ca, p_b))
+            held.setdefault(b.name, []).append(_held_against(a, cb, ca, p_b))
             lead = rival
             continue
         if p_a < 0.5 * ALPHA_HELDOUT:
-            held.setdefault(a.name, []).append(_held_against(a, b, ca, cb, p_a))
+            held.setdefault(a.name, []).append(_held_against(b, ca, cb, p_a))
             continue
         fitted = _fit_together(level, chosen, current, (a, sa), (b, sb))
         if fitted is None:
@@ -2322,11 +2322,11 @@ def _rival_step(level, chosen, current, passing, candidates, promising=(), held=
             candidates[f"{c.effect} (after {' + '.join(c.against)})"] = c
         if a_on_b.significant:                       # a adds to b: a leads (b may follow)
             held.setdefault(a.name, []).append(
-                _held_against(a, b, ca, cb, p_a, on_top=a_on_b, under=b_on_a))
+                _held_against(b, ca, cb, p_a, on_top=a_on_b, under=b_on_a))
             continue
         if b_on_a.significant and passed:            # b explains a's misfit, not reverse
             held.setdefault(b.name, []).append(
-                _held_against(b, a, cb, ca, p_b, on_top=b_on_a, under=a_on_b))
+                _held_against(a, cb, ca, p_b, on_top=b_on_a, under=a_on_b))
             lead = rival
             continue
         alone = "each pass alone" if passed else \
@@ -2340,13 +2340,13 @@ def _rival_step(level, chosen, current, passing, candidates, promising=(), held=
     return lead, None
 
 
-def _held_against(winner, rival, c_win: Comparison, c_rival: Comparison, paired_p: float,
+def _held_against(rival, c_win: Comparison, c_rival: Comparison, paired_p: float,
                   on_top: Comparison | None = None, under: Comparison | None = None) -> dict:
-    """The test by which ``winner`` was preferred to ``rival`` (:func:`_rival_step`): their
-    held-out gains alone [%], the paired test of their held-out losses (``paired_p``: that
-    the winner predicts no better), and where that did not decide, the winner's gain on top
-    of the rival and the rival's on top of the winner [%] with their paired p; ``text``
-    in words."""
+    """The test by which the winner (``c_win``) was preferred to ``rival``
+    (:func:`_rival_step`): their held-out gains alone [%], the paired test of their
+    held-out losses (``paired_p``: that the winner predicts no better), and where that did
+    not decide, the winner's gain on top of the rival and the rival's on top of the winner
+    [%] with their paired p; ``text`` in words."""
     out = {"rival": rival.name, "gain_pct": c_win.gain_pct,
            "rival_gain_pct": c_rival.gain_pct, "paired_p": paired_p}
     if on_top is None:

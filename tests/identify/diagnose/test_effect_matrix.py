@@ -121,6 +121,27 @@ def _late_release(source, richness, run, draws, drop=()):
     return res, M._truth("payload", injd, None, res)[0]
 
 
+def _diagnosed(cell, run, seed):
+    """The run ``run`` of ``cell`` on ``seed`` as the matrix runs it
+    (:func:`testkit.matrix.run_cell`): its draw, its injection and what diagnose returns
+    on the reduced record."""
+    import warnings
+
+    import numpy as np
+
+    from planner.identify.diagnose import diagnose
+
+    d = M.sources()[cell.source].draw(np.random.default_rng(M._seed(cell, run, seed)))
+    injd = M.inject(cell.injection, d, np.random.default_rng(M._detail_seed(cell, run, seed)),
+                    M.SIZES[cell.size], cell.timing)
+    rec, pay = M.given(M.reduce(injd.record, cell.richness), injd.payload_kg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = diagnose(rec, d.pack, M.diagnosed_aircraft(d, cell.richness),
+                       site_altitude_m=d.site_altitude_m, **pay)
+    return d, injd, res
+
+
 def test_a_late_release_on_other_m100_routes_is_sized_within_the_error_its_descents_add(
         draws):
     """A payload released late (75–90 %) on 16 real DJI M100 flights of the routes other
@@ -960,21 +981,7 @@ def test_a_wind_the_route_turns_into_one_step_is_held_against_the_step_it_makes(
     of the power step it makes, and the two are withheld as confounded: neither is named.
     Before, a step was named in its place (seed 0's third draw at twice the realistic
     speed, 6.8 m/s; seed 2's fourth at realistic, 5.2 m/s: −0.18 ± 0.08 kg)."""
-    import warnings
-
-    import numpy as np
-
-    from planner.identify.diagnose import diagnose
-
-    cell = M.Cell("m100", "wind", "plain", None, size)
-    d = M.sources()["m100"].draw(np.random.default_rng(M._seed(cell, run, seed)))
-    injd = M.inject("wind", d, np.random.default_rng(M._detail_seed(cell, run, seed)),
-                    M.SIZES[size], None)
-    rec, pay = M.given(M.reduce(injd.record, "plain"), injd.payload_kg)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = diagnose(rec, d.pack, M.diagnosed_aircraft(d, "plain"),
-                       site_altitude_m=d.site_altitude_m, **pay)
+    _, _, res = _diagnosed(M.Cell("m100", "wind", "plain", None, size), run, seed)
     assert any("as one step" in s["reason"] for s in res.skipped if s["effect"] == "wind")
     assert not any(f["effect"] in ("payload_change", "wind") for f in res.findings), \
         res.findings
@@ -989,21 +996,7 @@ def test_a_release_on_route_r1_that_its_rival_wind_fits_worse_is_named_beside_it
     held-out data prefer the step, and the step is named, with the wind among what else
     makes the same step and the test the wind lost among the step's evidence; the wind
     itself is not named."""
-    import warnings
-
-    import numpy as np
-
-    from planner.identify.diagnose import diagnose
-
-    cell = M.Cell("m100", "payload", "plain", "random", "realistic")
-    d = M.sources()["m100"].draw(np.random.default_rng(M._seed(cell, 0, 0)))
-    injd = M.inject("payload", d, np.random.default_rng(M._detail_seed(cell, 0, 0)),
-                    M.SIZES["realistic"], "random")
-    rec, pay = M.given(M.reduce(injd.record, "plain"), injd.payload_kg)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = diagnose(rec, d.pack, M.diagnosed_aircraft(d, "plain"),
-                       site_altitude_m=d.site_altitude_m, **pay)
+    _, _, res = _diagnosed(M.Cell("m100", "payload", "plain", "random", "realistic"), 0, 0)
     assert "wind" in res.levels["power"].result.candidates      # fitted as the rival
     assert not any(f["effect"] == "wind" for f in res.findings)
     step = next(f for f in res.findings if f["effect"] == "payload_change")
@@ -1037,20 +1030,7 @@ def test_a_pick_up_in_the_flight_that_holds_log_171s_own_step_is_said_not_identi
     assert size < limit
     assert st["said_not_identifiable"] == 1 and st["named_or_said_not_identifiable"] == 1
 
-    import warnings
-
-    import numpy as np
-
-    from planner.identify.diagnose import diagnose
-
-    d = draws[("log171", 0, 1)]
-    injd = M.inject("pickup", d, np.random.default_rng(M._detail_seed(cell, 0, 1)),
-                    M.SIZES["realistic"], "mid")
-    record, payload = M.given(M.reduce(injd.record, "plain"), injd.payload_kg)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = diagnose(record, d.pack, M.diagnosed_aircraft(d, "plain"), **payload,
-                       site_altitude_m=d.site_altitude_m)
+    _, injd, res = _diagnosed(cell, 0, 1)
     (found,) = [f for f in res.findings if f["effect"] == "payload_change"]
     (entry,) = M.detection_of(res, "payload_change", "mass_step_kg")
     second = entry["second_change"]
