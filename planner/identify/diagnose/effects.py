@@ -1154,15 +1154,21 @@ class PayloadChange(PowerEffect):
         return pw.time
 
     def parameters(self, values, stderr, pw, state):
-        """The step [kg] with its standard error (the larger of the fit's and the spread of
-        the placebo steps, :meth:`planner.identify.diagnose.search.PowerLevel.placebo_steps`,
-        with the bias the vertical descents can put into it added in quadrature,
-        :meth:`planner.identify.diagnose.search.PowerLevel.descent_shift`; all kept), the
+        """The step [kg] with its standard error, as the located flights show it net of the
+        vertical descents' own level
+        (:meth:`planner.identify.diagnose.search.PowerLevel.step_read`; the fit on every
+        flight's kept as ``mass_step_kg_pooled``), else as fitted on every flight with the
+        bias the vertical descents can put into it added in quadrature
+        (:meth:`planner.identify.diagnose.search.PowerLevel.descent_shift`); the error the
+        larger of the fit's and the spread of the placebo steps
+        (:meth:`planner.identify.diagnose.search.PowerLevel.placebo_steps`; all kept), the
         flights with a change, their change times [s] and how many fall at the end of a
         climb."""
         out = {"mass_step_kg": values["mass_step_kg"],
                "mass_step_kg_stderr": stderr["mass_step_kg"]}
         for k in ("mass_step_kg_fit_stderr", "mass_step_kg_placebo_sd", "placebo_positions",
+                  "mass_step_kg_pooled", "mass_step_kg_pooled_stderr",
+                  "mass_step_kg_read_flights", "mass_step_kg_read_descent_level",
                   "mass_step_kg_descent_shift", "mass_step_kg_descent_bias"):
             if k in values:
                 out[k] = values[k]

@@ -650,7 +650,10 @@ def _second_change(report) -> dict[str, Any] | None:
     if fit is None:
         return None
     times = {k: v for k, v in fit.state.get("change_time_s", {}).items() if v is not None}
-    dm = fit.values().get("mass_step_kg", math.nan)
+    # the step as named (search.PowerLevel.step_read), else as fitted
+    phys = report.result.final_physical
+    values = phys[1] if phys is not None and phys[0] is fit else fit.values()
+    dm = values.get("mass_step_kg", math.nan)
     if not times or not math.isfinite(dm):
         return None
     n = len(times)

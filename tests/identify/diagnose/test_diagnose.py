@@ -449,18 +449,19 @@ def test_on_flights_the_model_fits_the_placebo_steps_are_as_small_as_the_fits_er
     itself. Where the power follows the model but for noise and turbulence, they are of
     the size of the fit's own standard error; the step's standard error is the larger
     of the two, and the truth lies within two of it. These flights end with vertical
-    descents that the model flies right (the flights are the model's own): the step moves
-    by less than that error when the descents get a power level of their own, the bias
-    that shows is smaller still, and the standard error adds it in quadrature."""
+    descents that the model flies right (the flights are the model's own): read on the
+    located flights with a power level of the descents' own (search, "Change points"),
+    the step moves from the fit on every flight by less than that fit's error."""
     res, _ = _power("payload_change", magnitude, seed, profile=profile)
     p = next(f for f in res.findings if f["effect"] == "payload_change")["parameters"]
     assert p["placebo_positions"] >= S.MIN_PLACEBOS
     ratio = p["mass_step_kg_placebo_sd"] / p["mass_step_kg_fit_stderr"]
     assert 0.3 < ratio < 2.5
-    larger = max(p["mass_step_kg_fit_stderr"], p["mass_step_kg_placebo_sd"])
-    assert p["mass_step_kg_descent_bias"] <= abs(p["mass_step_kg_descent_shift"]) < larger
-    assert p["mass_step_kg_stderr"] == pytest.approx(
-        math.hypot(larger, p["mass_step_kg_descent_bias"]), rel=1e-12)
+    assert p["mass_step_kg_read_descent_level"] == 1.0
+    assert p["mass_step_kg_read_flights"] == p["flights_with_change"] >= S.MIN_DESCENT_FLIGHTS
+    assert abs(p["mass_step_kg"] - p["mass_step_kg_pooled"]) < p["mass_step_kg_pooled_stderr"]
+    assert p["mass_step_kg_stderr"] == max(p["mass_step_kg_fit_stderr"],
+                                           p["mass_step_kg_placebo_sd"])
     assert abs(p["mass_step_kg"] - magnitude) < 2 * p["mass_step_kg_stderr"]
 
 

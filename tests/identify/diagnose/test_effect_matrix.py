@@ -99,26 +99,26 @@ def test_a_late_release_on_real_m100_flights_is_named_only_where_the_descents_le
     assert st["said_not_identifiable"] == st["runs"] - st["named_any"]
 
 
-def _late_release(source, richness, run, draws, drop=()):
+def _late_release(source, richness, run, draws, drop=(), kind="payload"):
     import warnings
 
     import numpy as np
 
     from planner.identify.diagnose import diagnose
 
-    cell = M.Cell(source, "payload", richness, "late", "realistic")
+    cell = M.Cell(source, kind, richness, "late", "realistic")
     key = (source, run, 0)
     if key not in draws:
         draws[key] = M.sources()[source].draw(np.random.default_rng(M._seed(cell, run, 0)))
     d = draws[key]
-    injd = M.inject("payload", d, np.random.default_rng(M._detail_seed(cell, run, 0)),
+    injd = M.inject(kind, d, np.random.default_rng(M._detail_seed(cell, run, 0)),
                     M.SIZES["realistic"], "late")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = diagnose(M.reduce(injd.record, richness).drop(columns=list(drop)), d.pack,
                        M.diagnosed_aircraft(d, richness), payload_kg=injd.payload_kg,
                        site_altitude_m=d.site_altitude_m)
-    return res, M._truth("payload", injd, None, res)[0]
+    return res, M._truth(kind, injd, None, res)[0]
 
 
 def _diagnosed(cell, run, seed):
@@ -142,26 +142,56 @@ def _diagnosed(cell, run, seed):
     return d, injd, res
 
 
-def test_a_late_release_on_other_m100_routes_is_sized_within_the_error_its_descents_add(
-        draws):
+def test_a_late_release_on_other_m100_routes_is_read_on_its_located_flights(draws):
     """A payload released late (75–90 %) on 16 real DJI M100 flights of the routes other
-    than R1 (Rodrigues et al. 2021, CC BY 4.0), plain record, seed 0's first draw. The
-    step is found 10 % large (−0.34 against −0.31 kg): it takes up part of the vertical
-    descents' misfit. Fitted once more with a power level of the descents' own it moves,
-    and that shift (beyond what noise alone would move it) is part of its error, in
-    quadrature with the larger of the fit's error and the placebo steps' spread; with
-    it the truth lies within 2 SE."""
+    than R1 (Rodrigues et al. 2021, CC BY 4.0), plain record, seed 0's first draw. Fitted
+    on every flight the step is found 20 % large (−0.37 against −0.31 kg): it takes up
+    part of the vertical descents' misfit. Read on the flights whose change is located,
+    with a power level of the descents' own (search, "Change points"), it is nearer the
+    truth, which lies within 2 SE of it."""
     res, truth = _late_release("m100_routes", "plain", 0, draws)
     first = res.findings[0]
     assert first["effect"] == "payload_change"
     p = first["parameters"]
-    without = max(p["mass_step_kg_fit_stderr"], p["mass_step_kg_placebo_sd"])
-    assert p["mass_step_kg_descent_bias"] > 0.5 * without
-    assert p["mass_step_kg_stderr"] == pytest.approx(
-        math.hypot(without, p["mass_step_kg_descent_bias"]), rel=1e-9)
-    miss = abs(p["mass_step_kg"] - truth["mass_step_kg"])
-    assert miss < 2 * p["mass_step_kg_stderr"]
+    assert p["mass_step_kg_read_descent_level"] == 1.0
+    assert p["mass_step_kg_read_flights"] == p["flights_with_change"]
+    assert abs(p["mass_step_kg"] - truth["mass_step_kg"]) < \
+        abs(p["mass_step_kg_pooled"] - truth["mass_step_kg"])
+    assert p["mass_step_kg_stderr"] == max(p["mass_step_kg_fit_stderr"],
+                                           p["mass_step_kg_placebo_sd"])
     assert M.within_2se("payload_change", p, truth)
+
+
+def test_a_late_pick_up_on_other_m100_routes_is_read_on_its_located_flights(draws):
+    """A payload picked up late (75–90 %) on 16 real DJI M100 flights of the routes other
+    than R1 (Rodrigues et al. 2021, CC BY 4.0), plain record, seed 0's first draw. The
+    change is located in 6 flights of 16. Fitted on every flight, the unlocated ones by
+    the expectation of their change and the final descents (which the model over-predicts
+    by 20–28 W on clean flights of these routes) by the model, the step comes out a
+    third small: 0.21 against 0.31 kg, five of its standard errors away. Read on the
+    located flights with a power level of the descents' own (search, "Change points") it
+    is 0.29 kg, and the truth lies within 2 SE."""
+    res, truth = _late_release("m100_routes", "plain", 0, draws, kind="pickup")
+    first = res.findings[0]
+    assert first["effect"] == "payload_change"
+    p = first["parameters"]
+    assert p["mass_step_kg_read_flights"] == p["flights_with_change"] < 16
+    assert abs(p["mass_step_kg_pooled"] - truth["mass_step_kg"]) > \
+        2 * p["mass_step_kg_pooled_stderr"]
+    assert M.within_2se("payload_change", p, truth)
+
+
+def test_late_pick_ups_on_other_m100_routes_are_sized_within_2_se(draws):
+    """The late pick-up cell of the routes other than R1 (DJI M100, Rodrigues et al. 2021,
+    CC BY 4.0), plain record, five draws (seed 0): each run that names the pick-up sizes
+    it within 2 SE (0 of 3 when the step was the fit on every flight, its error widened
+    by the descents' bias), and the others say it is not identifiable."""
+    cell = M.Cell("m100_routes", "pickup", "plain", "late", "realistic")
+    st = M.run_cell(cell, 5, seed=0, draws=draws)
+    assert st["named_first"] >= 3, st
+    assert st["within_2se"] == st["checked_2se"] == st["named_first"], st
+    assert st["said_not_identifiable"] == st["runs"] - st["named_any"], st
+    assert st["false_runs"] == 0, st
 
 
 def test_a_pick_up_on_other_m100_routes_is_sized_with_its_unlocated_flights_expectation(
