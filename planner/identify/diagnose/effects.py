@@ -1201,6 +1201,14 @@ class PayloadChange(PowerEffect):
                 f"mass {'decrease' if dm < 0 else 'increase'} (a payload "
                 f"{'dropped' if dm < 0 else 'picked up'}) or anything else that "
                 f"{'lowers' if dm < 0 else 'raises'} the power")
+        if "mass_step_kg_pooled" in p:
+            # the step as read on its located flights (search.PowerLevel.step_read)
+            k = int(p["mass_step_kg_read_flights"])
+            level = (", the vertical descents at a power level of their own"
+                     if p.get("mass_step_kg_read_descent_level") else "")
+            text += (f" (sized on the {k} flight{'s' if k != 1 else ''} whose change is "
+                     f"located{level}; fitted on every flight: "
+                     f"{abs(p['mass_step_kg_pooled']):.2f} kg)")
         modes = mode_changes_near(pw, p)
         if modes:
             text += "; " + "; ".join(modes)

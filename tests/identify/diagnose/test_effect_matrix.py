@@ -179,6 +179,11 @@ def test_a_late_pick_up_on_other_m100_routes_is_read_on_its_located_flights(draw
     assert abs(p["mass_step_kg_pooled"] - truth["mass_step_kg"]) > \
         2 * p["mass_step_kg_pooled_stderr"]
     assert M.within_2se("payload_change", p, truth)
+    # the finding says how it was sized, and what the fit on every flight found
+    k = int(p["flights_with_change"])
+    assert f"sized on the {k} flights whose change is located, the vertical descents" \
+        in first["cause"]
+    assert f"fitted on every flight: {p['mass_step_kg_pooled']:.2f} kg" in first["cause"]
 
 
 def test_late_pick_ups_on_other_m100_routes_are_sized_within_2_se(draws):
