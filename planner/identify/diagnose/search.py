@@ -211,7 +211,7 @@ training bins of the flights whose change is located, with a power level of the
 vertical descents' own beside the parameters (where three or more of those flights
 descend vertically). The fit on every flight is the efficient estimate were the model
 right in the descents and each unlocated flight's change where its expectation puts it;
-the read is the consistent one where either is not (Hausman, *Econometrica* 46, 1251,
+the read is consistent whether or not they hold (Hausman, *Econometrica* 46, 1251,
 1978), and its error is that fit's (the larger of the AR(1) and the flight-clustered
 one), or the placebos' spread where larger. On 16 DJI M100 flights of the routes other
 than R1 (Rodrigues et al. 2021) with a pick-up late in every flight, the change located
@@ -223,9 +223,8 @@ whether the descents had a level: ``mass_step_kg_read_flights``,
 
 Where fewer than three flights have a located change, or the descents have a level of
 their own over every flight but not over the located ones, the step is the fit on every
-flight and the
-descents' part of its error is measured instead: it is fitted once more with a power
-level of the vertical descents' own beside it, over every flight
+flight and the descents' part of its error is measured instead: it is fitted once more
+with a power level of the vertical descents' own beside it, over every flight
 (:meth:`PowerLevel.descent_shift`). How far the step moves, less what noise alone would
 move it (the same Hausman contrast), is the bias the descents' misfit puts into it, and
 the standard error becomes the root sum of squares of the above and that bias: the root
@@ -1677,8 +1676,8 @@ class PowerLevel:
         :meth:`descent_shift`), or where every flight is located and none descends.
 
         The fit on every flight is the efficient estimate were the model right in the
-        descents and each unlocated flight's change where its expectation puts it; this is
-        the consistent one where either is not (Hausman, *Econometrica* 46, 1251, 1978)."""
+        descents and each unlocated flight's change where its expectation puts it; this one
+        is consistent whether or not they hold (Hausman, *Econometrica* 46, 1251, 1978)."""
         if "mass_step_kg" not in fit.nl_names:
             return None
         rows = np.flatnonzero(fit.train)
