@@ -649,7 +649,7 @@ def _second_change(report) -> dict[str, Any] | None:
     fit = report.result.final_fit
     if fit is None:
         return None
-    times = {k: v for k, v in fit.state.get("change_time_s", {}).items() if v is not None}
+    times = fit.located_changes()
     # the step as named (search.PowerLevel.step_read), else as fitted
     phys = report.result.final_physical
     values = phys[1] if phys is not None and phys[0] is fit else fit.values()

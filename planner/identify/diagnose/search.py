@@ -467,6 +467,11 @@ class Fit:
         return dict(zip(self.nl_names + self.lin_names,
                         map(float, np.r_[self.nl, self.coef])))
 
+    def located_changes(self) -> dict[str, float]:
+        """Each flight's located change time [s] by flight name (a payload change's
+        ``change_time_s``), the flights whose change is not located left out."""
+        return {k: v for k, v in self.state.get("change_time_s", {}).items() if v is not None}
+
 
 # ============================================================================ capacity
 
@@ -1683,8 +1688,7 @@ class PowerLevel:
         rows = np.flatnonzero(fit.train)
         J, r0 = jacobian
         groups = self.exp[rows]
-        times = [k for k, v in fit.state.get("change_time_s", {}).items() if v is not None]
-        located = np.isin(groups, [self.names.index(k) for k in times])
+        located = np.isin(groups, [self.names.index(k) for k in fit.located_changes()])
         flights = int(np.unique(groups[located]).size)
         if flights < MIN_DESCENT_FLIGHTS:
             return None
@@ -1699,13 +1703,8 @@ class PowerLevel:
             return None
         u = np.zeros(X.shape[1])
         u[list(fit.nl_names).index("mass_step_kg")] = 1.0
-        Xs, rs = X[located], r0[located]
-        d = np.linalg.lstsq(Xs, -rs, rcond=None)[0]
-        ar1, clustered = _covariance_pair(Xs, rs + Xs @ d, groups[located])
-        v = _variance_along(ar1, u)
-        if clustered is not None:
-            v = max(v, _variance_along(clustered, u))
-        return float(u @ d), v, flights, descents
+        step, v = _gauss_newton_along(X[located], r0[located], groups[located], u)
+        return step, v, flights, descents
 
     def hover_shift(self, fit: Fit, jacobian) -> tuple[float, float] | None:
         r"""How far the speed of the fitted wind moves when the bins in which the aircraft
@@ -1759,16 +1758,9 @@ class PowerLevel:
         groups = self.exp[rows]
         u = np.r_[np.asarray(direction, float), np.zeros(J.shape[1] - len(direction))]
 
-        def step_and_variance(X):
-            d = np.linalg.lstsq(X, -r0, rcond=None)[0]
-            ar1, clustered = _covariance_pair(X, r0 + X @ d, groups)
-            v = _variance_along(ar1, u)
-            if clustered is not None:
-                v = max(v, _variance_along(clustered, u))
-            return float(u @ d[:u.size]), v
-
-        step0, v0 = step_and_variance(J)
-        step1, v1 = step_and_variance(np.column_stack([J, inside.astype(float)]))
+        step0, v0 = _gauss_newton_along(J, r0, groups, u)
+        step1, v1 = _gauss_newton_along(np.column_stack([J, inside.astype(float)]), r0,
+                                        groups, u)
         shift = step1 - step0
         return shift, math.sqrt(max(shift**2 - max(v1 - v0, 0.0), 0.0))
 
@@ -1830,7 +1822,7 @@ class PowerLevel:
         per kg of mass) beside the located step's own, both net of each flight's mean;
         the placebo's coefficient is a mass step where none was located. Empty where there
         are fewer than :data:`MIN_PLACEBOS` positions."""
-        times = {k: v for k, v in fit.state.get("change_time_s", {}).items() if v is not None}
+        times = fit.located_changes()
         mask = fit.state.get("step_mask")
         payload = next((e for e in effects if e.name == "payload_change"), None)
         if payload is None or mask is None or not times:
@@ -2012,6 +2004,21 @@ def _variance_along(cov: np.ndarray, a: np.ndarray) -> float:
     one it does not weigh stays out). [unit of the combination squared]"""
     on = np.flatnonzero(a)
     return float(a[on] @ cov[np.ix_(on, on)] @ a[on])
+
+
+def _gauss_newton_along(X: np.ndarray, r: np.ndarray, groups: np.ndarray, u: np.ndarray
+                        ) -> tuple[float, float]:
+    """One Gauss-Newton step from a fit with Jacobian ``X`` and residual ``r`` (its rows in
+    flights ``groups``), along the combination ``u`` of its first ``len(u)`` parameters:
+    how far that combination moves, and its variance there (the larger of the AR(1) one
+    and the flight-clustered sandwich's, as in :meth:`PowerLevel.physical`).
+    [unit of the combination], [its square]"""
+    d = np.linalg.lstsq(X, -r, rcond=None)[0]
+    ar1, clustered = _covariance_pair(X, r + X @ d, groups)
+    v = _variance_along(ar1, u)
+    if clustered is not None:
+        v = max(v, _variance_along(clustered, u))
+    return float(u @ d[:u.size]), v
 
 
 def _covariance_pair(J: np.ndarray, r: np.ndarray, groups: np.ndarray):
