@@ -8,7 +8,8 @@ clock and the charge counter start again), a mission changed in flight, a second
 on the link, a silent spell. It sends to 127.0.0.1 only and stops by itself (at the end of
 the log, or after ``max_seconds``); with ``linger_s`` it goes on answering the mission
 protocol after the log, as a landed vehicle does, until the watcher has acknowledged the
-mission it holds (or ``linger_s`` has passed).
+mission it holds and a mission change still due has been made (or ``linger_s`` has
+passed).
 """
 
 from __future__ import annotations
@@ -44,10 +45,14 @@ class Faults:
         Log time at which the vehicle reboots. [s]
     mission_change_at_s : float or None
         Log time at which the mission is replaced by ``new_mission``, or, where the
-        watcher has not yet acknowledged the mission held then, the first message after
-        it has: a mission changed in flight replaces one the ground station holds (the
-        log plays many times faster than it was flown, and on a busy machine the first
-        download through the faults may take longer than the log leaves it). [s]
+        watcher has not yet held the mission of then for :attr:`mission_hold_s`, the
+        first message after it has: a mission changed in flight replaces one the ground
+        station holds and has shown (the log plays many times faster than it was flown,
+        and on a busy machine the first download through the faults may take longer
+        than the log leaves it). [s]
+    mission_hold_s : float
+        Wall time the watcher holds a mission (from its acknowledgement) before the
+        vehicle may change it: longer than the watcher's interval between updates. [s]
     second_vehicle : bool
         Send every battery and position message again as system ``system_id + 1``, with
         other values.
@@ -61,6 +66,7 @@ class Faults:
     flood_seconds: float = 1.0
     reboot_at_s: float | None = None
     mission_change_at_s: float | None = None
+    mission_hold_s: float = 3.0
     second_vehicle: bool = False
     silent: tuple | None = None
 
@@ -109,6 +115,8 @@ class FakeVehicle:
         self.items = list(self.mission)
         self.frame_count = 0
         self.acked = False          # the watcher acknowledged the items held now
+        self.acked_at = math.inf    # when it did [s of time.monotonic()]
+        self.changed = False        # the mission was changed in flight
 
     # -- control
     def start(self) -> FakeVehicle:
@@ -162,8 +170,8 @@ class FakeVehicle:
                     continue
                 self.received.append(m)
                 mtype = m.get_type()
-                if mtype == "MISSION_ACK":
-                    self.acked = True
+                if mtype == "MISSION_ACK" and not self.acked:
+                    self.acked, self.acked_at = True, time.monotonic()
                 if mtype == "MISSION_REQUEST_LIST":
                     self.served_counts.append(len(self.items))
                     self._send(mav.MAVLink_mission_count_message(
@@ -183,6 +191,19 @@ class FakeVehicle:
                             0, 1, p[0], p[1], p[2], p[3], int(round(p[4] * 1e7)),
                             int(round(p[5] * 1e7)), float(p[6]), 0))
 
+    def _change_mission(self, t_log: float) -> None:
+        """Replace the mission by ``new_mission`` once its time has come and the watcher
+        has held the mission of now for ``mission_hold_s`` (or there is none)."""
+        f = self.faults
+        if f.mission_change_at_s is None or self.changed or t_log < f.mission_change_at_s:
+            return
+        if self.items and not (self.acked
+                               and time.monotonic() - self.acked_at >= f.mission_hold_s):
+            return
+        self.changed = True
+        self.items = list(self.new_mission)
+        self.acked, self.acked_at = False, math.inf
+
     # -- the replay
     def _run(self) -> None:
         from planner.io.mavlink_stream import TlogSource
@@ -193,7 +214,7 @@ class FakeVehicle:
         t0 = None
         boot_shift = 0.0
         consumed_shift = 0
-        rebooted = changed = False
+        rebooted = False
         heartbeat = None
         last_current = -math.inf
         flood_start = None
@@ -229,11 +250,7 @@ class FakeVehicle:
                     consumed_shift = msg.current_consumed
                 if msg.current_consumed >= 0:
                     msg.current_consumed = max(msg.current_consumed - consumed_shift, 0)
-            if f.mission_change_at_s is not None and not changed and \
-                    tl >= f.mission_change_at_s and (self.acked or not self.items):
-                changed = True
-                self.items = list(self.new_mission)
-                self.acked = False
+            self._change_mission(tl)
             self._send(msg)
             if mtype == "HEARTBEAT":
                 heartbeat = msg
@@ -269,10 +286,15 @@ class FakeVehicle:
         # the log is over; the vehicle is still there for the mission protocol
         end = time.monotonic() + self.linger_s
         beat = -math.inf
-        while self.items and not self.acked and not self._stop.is_set() \
-                and time.monotonic() < end:
-            if heartbeat is not None and time.monotonic() - beat >= 1.0:
+        pending = f.mission_change_at_s is not None
+        while self.items and (not self.acked or (pending and not self.changed)) \
+                and not self._stop.is_set() and time.monotonic() < end:
+            self._change_mission(math.inf)
+            if time.monotonic() - beat >= 1.0:
                 beat = time.monotonic()
-                self._send(heartbeat)
+                if heartbeat is not None:
+                    self._send(heartbeat)
+                n = len(self.items)
+                self._send(mav.MAVLink_mission_current_message(n - 1, n, 0, 0))
             self._serve(0.0)
             time.sleep(0.02)
