@@ -93,7 +93,7 @@ from planner.physics.mission import Environment, Mission
 from planner.physics.units import J_PER_WH, ZERO_CELSIUS_K
 
 __all__ = ["DEFAULT_FORECAST_SPREADS", "DEFAULT_MODEL_ERROR_SD", "Spreads",
-           "UncertaintyResult", "cvar", "monte_carlo", "shapley_r2"]
+           "UncertaintyResult", "covariance_problem", "cvar", "monte_carlo", "shapley_r2"]
 
 #: Standard deviations within which a drawn value must stay physical (a capacity, δ, a
 #: payload): a spread that reaches zero inside this many is refused as bad input.
@@ -364,6 +364,18 @@ def resolve_spreads(spreads: Spreads, aircraft) -> tuple[Spreads, dict[str, str]
     return s, origin
 
 
+def covariance_problem(delta: float, beta: float, covariance) -> str | None:
+    """Why (δ, ε, β) cannot be drawn from ``covariance`` (rows δ, ε, β): a standard error
+    of δ or β that allows a value ≤ 0 within :data:`PHYSICAL_SIGMAS`; None when they
+    can."""
+    sd3 = np.sqrt(np.clip(np.diag(np.array(covariance, float)), 0, None))
+    for name, m, sd in (("delta", delta, sd3[0]), ("beta", beta, sd3[2])):
+        if m - PHYSICAL_SIGMAS * sd <= 0:
+            return (f"the standard error of {name} ({sd:.3g}) allows {name} ≤ 0 (a capacity "
+                    f"without bound) within {PHYSICAL_SIGMAS:g} standard errors of {m:.4g}")
+    return None
+
+
 def _pack_model(pack, s: Spreads):
     """The integral model's mean (δ, ε, β) and the covariance drawn (None: not drawn)."""
     where = str(pack.path or pack.name)
@@ -371,12 +383,9 @@ def _pack_model(pack, s: Spreads):
         s.model_covariance and pack.model.covariance is not None) else None
     mean3 = np.array([pack.model.delta, pack.model.epsilon, pack.model.beta])
     if cov is not None:
-        sd3 = np.sqrt(np.clip(np.diag(cov), 0, None))
-        for name, m, sd in (("delta", mean3[0], sd3[0]), ("beta", mean3[2], sd3[2])):
-            if m - PHYSICAL_SIGMAS * sd <= 0:
-                raise InputError(f"{where}: model.covariance: the standard error of {name} "
-                                 f"({sd:.3g}) allows {name} ≤ 0 (a capacity without bound) "
-                                 f"within {PHYSICAL_SIGMAS:g} standard errors of {m:.4g}")
+        problem = covariance_problem(mean3[0], mean3[2], cov)
+        if problem:
+            raise InputError(f"{where}: model.covariance: {problem}")
     return mean3, cov
 
 

@@ -20,7 +20,9 @@ For every flight (experiment) of a flight record:
    ``folds`` groups (by flight, or by day flown), and each group is predicted by the
    aircraft fitted (:func:`planner.identify.aircraft_fit.fit_aircraft`, each training
    flight at its own take-off mass) on the flights of the other groups
-   (:func:`calibrate_fold`). A list of held-out flights instead makes one fold.
+   (:func:`calibrate_fold`). A list of held-out flights instead makes one fold. The
+   pack's integral capacity model, which turns the power into the charge drawn, is
+   fitted on the same training flights' charge (:func:`calibrate_pack`).
 4. **The prediction** is the pre-flight check's (:meth:`MissionChain.check`, the chain of
    ``endurance check``) at the flight's take-off mass (empty + pack + its payload); with
    ``uncertainty_samples`` also its Monte Carlo band, the power model's error drawn with
@@ -53,9 +55,10 @@ import pandas as pd
 
 from planner.chain.kinematics import ACCELERATING, BRAKING
 from planner.chain.mission_chain import MissionChain
-from planner.chain.uncertainty import Spreads, monte_carlo
+from planner.chain.uncertainty import Spreads, covariance_problem, monte_carlo
 from planner.errors import InputError, PlannerError
 from planner.identify.aircraft_fit import fit_aircraft
+from planner.identify.battery_fit import fit_integral
 from planner.identify.navigation_fit import fit_navigation
 from planner.io import record
 from planner.io.mission import load_mission
@@ -118,7 +121,7 @@ ROW_COLUMNS = (
     "measured_min_voltage_v", "predicted_min_voltage_v", "verdict", "landed_with_reserve",
     "measured_cruise_power_w", "predicted_cruise_power_w", "cruise_power_error_pct",
     "energy_p5_wh", "energy_p95_wh", "energy_inside_band", "charge_p5_mah", "charge_p95_mah",
-    "charge_inside_band")
+    "charge_inside_band", "battery_model")
 
 
 @dataclass(frozen=True)
@@ -154,6 +157,11 @@ class BacktestOptions:
         training flights show (``tilt_drag_area_m2``, read by
         :func:`~planner.identify.aircraft_fit.fit_aircraft` where they log the axial
         speed): the model as it was before it read one, to measure what the tilt gains.
+    battery : the pack's integral capacity model (which turns the predicted power into
+        the charge drawn): ``"fitted"`` (default) δ and ε fitted per fold on the charge
+        the training flights drew (:func:`calibrate_pack`), β held at the pack file's;
+        ``"file"`` the pack file's model as it is (the literature start values where it
+        has no ``model:`` block).
     """
 
     folds: int = 5
@@ -167,6 +175,7 @@ class BacktestOptions:
     kinematics: str = "fitted"
     uncertainty_samples: int = 0
     tilt: bool = True
+    battery: str = "fitted"
 
 
 # ------------------------------------------------------------------------- folds
@@ -233,6 +242,54 @@ def calibrate_fold(aircraft: Aircraft, train_record: pd.DataFrame, options: Back
     return fitted
 
 
+def calibrate_pack(pack: BatteryPack, train_record: pd.DataFrame,
+                   options: BacktestOptions) -> tuple[BatteryPack, str]:
+    """The pack with its integral capacity model fitted on one fold's training flights
+    only, and what was done, in words.
+
+    [UAV23] eq. 18 (:func:`~planner.identify.battery_fit.fit_integral`) on each training
+    flight from spin-up to touch-down, as the charge is scored (:func:`measured`): the
+    measured power (a negative reading at rest is a rest, 0 W) and the charge ∫I dt. These
+    flights draw a fraction of the pack each, too little to tell β from δ: β is held at
+    the pack's own, and δ, ε are fitted. Where the flights have no current, or the fit
+    fails or is a misfit (a parameter on its bound), the pack file's model stays, said
+    so."""
+    if options.battery != "fitted":
+        return pack, "the pack file's integral model"
+    parts = []
+    if "current_a" in train_record:
+        flying, _ = in_flight(train_record)
+        for e, g in record.experiments(flying):
+            sub = g[["time_s", "power_w", "current_a"]]
+            sub = sub[np.isfinite(sub["current_a"]) & np.isfinite(sub["power_w"])]
+            if len(sub) >= 3:
+                parts.append(sub.assign(experiment=str(e),
+                                        power_w=sub["power_w"].clip(lower=0.0)))
+    beta = pack.model.beta
+    if not parts:
+        return pack, "the pack file's integral model (no training flight logs its current)"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit = fit_integral(pd.concat(parts, ignore_index=True), beta=beta,
+                               train=[p["experiment"].iloc[0] for p in parts], validate=[])
+    except PlannerError as exc:
+        return pack, f"the pack file's integral model (the fit failed: {exc})"
+    if fit.fit_status != "ok":
+        return pack, f"the pack file's integral model (the fit is a {fit.fit_status})"
+    q = fit.parameters
+    # a band drawn from a covariance that allows δ ≤ 0 has no meaning: then not drawn
+    cov = fit.covariance
+    problem = covariance_problem(q["delta"], beta, cov) if cov is not None else None
+    model = replace(pack.model, delta=float(q["delta"]), epsilon=float(q["epsilon"]),
+                    beta=beta, literature=False, covariance=None if problem else cov,
+                    source=f"fitted on {len(parts)} training flights")
+    return (replace(pack, model=model),
+            f"the pack's integral model fitted on {len(parts)} training flights: "
+            f"δ {q['delta']:.4g}, ε {q['epsilon']:.4f}, β {beta:.4g} (held)"
+            + (f"; its covariance is not drawn: {problem}" if problem else ""))
+
+
 # ---------------------------------------------------------------------- measured
 def _flying(exp: pd.DataFrame) -> tuple[np.ndarray, np.ndarray] | None:
     """(time [s], flying mask) of the flight: first to last sample above
@@ -255,6 +312,23 @@ def _flying(exp: pd.DataFrame) -> tuple[np.ndarray, np.ndarray] | None:
     mask = np.zeros(len(t), bool)
     mask[above[0]:above[-1] + 1] = True
     return t, mask
+
+
+def in_flight(data: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """Each experiment of ``data`` from spin-up to touch-down (:func:`_flying`: the span
+    over which a flight is scored), and the experiments left out because they have no
+    power or were never airborne (ground tests)."""
+    if "experiment" not in data:
+        data = data.assign(experiment="flight")
+    keep, left = [], []
+    for e, g in record.experiments(data):
+        fly = _flying(g) if record.has_power(g) else None
+        if fly is None:
+            left.append(str(e))
+        else:
+            keep.append(g.loc[fly[1]])
+    out = pd.concat(keep) if keep else data.iloc[:0]
+    return out, left
 
 
 def measured(exp: pd.DataFrame) -> dict[str, float] | str:
@@ -576,6 +650,7 @@ def _fold_rows(aircraft, pack, data, train, test, options, masses, payloads, sou
     except PlannerError as exc:
         return [{**base, "experiment": e, "status": "left out",
                  "reason": f"calibration on the other flights failed: {exc}"} for e in test]
+    pack, base["battery_model"] = calibrate_pack(pack, train_rec, options)
     if options.uncertainty_samples:
         calibrated = with_plan_error(calibrated, pack, by_id, train, payloads, options,
                                      sources)
@@ -719,6 +794,8 @@ def summarise(table: pd.DataFrame, worst: int = 5) -> dict[str, Any]:
                            "left_out": int((table["status"] != "scored").sum())}
     reasons = table.loc[table["status"] != "scored", "reason"].fillna("?")
     out["left_out_reasons"] = {str(k): int(v) for k, v in reasons.value_counts().items()}
+    models = table.get("battery_model", pd.Series(dtype=object)).dropna()
+    out["battery_models"] = list(dict.fromkeys(str(m) for m in models))
     for name in ("energy", "charge", "time"):
         out[name] = _stats(ok[f"{name}_error_pct"])
     cruise = ok["cruise_power_error_pct"].astype(float)

@@ -599,6 +599,23 @@ class IntegralFit:
         return not self.poorly_determined
 
     @property
+    def covariance(self) -> tuple[tuple[float, ...], ...] | None:
+        """The covariance of δ, ε, β (standard errors × correlation; a held β has no
+        variance), as a pack file's ``model.covariance``; None when it is
+        indeterminate."""
+        sd = np.array([self.stderr[k] for k in ("delta", "epsilon", "beta")], float)
+        corr = np.array(self.correlation, float)
+        if corr.shape != (3, 3) or not np.all(np.isfinite(sd)):
+            return None
+        corr = np.where(np.isfinite(corr), corr, 0.0)
+        np.fill_diagonal(corr, 1.0)
+        cov = corr * np.outer(sd, sd)
+        cov = 0.5 * (cov + cov.T)
+        if np.linalg.eigvalsh(cov).min() < -1e-9 * max(float(np.abs(cov).max()), 1e-300):
+            return None
+        return tuple(tuple(float(x) for x in row) for row in cov)
+
+    @property
     def parameters(self) -> dict[str, float]:
         """``delta``, ``epsilon``, ``beta``: the keywords of
         :func:`planner.physics.battery.integral.charge` and :class:`IntegralModel`."""

@@ -73,6 +73,10 @@ def register(sub) -> None:
                         "landing) fitted per fold on the training flights; 'file' with the "
                         "aircraft file's navigation: block, if any; 'none' every leg at "
                         "constant speed")
+    p.add_argument("--battery-model", choices=("fitted", "file"), default="fitted",
+                   help="the pack's integral capacity model: 'fitted' (default) delta and "
+                        "epsilon fitted per fold on the charge the training flights drew "
+                        "(beta held at the pack file's); 'file' the pack file's model")
     p.add_argument("--workers", default="1",
                    help="process workers of a local Dask cluster running the folds "
                         "(default 1: no cluster)")
@@ -171,7 +175,7 @@ def _options(args):
                                     "m"),
         reserve=parse_fraction(args.reserve, "--reserve"), missions_dir=missions,
         weather=read_weather(args.weather) if args.weather else None,
-        kinematics=args.kinematics,
+        kinematics=args.kinematics, battery=args.battery_model,
         uncertainty_samples=(parse_int(args.uncertainty, "--uncertainty", 20, 100_000)
                              if args.uncertainty else 0))
 
@@ -268,12 +272,25 @@ def _by(title: str, groups: dict | None) -> list[str]:
         f"{g['median_abs_pct']:5.1f} %" for k, g in groups.items()]
 
 
+def _pack_line(models: list[str]) -> str:
+    """What turned the power into charge: the one fold's pack model, or how many folds
+    fitted their own."""
+    if not models:
+        return ""
+    if len(models) == 1:
+        return f"charge drawn by {models[0]}"
+    first = models[0].removeprefix("the pack's integral model ")
+    return (f"charge drawn by the pack's integral model of each fold ({len(models)} fits), "
+            f"e.g. {first}")
+
+
 def render(s: dict) -> str:
     """The report: the errors, who was left out and why, the worst flights, and the
     energy error against speed, payload, altitude and wind."""
     lines = [(f"Backtest of {s['flights']} flight(s): {s['scored']} scored, {s['left_out']} "
               f"left out; aircraft {s['aircraft']} calibrated per fold ({s['calibration']})"),
              f"plans flown {s['kinematics']}" if s.get("kinematics") else "",
+             _pack_line(s.get("battery_models") or []),
              "",
              "prediction error (predicted − measured, % of measured):",
              _line("energy", s["energy"]), _line("charge", s["charge"]),

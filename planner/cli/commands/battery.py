@@ -65,6 +65,12 @@ def _register_fit(sub) -> None:
     p.add_argument("--chemistry", help="cell chemistry to write (lipo, liion, …; default "
                                        "lipo)")
     p.add_argument("--fix-beta", help="hold β at this value (e.g. 0.9648) and fit δ, ε only")
+    add_options(p, map=True)
+    p.add_argument("--in-flight", action="store_true",
+                   help="fit each experiment from spin-up to touch-down only, as backtest "
+                        "scores a flight (flight logs: the ground before and after is no "
+                        "part of the flight's discharge); experiments never airborne are "
+                        "left out, said so")
     p.add_argument("--train", help="comma-separated experiment ids to fit on")
     p.add_argument("--validate", help="comma-separated experiment ids to score only")
     add_options(p, plot="PNG of measured vs predicted C^β and residuals",
@@ -248,6 +254,27 @@ def _fit_circuit_rates(mapping: dict, experiments, result: fit.IntegralFit,
     return block, scores
 
 
+def _records(args) -> list:
+    """The data to fit: flight-record CSV files as they are; through ``--map`` (and any
+    log format) with ``--map`` or ``--in-flight``, each experiment then cut to its span
+    in the air with ``--in-flight``."""
+    if not (args.map or args.in_flight):
+        return fit.load_records(args.data)
+    from planner.identify.backtest import in_flight
+    from planner.io.flightdata import load_flight_data
+
+    data, _ = load_flight_data(args.data, column_map=args.map)
+    if args.in_flight:
+        data, left = in_flight(data)
+        for e in left:
+            print(f"note: left out of the fit: experiment {e}: never airborne (no flight "
+                  "between spin-up and touch-down)")
+        if data.empty:
+            raise InputError(f"{', '.join(map(str, args.data))}: no experiment was airborne "
+                             "(--in-flight)")
+    return [(", ".join(map(str, args.data)), data)]
+
+
 def run_fit(args) -> int:
     """``endurance fit-battery``: fit the integral model (δ, ε, β) to the training discharges,
     validate it on the others and write the pack file; returns 0, or 1 when the fit is a
@@ -260,7 +287,7 @@ def run_fit(args) -> int:
     base_raw = _base_pack(args, out)
     # with both lists given, the experiments in neither are left out unchecked
     chosen = set(train) | set(validate) if train and validate else None
-    records = fit.load_records(args.data)
+    records = _records(args)
     check_split_names(records, train, validate)
     short: list[str] = []
     experiments = fit.prepare_experiments(records, only=chosen, short=short,
@@ -274,7 +301,7 @@ def run_fit(args) -> int:
               f"{', '.join(result.validate) or 'none'}"
               + (f"; beta held at {beta:g}" if beta is not None else ""))
     model = IntegralModel(result.delta, result.epsilon, result.beta,
-                          covariance=fit_covariance(result))
+                          covariance=result.covariance)
     dropped, scale_note, capacity_note = [], None, None
     if base_raw is not None:
         mapping = base_raw
@@ -423,22 +450,6 @@ def check_pack_mass(mass_kg: float, text: str, cells: int, capacity_mah: float) 
     raise InputError(f"--mass-kg {text}: {mass_kg:g} kg for a {cells}S pack of "
                      f"{capacity_mah:.0f} mAh ({energy_wh:.0f} Wh) is {spec:.3g} Wh/kg, "
                      f"outside the [{low:g}, {high:g}] Wh/kg of battery packs{hint}")
-
-
-def fit_covariance(result: fit.IntegralFit):
-    """The fit's covariance of δ, ε, β (standard errors × correlation; a held β has no
-    variance) for the pack file's ``model.covariance``; None when it is indeterminate."""
-    sd = np.array([result.stderr[k] for k in ("delta", "epsilon", "beta")], float)
-    corr = np.array(result.correlation, float)
-    if corr.shape != (3, 3) or not np.all(np.isfinite(sd)):
-        return None
-    corr = np.where(np.isfinite(corr), corr, 0.0)
-    np.fill_diagonal(corr, 1.0)
-    cov = corr * np.outer(sd, sd)
-    cov = 0.5 * (cov + cov.T)
-    if np.linalg.eigvalsh(cov).min() < -1e-9 * max(float(np.abs(cov).max()), 1e-300):
-        return None
-    return tuple(tuple(float(x) for x in row) for row in cov)
 
 
 def render_fit(result: fit.IntegralFit) -> str:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+import yaml
 
 from planner.cli.main import main
 
@@ -51,6 +52,32 @@ def test_a_payload_given_overrides_every_flight_s_and_says_so(sample, tmp_path, 
     table = pd.read_parquet(tmp_path / "bt" / "backtest.parquet")
     assert list(table["experiment"]) == ["12", "14"]
     assert set(table["payload_kg"]) == {0.5}
+
+
+def test_the_report_says_what_turned_the_power_into_charge(sample, tmp_path, capsys):
+    """By default the pack's integral model is fitted on the training flights' charge, and
+    the report says so; ``--battery-model file`` keeps the pack file's model: here a
+    TB47D file without one (the literature start values), whose charge comes out short
+    of the measured."""
+    raw = yaml.safe_load((REPO / "aircraft/batteries/dji_tb47d.yaml").read_text())
+    del raw["model"], raw["fit_status"]
+    literature = tmp_path / "tb47d_literature.yaml"
+    literature.write_text(yaml.safe_dump(raw))
+    texts, tables = {}, {}
+    for choice in ("fitted", "file"):
+        out = tmp_path / choice
+        rc = main(["backtest", sample, "--map", "dji_m100", "--aircraft", M100, "--out",
+                   str(out), "--held-out", "1,12", "--battery-model", choice,
+                   "--battery", str(literature)])
+        texts[choice] = capsys.readouterr().out
+        assert rc == 0
+        tables[choice] = pd.read_parquet(out / "backtest.parquet")
+    assert re.search(r"charge drawn by the pack's integral model fitted on \d+ training "
+                     r"flights: δ [\d.]+, ε -[\d.]+, β 0.9648 \(held\)", texts["fitted"])
+    assert "charge drawn by the pack file's integral model" in texts["file"]
+    assert (tables["file"].charge_error_pct < -5.0).all()
+    assert (tables["fitted"].charge_error_pct.abs()
+            < tables["file"].charge_error_pct.abs()).all()
 
 
 @pytest.mark.parametrize("table, message", [

@@ -486,3 +486,32 @@ def test_fit_battery_at_two_powers_has_status_ok(tmp_path, capsys, bench):
     assert rc == 0
     assert yaml.safe_load(out.read_text())["fit_status"] == "ok"
     assert "fit_status: ok" in text
+
+
+def test_fit_battery_reads_flight_logs_through_a_map_in_flight_only(tmp_path, capsys,
+                                                                     shared_data):
+    """The DJI M100 sample (Rodrigues et al. 2021, CC BY 4.0) through the ``dji_m100``
+    column map: on the ground, before take-off and after landing, the power channel
+    reads a little below 0 W, which no discharge does, so the whole records cannot be
+    fitted (exit 2, one line); with ``--in-flight`` each flight is fitted from spin-up to
+    touch-down, the ground tests are left out, said so, and the pack file written keeps
+    the base file's keys with a fitted model."""
+    sample = str(shared_data / "energy/m100_flights_sample.csv")
+    raw = yaml.safe_load((REPO / "aircraft/batteries/dji_tb47d.yaml").read_text())
+    del raw["model"], raw["fit_status"]
+    base = tmp_path / "tb47d.yaml"
+    base.write_text(yaml.safe_dump(raw))
+    out = tmp_path / "fitted.yaml"
+    args = ["fit-battery", sample, "--map", "dji_m100", "--fix-beta", "0.9648",
+            "--battery", str(base), "--train", "1,3,4,12,14", "--out", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "negative power" in err[0] and not out.exists()
+    assert main(args[:2] + ["--in-flight"] + args[2:]) == 0
+    text = capsys.readouterr().out
+    for e in ("211", "214", "217"):
+        assert f"left out of the fit: experiment {e}: never airborne" in text
+    pack = load_battery(out)
+    assert not pack.model.literature and pack.model.beta == pytest.approx(0.9648)
+    assert pack.capacity_mah == 4500 and pack.name == raw["name"]
+    assert "fit_status: ok" in text
