@@ -16,6 +16,12 @@ Sources and how each is drawn
   claims the model is exact.
 * **integral model** δ, ε, β: multivariate normal with the pack file's
   ``model.covariance`` (written by ``fit-battery``); absent → not drawn, and said so.
+  That is the uncertainty of the model's mean; a discharge also scatters about the mean
+  model (its start, its temperature, the cells' state), which the **integral model's
+  own charge error** draws: the charge of every sample is multiplied by a log-normal
+  factor :math:`e^{\sigma_C z}` (δ by :math:`e^{-\beta\sigma_C z}`, [UAV23] eq. 14),
+  :math:`\sigma_C` the pack file's ``model.charge_error_sd`` (the RMS final charge error
+  of ``fit-battery``'s fit on its training discharges); absent → not drawn, said so.
 * **aircraft parameters**: the aircraft file stores no parameter covariance
   (``fit-aircraft`` prints standard errors only): not drawn, and said so; their effect on
   the whole-flight energy is in the power error above.
@@ -160,6 +166,10 @@ class Spreads:
         Draw δ, ε, β from the pack file's ``model.covariance`` where it has one.
     model_error_sd : float or None
         Spread of the power model's own error, a fraction of the power. [unitless]
+    charge_error_sd : float or None
+        Spread of the integral model's own charge error from one discharge to the next,
+        a fraction of the charge (None: the pack file's ``model.charge_error_sd``, not
+        drawn where it has none). [unitless]
     """
 
     wind_sd_ms: float | None = None
@@ -171,6 +181,7 @@ class Spreads:
     payload_sd_kg: float = 0.0
     model_covariance: bool = True
     model_error_sd: float | None = None
+    charge_error_sd: float | None = None
 
     @classmethod
     def only(cls, **given) -> Spreads:
@@ -314,9 +325,10 @@ def _rtl_subset(nominal: ChainResult, points: int) -> np.ndarray:
 
 # --------------------------------------------------------------------------- 1. inputs
 
-def resolve_spreads(spreads: Spreads, aircraft) -> tuple[Spreads, dict[str, str]]:
+def resolve_spreads(spreads: Spreads, aircraft, pack=None) -> tuple[Spreads, dict[str, str]]:
     """The spreads with every default filled in (:class:`Spreads`), and where each spread
-    comes from: the setting's name, the aircraft file, or ``default …`` with its source.
+    comes from: the setting's name, the aircraft or pack file, or ``default …`` with its
+    source.
 
     Raises
     ------
@@ -344,12 +356,28 @@ def resolve_spreads(spreads: Spreads, aircraft) -> tuple[Spreads, dict[str, str]
                                     "rotor_losses fit's RMS per-flight energy error on its "
                                     "187 training flights fitted at one mass, 8.2 % "
                                     "(fit-aircraft writes the aircraft's own)")
+    own = getattr(getattr(pack, "model", None), "charge_error_sd", None)
+    pack_where = str(getattr(pack, "path", None) or getattr(pack, "name", "the pack"))
+    if spreads.charge_error_sd is not None:
+        values["charge_error_sd"], origin["charge_error_sd"] = spreads.charge_error_sd, \
+            "charge_error_sd"
+    elif own is not None:
+        values["charge_error_sd"] = own
+        origin["charge_error_sd"] = (f"{pack_where}: model.charge_error_sd (fit-battery: RMS "
+                                     "final charge error on its training discharges)")
+    else:
+        values["charge_error_sd"] = 0.0
+        origin["charge_error_sd"] = (f"absent: {pack_where} stores no model.charge_error_sd "
+                                     "(fit-battery writes one)")
     s = replace(spreads, **values)
     for name in ("wind_sd_ms", "wind_direction_sd_deg", "temperature_sd_c", "soh_sd",
-                 "payload_sd_kg", "model_error_sd"):
+                 "payload_sd_kg", "model_error_sd", "charge_error_sd"):
         value = getattr(s, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
             raise InputError(f"{name} must be a finite spread ≥ 0, got {value}")
+    if s.charge_error_sd > 1.0:
+        raise InputError(f"charge_error_sd must be a fraction of the charge ≤ 1 (0.05 = 5 %), "
+                         f"got {s.charge_error_sd:g}")
     if s.model_error_sd > 1.0:
         raise InputError(f"model_error_sd must be a fraction of the power ≤ 1 (0.05 = 5 %), "
                          f"got {s.model_error_sd:g}")
@@ -399,7 +427,8 @@ class Draws:
     ``gust`` the uniform deviate of the gusts, ``wind`` [m/s] the effective wind,
     ``direction_dev`` [deg] the direction's departure from the forecast and ``direction``
     [deg] the direction flown, ``temp`` [°C] the air; per sample ``theta`` (δ, ε, β),
-    ``soh``, ``payload`` [kg] and ``power_scale``; ``levels`` the distinct (payload, power
+    ``soh``, ``payload`` [kg], ``power_scale`` and ``charge_scale`` (the integral model's
+    own charge error, a factor on the charge); ``levels`` the distinct (payload, power
     error) draws over all weather draws.
     """
 
@@ -415,6 +444,7 @@ class Draws:
     payload: np.ndarray
     power_scale: np.ndarray
     levels: int
+    charge_scale: np.ndarray | None = None
 
     @property
     def weather_draws(self) -> int:
@@ -464,15 +494,28 @@ def draw(rng, env: Environment, t_base: float, s: Spreads, samples: int, g: int,
     # at least one level per SAMPLES_PER_WEATHER_DRAW samples over all weather draws
     levels = max(PAYLOAD_LEVELS, math.ceil(samples / (g * SAMPLES_PER_WEATHER_DRAW)))
     z_pay, z_power, level = _stratified(rng, group, levels)
+    # drawn last, and only when drawn: the other draws stay those of a run without it
+    charge_scale = (np.exp(s.charge_error_sd * rng.standard_normal(samples))
+                    if s.charge_error_sd > 0 else np.ones(samples))
     return Draws(group=group, wind_mean=wind_mean, gust=gust, wind=wind,
                  direction_dev=direction_dev,
                  direction=(env.wind_from_deg + direction_dev) % 360.0, temp=temp,
                  theta=theta, soh=soh, payload=np.maximum(payload + s.payload_sd_kg * z_pay, 0.0),
                  power_scale=np.exp(s.model_error_sd * z_power),
-                 levels=int(np.unique(level).size))
+                 levels=int(np.unique(level).size), charge_scale=charge_scale)
 
 
 # --------------------------------------------------------------------------- 3. flights
+
+def _charge_scaled_delta(d: Draws, rows: np.ndarray) -> np.ndarray:
+    """δ of the samples ``rows`` with the integral model's own charge error: the charge
+    C = (t / (δ P^ε))^(1/β) ([UAV23] eq. 14) times ``charge_scale`` is δ times
+    ``charge_scale``^−β."""
+    delta = d.theta[rows, 0]
+    if d.charge_scale is None:
+        return delta
+    return delta * d.charge_scale[rows] ** (-d.theta[rows, 2])
+
 
 def fly(chain: MissionChain, mission: Mission, env: Environment, d: Draws, sub: np.ndarray,
         weather_spread: bool) -> dict[str, np.ndarray]:
@@ -499,7 +542,8 @@ def fly(chain: MissionChain, mission: Mission, env: Environment, d: Draws, sub: 
                                min_thrust_to_weight=chain.min_thrust_to_weight)
         r = chain_j.run(mission, env_j, payload_kg=d.payload[rows], detail=False,
                         rtl_subset=sub,
-                        pack_samples={"delta": d.theta[rows, 0], "epsilon": d.theta[rows, 1],
+                        pack_samples={"delta": _charge_scaled_delta(d, rows),
+                                      "epsilon": d.theta[rows, 1],
                                       "beta": d.theta[rows, 2], "soh": d.soh[rows],
                                       "power_scale": d.power_scale[rows]})
         out["landing"][rows] = r.usable_mah - r.charge_used_mah
@@ -597,6 +641,8 @@ def _columns(chain: MissionChain, nominal: ChainResult, d: Draws, s: Spreads,
          origin["model_error_sd"]),
         ("integral model δ, ε, β", model_charge,
          "covariance of the fit" if cov is not None else "—", cov_origin),
+        ("integral model's charge error", np.log(d.charge_scale),
+         f"±{100 * s.charge_error_sd:.3g} %", origin["charge_error_sd"]),
         ("wind speed", d.wind_mean[g], f"±{s.wind_sd_ms:g} m/s", origin["wind_sd_ms"]),
         ("wind direction", d.direction_dev[g], f"±{s.wind_direction_sd_deg:g}°",
          origin["wind_direction_sd_deg"]),
@@ -697,11 +743,11 @@ def monte_carlo(chain: MissionChain, mission: Mission, environment: Environment 
         raise InputError(f"confidence must be in (0, 1), got {confidence}")
     if samples < 20:
         raise InputError(f"samples must be at least 20, got {samples}")
-    s, origin = resolve_spreads(spreads, chain.aircraft)
+    s, origin = resolve_spreads(spreads, chain.aircraft, chain.pack)
     mean3, cov = _pack_model(chain.pack, s)
     if cov is None and not any((s.wind_sd_ms, s.wind_direction_sd_deg, s.gust_factor > 1,
                                 s.temperature_sd_c, s.soh_sd, s.payload_sd_kg,
-                                s.model_error_sd)):
+                                s.model_error_sd, s.charge_error_sd)):
         raise InputError("nothing is drawn: every spread is 0 and the pack has no model "
                          "covariance, so every sample would be the forecast's run (a band "
                          "of one number, a probability of 0 or 1); give a spread")

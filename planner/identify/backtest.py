@@ -283,6 +283,7 @@ def calibrate_pack(pack: BatteryPack, train_record: pd.DataFrame,
     problem = covariance_problem(q["delta"], beta, cov) if cov is not None else None
     model = replace(pack.model, delta=float(q["delta"]), epsilon=float(q["epsilon"]),
                     beta=beta, literature=False, covariance=None if problem else cov,
+                    charge_error_sd=fit.charge_error_sd,
                     source=f"fitted on {len(parts)} training flights")
     return (replace(pack, model=model),
             f"the pack's integral model fitted on {len(parts)} training flights: "

@@ -599,6 +599,15 @@ class IntegralFit:
         return not self.poorly_determined
 
     @property
+    def charge_error_sd(self) -> float | None:
+        """The spread of the model's charge error from one discharge to the next: the
+        root mean square of the training experiments' final errors (eq. 30), as a
+        fraction of the charge drawn; None without a finite one. [unitless]"""
+        e = np.array([m.final_error_pct for m in self.metrics if m.split == "train"], float)
+        e = e[np.isfinite(e)]
+        return float(np.sqrt(np.mean((e / 100.0) ** 2))) if e.size else None
+
+    @property
     def covariance(self) -> tuple[tuple[float, ...], ...] | None:
         """The covariance of δ, ε, β (standard errors × correlation; a held β has no
         variance), as a pack file's ``model.covariance``; None when it is

@@ -91,6 +91,10 @@ MODEL_KEYS = {
     "covariance": S.Key(S.LIST, meaning=(
         "3×3 covariance of δ, ε, β from `endurance fit-battery` (the uncertainty of "
         "`endurance check` samples it)")),
+    "charge_error_sd": S.non_negative(high=0.5, meaning=(
+        "spread of the model's charge error from one discharge to the next, a fraction of "
+        "the charge drawn: the RMS final error on the training discharges, written by "
+        "`endurance fit-battery` (the uncertainty of `endurance check` draws it)")),
     "source": S.text("where the numbers come from"),
 }
 
@@ -159,6 +163,10 @@ class IntegralModel:
     covariance : tuple of tuple of float or None
         Covariance of δ, ε, β from the fit (rows and columns in that order); None when
         the file stores none.
+    charge_error_sd : float or None
+        Spread of the model's charge error from one discharge to the next, a fraction of
+        the charge drawn (the fit's RMS final error on its training discharges); None
+        when the file stores none. [unitless]
     """
 
     delta: float
@@ -171,6 +179,7 @@ class IntegralModel:
     cycle: float = _MODEL["cycle"]
     source: str | None = None
     covariance: tuple | None = None
+    charge_error_sd: float | None = None
 
     @classmethod
     def from_literature(cls, cells_series: int,
@@ -259,6 +268,8 @@ class IntegralModel:
             out["cycle"] = float(self.cycle)
         if self.covariance is not None:
             out["covariance"] = [list(row) for row in self.covariance]
+        if self.charge_error_sd is not None:
+            out["charge_error_sd"] = float(self.charge_error_sd)
         if self.source:
             out["source"] = self.source
         return out

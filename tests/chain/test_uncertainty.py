@@ -194,6 +194,38 @@ def test_model_covariance_is_drawn_and_drives_the_spread(tmp_path):
     assert np.std(off.landing_samples_mah) < 0.5 * np.std(u.landing_samples_mah)
 
 
+def test_the_integral_model_s_own_charge_error_scales_each_sample_s_charge(tmp_path):
+    """With ``charge_error_sd`` σ alone drawn, each sample draws the check's charge times
+    e^(σz): δ is scaled by e^(−βσz), and C = (t / (δ P^ε))^(1/β) ([UAV23] eq. 14). The
+    log of the charge ratio then has the spread σ and median 0; the pack file's
+    ``model.charge_error_sd`` is drawn by default and named, and a pack without one says
+    it is absent."""
+    ac, pack, mission = solo()
+    nominal = MissionChain(ac, pack).check(mission)
+    u = monte_carlo(MissionChain(ac, pack), mission, samples=3000, seed=1,
+                    spreads=Spreads.only(charge_error_sd=0.05))
+    ratio = np.log(u.charge_samples_mah / nominal.charge_used_mah)
+    assert np.std(ratio) == pytest.approx(0.05, rel=0.06)
+    assert np.median(ratio) == pytest.approx(0.0, abs=0.004)
+    np.testing.assert_allclose(u.energy_samples_wh, nominal.energy_wh, rtol=1e-9)
+    assert u.driver == "integral model's charge error"
+    raw = yaml.safe_load(PACK.read_text())
+    raw.setdefault("model", {"delta": pack.model.delta, "epsilon": pack.model.epsilon,
+                             "beta": pack.model.beta})["charge_error_sd"] = 0.04
+    path = tmp_path / "pack.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    own = replace(load_battery(path), circuit=None, thermal=None)
+    assert own.model.charge_error_sd == 0.04
+    u = monte_carlo(MissionChain(ac, own), mission, samples=400, seed=0,
+                    spreads=Spreads(soh=0.99, soh_sd=0.01))
+    src = next(s for s in u.sources if s["name"] == "integral model's charge error")
+    assert src["spread"] == "±4 %" and "model.charge_error_sd" in src["origin"]
+    u = monte_carlo(MissionChain(ac, pack), mission, samples=40, seed=0,
+                    spreads=Spreads(soh=0.99, soh_sd=0.01))
+    src = next(s for s in u.sources if s["name"] == "integral model's charge error")
+    assert src["spread"] == "not drawn" and "absent" in src["origin"]
+
+
 def test_absent_covariances_are_stated():
     ac, pack, mission = solo()
     u = monte_carlo(MissionChain(ac, pack), mission, samples=40, seed=0,

@@ -431,4 +431,5 @@ def test_without_a_current_channel_the_pack_file_s_model_stays_and_says_so(m100_
     monkeypatch.setattr(bt, "fit_integral", real)
     fitted, why = bt.calibrate_pack(pack, m100_sample, BacktestOptions())
     assert not fitted.model.literature and fitted.model.beta == pack.model.beta
+    assert 0.0 < fitted.model.charge_error_sd < 0.1
     assert fitted.model.delta != pack.model.delta and "β 0.9648 (held)" in why

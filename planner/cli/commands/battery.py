@@ -301,7 +301,8 @@ def run_fit(args) -> int:
               f"{', '.join(result.validate) or 'none'}"
               + (f"; beta held at {beta:g}" if beta is not None else ""))
     model = IntegralModel(result.delta, result.epsilon, result.beta,
-                          covariance=result.covariance)
+                          covariance=result.covariance,
+                          charge_error_sd=result.charge_error_sd)
     dropped, scale_note, capacity_note = [], None, None
     if base_raw is not None:
         mapping = base_raw

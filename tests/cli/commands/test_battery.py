@@ -513,5 +513,7 @@ def test_fit_battery_reads_flight_logs_through_a_map_in_flight_only(tmp_path, ca
         assert f"left out of the fit: experiment {e}: never airborne" in text
     pack = load_battery(out)
     assert not pack.model.literature and pack.model.beta == pytest.approx(0.9648)
+    # the spread of its charge error from flight to flight, for check --uncertainty
+    assert 0.0 < pack.model.charge_error_sd < 0.1
     assert pack.capacity_mah == 4500 and pack.name == raw["name"]
     assert "fit_status: ok" in text
