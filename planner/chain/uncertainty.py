@@ -325,7 +325,7 @@ def _rtl_subset(nominal: ChainResult, points: int) -> np.ndarray:
 
 # --------------------------------------------------------------------------- 1. inputs
 
-def resolve_spreads(spreads: Spreads, aircraft, pack=None) -> tuple[Spreads, dict[str, str]]:
+def resolve_spreads(spreads: Spreads, aircraft, pack) -> tuple[Spreads, dict[str, str]]:
     """The spreads with every default filled in (:class:`Spreads`), and where each spread
     comes from: the setting's name, the aircraft or pack file, or ``default …`` with its
     source.
@@ -356,8 +356,8 @@ def resolve_spreads(spreads: Spreads, aircraft, pack=None) -> tuple[Spreads, dic
                                     "rotor_losses fit's RMS per-flight energy error on its "
                                     "187 training flights fitted at one mass, 8.2 % "
                                     "(fit-aircraft writes the aircraft's own)")
-    own = getattr(getattr(pack, "model", None), "charge_error_sd", None)
-    pack_where = str(getattr(pack, "path", None) or getattr(pack, "name", "the pack"))
+    own = pack.model.charge_error_sd
+    pack_where = str(pack.path or pack.name)
     if spreads.charge_error_sd is not None:
         values["charge_error_sd"], origin["charge_error_sd"] = spreads.charge_error_sd, \
             "charge_error_sd"
@@ -443,8 +443,8 @@ class Draws:
     soh: np.ndarray
     payload: np.ndarray
     power_scale: np.ndarray
+    charge_scale: np.ndarray
     levels: int
-    charge_scale: np.ndarray | None = None
 
     @property
     def weather_draws(self) -> int:
@@ -511,10 +511,7 @@ def _charge_scaled_delta(d: Draws, rows: np.ndarray) -> np.ndarray:
     """δ of the samples ``rows`` with the integral model's own charge error: the charge
     C = (t / (δ P^ε))^(1/β) ([UAV23] eq. 14) times ``charge_scale`` is δ times
     ``charge_scale``^−β."""
-    delta = d.theta[rows, 0]
-    if d.charge_scale is None:
-        return delta
-    return delta * d.charge_scale[rows] ** (-d.theta[rows, 2])
+    return d.theta[rows, 0] * d.charge_scale[rows] ** (-d.theta[rows, 2])
 
 
 def fly(chain: MissionChain, mission: Mission, env: Environment, d: Draws, sub: np.ndarray,
