@@ -12,7 +12,9 @@ line naming the file and the key path: ``aircraft/x.yaml: capacity_mah must be >
 * an unknown key: ``unknown key 'fixed_wing.cd_0' (did you mean 'fixed_wing.cd0'?)``;
 * a missing key: ``missing required key 'name' (text)``;
 * a wrong type: ``mass_kg must be a number, got 'heavy'``;
-* a number outside its bound: ``mass_kg must be <= 1000, got 5000``.
+* a number outside its bound: ``mass_kg must be <= 1000, got 5000``; a share given as
+  a percentage says so: ``usable_fraction must be <= 1, got 80 (looks like a
+  percentage: 80 % is 0.8)``.
 
 Readers with rules of their own (one key of several, checks across keys) add their
 problems to the same :class:`Problems`, so that the file is still reported in one line.
@@ -69,6 +71,11 @@ class Key:
         (``mission.duration_s must be <= 86400 (24 h), got 1e+05``).
     why_low, why_high : str or None
         The reason of one bound where the two differ (None: ``why``).
+    share : bool
+        A dimensionless share of a whole (an efficiency, a usable part, a relative spread):
+        a value above its bound whose hundredth lies within it is said to look like a
+        percentage (``usable_fraction must be <= 1, got 80 (looks like a percentage: 80 %
+        is 0.8)``).
     """
 
     kind: str
@@ -84,6 +91,14 @@ class Key:
     why: str = ""
     why_low: str | None = None
     why_high: str | None = None
+    share: bool = False
+
+
+def share(low, high, required=False, default=None, low_open=False, **kw) -> Key:
+    """A dimensionless share of a whole in [``low``, ``high``] (``high`` <= 1): a value
+    given as a percentage is told so."""
+    return Key(NUMBER, required, default, low=low, high=high, low_open=low_open, share=True,
+               **kw)
 
 
 def positive(required=False, default=None, high=None, **kw) -> Key:
@@ -349,11 +364,19 @@ def check_value(value: Any, k: Key, name: str, problems: Problems | list[str]) -
         if k.high is not None and (value_f > k.high or (k.high_open and value_f >= k.high)):
             why = _why(k.why if k.why_high is None else k.why_high)
             _add(problems, f"{name} must be {'<' if k.high_open else '<='} {k.high:g}{why}, "
-                           f"got {shown(value)}")
+                           f"got {shown(value)}{_percent_hint(k, value_f)}")
     if k.choices is not None and value not in k.choices:
         _add(problems, f"{name} must be one of {', '.join(map(str, k.choices))}, "
                        f"got {value!r}")
     return value
+
+
+def _percent_hint(k: Key, value: float) -> str:
+    """`` (looks like a percentage: 80 % is 0.8)`` where ``k`` is a share and a hundredth
+    of ``value`` lies within its bounds; "" otherwise."""
+    if not k.share or not 1.0 < value <= 100.0 or not within(k, value / 100.0):
+        return ""
+    return f" (looks like a percentage: {value:g} % is {value / 100.0:g})"
 
 
 def _why(reason: str) -> str:

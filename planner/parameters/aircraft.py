@@ -54,7 +54,7 @@ AIRCRAFT_KEYS = {
     "empty_mass_kg": S.positive(required=True, high=L.MASS_MAX_KG, unit="kg",
                                 meaning="everything but battery and payload"),
     "battery": S.text("default pack file, relative to the aircraft file"),
-    "efficiency": S.between(L.EFFICIENCY_MIN, 1.0, required=True, meaning=(
+    "efficiency": S.share(L.EFFICIENCY_MIN, 1.0, required=True, meaning=(
         "η, battery power to useful mechanical power (motors, ESCs and propellers; with "
         "`fixed_wing.propeller_diameter_m` motors and ESCs only; not read by "
         "`power_model: rotor_losses`)")),
@@ -84,7 +84,7 @@ AIRCRAFT_KEYS = {
     "source": S.text("where the numbers come from"),
     "fit_status": S.text("what `fit-aircraft` said of its fit: `ok`, or `misfit: <parameter> …` "
                          "(read, not used)"),
-    "energy_error_sd": S.between(0.0, L.ENERGY_ERROR_SD_MAX, meaning=(
+    "energy_error_sd": S.share(0.0, L.ENERGY_ERROR_SD_MAX, meaning=(
         "spread of the model's whole-flight energy error, a fraction (0.05 = 5 %): the root "
         "mean square of (predicted − measured) / measured energy over the flights "
         "`fit-aircraft` trained on; the uncertainty of `endurance check` draws a power "
@@ -100,8 +100,8 @@ FIXED_WING_KEYS = {
                     meaning="induced-drag factor K of the polar"),
     "aspect_ratio": S.between(L.ASPECT_RATIO_MIN, L.ASPECT_RATIO_MAX,
                               meaning="aspect ratio AR, for K = 1/(π e AR) without `k`"),
-    "oswald_efficiency": S.between(L.OSWALD_EFFICIENCY_MIN, 1.0,
-                                   meaning="Oswald efficiency e, with `aspect_ratio`"),
+    "oswald_efficiency": S.share(L.OSWALD_EFFICIENCY_MIN, 1.0,
+                                 meaning="Oswald efficiency e, with `aspect_ratio`"),
     "cruise_airspeed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, required=True, unit="m/s",
                                     meaning="default true airspeed; above the stall speed"),
     "stall_speed_ms": S.between(L.AIRSPEED_MIN_MS, L.SPEED_MAX_MS, unit="m/s", meaning=(
@@ -153,7 +153,7 @@ MULTIROTOR_KEYS = {
                                  meaning="highest airspeed flown"),
     "induced_factor": S.between(1.0, L.ROTOR_INDUCED_FACTOR_MAX, default=1.15,
                                 meaning="κ, induced power over the ideal of momentum theory"),
-    "figure_of_merit": S.between(L.FIGURE_OF_MERIT_MIN, 1.0, meaning=(
+    "figure_of_merit": S.share(L.FIGURE_OF_MERIT_MIN, 1.0, meaning=(
         "hover figure of merit FM, ideal over actual rotor power: profile power "
         f"P0/P_ideal = 1/FM − κ (absent: {DEFAULT_FIGURE_OF_MERIT:g}, small fixed-pitch "
         "propellers)")),
@@ -175,7 +175,7 @@ MULTIROTOR_KEYS = {
         "motors' no-load loss at the reference hover (`rotor_losses`)")),
     "copper_loss_power_w": S.non_negative(default=0.0, high=L.POWER_MAX_W, unit="W", meaning=(
         "motors' copper loss I²R at the reference hover (`rotor_losses`)")),
-    "drive_efficiency": S.between(L.DRIVE_EFFICIENCY_MIN, 1.0, default=0.95, meaning=(
+    "drive_efficiency": S.share(L.DRIVE_EFFICIENCY_MIN, 1.0, default=0.95, meaning=(
         "ESCs and wiring, battery to motor terminals (`rotor_losses`)")),
     "reference_mass_kg": S.positive(high=L.MASS_MAX_KG, unit="kg", meaning=(
         "mass of the reference hover of the losses (`rotor_losses`; absent: the flown "

@@ -69,8 +69,8 @@ CIRCUIT_KEYS = {
     "reference_temperature_c": S.between(
         T_RANGE_C[0], T_RANGE_C[1], default=_CIRCUIT["reference_temperature_c"], unit="°C",
         meaning="T_ref, the temperature of `capacity_ah` and `r0_ohm`"),
-    "coulombic_efficiency": S.positive(default=_CIRCUIT["coulombic_efficiency"], high=1.0,
-                                       meaning="share of the charging charge that is stored"),
+    "coulombic_efficiency": S.share(0.0, 1.0, default=_CIRCUIT["coulombic_efficiency"],
+                                    low_open=True, meaning="share of the charging charge that is stored"),
     "cells_series": S.count(L.CELLS_SERIES_MAX, meaning="cells in series (absent: the pack's)"),
     "cells_parallel": S.count(L.CELLS_PARALLEL_MAX,
                               meaning="cells in parallel (absent: the pack's)"),

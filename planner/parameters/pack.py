@@ -51,7 +51,7 @@ BATTERY_KEYS = {
                                               meaning="DC resistance of one pack"),
     "cell_voltage_empty_v": S.between(L.CELL_CUTOFF_MIN_V, L.CELL_CUTOFF_MAX_V, default=3.5,
                                       unit="V", meaning="cut-off voltage per cell, under load"),
-    "usable_fraction": S.positive(default=1.0, high=1.0, meaning=(
+    "usable_fraction": S.share(0.0, 1.0, default=1.0, low_open=True, meaning=(
         "share of the nominal capacity that may be drawn")),
     "model": S.block("fitted integral capacity model (table below; absent: the literature "
                      "start values)"),
@@ -91,7 +91,7 @@ MODEL_KEYS = {
     "covariance": S.Key(S.LIST, meaning=(
         "3×3 covariance of δ, ε, β from `endurance fit-battery` (the uncertainty of "
         "`endurance check` samples it)")),
-    "charge_error_sd": S.non_negative(high=0.5, meaning=(
+    "charge_error_sd": S.share(0.0, 0.5, meaning=(
         "spread of the model's charge error from one discharge to the next, a fraction of "
         "the charge drawn: the RMS final error on the training discharges, written by "
         "`endurance fit-battery` (the uncertainty of `endurance check` draws it)")),

@@ -165,6 +165,42 @@ def test_battery_numbers_are_bounded(tmp_path, key, value, expected):
     assert expected in load_error(load_battery, tmp_path, changed(SOLO_PACK, **{key: value}))
 
 
+@pytest.mark.parametrize("loader, path, block, key, value, expected", [
+    (load_aircraft, SOLO, None, "efficiency", 60, "efficiency must be <= 1, got 60 "
+     "(looks like a percentage: 60 % is 0.6)"),
+    (load_aircraft, SOLO, None, "energy_error_sd", 8.2, "energy_error_sd must be <= 1, got 8.2 "
+     "(looks like a percentage: 8.2 % is 0.082)"),
+    (load_aircraft, SOLO, "multirotor", "figure_of_merit", 65, "multirotor.figure_of_merit must "
+     "be <= 1, got 65 (looks like a percentage: 65 % is 0.65)"),
+    (load_aircraft, X8, "fixed_wing", "oswald_efficiency", 80, "fixed_wing.oswald_efficiency "
+     "must be <= 1, got 80 (looks like a percentage: 80 % is 0.8)"),
+    (load_battery, SOLO_PACK, None, "usable_fraction", 95, "usable_fraction must be <= 1, got 95 "
+     "(looks like a percentage: 95 % is 0.95)"),
+    (load_battery, SOLO_PACK, "model", "charge_error_sd", 4, "model.charge_error_sd must be "
+     "<= 0.5, got 4 (looks like a percentage: 4 % is 0.04)"),
+    (load_battery, SOLO_PACK, "circuit", "coulombic_efficiency", 99, "circuit.coulombic_efficiency"
+     " must be <= 1, got 99 (looks like a percentage: 99 % is 0.99)"),
+])
+def test_a_share_given_as_a_percentage_says_it_looks_like_one(tmp_path, loader, path, block, key,
+                                                              value, expected):
+    data = copy.deepcopy(shipped(path))
+    if block == "model":
+        data["model"] = {"delta": 20.0, "epsilon": -1.0}
+    (data.setdefault(block, {}) if block else data)[key] = value
+    assert expected in load_error(loader, tmp_path, data)
+
+
+@pytest.mark.parametrize("loader, path, block, key, value", [
+    (load_aircraft, X8, "fixed_wing", "oswald_efficiency", 2),   # 2 % is below its bound
+    (load_battery, SOLO_PACK, None, "usable_fraction", 150),      # above 100 %
+    (load_aircraft, X8, "fixed_wing", "cd0", 3),                  # a coefficient, not a share
+])
+def test_a_value_that_is_no_plausible_percentage_gets_no_percentage_hint(tmp_path, loader, path,
+                                                                         block, key, value):
+    message = load_error(loader, tmp_path, changed(path, block, **{key: value}))
+    assert f"got {value}" in message and "percentage" not in message
+
+
 def test_huge_yaml_integer_is_an_input_error_not_an_overflow(tmp_path):
     p = tmp_path / "p.yaml"
     p.write_text("name: p\ncells_series: 4\ncapacity_mah: 1" + "0" * 400 + "\nmass_kg: 0.2\n")
