@@ -1180,6 +1180,8 @@ class PayloadChange(PowerEffect):
             out["change_time_max_s"] = float(max(located.values()))
         out["changes_at_end_of_climb"] = float(sum(
             _end_of_climb(pw, pw.names.index(k), v) for k, v in located.items()))
+        out["changes_at_start_of_descent"] = float(sum(
+            _start_of_descent(pw, pw.names.index(k), v) for k, v in located.items()))
         out["power_step_w"] = _power_step(pw, values, state)
         for k, v in list(located.items())[:20]:
             out[f"change_time_s[{k}]"] = float(v)
@@ -1212,10 +1214,14 @@ class PayloadChange(PowerEffect):
         modes = mode_changes_near(pw, p)
         if modes:
             text += "; " + "; ".join(modes)
-        n_climb = int(p.get("changes_at_end_of_climb", 0))
-        if n_climb and n_climb >= 0.5 * p["flights_with_change"]:
-            text += (f". Caution: {n_climb} of {int(p['flights_with_change'])} change time(s) "
-                     "fall at the end of a climb: the power model's climb may be wrong instead")
+        for key, where, what in (("changes_at_end_of_climb", "the end of a climb", "climb"),
+                                 ("changes_at_start_of_descent", "the start of a descent",
+                                  "descent")):
+            n_at = int(p.get(key, 0))
+            if n_at and n_at >= 0.5 * p["flights_with_change"]:
+                text += (f". Caution: {n_at} of {int(p['flights_with_change'])} change "
+                         f"time(s) fall at {where}: the power model's {what} may be wrong "
+                         "instead")
         return text
 
     def alternatives(self, p, pw) -> list[str]:
@@ -1323,6 +1329,18 @@ def _end_of_climb(pw, exp: int, tc: float, window_s: float = 30.0) -> bool:
     if not before.any() or not after.any():
         return False
     return bool(np.mean(pw.climb[before]) > 1.0 and abs(np.mean(pw.climb[after])) < 0.5)
+
+
+def _start_of_descent(pw, exp: int, tc: float, window_s: float = 30.0) -> bool:
+    """Whether a change at ``tc`` follows level flight and precedes a descent (< −1 m/s):
+    the approach to a landing, where a model's descent misfit makes a step
+    (:func:`_end_of_climb`'s mirror)."""
+    m = pw.exp == exp
+    before = m & (pw.time < tc) & (pw.time >= tc - window_s)
+    after = m & (pw.time >= tc) & (pw.time < tc + window_s)
+    if not before.any() or not after.any():
+        return False
+    return bool(abs(np.mean(pw.climb[before])) < 0.5 and np.mean(pw.climb[after]) < -1.0)
 
 
 def _steady_load(pw, what: str) -> str | None:

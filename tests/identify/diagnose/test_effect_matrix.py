@@ -1122,3 +1122,32 @@ def test_the_measured_mass_law_adds_the_m100s_own_power_per_kg_in_every_regime(d
         ("fast cruise", (np.abs(climb) < 0.3) & (speed > 9.0)))}
     # momentum theory's law is not the M100's: it changes by regime, by far more than w
     assert per_kg["climb"] > 1.5 * per_kg["fast cruise"] and per_kg["climb"] > w + 100.0
+
+
+def test_a_step_at_the_start_of_the_final_descents_says_the_descent_model_may_be_wrong(
+        draws, monkeypatch):
+    """Eight clean route-R1 flights of the DJI M100 (Rodrigues et al. 2021, CC BY 4.0;
+    seed 0's fourth draw of eight, plain record) show a −56 W step where four of them end
+    their cruise and start the final descent, and the held-out data confirm it (paired
+    p = 0.017). No payload was dropped there: the finding says so as a caution beside the
+    alternatives, as it does for changes at the end of a climb."""
+    import warnings
+
+    import numpy as np
+
+    from planner.identify.diagnose import diagnose
+
+    monkeypatch.setattr(M, "FLIGHTS", 8)
+    cell = M.Cell("m100", "clean", "plain", None, "realistic")
+    d = M.sources()["m100"].draw(np.random.default_rng(M._seed(cell, 3, 0)))
+    rec, pay = M.given(M.reduce(d.record, "plain"), d.payload_kg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = diagnose(rec, d.pack, M.diagnosed_aircraft(d, "plain"),
+                       site_altitude_m=d.site_altitude_m, **pay)
+    step = [f for f in res.findings if f["effect"] == "payload_change"]
+    assert len(step) == 1, [f["effect"] for f in res.findings]
+    p = step[0]["parameters"]
+    assert p["changes_at_start_of_descent"] >= 0.5 * p["flights_with_change"]
+    assert "fall at the start of a descent: the power model's descent may be wrong" in \
+        step[0]["cause"]
