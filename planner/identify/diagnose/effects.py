@@ -1189,8 +1189,10 @@ class PayloadChange(PowerEffect):
 
     def cause(self, p, pw, state=None):
         """A power step in flight, in words, with its size [W], the mass change it is
-        consistent with [kg], its times [s], and a change of flight mode near it (the
-        ``mode`` channel): the evidence and the alternatives, not a payload as fact."""
+        consistent with [kg], its times [s], a change of flight mode near it (the
+        ``mode`` channel), and a caution where most of its changes fall at the end of a
+        climb or the start of a descent: the evidence and the alternatives, not a payload
+        as fact."""
         dm = p["mass_step_kg"]
         dp = p.get("power_step_w", math.nan)
         n = int(p.get("flights_with_change", 0))
