@@ -1323,26 +1323,34 @@ def _power_step(pw, values, state) -> float:
     return float(np.median(m1 - m0) / values["efficiency"])
 
 
-def _end_of_climb(pw, exp: int, tc: float, window_s: float = 30.0) -> bool:
-    """Whether a change at ``tc`` follows a climb (> 1 m/s) and precedes level flight."""
+#: Span before and after a change time over which its flight's mean climb rate says
+#: whether it follows a climb or precedes a descent. [s]
+REGIME_WINDOW_S = 30.0
+
+
+def _climb_around(pw, exp: int, tc: float) -> tuple[float, float] | None:
+    """Mean climb rate of flight ``exp`` over :data:`REGIME_WINDOW_S` before and after
+    ``tc`` (None where either span has no bin). [m/s]"""
     m = pw.exp == exp
-    before = m & (pw.time < tc) & (pw.time >= tc - window_s)
-    after = m & (pw.time >= tc) & (pw.time < tc + window_s)
+    before = m & (pw.time < tc) & (pw.time >= tc - REGIME_WINDOW_S)
+    after = m & (pw.time >= tc) & (pw.time < tc + REGIME_WINDOW_S)
     if not before.any() or not after.any():
-        return False
-    return bool(np.mean(pw.climb[before]) > 1.0 and abs(np.mean(pw.climb[after])) < 0.5)
+        return None
+    return float(np.mean(pw.climb[before])), float(np.mean(pw.climb[after]))
 
 
-def _start_of_descent(pw, exp: int, tc: float, window_s: float = 30.0) -> bool:
+def _end_of_climb(pw, exp: int, tc: float) -> bool:
+    """Whether a change at ``tc`` follows a climb (> 1 m/s) and precedes level flight."""
+    around = _climb_around(pw, exp, tc)
+    return around is not None and around[0] > 1.0 and abs(around[1]) < 0.5
+
+
+def _start_of_descent(pw, exp: int, tc: float) -> bool:
     """Whether a change at ``tc`` follows level flight and precedes a descent (< −1 m/s):
     the approach to a landing, where a model's descent misfit makes a step
     (:func:`_end_of_climb`'s mirror)."""
-    m = pw.exp == exp
-    before = m & (pw.time < tc) & (pw.time >= tc - window_s)
-    after = m & (pw.time >= tc) & (pw.time < tc + window_s)
-    if not before.any() or not after.any():
-        return False
-    return bool(abs(np.mean(pw.climb[before])) < 0.5 and np.mean(pw.climb[after]) < -1.0)
+    around = _climb_around(pw, exp, tc)
+    return around is not None and abs(around[0]) < 0.5 and around[1] < -1.0
 
 
 def _steady_load(pw, what: str) -> str | None:
