@@ -375,12 +375,10 @@ def resolve_spreads(spreads: Spreads, aircraft, pack) -> tuple[Spreads, dict[str
         value = getattr(s, name)
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
             raise InputError(f"{name} must be a finite spread ≥ 0, got {value}")
-    if s.charge_error_sd > 1.0:
-        raise InputError(f"charge_error_sd must be a fraction of the charge ≤ 1 (0.05 = 5 %), "
-                         f"got {s.charge_error_sd:g}")
-    if s.model_error_sd > 1.0:
-        raise InputError(f"model_error_sd must be a fraction of the power ≤ 1 (0.05 = 5 %), "
-                         f"got {s.model_error_sd:g}")
+    for name, of in (("charge_error_sd", "the charge"), ("model_error_sd", "the power")):
+        if getattr(s, name) > 1.0:
+            raise InputError(f"{name} must be a fraction of {of} ≤ 1 (0.05 = 5 %), "
+                             f"got {getattr(s, name):g}")
     if not (math.isfinite(s.gust_factor) and 1.0 <= s.gust_factor <= 5.0):
         raise InputError(f"gust_factor must be in [1, 5] (peak gust over mean wind), got "
                          f"{s.gust_factor}")
