@@ -1131,20 +1131,8 @@ def test_a_step_at_the_start_of_the_final_descents_says_the_descent_model_may_be
     their cruise and start the final descent, and the held-out data confirm it (paired
     p = 0.017). No payload was dropped there: the finding says so as a caution beside the
     alternatives, as it does for changes at the end of a climb."""
-    import warnings
-
-    import numpy as np
-
-    from planner.identify.diagnose import diagnose
-
     monkeypatch.setattr(M, "FLIGHTS", 8)
-    cell = M.Cell("m100", "clean", "plain", None, "realistic")
-    d = M.sources()["m100"].draw(np.random.default_rng(M._seed(cell, 3, 0)))
-    rec, pay = M.given(M.reduce(d.record, "plain"), d.payload_kg)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = diagnose(rec, d.pack, M.diagnosed_aircraft(d, "plain"),
-                       site_altitude_m=d.site_altitude_m, **pay)
+    _, _, res = _diagnosed(M.Cell("m100", "clean", "plain", None, "realistic"), 3, 0)
     step = [f for f in res.findings if f["effect"] == "payload_change"]
     assert len(step) == 1, [f["effect"] for f in res.findings]
     p = step[0]["parameters"]
