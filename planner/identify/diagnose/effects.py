@@ -83,7 +83,7 @@ from typing import ClassVar
 import numpy as np
 
 from planner.identify import stats
-from planner.chain.flightstate import inplane_speed
+from planner.chain.flightstate import CLIMB_THRESHOLD_MS, inplane_speed
 from planner.physics.wind import course_deg
 
 __all__ = [
@@ -1326,6 +1326,10 @@ def _power_step(pw, values, state) -> float:
 #: Span before and after a change time over which its flight's mean climb rate says
 #: whether it follows a climb or precedes a descent. [s]
 REGIME_WINDOW_S = 30.0
+#: Mean climb rate over :data:`REGIME_WINDOW_S` beyond which the span is a climb (or,
+#: negative, a descent); within ±:data:`planner.chain.flightstate.CLIMB_THRESHOLD_MS` it
+#: is level flight. [m/s]
+REGIME_RATE_MS = 1.0
 
 
 def _climb_around(pw, exp: int, tc: float) -> tuple[float, float] | None:
@@ -1340,17 +1344,20 @@ def _climb_around(pw, exp: int, tc: float) -> tuple[float, float] | None:
 
 
 def _end_of_climb(pw, exp: int, tc: float) -> bool:
-    """Whether a change at ``tc`` follows a climb (> 1 m/s) and precedes level flight."""
+    """Whether a change at ``tc`` follows a climb (> :data:`REGIME_RATE_MS`) and precedes
+    level flight."""
     around = _climb_around(pw, exp, tc)
-    return around is not None and around[0] > 1.0 and abs(around[1]) < 0.5
+    return around is not None and around[0] > REGIME_RATE_MS and \
+        abs(around[1]) < CLIMB_THRESHOLD_MS
 
 
 def _start_of_descent(pw, exp: int, tc: float) -> bool:
-    """Whether a change at ``tc`` follows level flight and precedes a descent (< −1 m/s):
-    the approach to a landing, where a model's descent misfit makes a step
-    (:func:`_end_of_climb`'s mirror)."""
+    """Whether a change at ``tc`` follows level flight and precedes a descent (below
+    −:data:`REGIME_RATE_MS`): the approach to a landing, where a model's descent misfit
+    makes a step (:func:`_end_of_climb`'s mirror)."""
     around = _climb_around(pw, exp, tc)
-    return around is not None and abs(around[0]) < 0.5 and around[1] < -1.0
+    return around is not None and abs(around[0]) < CLIMB_THRESHOLD_MS and \
+        around[1] < -REGIME_RATE_MS
 
 
 def _steady_load(pw, what: str) -> str | None:
