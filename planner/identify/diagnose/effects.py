@@ -78,7 +78,7 @@ least squares. The effects change the model's inputs or add a linear column:
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -218,6 +218,13 @@ class Effect:
     def practical(self, fits, level) -> str | None:
         """Why the fitted extension is too small to matter physically (None = it is not)."""
         return None
+
+    def estimate(self, fits, level) -> dict[str, Any]:
+        """What a candidate's fits on the training folds read of the effect, for the
+        detection limit to weigh when the effect is not named
+        (:func:`planner.identify.diagnose.limits.unsettled`); empty where the effect gives
+        none."""
+        return {}
 
     #: The effect's driver is time itself (a drift, a step in time): it is not tested for
     #: confounding with time (its form — a linear drift through rests, a step — is what
@@ -997,6 +1004,20 @@ class PayloadChange(PowerEffect):
     bounds: ClassVar[dict] = {"mass_step_kg": (0.0, -10.0, 10.0, 0.05)}
     driver_label = "time since start [s]"
     driver_is_time = True
+
+    def estimate(self, fits, pw) -> dict[str, Any]:
+        """The step the training folds fit (``mass_step_kg``, the median over the folds
+        [kg]) and each flight's located change time (``change_time_s``, the median over
+        the folds it trains in [s]; flights located in none left out)."""
+        steps = [f.values()["mass_step_kg"] for f in fits if "mass_step_kg" in f.nl_names]
+        if not steps:
+            return {}
+        times: dict[str, list[float]] = {}
+        for f in fits:
+            for k, v in f.located_changes().items():
+                times.setdefault(k, []).append(v)
+        return {"mass_step_kg": float(np.median(steps)),
+                "change_time_s": {k: float(np.median(v)) for k, v in times.items()}}
 
     def implausible(self, p, pw):
         """No flight with a change, a drop beyond :data:`MAX_DROP_SHARE` of the mass, or a

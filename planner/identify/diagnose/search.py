@@ -2206,6 +2206,8 @@ class Comparison:
     significant: bool
     reasons: list[str]
     against: tuple[str, ...] = ()
+    #: What the candidate's training folds read of the effect (``Effect.estimate``).
+    estimate: dict = field(default_factory=dict)
 
     def evidence(self) -> dict[str, float]:
         """The statistics behind the verdict: the training likelihood ratio and its p,
@@ -2463,6 +2465,7 @@ def _score(level, chosen, current, e, candidates, failed):
         return None
     cmp = compare(e, current, sc, level)
     cmp.against = tuple(c.name for c in chosen)
+    cmp.estimate = e.estimate(sc.fits, level) if hasattr(e, "estimate") else {}
     key = e.name if not chosen else f"{e.name} (after {' + '.join(cmp.against)})"
     candidates[key] = cmp
     return e, sc, cmp

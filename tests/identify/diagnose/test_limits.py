@@ -230,3 +230,73 @@ def test_the_power_channels_offset_limit_is_named_in_80_percent_of_records():
     limit = np.median([EV.power_channel(record(rng, 0.0))["limit_a"] for _ in range(50)])
     named = [EV.power_channel(record(rng, limit))["significant"] for _ in range(400)]
     assert 0.72 <= np.mean(named) <= 0.88, (limit, np.mean(named))
+
+
+class _Candidate:
+    """A payload candidate as the search keeps it (``Comparison``): its tests and what
+    its training folds read (``estimate``)."""
+
+    def __init__(self, step, times, lr_p=1e-6, significant=False):
+        self.effect = "payload_change"
+        self.significant = significant
+        self.lr_p_value = lr_p
+        self.gain_pct = -2.0
+        self.paired_p_value = 0.4
+        self.estimate = {"mass_step_kg": step, "change_time_s": times}
+
+
+class _Result:
+    def __init__(self, *cands):
+        self.candidates = {f"payload_change ({k})": c for k, c in enumerate(cands)}
+
+
+class _Ten:
+    """Ten flights of 101 bins, 1 s apart (0–100 s): a change at t s is at t % of each."""
+    names = [str(k) for k in range(10)]
+    n_experiments = 10
+    exp = np.repeat(np.arange(10), 101)
+    time = np.tile(np.arange(101.0), 10)
+
+
+#: A limit 0.20 kg at 0.1–0.3 of the flights and 0.10 kg from 0.4 on; its error 0.03 kg.
+_BY = {u: (0.20 if u < 0.35 else 0.10) for u in L.POSITIONS}
+_SE = {u: 0.03 for u in L.POSITIONS}
+
+
+def test_a_step_the_training_flights_see_that_does_not_exclude_the_limit_is_not_settled():
+    """Equivalence-test bound (Schuirmann 1987): |δ| + z₀.₉₅ SE against the limit where the
+    flights locate the change (the median over them). A 0.16 kg drop at 10–30 %: bound
+    0.16 + 1.645 × 0.03 = 0.209 ≥ 0.20: not settled, with the step, where and the bound."""
+    times = {"0": 10.0, "1": 20.0, "2": 30.0}
+    out = L.unsettled(_Result(_Candidate(-0.16, times)), _Ten(), _BY, _SE)
+    assert out is not None
+    assert out["bound_kg"] == pytest.approx(0.16 + norm.ppf(0.95) * 0.03)
+    assert out["limit_there_kg"] == pytest.approx(0.20)
+    assert out["positions"] == pytest.approx([0.1, 0.2, 0.3])
+    assert out["located_flights"] == 3
+    assert "drop of 0.16 ± 0.03 kg" in out["why"] and "lowers the power" in out["why"]
+
+
+def test_a_step_whose_bound_stays_below_the_limit_leaves_the_absence_standing():
+    """0.14 kg at the same positions: bound 0.189 < 0.20; and no located flight takes the
+    smallest limit (0.10 kg), which a 0.14 kg step reaches."""
+    times = {"0": 10.0, "1": 20.0, "2": 30.0}
+    assert L.unsettled(_Result(_Candidate(-0.14, times)), _Ten(), _BY, _SE) is None
+    out = L.unsettled(_Result(_Candidate(0.14, {})), _Ten(), _BY, _SE)
+    assert out is not None and out["limit_there_kg"] == pytest.approx(0.10)
+    assert "pick-up" in out["why"] and "raises the power" in out["why"]
+
+
+def test_only_the_last_candidate_unconfirmed_with_its_training_test_passed_is_weighed():
+    """A candidate confirmed (named or withheld elsewhere) or whose training test fails
+    (p ≥ 0.05) says nothing; of several rounds the last one counts; a change located at a
+    gated position (limit infinite) is not settled by it."""
+    times = {"0": 10.0, "1": 20.0, "2": 30.0}
+    level = _Ten()
+    assert L.unsettled(_Result(_Candidate(-0.3, times, significant=True)), level, _BY,
+                       _SE) is None
+    assert L.unsettled(_Result(_Candidate(-0.3, times, lr_p=0.2)), level, _BY, _SE) is None
+    assert L.unsettled(_Result(_Candidate(-0.3, times), _Candidate(-0.3, times, lr_p=0.2)),
+                       level, _BY, _SE) is None
+    gated = {**_BY, 0.1: math.inf, 0.2: math.inf, 0.3: math.inf}
+    assert L.unsettled(_Result(_Candidate(-0.3, times)), level, gated, _SE) is None
