@@ -224,6 +224,12 @@ def main(argv=None) -> int:
         if ks:
             print(f"  {kind}: {sum(1 for s in ks if s['met'])} of {len(ks)}")
     print(M.run_by_run_text(M.run_by_run(real)))
+    unset = sum(s.get("not_settled", 0) for s in real)
+    print(f"a payload change said not settled (seen on the training flights, not confirmed "
+          f"on the held-out ones, its bound reaching the limit): {unset} of "
+          f"{sum(s['runs'] for s in real)} runs, "
+          f"{sum(s.get('not_settled', 0) for s in real if s['expect'] is None)} of them with "
+          "nothing injected")
     print("named first against the injected size over the run's detection limit (every "
           "size; the limit is named with 80 % probability):")
     for line in M.limit_calibration_text(M.limit_calibration(out)):

@@ -1268,7 +1268,7 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
           "said_not_identifiable": 0, "within_2se": 0, "checked_2se": 0, "limits": [],
           "named_first_identifiable": 0, "named_or_said_not_identifiable": 0,
           "sizes": [], "cpu_s": [], "errors": Counter(), "own": Counter(), "winds": [],
-          "per_run": []}
+          "per_run": [], "not_settled": 0}
     draws = {} if draws is None else draws
     for run in range(n):
         key = (cell.source, run, seed)
@@ -1311,6 +1311,8 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
         # judged on the rest
         rest = [(f, k) for f, k in zip(res.findings, kinds) if k != "own"]
         st["silent"] += not rest
+        # a payload change the data neither name nor exclude (limits.unsettled)
+        st["not_settled"] += any("unsettled" in e for e in getattr(res, "detection", []) or [])
         false = [f["effect"] for f, k in rest if k == "other"]
         st["false_runs"] += bool(false)
         st["false"].update(false)
@@ -1357,7 +1359,8 @@ def run_cell(cell: Cell, runs: int, seed: int = 0, draws: dict | None = None) ->
             st["said_not_identifiable"] += bool(entries)
             st["named_or_said_not_identifiable"] += bool(entries)
         st["per_run"].append({"size": float(size), "limit": float(limit),
-                              "named_first": first, "named_any": named_any})
+                              "named_first": first, "named_any": named_any,
+                              "not_settled": any("unsettled" in e for e in entries)})
     return st
 
 

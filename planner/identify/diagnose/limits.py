@@ -691,7 +691,9 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
 
     from planner.identify.diagnose.search import ALPHA_TRAIN
 
-    cmp = [c for c in result.candidates.values() if c.effect == "payload_change"]
+    # the last round's candidate fitted alone (a pair's comparisons carry no estimate)
+    cmp = [c for c in result.candidates.values()
+           if c.effect == "payload_change" and getattr(c, "estimate", None)]
     if not cmp or cmp[-1].significant or not cmp[-1].lr_p_value < ALPHA_TRAIN:
         return None
     cmp = cmp[-1]
