@@ -290,8 +290,8 @@ def test_a_step_whose_bound_stays_below_the_limit_leaves_the_absence_standing():
 def test_only_the_last_candidate_unconfirmed_with_its_training_test_passed_is_weighed():
     """A candidate confirmed (named or withheld elsewhere) or whose training test fails
     (p ≥ 0.05) says nothing; of several rounds the last one fitted alone counts (not a
-    pair's comparison after it); a change located at a
-    gated position (limit infinite) is not settled by it."""
+    pair's comparison after it); a change located at a gated position (limit infinite)
+    is not settled by it."""
     times = {"0": 10.0, "1": 20.0, "2": 30.0}
     level = _Ten()
     assert L.unsettled(_Result(_Candidate(-0.3, times, significant=True)), level, _BY,
