@@ -219,12 +219,12 @@ class Effect:
         """Why the fitted extension is too small to matter physically (None = it is not)."""
         return None
 
-    def estimate(self, fits, level) -> dict[str, Any]:
-        """What a candidate's fits on the training folds read of the effect, for the
-        detection limit to weigh when the effect is not named
-        (:func:`planner.identify.diagnose.limits.unsettled`); empty where the effect gives
+    def estimate(self, fits, level, effects) -> Any:
+        """What a candidate's fits on the training folds (of the model ``effects``) read of
+        the effect, for the detection limit to weigh when the effect is not named
+        (:func:`planner.identify.diagnose.limits.unsettled`); None where the effect gives
         none."""
-        return {}
+        return None
 
     #: The effect's driver is time itself (a drift, a step in time): it is not tested for
     #: confounding with time (its form — a linear drift through rests, a step — is what
@@ -990,6 +990,37 @@ class AirDensity(PowerEffect):
                 "not standard: power follows the measured density")
 
 
+class StepEstimate:
+    """A payload candidate's step as its training folds read it, computed when asked
+    (the detection limit asks only of a candidate not named: ``limits.unsettled``).
+
+    ``mass_step_kg``: the median over the folds of the step read on the flights whose
+    change is located (:meth:`planner.identify.diagnose.search.PowerLevel.read_step`:
+    the fitted step moved as the named step's read moves it, with the vertical descents
+    at a power level of their own; the fitted step where the read cannot be made) [kg];
+    ``change_time_s``: each flight's located change time, the median over the folds it
+    trains in (flights located in none left out) [s]."""
+
+    def __init__(self, fits, level, effects):
+        self.fits, self.level, self.effects = fits, level, effects
+        self._step: float | None = None
+
+    @property
+    def mass_step_kg(self) -> float:
+        if self._step is None:
+            self._step = float(np.median([self.level.read_step(f, self.effects)
+                                          for f in self.fits]))
+        return self._step
+
+    @property
+    def change_time_s(self) -> dict[str, float]:
+        times: dict[str, list[float]] = {}
+        for f in self.fits:
+            for k, v in f.located_changes().items():
+                times.setdefault(k, []).append(v)
+        return {k: float(np.median(v)) for k, v in times.items()}
+
+
 class PayloadChange(PowerEffect):
     r"""``payload_change``: the mass steps by :math:`\Delta m` [kg] at a time located in each
     flight (module notes of :mod:`planner.identify.diagnose.search`)."""
@@ -1005,19 +1036,11 @@ class PayloadChange(PowerEffect):
     driver_label = "time since start [s]"
     driver_is_time = True
 
-    def estimate(self, fits, pw) -> dict[str, Any]:
-        """The step the training folds fit (``mass_step_kg``, the median over the folds
-        [kg]) and each flight's located change time (``change_time_s``, the median over
-        the folds it trains in [s]; flights located in none left out)."""
-        steps = [f.values()["mass_step_kg"] for f in fits if "mass_step_kg" in f.nl_names]
-        if not steps:
-            return {}
-        times: dict[str, list[float]] = {}
-        for f in fits:
-            for k, v in f.located_changes().items():
-                times.setdefault(k, []).append(v)
-        return {"mass_step_kg": float(np.median(steps)),
-                "change_time_s": {k: float(np.median(v)) for k, v in times.items()}}
+    def estimate(self, fits, pw, effects) -> StepEstimate | None:
+        """The step the training folds read and each flight's located change time
+        (:class:`StepEstimate`); None where no fold fits a step."""
+        fits = [f for f in fits if "mass_step_kg" in f.nl_names]
+        return StepEstimate(fits, pw, tuple(effects)) if fits else None
 
     def implausible(self, p, pw):
         """No flight with a change, a drop beyond :data:`MAX_DROP_SHARE` of the mass, or a

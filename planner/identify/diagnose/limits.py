@@ -75,8 +75,10 @@ evidence of absence", Altman & Bland, *BMJ* 311, 485, 1995): can they exclude a 
 as large as the limit? The payload candidate fitted on the training folds and not
 confirmed on the held-out flights (:func:`unsettled`) is taken where its training test
 passed (p below the search's :data:`~planner.identify.diagnose.search.ALPHA_TRAIN`),
-with the step its folds fit (their median), where its flights locate it, and the step's
-standard error there (the power analysis's own, by position, as for the limit). Where
+with the step its folds read on the flights whose change is located, as a named step is
+read (:class:`~planner.identify.diagnose.effects.StepEstimate`; the fitted step, which
+flights without a located change pull small, where the read cannot be made), where its
+flights locate it, and the step's standard error there (the power analysis's own, by position, as for the limit). Where
 the one-sided bound :math:`|\hat\delta| + z_{0.95}\,SE` reaches the limit at those
 positions, they cannot: the entry says *not settled* (``identifiable`` false, the
 candidate in ``unsettled``), with the step seen, where, the tests it passed and failed,
@@ -680,8 +682,8 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
     """Whether a payload change not named is *not settled* by these data (module notes,
     "Not settled"): its candidate's training test passed (p below the search's
     :data:`~planner.identify.diagnose.search.ALPHA_TRAIN`), the held-out tests did not
-    confirm it, and the step its folds fit does not exclude one as large as the detection
-    limit where its flights locate it: :math:`|\\hat\\delta| + z_{1-\\alpha}\\,SE \\ge L`
+    confirm it, and the step its folds read (``StepEstimate``, as a named step is read)
+    does not exclude one as large as the detection limit where its flights locate it: :math:`|\\hat\\delta| + z_{1-\\alpha}\\,SE \\ge L`
     (the one-sided bound of an equivalence test at the same α), with ``by`` the limit and
     ``se_by`` the step's standard error by position (each the median over the located
     flights; the smallest limit and its error where none is located). Returns the step,
@@ -697,8 +699,8 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
     if not cmp or cmp[-1].significant or not cmp[-1].lr_p_value < ALPHA_TRAIN:
         return None
     cmp = cmp[-1]
-    step = cmp.estimate.get("mass_step_kg")
-    if step is None or not math.isfinite(step):
+    step = cmp.estimate.mass_step_kg
+    if not math.isfinite(step):
         return None
     keys = np.array(sorted(by), float)
 
@@ -710,7 +712,7 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
         return float(np.interp(u, keys, vals)) if np.isfinite(near).all() else math.inf
 
     fractions = []
-    for name, tc in cmp.estimate.get("change_time_s", {}).items():
+    for name, tc in cmp.estimate.change_time_s.items():
         if name not in level.names:
             continue
         t = level.time[level.exp == level.names.index(name)]
@@ -729,11 +731,12 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
     if fractions:
         lo, hi = 100 * min(fractions), 100 * max(fractions)
         span = f"{lo:.0f} %" if round(lo) == round(hi) else f"{lo:.0f}–{hi:.0f} %"
-        where = (f", located in {len(fractions)} of {level.n_experiments} flights at "
-                 f"{span} of their airborne span, median {100 * np.median(fractions):.0f} %")
+        where = (f": {len(fractions)} of {level.n_experiments}, at {span} of their "
+                 f"airborne span, median {100 * np.median(fractions):.0f} %")
     kind = "drop" if step < 0 else "pick-up"
     why = (f"the training flights show a {kind} of {abs(step):.2f} ± {se:.2f} kg (the "
-           f"median of the folds' fits{where}; training likelihood-ratio p = "
+           f"median of the folds, read on the flights whose change is located{where}; "
+           f"training likelihood-ratio p = "
            f"{cmp.lr_p_value:.2g}) that the held-out flights do not confirm (held-out gain "
            f"{cmp.gain_pct:.1f} %, paired p = {cmp.paired_p_value:.2g}), and its "
            f"{100 * (1 - ALPHA_TRAIN):g} % bound, {bound:.2f} kg, reaches the {here:.2f} kg "

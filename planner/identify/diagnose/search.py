@@ -1706,6 +1706,14 @@ class PowerLevel:
         step, v = _gauss_newton_along(X[located], r0[located], groups[located], u)
         return step, v, flights, descents
 
+    def read_step(self, fit: Fit, effects) -> float:
+        """The step of ``fit`` (a model of ``effects`` with a payload change) as a named
+        step is read (:meth:`step_read`, on its located flights): the fitted step plus the
+        read's move, or the fitted step where the read cannot be made. [kg]"""
+        step = float(fit.values()["mass_step_kg"])
+        read = self.step_read(fit, self._jacobian(fit, effects, np.flatnonzero(fit.train)))
+        return step if read is None else step + float(read[0])
+
     def hover_shift(self, fit: Fit, jacobian) -> tuple[float, float] | None:
         r"""How far the speed of the fitted wind moves when the bins in which the aircraft
         hovers or moves only vertically (ground speed below :data:`MOVING_MS`, the ground
@@ -2206,8 +2214,9 @@ class Comparison:
     significant: bool
     reasons: list[str]
     against: tuple[str, ...] = ()
-    #: What the candidate's training folds read of the effect (``Effect.estimate``).
-    estimate: dict = field(default_factory=dict)
+    #: What the candidate's training folds read of the effect (``Effect.estimate``; None
+    #: where it gives none, or for a pair's comparison).
+    estimate: Any = None
 
     def evidence(self) -> dict[str, float]:
         """The statistics behind the verdict: the training likelihood ratio and its p,
@@ -2465,7 +2474,8 @@ def _score(level, chosen, current, e, candidates, failed):
         return None
     cmp = compare(e, current, sc, level)
     cmp.against = tuple(c.name for c in chosen)
-    cmp.estimate = e.estimate(sc.fits, level) if hasattr(e, "estimate") else {}
+    cmp.estimate = e.estimate(sc.fits, level, chosen + [e]) if hasattr(e, "estimate") \
+        else None
     key = e.name if not chosen else f"{e.name} (after {' + '.join(cmp.against)})"
     candidates[key] = cmp
     return e, sc, cmp

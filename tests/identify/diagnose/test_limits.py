@@ -232,6 +232,13 @@ def test_the_power_channels_offset_limit_is_named_in_80_percent_of_records():
     assert 0.72 <= np.mean(named) <= 0.88, (limit, np.mean(named))
 
 
+class _Estimate:
+    """What a payload candidate's folds read (``effects.StepEstimate``'s two fields)."""
+
+    def __init__(self, step, times):
+        self.mass_step_kg, self.change_time_s = step, times
+
+
 class _Candidate:
     """A payload candidate as the search keeps it (``Comparison``): its tests and what
     its training folds read (``estimate``)."""
@@ -242,7 +249,7 @@ class _Candidate:
         self.lr_p_value = lr_p
         self.gain_pct = -2.0
         self.paired_p_value = 0.4
-        self.estimate = {"mass_step_kg": step, "change_time_s": times}
+        self.estimate = _Estimate(step, times)
 
 
 class _Result:
@@ -300,7 +307,7 @@ def test_only_the_last_candidate_unconfirmed_with_its_training_test_passed_is_we
     assert L.unsettled(_Result(_Candidate(-0.3, times), _Candidate(-0.3, times, lr_p=0.2)),
                        level, _BY, _SE) is None
     pair = _Candidate(-0.3, times, lr_p=0.2)
-    pair.estimate = {}              # a pair's comparison (search._pair_step) reads none
+    pair.estimate = None            # a pair's comparison (search._pair_step) reads none
     assert L.unsettled(_Result(_Candidate(-0.3, times), pair), level, _BY, _SE) is not None
     gated = {**_BY, 0.1: math.inf, 0.2: math.inf, 0.3: math.inf}
     assert L.unsettled(_Result(_Candidate(-0.3, times)), level, gated, _SE) is None
