@@ -87,9 +87,9 @@ loses the held-out tests for a change the training flights see plainly (module n
 of ``search``, "Change points"); this says so instead of a silent miss. Measured on the
 DJI M100 flights of routes other than R1 (Rodrigues et al. 2021; ``docs/results.md``,
 "Not settled"): on 100 runs of four cells near their limits, the runs the limit calls
-identifiable were named first in 47 of 62 (76 %); 12 of those missed are now not
-settled, and the rest are named first in 47 of 50 (94 %). On 100 clean draws (route R1
-and the others, plain record and every channel) 8 say not settled; none names a change.
+identifiable were named first in 47 of 62 (76 %); 13 of those missed are now not
+settled, and the rest are named first in 47 of 49 (96 %). On 100 clean draws (route R1
+and the others, plain record and every channel) 7 say not settled; none names a change.
 
 A second change in a flight
 ---------------------------
