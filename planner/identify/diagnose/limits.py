@@ -78,13 +78,14 @@ passed (p below the search's :data:`~planner.identify.diagnose.search.ALPHA_TRAI
 with the step its folds read on the flights whose change is located, as a named step is
 read (:class:`~planner.identify.diagnose.effects.StepEstimate`; the fitted step, which
 flights without a located change pull small, where the read cannot be made), where its
-flights locate it, and the step's standard error there (the power analysis's own, by position, as for the limit). Where
-the one-sided bound :math:`|\hat\delta| + z_{0.95}\,SE` reaches the limit at those
-positions, they cannot: the entry says *not settled* (``identifiable`` false, the
-candidate in ``unsettled``), with the step seen, where, the tests it passed and failed,
-and what would settle it. A held-out flight that places the change at a step of its own
-loses the held-out tests for a change the training flights see plainly (module notes
-of ``search``, "Change points"); this says so instead of a silent miss. Measured on the
+flights locate it, and the step's standard error there (the power analysis's own, by
+position, as for the limit). Where the one-sided bound
+:math:`|\hat\delta| + z_{0.95}\,SE` reaches the limit at those positions, they cannot:
+the entry says *not settled* (``identifiable`` false, the candidate in ``unsettled``),
+with the step seen, where, the tests it passed and failed, and what would settle it. A
+held-out flight that places the change at a step of its own loses the held-out tests for
+a change the training flights see plainly (module notes of ``search``, "Change
+points"); this says so instead of a silent miss. Measured on the
 DJI M100 flights of routes other than R1 (Rodrigues et al. 2021; ``docs/results.md``,
 "Not settled"): on 100 runs of four cells near their limits, the runs the limit calls
 identifiable were named first in 47 of 62 (76 %); 13 of those missed are now not
@@ -679,12 +680,13 @@ def _payload(report, level, base, J, sigs, tested, resid, mse_rows, found) -> di
 
 def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
               ) -> dict[str, Any] | None:
-    """Whether a payload change not named is *not settled* by these data (module notes,
+    r"""Whether a payload change not named is *not settled* by these data (module notes,
     "Not settled"): its candidate's training test passed (p below the search's
     :data:`~planner.identify.diagnose.search.ALPHA_TRAIN`), the held-out tests did not
     confirm it, and the step its folds read (``StepEstimate``, as a named step is read)
-    does not exclude one as large as the detection limit where its flights locate it: :math:`|\\hat\\delta| + z_{1-\\alpha}\\,SE \\ge L`
-    (the one-sided bound of an equivalence test at the same α), with ``by`` the limit and
+    does not exclude one as large as the detection limit where its flights locate it:
+    :math:`|\hat\delta| + z_{1-\alpha}\,SE \ge L` (the one-sided bound of an
+    equivalence test at the same α), with ``by`` the limit and
     ``se_by`` the step's standard error by position (each the median over the located
     flights; the smallest limit and its error where none is located). Returns the step,
     where it is, the bound, the tests and the sentence (``why``); None where the absence
@@ -694,11 +696,11 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
     from planner.identify.diagnose.search import ALPHA_TRAIN
 
     # the last round's candidate fitted alone (a pair's comparisons carry no estimate)
-    cmp = [c for c in result.candidates.values()
-           if c.effect == "payload_change" and getattr(c, "estimate", None)]
-    if not cmp or cmp[-1].significant or not cmp[-1].lr_p_value < ALPHA_TRAIN:
+    scored = [c for c in result.candidates.values()
+              if c.effect == "payload_change" and getattr(c, "estimate", None)]
+    if not scored or scored[-1].significant or not scored[-1].lr_p_value < ALPHA_TRAIN:
         return None
-    cmp = cmp[-1]
+    cmp = scored[-1]
     step = cmp.estimate.mass_step_kg
     if not math.isfinite(step):
         return None
@@ -736,9 +738,9 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
     kind = "drop" if step < 0 else "pick-up"
     why = (f"the training flights show a {kind} of {abs(step):.2f} ± {se:.2f} kg (the "
            f"median of the folds, read on the flights whose change is located{where}; "
-           f"training likelihood-ratio p = "
-           f"{cmp.lr_p_value:.2g}) that the held-out flights do not confirm (held-out gain "
-           f"{cmp.gain_pct:.1f} %, paired p = {cmp.paired_p_value:.2g}), and its "
+           f"training likelihood-ratio p = {cmp.lr_p_value:.2g}) that the held-out flights "
+           f"do not confirm (held-out gain {cmp.gain_pct:.1f} %, paired p = "
+           f"{cmp.paired_p_value:.2g}), and its "
            f"{100 * (1 - ALPHA_TRAIN):g} % bound, {bound:.2f} kg, reaches the {here:.2f} kg "
            f"these data could reveal there: a {kind} of that size, or anything else that "
            f"{'lowers' if step < 0 else 'raises'} the power there as much, may or may not be "
