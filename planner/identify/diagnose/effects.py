@@ -1007,6 +1007,7 @@ class StepEstimate:
 
     @property
     def mass_step_kg(self) -> float:
+        """The median over the folds of the step read on their located flights. [kg]"""
         if self._step is None:
             self._step = float(np.median([self.level.read_step(f, self.effects)
                                           for f in self.fits]))
@@ -1014,6 +1015,7 @@ class StepEstimate:
 
     @property
     def change_time_s(self) -> dict[str, float]:
+        """Each located flight's change time, the median over the folds it trains in. [s]"""
         times: dict[str, list[float]] = {}
         for f in self.fits:
             for k, v in f.located_changes().items():
