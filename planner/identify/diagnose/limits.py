@@ -697,7 +697,7 @@ def unsettled(result, level, by: dict[float, float], se_by: dict[float, float]
 
     # the last round's candidate fitted alone (a pair's comparisons carry no estimate)
     scored = [c for c in result.candidates.values()
-              if c.effect == "payload_change" and getattr(c, "estimate", None)]
+              if c.effect == "payload_change" and c.estimate is not None]
     if not scored or scored[-1].significant or not scored[-1].lr_p_value < ALPHA_TRAIN:
         return None
     cmp = scored[-1]

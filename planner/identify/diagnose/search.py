@@ -2474,8 +2474,7 @@ def _score(level, chosen, current, e, candidates, failed):
         return None
     cmp = compare(e, current, sc, level)
     cmp.against = tuple(c.name for c in chosen)
-    cmp.estimate = e.estimate(sc.fits, level, chosen + [e]) if hasattr(e, "estimate") \
-        else None
+    cmp.estimate = e.estimate(sc.fits, level, chosen + [e])
     key = e.name if not chosen else f"{e.name} (after {' + '.join(cmp.against)})"
     candidates[key] = cmp
     return e, sc, cmp
