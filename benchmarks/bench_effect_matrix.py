@@ -224,6 +224,7 @@ def main(argv=None) -> int:
         if ks:
             print(f"  {kind}: {sum(1 for s in ks if s['met'])} of {len(ks)}")
     print(M.run_by_run_text(M.run_by_run(real)))
+    print(M.expected_text(real))
     unset = sum(s.get("not_settled", 0) for s in real)
     print(f"a payload change said not settled (seen on the training flights, not confirmed "
           f"on the held-out ones, its bound reaching the limit): {unset} of "

@@ -1451,3 +1451,66 @@ def verdict(st: dict) -> tuple[str, bool | None]:
     missed = n - st["named_any"]
     said = st["said_not_identifiable"] >= missed
     return "not identifiable", said and false_ok
+
+
+def promised_power(ratio: float) -> float:
+    r"""The probability of naming an effect that the detection limit promises at ``ratio``
+    times the limit: the power curve of the one-sided normal test the limit is built on
+    (:func:`planner.identify.stats.detectable_size`), :math:`\Phi((z_{1-\alpha} +
+    z_{P})\,r - z_{1-\alpha})`, with the held-out test's α and the limit's power P
+    (80 % at r = 1). [unitless]"""
+    from scipy.stats import norm
+
+    from planner.identify.diagnose.limits import POWER
+    from planner.identify.diagnose.search import ALPHA_HELDOUT
+
+    za, zp = float(norm.ppf(1.0 - ALPHA_HELDOUT)), float(norm.ppf(POWER))
+    return float(norm.cdf((za + zp) * ratio - za))
+
+
+def expected_to_meet(st: dict) -> float | None:
+    """The probability that a realistic-size cell meets :func:`verdict`'s criterion if
+    each run named its effect exactly as often as its own detection limit promises
+    (:func:`promised_power` of its size over its limit; a run whose limit is infinite,
+    said not identifiable at any size, never). It asks whether the criterion, read cell
+    by cell, asks more than the limit promises: a cell whose limit calls 3 of 5 runs
+    identifiable is judged as identifiable and needs 4 named, so at least one below its
+    limit. Cells of the kind ``identifiable``: the chance that at least 80 % of the runs
+    are named first (the runs independent: a Poisson binomial); ``not identifiable``:
+    that every run the limit calls identifiable is named. The check of the size within
+    2 SE is taken as met. None for a clean cell (no power statement) or a tally without
+    its runs."""
+    runs = st.get("per_run")
+    if st.get("expect") is None or not runs:
+        return None
+    p = np.array([promised_power(abs(r["size"]) / r["limit"])
+                  if math.isfinite(r["limit"]) and r["limit"] > 0 else 0.0 for r in runs])
+    kind, _ = verdict(st)
+    if kind == "not identifiable":
+        ident = np.array([math.isfinite(r["limit"]) and abs(r["size"]) >= r["limit"]
+                          for r in runs])
+        return float(np.prod(p[ident]))
+    dist = np.zeros(len(p) + 1)
+    dist[0] = 1.0
+    for q in p:                   # the distribution of the number named, run by run
+        dist[1:] = dist[1:] * (1.0 - q) + dist[:-1] * q
+        dist[0] *= 1.0 - q
+    return float(dist[math.ceil(0.8 * len(p) - 1e-9):].sum())
+
+
+def expected_text(stats: list[dict]) -> str:
+    """:func:`expected_to_meet` over the realistic-size cells with an injection, in one
+    line: the cells that meet the criterion against those expected to, and the cells no
+    run could let meet it (expected under 1 %)."""
+    rows = [(st, expected_to_meet(st)) for st in stats if st.get("size") == "realistic"]
+    rows = [(st, e) for st, e in rows if e is not None]
+    if not rows:
+        return "expected: no realistic cell with an injection and its runs"
+    met = sum(bool(verdict(st)[1]) for st, _ in rows)
+    exp = sum(e for _, e in rows)
+    none = [st for st, e in rows if e < 0.01]
+    return (f"the limit's promise (each run named as often as its own limit promises: 80 % "
+            f"at 1×): {exp:.1f} of {len(rows)} cells with an injection expected to meet "
+            f"the criterion, {met} meet it; {len(none)} {'cell' if len(none) == 1 else 'cells'} "
+            f"cannot meet it as read cell by cell "
+            f"({sum(bool(verdict(st)[1]) for st in none)} of them do)")

@@ -656,6 +656,44 @@ def test_the_criterion_read_run_by_run_counts_each_run_against_its_own_limit():
     assert "named first in 3 (75 %)" in M.run_by_run_text(r)
 
 
+def test_the_limits_promise_gives_each_cell_its_chance_of_meeting_the_criterion():
+    """The promised power is 80 % at the limit and rises with the size over it; a cell
+    whose limit calls 3 of 5 runs identifiable and the other 2 not identifiable at any
+    size is judged as identifiable and needs 4 named: it cannot meet the criterion if its
+    runs are named as the limit promises. A cell of the kind "not identifiable" needs its
+    one identifiable run named: the promise at that run's size. Clean cells and tallies
+    without their runs have no promise."""
+    from collections import Counter
+
+    assert M.promised_power(1.0) == pytest.approx(0.8)
+    assert M.promised_power(0.5) < 0.5 < 0.8 < M.promised_power(1.5) < M.promised_power(2.0)
+
+    def tally(sizes, limits, **kw):
+        runs = [{"size": s, "limit": lim, "named_first": False, "named_any": False}
+                for s, lim in zip(sizes, limits)]
+        ident = sum(math.isfinite(lim) and abs(s) >= lim for s, lim in zip(sizes, limits))
+        st = {"size": "realistic", "expect": "payload_change", "runs": len(runs),
+              "errors": Counter(), "identifiable": ident, "named_first": 0, "named_any": 0,
+              "false_runs": 0, "said_not_identifiable": 0, "within_2se": 0,
+              "checked_2se": 0, "silent": len(runs), "per_run": runs}
+        return st | kw
+
+    far = tally([0.3] * 5, [0.1] * 5)
+    assert M.expected_to_meet(far) == pytest.approx(1.0, abs=1e-3)
+    at = tally([0.2] * 5, [0.2] * 5)          # 4 or 5 of 5 at 80 % each
+    assert M.expected_to_meet(at) == pytest.approx(0.8**5 + 5 * 0.8**4 * 0.2)
+    split = tally([-0.3] * 5, [0.1, 0.1, 0.1, math.inf, math.inf])
+    assert M.verdict(split)[0] == "identifiable"
+    assert M.expected_to_meet(split) == 0.0
+    one = tally([0.25, 0.1, 0.1, 0.1, 0.1], [0.25, 0.2, 0.2, math.inf, 0.2])
+    assert M.verdict(one)[0] == "not identifiable"
+    assert M.expected_to_meet(one) == pytest.approx(0.8)
+    assert M.expected_to_meet(tally([0.3], [0.1], expect=None)) is None
+    assert M.expected_to_meet({k: v for k, v in far.items() if k != "per_run"}) is None
+    line = M.expected_text([far, split, one, tally([0.3], [0.1], size="2x")])
+    assert "1.8 of 3 cells" in line and "1 cell cannot meet it" in line
+
+
 def test_the_limits_calibration_bins_each_run_by_its_size_over_its_own_limit():
     """A run at exactly its limit is in the 1–1.5× bin (named with 80 % probability
     there), one at 0.9× below it; a run whose limit is infinite (not identifiable at any
