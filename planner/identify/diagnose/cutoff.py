@@ -66,6 +66,25 @@ residual of :math:`\ln E`, × 100), the final error :math:`\sum|E - \hat E| / \s
 the common currency of all levels. Standard errors are
 :math:`s^2 (J^\mathsf{T}J)^{-1}` with :math:`s^2 = RSS/(n - p)`: the discharges' own
 spread (cell to cell) is in :math:`s`.
+
+Ageing gives no capacity back
+-----------------------------
+Without a cycle count the discharges' age is their order in the files, and without a
+pack temperature a cold discharge is only a discharge that gave less. Where the cold
+ones happen to lie late in the order (the Molicel P42A discharges of the effect matrix,
+half of them chilled to 0 °C: on one draw 4 of 8, at positions 3, 5, 6 and 7), a fade
+fits the trend, passes every test and was named as an ageing pack. The energies
+themselves say otherwise: they fall in two levels, flat within each, where a pack
+losing capacity declines from one discharge to the next. A fade found here is withheld
+(:meth:`~planner.identify.diagnose.effects.CapacityFade.implausible`,
+:func:`~planner.identify.diagnose.effects.two_levels`) where two levels, split at the
+best threshold, fit the energies better than a trend with age beyond what a trend's own
+noise gives (a parametric bootstrap of the trend, the split chosen afresh in each draw:
+Cox 1961, Williams 1970; p below the search's α). Where a discharge of the high level
+comes after one of the low, ageing is contradicted (it gives no capacity back); where
+the levels come one after the other, a step between two sets of discharges is a change
+between the experiments, or, without a cycle count, ageing between two sets whose ages
+the data do not give: the entry says these cannot be told apart.
 """
 
 from __future__ import annotations

@@ -395,6 +395,135 @@ class Temperature(CapacityEffect):
                 f"{p['reference_temperature_c']:.0f} °C")
 
 
+#: Parametric bootstrap draws of :func:`two_levels`' test (seeded: the same data give the
+#: same answer).
+TWO_LEVEL_DRAWS = 999
+
+
+def _split_statistic(y: np.ndarray, base: np.ndarray, trend: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""For each row of ``y`` (draws × discharges): :math:`\ln(RSS_{trend}/RSS_{levels})`
+    and the trend's residual sum of squares; and the first row's lowest level (a mask).
+    The trend is ``y`` on ``base`` and the age (``trend``: that design, the projection's
+    complement); the
+    levels are ``y`` on ``base`` and the indicator of the k lowest residuals of ``y`` on
+    ``base``, k the best of 1 … n − 1: adding a column d to ``base`` lowers the residual
+    sum of squares by :math:`(d^\mathsf{T} r)^2 / \lVert M_0 d\rVert^2`, with r the
+    residual on ``base`` and :math:`M_0` its projection's complement, both read from the
+    cumulative sums over the sorted residuals."""
+    n = y.shape[1]
+    g = np.linalg.pinv(base.T @ base)
+    r = y - (y @ base) @ g @ base.T
+    rss_trend = np.einsum("ij,ij->i", y @ trend, y)
+    order = np.argsort(r, axis=1)
+    rs = np.take_along_axis(r, order, axis=1)
+    cr = np.cumsum(rs, axis=1)[:, :-1]                         # d'r for k = 1 … n − 1
+    cb = np.cumsum(base[order], axis=1)[:, :-1, :]             # B'd
+    q = np.arange(1, n)[None, :] - np.einsum("skp,pq,skq->sk", cb, g, cb)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        drop = np.where(q > 1e-9, cr**2 / q, -np.inf)
+    k = np.argmax(drop, axis=1)
+    rss_levels = np.einsum("ij,ij->i", r, r) - drop[np.arange(len(k)), k]
+    low = np.zeros(n, bool)                                    # the first row's
+    low[order[0, :k[0] + 1]] = True
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stat = np.log(rss_trend / np.maximum(rss_levels, 1e-300))
+    return stat, rss_trend, low
+
+
+def _declines_within(y, base, low, age, alpha: float) -> bool:
+    """Whether ``y`` declines with ``age`` beside ``base`` and the two levels (``low``):
+    the age's slope below zero by a one-sided Student t test at ``alpha``."""
+    from scipy.stats import t as student_t
+
+    x = np.column_stack([base, low.astype(float), age])
+    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+    dof = y.size - x.shape[1]
+    res = y - x @ coef
+    if dof <= 0 or not float(res @ res) > 0:
+        return False
+    var = float(res @ res) / dof * float(np.linalg.pinv(x.T @ x)[-1, -1])
+    return bool(student_t.cdf(coef[-1] / math.sqrt(max(var, 1e-300)), dof) < alpha)
+
+
+def two_levels(y, cycles, rate, e_ref: float, order: str) -> str | None:
+    r"""Why a fade fitted at the cut-off level is not the ageing it stands for, or None:
+    the discharges' energies fall in two levels, not along a trend with their age.
+
+    ``y`` is each discharge's :math:`\ln(E/E_{ref})` (``e_ref`` [J]), with the rate term
+    beside it where there is one (``rate``), ``cycles`` its age (``order`` names where the
+    age comes from). Two models of ``y`` are set against each other: a trend with the age
+    (the fade's signature) and two levels, the discharges split between them at the best
+    threshold (a condition that differs between discharges). They are not nested, and
+    the split is chosen on the data, so the statistic
+    :math:`\ln(RSS_{trend}/RSS_{levels})` is referred to its distribution under the
+    trend by a parametric bootstrap (Cox, *Proc. 4th Berkeley Symp.* 1, 105, 1961;
+    Williams, *JRSS B* 32, 350, 1970): the fitted trend plus Gaussian noise of its own
+    residual variance, :data:`TWO_LEVEL_DRAWS` draws, the split chosen afresh in each. At
+    p below the search's α the trend does not describe the energies. Then:
+
+    * a discharge of the high level after one of the low contradicts the fade as fitted:
+      a pack that delivers that much more after it delivered less has not lost capacity
+      between the two (capacity fade is monotone in the cycles; Birkl et al., *J. Power
+      Sources* 341, 373, 2017), so the fitted size is the levels', whatever ageing there
+      is besides;
+    * the levels in order (all high, then all low) are a step between two sets of
+      discharges. Where the energy declines with age within them too (a one-sided t
+      test at the same α, :func:`_declines_within`), the fade stands: ageing within
+      each of two sets far apart in age (a gap in the cycles the files' order does not
+      show). Where it does not, each set is flat where a pack ageing declines from one
+      discharge to the next: a change between the experiments (temperature, charger,
+      charge voltage, cut-off), or ageing between two sets whose ages the data do not
+      give, which these data cannot tell apart.
+    """
+    from planner.identify.diagnose.search import ALPHA_TRAIN
+
+    y = np.asarray(y, float)
+    n = y.size
+    if n < 4:
+        return None
+    base = np.column_stack([np.ones(n)] + ([np.asarray(rate, float)] if rate is not None
+                                           else []))
+    age = np.asarray(cycles, float)
+    x1 = np.column_stack([base, age])
+    trend = np.eye(n) - x1 @ np.linalg.pinv(x1)
+    stat, rss_trend, low = _split_statistic(y[None, :], base, trend)
+    if not (np.isfinite(stat[0]) and rss_trend[0] > 0):
+        return None
+    sigma = math.sqrt(rss_trend[0] / max(n - x1.shape[1], 1))
+    fitted = y - trend @ y
+    rng = np.random.default_rng(20260)
+    sims = fitted[None, :] + sigma * rng.standard_normal((TWO_LEVEL_DRAWS, n))
+    null, _, _ = _split_statistic(sims, base, trend)
+    p = (1 + int(np.sum(null >= stat[0]))) / (TWO_LEVEL_DRAWS + 1)
+    if p >= ALPHA_TRAIN:
+        return None
+    by_age = np.argsort(age, kind="stable")
+    first_low = int(np.argmax(low[by_age]))
+    m = int((~low[by_age][first_low:]).sum())
+    if not m and _declines_within(y, base, low, age, ALPHA_TRAIN):
+        return None
+    e = e_ref * np.exp(y) / 3600.0
+    levels = (f"the energies to the cut-off fall in two levels ({np.mean(e[low]):.3g} and "
+              f"{np.mean(e[~low]):.3g} W h, {int(low.sum())} and {int((~low).sum())} "
+              f"discharges; a trend with age leaves {math.exp(stat[0] / 2):.2g} times "
+              f"their residual, p = {p:.2g} under the trend)")
+    if m:
+        return (f"{levels} that alternate in the {order}: {m} of the high level "
+                f"{'comes' if m == 1 else 'come'} after one of the low, which an ageing "
+                "pack cannot do (it gives no capacity back); a condition that differs "
+                "between the discharges (temperature, charger, charge voltage or cut-off) "
+                "fits them")
+    step = (f"{levels}, one after the other in the {order}: a step between two sets of "
+            "discharges, where an ageing pack declines from one to the next")
+    if order == "cycle":
+        return (f"{step} with its cycles: a change between the experiments (temperature, "
+                "charger, charge voltage or cut-off) fits them")
+    return (f"{step}; a change between the experiments (temperature, charger, charge "
+            "voltage or cut-off), or ageing between two sets whose ages the data do not "
+            "give (no cycle count), cannot be told apart on these data")
+
+
 class CapacityFade(CapacityEffect):
     r"""``capacity_fade``: the charge drawn per energy grows by :math:`\varphi` per cycle,
     :math:`\hat C = A (1 + \varphi n) G` (module notes); :math:`\varphi` [1/cycle]."""
@@ -455,6 +584,9 @@ class CapacityFade(CapacityEffect):
         if span > MAX_FADE_SPAN:
             return (f"{100 * span:.0f} % more charge over the data is beyond a pack still in "
                     f"use (at most {100 * MAX_FADE_SPAN:g} %)")
+        if cap.name == "cutoff":
+            return two_levels(cap.y, self.cycles, cap.rate, cap.e_ref,
+                              "cycle" if self.source == "cycle" else "experiments' order")
         return None
 
     def alternatives(self, p, cap) -> list[str]:

@@ -144,3 +144,58 @@ def test_the_json_and_the_plot_carry_the_cutoff_level(tmp_path):
     assert d["findings"][0]["level"] == "cutoff"
     save_diagnose_plot(res, tmp_path / "d.png")
     assert (tmp_path / "d.png").stat().st_size > 10_000
+
+
+def test_cold_discharges_alternating_with_warm_ones_are_not_read_as_ageing():
+    """No temperature logged, no cycle count: eight discharges of one cell, four of them
+    cold (10 % less capacity), the cold ones mostly late in the files' order but one warm
+    after them. A fade fits the trend, but the energies fall in two levels and a
+    discharge of the high level comes after the low ones: ageing gives no capacity back,
+    so the fade is withheld with that reason and no cause is named."""
+    spread = _spread(8, seed=7)
+    cold = [False, False, False, True, False, True, True, True]
+    parts = [discharge(f"d{k}", 3.0, 3.0 * spread[k] * (0.9 if c else 1.0), 0.03)
+             for k, c in enumerate(cold)]
+    res = run(pd.concat(parts, ignore_index=True))
+    assert res.findings == []
+    why = {w["effect"]: w for w in res.withheld}
+    assert why["capacity_fade"]["kind"] == "implausible"
+    assert "two levels" in why["capacity_fade"]["why"]
+    assert "1 of the high level comes after one of the low" in why["capacity_fade"]["why"]
+
+
+def test_two_levels_tell_a_trend_with_age_from_a_condition_that_alternates():
+    """The plausibility test of a fade at the cut-off level: a linear trend with age and
+    noise is ageing, and so are two sets of discharges at two ages where the cycle count
+    gives them, or where each of two sets far apart in age declines too; two levels that
+    alternate with age are not; two flat levels in order (a step: all high, then all low)
+    are a change between the experiments, not told from ageing where the age is only the
+    files' order; too few discharges say nothing."""
+    from planner.identify.diagnose.effects import two_levels
+
+    rng = np.random.default_rng(1)
+    age = np.arange(8.0)
+    trend = -0.01 * age + 0.002 * rng.standard_normal(8)
+    assert two_levels(trend, age, None, 5e4, "cycle") is None
+    alt = np.where(np.array([0, 0, 0, 1, 0, 1, 1, 1], bool), -0.1, 0.0) \
+        + 0.002 * rng.standard_normal(8)
+    why = two_levels(alt, age, None, 5e4, "cycle")
+    assert why is not None and "4 and 4 discharges" in why
+    step = np.where(age >= 4, -0.1, 0.0) + 0.002 * rng.standard_normal(8)
+    assert "cannot be told apart" in two_levels(step, age, None, 5e4, "experiments' order")
+    assert "a change between the experiments" in two_levels(step, age, None, 5e4, "cycle")
+    # ageing measured at two ages (cycles 0-3 and 400-403): the trend with the cycles
+    # fits as well as two levels, and the fade stands
+    aged = np.r_[age[:4], 400 + age[:4]]
+    assert two_levels(-1e-4 * aged + 0.002 * rng.standard_normal(8), aged, None, 5e4,
+                      "cycle") is None
+    assert two_levels(alt[:3], age[:3], None, 5e4, "cycle") is None
+    # ageing within two sets far apart in age (cycles 0-60 and 400-460) with only the
+    # files' order to go by: a step, but each set declines too, and the fade stands
+    gap = np.r_[0.0, 20, 40, 60, 400, 420, 440, 460]
+    within = -3e-4 * gap + 0.002 * rng.standard_normal(8)
+    assert two_levels(within, age, None, 5e4, "experiments' order") is None
+    # the rate term is taken out first: two levels of the current alone are not a condition
+    rate = np.where(np.array([0, 1, 0, 1, 0, 1, 0, 1], bool), 0.5, -0.5)
+    by_rate = -0.2 * rate - 0.01 * age + 0.002 * rng.standard_normal(8)
+    assert two_levels(by_rate, age, rate, 5e4, "cycle") is None
