@@ -405,10 +405,9 @@ def _split_statistic(y: np.ndarray, base: np.ndarray, trend: np.ndarray
     r"""For each row of ``y`` (draws × discharges): :math:`\ln(RSS_{trend}/RSS_{levels})`
     and the trend's residual sum of squares; and the first row's lowest level (a mask).
     The trend is ``y`` on ``base`` and the age (``trend``: that design, the projection's
-    complement); the
-    levels are ``y`` on ``base`` and the indicator of the k lowest residuals of ``y`` on
-    ``base``, k the best of 1 … n − 1: adding a column d to ``base`` lowers the residual
-    sum of squares by :math:`(d^\mathsf{T} r)^2 / \lVert M_0 d\rVert^2`, with r the
+    complement); the levels are ``y`` on ``base`` and the indicator of the k lowest
+    residuals of ``y`` on ``base``, k the best of 1 … n − 1: adding a column d to
+    ``base`` lowers the residual sum of squares by :math:`(d^\mathsf{T} r)^2 / \lVert M_0 d\rVert^2`, with r the
     residual on ``base`` and :math:`M_0` its projection's complement, both read from the
     cumulative sums over the sorted residuals."""
     n = y.shape[1]
