@@ -97,9 +97,11 @@ class DiagnoseResult:
         The data files, where known.
     withheld : list of dict
         Effects that passed the held-out tests but are not causes: physically impossible
-        parameters (``kind`` ``implausible``), a driver the data cannot tell from time,
-        depth of discharge or another effect (``confounded``), or an impossible baseline
-        (``baseline``); each with ``why`` and ``where`` the misfit shows.
+        parameters (``kind`` ``implausible``), a form the data contradict
+        (``contradicted``: a fade whose discharges' energies fall in two levels), a driver
+        the data cannot tell from time, depth of discharge or another effect
+        (``confounded``), or an impossible baseline (``baseline``); each with ``why`` and
+        ``where`` the misfit shows.
     not_identifiable : list of dict
         Effects these data cannot tell apart whatever the fit says (``effects``, the
         candidates; ``level``; ``why``), e.g. a current-sensor offset and a constant load
@@ -605,7 +607,9 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
     After the search, the selected model is fitted on all the data and an effect is
     withheld (never named as a cause) when its key parameter is within :data:`MIN_Z`
     standard errors of no effect, when its parameters are physically impossible
-    (:meth:`planner.diagnose.effects.Effect.implausible`), or when its driver cannot be
+    (:meth:`planner.diagnose.effects.Effect.implausible`), when the data contradict its
+    form (:meth:`~planner.identify.diagnose.effects.Effect.contradicted`), or when its
+    driver cannot be
     told apart from time, depth of discharge or another selected effect's driver
     (:data:`CONFOUND_R`); the model is refitted without it until what remains holds.
     Rival effects the search could not tell apart (``LevelResult.confused``) are withheld
@@ -645,6 +649,12 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                 if why:
                     drop[e.name] = {"effect": e.name, "level": level.name,
                                     "kind": "implausible", "why": why,
+                                    "where": e.driver_label, "parameters": params}
+                    continue
+                why = e.contradicted(params, level)
+                if why:
+                    drop[e.name] = {"effect": e.name, "level": level.name,
+                                    "kind": "contradicted", "why": why,
                                     "where": e.driver_label, "parameters": params}
                     continue
                 state = res.final_fit.state | {"values": res.final_fit.values()}

@@ -76,7 +76,7 @@ half of them chilled to 0 °C: on one draw 4 of 8, at positions 3, 5, 6 and 7), 
 fits the trend, passes every test and was named as an ageing pack. The energies
 themselves say otherwise: they fall in two levels, flat within each, where a pack
 losing capacity declines from one discharge to the next. A fade found here is withheld
-(:meth:`~planner.identify.diagnose.effects.CapacityFade.implausible`,
+(:meth:`~planner.identify.diagnose.effects.CapacityFade.contradicted`,
 :func:`~planner.identify.diagnose.effects.two_levels`) where two levels, split at the
 best threshold, fit the energies better than a trend with age beyond what a trend's own
 noise gives (a parametric bootstrap of the trend, the split chosen afresh in each draw:

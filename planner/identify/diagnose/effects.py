@@ -237,6 +237,13 @@ class Effect:
         reported as a cause (module notes of :mod:`planner.identify.diagnose`)."""
         return None
 
+    def contradicted(self, p: dict[str, float], level) -> str | None:
+        """Why the data contradict the form of the effect fitted (of :meth:`parameters`)
+        though its parameters are possible, e.g. a fade whose discharges' energies fall in
+        two levels rather than along the age (:func:`two_levels`); None where they do not.
+        Such a fit is withheld, never reported as a cause."""
+        return None
+
     #: The parameter (of :meth:`parameters`) that is 0 (or ``null_key``) without the effect.
     key: ClassVar[str] = ""
 
@@ -583,10 +590,15 @@ class CapacityFade(CapacityEffect):
         if span > MAX_FADE_SPAN:
             return (f"{100 * span:.0f} % more charge over the data is beyond a pack still in "
                     f"use (at most {100 * MAX_FADE_SPAN:g} %)")
-        if cap.name == "cutoff":
-            return two_levels(cap.y, self.cycles, cap.rate, cap.e_ref,
-                              "cycle" if self.source == "cycle" else "experiments' order")
         return None
+
+    def contradicted(self, p, cap):
+        """At the cut-off level, where the discharges' energies fall in two levels rather
+        than along the age (:func:`two_levels`): why; else None."""
+        if cap.name != "cutoff":
+            return None
+        return two_levels(cap.y, self.cycles, cap.rate, cap.e_ref,
+                          "cycle" if self.source == "cycle" else "experiments' order")
 
     def alternatives(self, p, cap) -> list[str]:
         """Where the cycles are only the experiments' order (no cycle count), what else

@@ -159,7 +159,7 @@ def test_cold_discharges_alternating_with_warm_ones_are_not_read_as_ageing():
     res = run(pd.concat(parts, ignore_index=True))
     assert res.findings == []
     why = {w["effect"]: w for w in res.withheld}
-    assert why["capacity_fade"]["kind"] == "implausible"
+    assert why["capacity_fade"]["kind"] == "contradicted"
     assert "two levels" in why["capacity_fade"]["why"]
     assert "1 of the high level comes after one of the low" in why["capacity_fade"]["why"]
 
