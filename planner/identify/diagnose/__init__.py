@@ -645,17 +645,15 @@ def _run_level(level, effects, notes) -> S.LevelResult | None:
                                     "where": e.driver_label, "parameters": params,
                                     "help": _regime_help(e, params)}
                     continue
-                why = e.implausible(params, level)
-                if why:
-                    drop[e.name] = {"effect": e.name, "level": level.name,
-                                    "kind": "implausible", "why": why,
-                                    "where": e.driver_label, "parameters": params}
-                    continue
-                why = e.contradicted(params, level)
-                if why:
-                    drop[e.name] = {"effect": e.name, "level": level.name,
-                                    "kind": "contradicted", "why": why,
-                                    "where": e.driver_label, "parameters": params}
+                for kind, check in (("implausible", e.implausible),
+                                    ("contradicted", e.contradicted)):
+                    why = check(params, level)
+                    if why:
+                        drop[e.name] = {"effect": e.name, "level": level.name,
+                                        "kind": kind, "why": why, "where": e.driver_label,
+                                        "parameters": params}
+                        break
+                if e.name in drop:
                     continue
                 state = res.final_fit.state | {"values": res.final_fit.values()}
                 conf = _confound(level, e, state,

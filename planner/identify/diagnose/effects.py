@@ -77,6 +77,7 @@ least squares. The effects change the model's inputs or add a linear column:
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, ClassVar
 
@@ -414,9 +415,10 @@ def _split_statistic(y: np.ndarray, base: np.ndarray, trend: np.ndarray
     The trend is ``y`` on ``base`` and the age (``trend``: that design, the projection's
     complement); the levels are ``y`` on ``base`` and the indicator of the k lowest
     residuals of ``y`` on ``base``, k the best of 1 … n − 1: adding a column d to
-    ``base`` lowers the residual sum of squares by :math:`(d^\mathsf{T} r)^2 / \lVert M_0 d\rVert^2`, with r the
-    residual on ``base`` and :math:`M_0` its projection's complement, both read from the
-    cumulative sums over the sorted residuals."""
+    ``base`` lowers the residual sum of squares by
+    :math:`(d^\mathsf{T} r)^2 / \lVert M_0 d\rVert^2`, with r the residual on ``base``
+    and :math:`M_0` its projection's complement, both read from the cumulative sums over
+    the sorted residuals."""
     n = y.shape[1]
     g = np.linalg.pinv(base.T @ base)
     r = y - (y @ base) @ g @ base.T
@@ -448,8 +450,8 @@ def _declines_within(y, base, low, age, alpha: float) -> bool:
     res = y - x @ coef
     if dof <= 0 or not float(res @ res) > 0:
         return False
-    var = float(res @ res) / dof * float(np.linalg.pinv(x.T @ x)[-1, -1])
-    return bool(student_t.cdf(coef[-1] / math.sqrt(max(var, 1e-300)), dof) < alpha)
+    se = float(stats.scaled_covariance(x, float(res @ res)).stderr[-1])
+    return bool(student_t.cdf(coef[-1] / max(se, 1e-150), dof) < alpha)
 
 
 def two_levels(y, cycles, rate, e_ref: float, order: str) -> str | None:
@@ -1146,15 +1148,11 @@ class StepEstimate:
 
     def __init__(self, fits, level, effects):
         self.fits, self.level, self.effects = fits, level, effects
-        self._step: float | None = None
 
-    @property
+    @functools.cached_property
     def mass_step_kg(self) -> float:
         """The median over the folds of the step read on their located flights. [kg]"""
-        if self._step is None:
-            self._step = float(np.median([self.level.read_step(f, self.effects)
-                                          for f in self.fits]))
-        return self._step
+        return float(np.median([self.level.read_step(f, self.effects) for f in self.fits]))
 
     @property
     def change_time_s(self) -> dict[str, float]:
